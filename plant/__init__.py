@@ -1,0 +1,1 @@
+"""Gimbal model, geometry, device description and the virtual device."""

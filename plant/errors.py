@@ -1,0 +1,9 @@
+"""The project's single error type for bad input (STYLE.md, principle 5)."""
+
+
+class InputError(Exception):
+    """Bad input: a malformed file, a missing key, an impossible request.
+
+    The message is one line that names the file, the row or key, and the fault. The command
+    line prints it on stderr and exits with status 2; anything else that goes wrong is a bug.
+    """

@@ -1,0 +1,1 @@
+"""Command line and experiment pipeline of rsp-inertia (no physics here)."""
