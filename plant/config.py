@@ -1,0 +1,585 @@
+"""Read the experiment's description files: ``device.toml`` and ``virtual.toml``.
+
+``device.toml`` describes the gimbal: its spring, motor, encoder, the stages (one gear ratio
+each, with the nodes where the tensor is sampled) and, optionally, the body's mass.
+``virtual.toml`` exists only for a virtual device: the true body, the friction law and the
+settings of the simulated runs. Both files are contracts of INTERFACES.md (sections
+"device.toml" and "virtual.toml"); this module is the one place that reads them.
+
+Bad input raises :class:`plant.errors.InputError` with one line that names the file, the
+dotted key and the fault, for example
+``device.toml: stage[2].gear_ratio: must be >= 0, got -0.5``. Indices in keys count from 1,
+as the ``stage1/``, ``stage2/`` folders of an experiment do. Unknown keys and tables are
+errors, so that a typo never silently falls back to a default.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tomllib
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from plant.errors import InputError
+
+__all__ = [
+    "DEFAULT_GRAVITY",
+    "REQUIRED_AXES",
+    "Body",
+    "ControllerSettings",
+    "Device",
+    "Encoder",
+    "Friction",
+    "Motor",
+    "RunSettings",
+    "Spring",
+    "Stage",
+    "TrueBody",
+    "Virtual",
+    "load_device",
+    "load_virtual",
+]
+
+DEFAULT_GRAVITY = 9.80665
+"""Standard gravity, m/s^2: used when ``[device]`` has no ``gravity``."""
+
+REQUIRED_AXES = 6
+"""Distinct axes needed over all stages: the tensor has six entries (METHOD.md §5)."""
+
+_INERTIA_NAMES = ("Jx", "Jy", "Jz", "Jxy", "Jyz", "Jxz")
+
+
+# --- device.toml -------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Spring:
+    """Torsion element of the device, reduced to the phi coordinate."""
+
+    stiffness: float
+    """Stiffness, N m/rad, >= 0 (0 = no spring)."""
+    zero_angle: float
+    """Angle phi at which the spring is relaxed, rad."""
+
+
+@dataclass(frozen=True)
+class Motor:
+    """Limits of the drive, reduced to the phi coordinate."""
+
+    torque_limit: float
+    """Largest torque magnitude, N m, > 0: |u| <= torque_limit."""
+    torque_rate_limit: float
+    """Largest torque rate magnitude, N m/s, > 0: |du/dt| <= torque_rate_limit."""
+
+
+@dataclass(frozen=True)
+class Encoder:
+    """Angle encoder on phi."""
+
+    counts_per_rev: int
+    """Counts per revolution, a positive integer."""
+    sample_rate: float
+    """Sampling rate, Hz, > 0."""
+
+    @property
+    def quantum(self) -> float:
+        """One count, rad: 2 pi / counts_per_rev."""
+        return 2.0 * math.pi / self.counts_per_rev
+
+    @property
+    def dt(self) -> float:
+        """Sampling period, s: 1 / sample_rate."""
+        return 1.0 / self.sample_rate
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One gear ratio of the gimbal and the protocol run with it (METHOD.md §1, §5)."""
+
+    gear_ratio: float
+    """lambda = tan(beta), dimensionless, >= 0 (0 = outer frame locked, spin about z)."""
+    tare_inertia: float
+    """M_tare(lambda), kg m^2, >= 0, reduced to phi (from an empty-fixture run)."""
+    nodes_deg: tuple[float, ...]
+    """Angles phi where the tensor is sampled, deg, each in [0, 360), distinct, at least one."""
+    launch_speed: float
+    """Speed Omega at the release of the braking pass, rad/s, > 0."""
+    braking_torque: float
+    """Motor torque against the motion during the braking pass, N m, >= 0."""
+
+    @property
+    def nodes(self) -> np.ndarray:
+        """The nodes in radians, shape (n_nodes,)."""
+        return np.radians(np.asarray(self.nodes_deg, dtype=float))
+
+
+@dataclass(frozen=True)
+class Body:
+    """What the device file knows of the body under test."""
+
+    mass: float
+    """Mass, kg, > 0; with it, identify reports the centre of mass."""
+
+
+@dataclass(frozen=True)
+class Device:
+    """The gimbal as described by ``device.toml``."""
+
+    name: str
+    """Name of the device, free text."""
+    gravity: float
+    """Gravitational acceleration, m/s^2, > 0."""
+    spring: Spring
+    """Torsion element; stiffness 0 when the file has no ``[spring]``."""
+    motor: Motor
+    """Drive limits."""
+    encoder: Encoder
+    """Angle encoder."""
+    stages: tuple[Stage, ...]
+    """The ``[[stage]]`` tables in file order; stage k lives in the folder ``stage{k}/``."""
+    body: Body | None
+    """The optional ``[body]`` table."""
+
+    @property
+    def n_axes(self) -> int:
+        """Number of distinct instantaneous axes over all stages.
+
+        A stage with gear ratio 0 turns about z whatever its nodes, so it gives one axis;
+        any other stage gives one axis per node (METHOD.md §1: e depends on lambda and phi).
+        """
+        axes: set[tuple[float, float]] = set()
+        for stage in self.stages:
+            if stage.gear_ratio == 0.0:
+                axes.add((0.0, 0.0))
+            else:
+                axes.update((stage.gear_ratio, node) for node in stage.nodes_deg)
+        return len(axes)
+
+
+def load_device(path: str | os.PathLike) -> Device:
+    """Read a ``device.toml`` file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file; its name as given appears in error messages.
+
+    Returns
+    -------
+    Device
+        The gimbal, with defaults filled in: gravity 9.80665 m/s^2, no spring,
+        tare inertia 0, no body.
+
+    Raises
+    ------
+    InputError
+        The file is missing or is not TOML; a key is missing, unknown, of the wrong type
+        or out of range; or the stages give fewer than six distinct axes.
+
+    Examples
+    --------
+    >>> device = load_device("EXP/device.toml")  # doctest: +SKIP
+    >>> device.n_axes, device.stages[0].gear_ratio  # doctest: +SKIP
+    (6, 0.7639320225)
+    """
+    doc = _read(path)
+    try:
+        return _device(doc)
+    except _ContentError as error:
+        raise InputError(f"{path}: {error}") from None
+
+
+def _device(doc: dict[str, Any]) -> Device:
+    _known(doc, "", {"device", "spring", "motor", "encoder", "stage", "body"})
+
+    table = _table(doc, "device", {"name", "gravity"})
+    name = _get(table, "device", "name", str)
+    gravity = _get(table, "device", "gravity", float, default=DEFAULT_GRAVITY, bound="> 0")
+
+    table = _table(doc, "spring", {"stiffness", "zero_angle"}, required=False) or {}
+    spring = Spring(
+        stiffness=_get(table, "spring", "stiffness", float, default=0.0, bound=">= 0"),
+        zero_angle=_get(table, "spring", "zero_angle", float, default=0.0),
+    )
+
+    table = _table(doc, "motor", {"torque_limit", "torque_rate_limit"})
+    motor = Motor(
+        torque_limit=_get(table, "motor", "torque_limit", float, bound="> 0"),
+        torque_rate_limit=_get(table, "motor", "torque_rate_limit", float, bound="> 0"),
+    )
+
+    table = _table(doc, "encoder", {"counts_per_rev", "sample_rate"})
+    encoder = Encoder(
+        counts_per_rev=_get(table, "encoder", "counts_per_rev", int, bound="> 0"),
+        sample_rate=_get(table, "encoder", "sample_rate", float, bound="> 0"),
+    )
+
+    stages = tuple(_stage(stage, f"stage[{k}]") for k, stage in enumerate(_stages(doc), 1))
+
+    table = _table(doc, "body", {"mass"}, required=False)
+    body = None if table is None else Body(mass=_get(table, "body", "mass", float, bound="> 0"))
+
+    device = Device(name, gravity, spring, motor, encoder, stages, body)
+    if device.n_axes < REQUIRED_AXES:
+        raise _ContentError(
+            "stage",
+            f"the stages give {device.n_axes} distinct axes, {REQUIRED_AXES} are needed",
+        )
+    return device
+
+
+def _stages(doc: dict[str, Any]) -> list[dict[str, Any]]:
+    """The ``[[stage]]`` array of tables, checked for shape."""
+    if "stage" not in doc:
+        raise _ContentError("stage", "missing required [[stage]] array")
+    stages = doc["stage"]
+    if not isinstance(stages, list):
+        raise _ContentError(
+            "stage", f"must be an array of tables ([[stage]]), got {_describe(stages)}"
+        )
+    if not stages:
+        raise _ContentError("stage", "must have at least one [[stage]]")
+    for k, table in enumerate(stages, 1):
+        if not isinstance(table, dict):
+            raise _ContentError(f"stage[{k}]", f"must be a table, got {_describe(table)}")
+    return stages
+
+
+def _stage(table: dict[str, Any], where: str) -> Stage:
+    _known(
+        table,
+        where,
+        {"gear_ratio", "tare_inertia", "nodes_deg", "launch_speed", "braking_torque"},
+    )
+    gear_ratio = _get(table, where, "gear_ratio", float, bound=">= 0")
+    tare_inertia = _get(table, where, "tare_inertia", float, default=0.0, bound=">= 0")
+
+    nodes = _numbers(table, where, "nodes_deg")
+    key = f"{where}.nodes_deg"
+    if not nodes:
+        raise _ContentError(key, "must have at least one node")
+    for k, node in enumerate(nodes, 1):
+        if not 0.0 <= node < 360.0:
+            raise _ContentError(f"{key}[{k}]", f"must be in [0, 360), got {node!r}")
+    if len(set(nodes)) < len(nodes):
+        duplicate = next(node for node in nodes if nodes.count(node) > 1)
+        raise _ContentError(key, f"duplicate node {duplicate!r}")
+
+    return Stage(
+        gear_ratio=gear_ratio,
+        tare_inertia=tare_inertia,
+        nodes_deg=nodes,
+        launch_speed=_get(table, where, "launch_speed", float, bound="> 0"),
+        braking_torque=_get(table, where, "braking_torque", float, bound=">= 0"),
+    )
+
+
+# --- virtual.toml ------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class TrueBody:
+    """The body a virtual device carries: the truth that identification should recover."""
+
+    mass: float
+    """Mass, kg, > 0."""
+    inertia: np.ndarray
+    """[Jx, Jy, Jz, Jxy, Jyz, Jxz], kg m^2, shape (6,), about O in the body frame,
+    products as tensor entries (Jxy = -integral of x y dm), read-only."""
+    com: np.ndarray
+    """Centre of mass [x, y, z] in the body frame, m, shape (3,), read-only."""
+
+    def __post_init__(self) -> None:
+        # Own read-only copies, so that a frozen body stays frozen however it was built.
+        for name, size in (("inertia", 6), ("com", 3)):
+            array = np.array(getattr(self, name), dtype=float)
+            if array.shape != (size,):
+                raise ValueError(f"TrueBody.{name} must have shape ({size},), got {array.shape}")
+            array.flags.writeable = False
+            object.__setattr__(self, name, array)
+
+    @property
+    def tensor(self) -> np.ndarray:
+        """The inertia tensor J, kg m^2, shape (3, 3) (METHOD.md §2)."""
+        jx, jy, jz, jxy, jyz, jxz = self.inertia
+        return np.array([[jx, jxy, jxz], [jxy, jy, jyz], [jxz, jyz, jz]])
+
+
+@dataclass(frozen=True)
+class Friction:
+    """Dissipation D = (a1 + a3 W^2) sign W + a2 W, reduced to phi (METHOD.md §4)."""
+
+    coulomb: float
+    """a1, N m, >= 0; also the static friction at rest."""
+    viscous: float
+    """a2, N m s, >= 0."""
+    quadratic: float
+    """a3, N m s^2, >= 0."""
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    """How the virtual device runs and logs a stage."""
+
+    release_angle_deg: float = -30.0
+    """Angle phi where the braking pass starts, deg, any real."""
+    torque_noise: float = 0.0
+    """Standard deviation of the noise added to the logged torque, N m, >= 0."""
+    seed: int = 0
+    """Seed of the random generator, integer >= 0."""
+
+
+@dataclass(frozen=True)
+class ControllerSettings:
+    """The virtual device's controller."""
+
+    speed_observer_bandwidth: float = 200.0
+    """Bandwidth of the speed estimate the controller forms from the encoder, rad/s, > 0."""
+
+
+@dataclass(frozen=True)
+class Virtual:
+    """The virtual device as described by ``virtual.toml``."""
+
+    body: TrueBody
+    """The true body."""
+    friction: Friction
+    """The true friction law."""
+    run: RunSettings
+    """Run settings; defaults when the file has no ``[run]``."""
+    controller: ControllerSettings
+    """Controller settings; defaults when the file has no ``[controller]``."""
+
+
+def load_virtual(path: str | os.PathLike) -> Virtual:
+    """Read a ``virtual.toml`` file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file; its name as given appears in error messages.
+
+    Returns
+    -------
+    Virtual
+        The true body, the friction law and the run and controller settings, with
+        defaults for the optional ``[run]`` and ``[controller]`` tables and their keys.
+
+    Raises
+    ------
+    InputError
+        The file is missing or is not TOML; a key is missing, unknown, of the wrong type
+        or out of range; or the inertia is not that of a physical body (a diagonal entry
+        <= 0, not positive definite, or principal moments breaking the triangle inequality).
+
+    Examples
+    --------
+    >>> virtual = load_virtual("EXP/virtual.toml")  # doctest: +SKIP
+    >>> virtual.body.tensor.shape  # doctest: +SKIP
+    (3, 3)
+    """
+    doc = _read(path)
+    try:
+        return _virtual(doc)
+    except _ContentError as error:
+        raise InputError(f"{path}: {error}") from None
+
+
+def _virtual(doc: dict[str, Any]) -> Virtual:
+    _known(doc, "", {"body", "friction", "run", "controller"})
+
+    table = _table(doc, "body", {"mass", "inertia", "com"})
+    body = TrueBody(
+        mass=_get(table, "body", "mass", float, bound="> 0"),
+        inertia=_inertia(table),
+        com=_numbers(table, "body", "com", names=("x", "y", "z")),
+    )
+
+    table = _table(doc, "friction", {"coulomb", "viscous", "quadratic"})
+    friction = Friction(
+        coulomb=_get(table, "friction", "coulomb", float, bound=">= 0"),
+        viscous=_get(table, "friction", "viscous", float, bound=">= 0"),
+        quadratic=_get(table, "friction", "quadratic", float, bound=">= 0"),
+    )
+
+    table = _table(doc, "run", {"release_angle_deg", "torque_noise", "seed"}, required=False)
+    table, default = table or {}, RunSettings()
+    run = RunSettings(
+        release_angle_deg=_get(
+            table, "run", "release_angle_deg", float, default=default.release_angle_deg
+        ),
+        torque_noise=_get(
+            table, "run", "torque_noise", float, default=default.torque_noise, bound=">= 0"
+        ),
+        seed=_get(table, "run", "seed", int, default=default.seed, bound=">= 0"),
+    )
+
+    table = _table(doc, "controller", {"speed_observer_bandwidth"}, required=False)
+    table, default = table or {}, ControllerSettings()
+    controller = ControllerSettings(
+        speed_observer_bandwidth=_get(
+            table,
+            "controller",
+            "speed_observer_bandwidth",
+            float,
+            default=default.speed_observer_bandwidth,
+            bound="> 0",
+        ),
+    )
+    return Virtual(body, friction, run, controller)
+
+
+def _inertia(table: dict[str, Any]) -> tuple[float, ...]:
+    """``body.inertia``, checked to be the tensor of a physical body (METHOD.md §2)."""
+    inertia = _numbers(table, "body", "inertia", names=_INERTIA_NAMES)
+    for name, value in zip(_INERTIA_NAMES[:3], inertia[:3], strict=True):
+        if not value > 0.0:
+            raise _ContentError("body.inertia", f"{name} must be > 0, got {value!r}")
+    jx, jy, jz, jxy, jyz, jxz = inertia
+    moments = np.linalg.eigvalsh([[jx, jxy, jxz], [jxy, jy, jyz], [jxz, jyz, jz]])
+    # Ascending order: only the smallest can be <= 0 and only the largest can exceed the
+    # sum of the others. A flat plate has I3 = I1 + I2 exactly, hence the rounding margin.
+    if moments[0] <= 0.0 or moments[2] > moments[0] + moments[1] + 1e-12 * moments.sum():
+        listed = ", ".join(f"{moment:.6g}" for moment in moments)
+        fault = (
+            "not positive definite"
+            if moments[0] <= 0.0
+            else "the largest exceeds the sum of the other two (triangle inequality)"
+        )
+        raise _ContentError(
+            "body.inertia",
+            f"not a physical inertia tensor: principal moments [{listed}] kg m^2, {fault}",
+        )
+    return inertia
+
+
+# --- reading and checking ----------------------------------------------------------------
+
+_REQUIRED: Any = object()
+
+
+class _ContentError(Exception):
+    """A fault at a dotted key; the public loaders prefix the file name."""
+
+    def __init__(self, key: str, fault: str) -> None:
+        super().__init__(f"{key}: {fault}")
+
+
+def _read(path: str | os.PathLike) -> dict[str, Any]:
+    """Parse a TOML file; every failure becomes a one-line InputError."""
+    try:
+        with open(path, "rb") as file:
+            return tomllib.load(file)
+    except FileNotFoundError:
+        raise InputError(f"{path}: file not found") from None
+    except OSError as error:
+        raise InputError(f"{path}: cannot read: {error.strerror or error}") from None
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: not UTF-8 text") from None
+    except tomllib.TOMLDecodeError as error:
+        raise InputError(f"{path}: invalid TOML: {' '.join(str(error).split())}") from None
+
+
+def _known(table: dict[str, Any], where: str, allowed: set[str]) -> None:
+    """Reject keys the contract does not define (typos would otherwise become defaults)."""
+    for key, value in table.items():
+        if key not in allowed:
+            kind = "table" if not where and isinstance(value, (dict, list)) else "key"
+            raise _ContentError(_dotted(where, key), f"unknown {kind}")
+
+
+def _table(
+    doc: dict[str, Any], name: str, allowed: set[str], required: bool = True
+) -> dict[str, Any] | None:
+    """The top-level table ``[name]`` with only ``allowed`` keys; None if optional and absent."""
+    if name not in doc:
+        if required:
+            raise _ContentError(name, f"missing required table [{name}]")
+        return None
+    table = doc[name]
+    if not isinstance(table, dict):
+        raise _ContentError(name, f"must be a table, got {_describe(table)}")
+    _known(table, name, allowed)
+    return table
+
+
+def _get(
+    table: dict[str, Any],
+    where: str,
+    key: str,
+    kind: type,
+    *,
+    default: Any = _REQUIRED,
+    bound: str | None = None,
+) -> Any:
+    """``table[key]`` as ``kind`` (float, int or str), or ``default`` if absent.
+
+    ``bound`` is ``"> 0"`` or ``">= 0"`` for numbers that have one.
+    """
+    dotted = _dotted(where, key)
+    if key not in table:
+        if default is _REQUIRED:
+            raise _ContentError(dotted, "missing required key")
+        return default
+    value = _convert(table[key], kind, dotted)
+    if bound is not None and not (value > 0 if bound == "> 0" else value >= 0):
+        raise _ContentError(dotted, f"must be {bound}, got {value!r}")
+    return value
+
+
+def _numbers(
+    table: dict[str, Any], where: str, key: str, names: tuple[str, ...] | None = None
+) -> tuple[float, ...]:
+    """``table[key]`` as a tuple of floats; exactly ``len(names)`` of them if names given."""
+    dotted = _dotted(where, key)
+    if key not in table:
+        raise _ContentError(dotted, "missing required key")
+    values = table[key]
+    if not isinstance(values, list):
+        raise _ContentError(dotted, f"must be an array of numbers, got {_describe(values)}")
+    if names is not None and len(values) != len(names):
+        raise _ContentError(
+            dotted,
+            f"must have {len(names)} entries [{', '.join(names)}], got {len(values)}",
+        )
+    return tuple(_convert(value, float, f"{dotted}[{k}]") for k, value in enumerate(values, 1))
+
+
+def _convert(value: Any, kind: type, key: str) -> Any:
+    """Check the TOML type of ``value``; integers are accepted as floats, booleans never."""
+    if kind is str:
+        if not isinstance(value, str):
+            raise _ContentError(key, f"must be a string, got {_describe(value)}")
+        return value
+    if kind is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise _ContentError(key, f"must be an integer, got {_describe(value)}")
+        return value
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise _ContentError(key, f"must be a number, got {_describe(value)}")
+    value = float(value)
+    if not math.isfinite(value):
+        raise _ContentError(key, f"must be finite, got {value!r}")
+    return value
+
+
+def _describe(value: Any) -> str:
+    """A short phrase for a TOML value of the wrong type, for messages."""
+    if isinstance(value, bool):
+        return f"a boolean ({str(value).lower()})"
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, str):
+        return f"a string ({value!r})"
+    if isinstance(value, list):
+        return "an array"
+    if isinstance(value, dict):
+        return "a table"
+    return f"a {type(value).__name__}"
+
+
+def _dotted(where: str, key: str) -> str:
+    return f"{where}.{key}" if where else key

@@ -1,0 +1,286 @@
+"""The reduced one-degree-of-freedom gimbal model (METHOD.md §2-3), built once in CasADi.
+
+Every equation of the model lives here exactly once, as a CasADi ``SX`` expression in the
+generalised coordinate phi, the speed Omega = dphi/dt, the motor torque u and a parameter
+vector p. The simulator, the optimal-control problem and the estimators all use these
+expressions (symbolically through :data:`MODEL`, numerically through the functions below),
+so nobody restates the physics (STYLE.md, principle 1).
+
+Parameter vector p (12 entries, :data:`PARAMETER_NAMES`), all reduced to phi:
+
+====  ==========  ========  =========================================================
+ i    name        unit      meaning
+====  ==========  ========  =========================================================
+ 0    M0          kg m^2    constant part of M(phi) (tare included)
+ 1    Mc2         kg m^2    coefficient of cos 2phi in M(phi)
+ 2    Ms2         kg m^2    coefficient of sin 2phi
+ 3    Ms1         kg m^2    coefficient of sin phi
+ 4    Mc1         kg m^2    coefficient of cos phi
+ 5    c           N m/rad   torsion stiffness
+ 6    phi0        rad       zero angle of the spring
+ 7    Gs          N m       m g x_c (gravity, sine part of the potential)
+ 8    Gc          N m       m g y_c (gravity, cosine part)
+ 9    a1          N m       Coulomb friction
+ 10   a2          N m s     viscous friction
+ 11   a3          N m s^2   quadratic friction
+====  ==========  ========  =========================================================
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+__all__ = [
+    "PARAMETER_NAMES",
+    "ModelParameters",
+    "GimbalModel",
+    "MODEL",
+    "inertia_harmonics",
+    "reduced_inertia",
+    "reduced_inertia_slope",
+    "potential",
+    "static_torque",
+    "dissipation",
+    "acceleration",
+    "mechanical_energy",
+    "motor_torque",
+]
+
+PARAMETER_NAMES = ("M0", "Mc2", "Ms2", "Ms1", "Mc1", "c", "phi0", "Gs", "Gc", "a1", "a2", "a3")
+
+
+def inertia_harmonics(inertia: np.ndarray, gear_ratio: float, tare_inertia: float) -> np.ndarray:
+    """Harmonic coefficients of the reduced inertia M(phi) of one stage (METHOD.md §2).
+
+    ``(1+lam^2) J_e(phi) = Jz + lam^2 (Jx+Jy)/2 + lam^2 (Jy-Jx)/2 cos 2phi + lam^2 Jxy sin 2phi
+    + 2 lam Jxz sin phi + 2 lam Jyz cos phi`` and ``M = (1+lam^2) J_e + M_tare``.
+
+    Parameters
+    ----------
+    inertia : array_like, shape (6,)
+        Body tensor entries [Jx, Jy, Jz, Jxy, Jyz, Jxz] in kg m^2 (products as tensor entries).
+    gear_ratio : float
+        lam = tan(beta) of the stage.
+    tare_inertia : float
+        M_tare(lam) in kg m^2, reduced to phi.
+
+    Returns
+    -------
+    numpy.ndarray, shape (5,)
+        [M0, Mc2, Ms2, Ms1, Mc1] in kg m^2.
+    """
+    jx, jy, jz, jxy, jyz, jxz = np.asarray(inertia, dtype=float)
+    lam = float(gear_ratio)
+    lam2 = lam * lam
+    return np.array(
+        [
+            jz + lam2 * (jx + jy) / 2 + tare_inertia,
+            lam2 * (jy - jx) / 2,
+            lam2 * jxy,
+            2 * lam * jxz,
+            2 * lam * jyz,
+        ]
+    )
+
+
+@dataclass(frozen=True)
+class ModelParameters:
+    """Numerical values of the reduced model of one stage (the vector p of this module)."""
+
+    inertia_harmonics: np.ndarray
+    """[M0, Mc2, Ms2, Ms1, Mc1], kg m^2: M(phi) in harmonic form, tare included."""
+    stiffness: float = 0.0
+    """c, N m/rad: torsion stiffness reduced to phi."""
+    zero_angle: float = 0.0
+    """phi0, rad: angle where the spring is relaxed."""
+    gravity_sin: float = 0.0
+    """Gs = m g x_c, N m."""
+    gravity_cos: float = 0.0
+    """Gc = m g y_c, N m."""
+    coulomb: float = 0.0
+    """a1, N m."""
+    viscous: float = 0.0
+    """a2, N m s."""
+    quadratic: float = 0.0
+    """a3, N m s^2."""
+    vector: np.ndarray = field(init=False, repr=False, compare=False)
+    """The 12-vector p in the order of PARAMETER_NAMES."""
+
+    def __post_init__(self) -> None:
+        harmonics = np.array(self.inertia_harmonics, dtype=float).reshape(5)
+        harmonics.flags.writeable = False
+        object.__setattr__(self, "inertia_harmonics", harmonics)
+        vector = np.concatenate(
+            [
+                harmonics,
+                [
+                    self.stiffness,
+                    self.zero_angle,
+                    self.gravity_sin,
+                    self.gravity_cos,
+                    self.coulomb,
+                    self.viscous,
+                    self.quadratic,
+                ],
+            ]
+        ).astype(float)
+        vector.flags.writeable = False
+        object.__setattr__(self, "vector", vector)
+
+
+
+class GimbalModel:
+    """Symbolic reduced model (METHOD.md §2-3): one set of CasADi expressions.
+
+    Attributes
+    ----------
+    phi, Omega, u, direction : casadi.SX
+        Scalar symbols: angle (rad), speed (rad/s), motor torque (N m), and the sign of the
+        motion used by the Coulomb and quadratic friction terms (+1 or -1).
+    p : casadi.SX, shape (12,)
+        Parameter vector (module docstring).
+    M, dM : casadi.SX
+        Reduced inertia M(phi) and its derivative dM/dphi.
+    Pi : casadi.SX
+        Potential energy c/2 (phi-phi0)^2 + m g (x_c sin phi + y_c cos phi).
+    S : casadi.SX
+        Static torque dPi/dphi = c (phi-phi0) + m g (x_c cos phi - y_c sin phi).
+    D : casadi.SX
+        Dissipative torque (a1 + a3 Omega^2) direction + a2 Omega.
+    acc : casadi.SX
+        Scalar symbol for an acceleration eps (rad/s^2), input of the inverse dynamics.
+    tau : casadi.SX
+        Inverse dynamics: the motor torque M acc + 1/2 M' Omega^2 + D + S that produces
+        the acceleration ``acc`` (Lagrange's equation, METHOD.md §3).
+    eps : casadi.SX
+        Forward dynamics: the acceleration that torque u produces (the same equation solved).
+    E : casadi.SX
+        Mechanical energy M Omega^2 / 2 + Pi.
+    """
+
+    def __init__(self) -> None:
+        self.phi = ca.SX.sym("phi")
+        self.Omega = ca.SX.sym("Omega")
+        self.u = ca.SX.sym("u")
+        self.direction = ca.SX.sym("direction")
+        self.p = ca.SX.sym("p", len(PARAMETER_NAMES))
+        m0, mc2, ms2, ms1, mc1, c, phi0, gs, gc, a1, a2, a3 = ca.vertsplit(self.p)
+        phi, Omega = self.phi, self.Omega
+
+        # METHOD.md §2, harmonic form of M(phi).
+        self.M = (
+            m0 + mc2 * ca.cos(2 * phi) + ms2 * ca.sin(2 * phi) + ms1 * ca.sin(phi) + mc1 * ca.cos(phi)
+        )
+        self.dM = ca.jacobian(self.M, phi)
+        # METHOD.md §3, spring and gravity potential; the static torque is its gradient.
+        self.Pi = c / 2 * (phi - phi0) ** 2 + gs * ca.sin(phi) + gc * ca.cos(phi)
+        self.S = ca.jacobian(self.Pi, phi)
+        # METHOD.md §3, the paper's dissipation model with sign(Omega) made an explicit input
+        # so that an integrator can hold it fixed between stops (no chattering at Omega = 0).
+        self.D = (a1 + a3 * Omega**2) * self.direction + a2 * Omega
+        # METHOD.md §3, Lagrange's equation, written once as the torque a motor must apply for
+        # a given acceleration (inverse dynamics); the forward dynamics solve the same line.
+        self.acc = ca.SX.sym("eps")
+        self.tau = self.M * self.acc + self.dM * Omega**2 / 2 + self.D + self.S
+        residual = self.tau - self.u
+        self.eps = -ca.substitute(residual, self.acc, 0) / ca.jacobian(residual, self.acc)
+        self.E = self.M * Omega**2 / 2 + self.Pi
+
+        self.functions = {
+            "reduced_inertia": ca.Function("reduced_inertia", [phi, self.p], [self.M]),
+            "reduced_inertia_slope": ca.Function("reduced_inertia_slope", [phi, self.p], [self.dM]),
+            "potential": ca.Function("potential", [phi, self.p], [self.Pi]),
+            "static_torque": ca.Function("static_torque", [phi, self.p], [self.S]),
+            "dissipation": ca.Function(
+                "dissipation", [Omega, self.direction, self.p], [self.D]
+            ),
+            "acceleration": ca.Function(
+                "acceleration", [phi, Omega, self.u, self.direction, self.p], [self.eps]
+            ),
+            "mechanical_energy": ca.Function("mechanical_energy", [phi, Omega, self.p], [self.E]),
+            "motor_torque": ca.Function(
+                "motor_torque", [phi, Omega, self.acc, self.direction, self.p], [self.tau]
+            ),
+        }
+
+    def state_derivative(self) -> ca.Function:
+        """``f(x, u, direction, p) -> dx/dt`` with x = (phi, Omega): the equation of motion."""
+        x = ca.vertcat(self.phi, self.Omega)
+        return ca.Function(
+            "state_derivative", [x, self.u, self.direction, self.p], [ca.vertcat(self.Omega, self.eps)]
+        )
+
+
+MODEL = GimbalModel()
+"""The one symbolic model instance every package uses."""
+
+
+def _evaluate(name: str, args: tuple, p: np.ndarray) -> np.ndarray | float:
+    """Evaluate a model function element-wise on broadcast numpy arrays."""
+    arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in args))
+    shape = arrays[0].shape
+    rows = [a.reshape(1, -1) for a in arrays]
+    if rows[0].shape[1] == 0:
+        return np.zeros(shape)
+    out = np.asarray(MODEL.functions[name](*rows, np.asarray(p, dtype=float))).reshape(shape)
+    return float(out) if out.ndim == 0 else out
+
+
+def _p(params: ModelParameters | np.ndarray) -> np.ndarray:
+    return params.vector if isinstance(params, ModelParameters) else np.asarray(params, float)
+
+
+def reduced_inertia(phi, params: ModelParameters | np.ndarray):
+    """M(phi), kg m^2 (METHOD.md §2), element-wise over ``phi`` (rad)."""
+    return _evaluate("reduced_inertia", (phi,), _p(params))
+
+
+def reduced_inertia_slope(phi, params: ModelParameters | np.ndarray):
+    """dM/dphi, kg m^2/rad (METHOD.md §3), element-wise over ``phi`` (rad)."""
+    return _evaluate("reduced_inertia_slope", (phi,), _p(params))
+
+
+def potential(phi, params: ModelParameters | np.ndarray):
+    """Pi(phi), J: spring plus gravity potential (METHOD.md §3)."""
+    return _evaluate("potential", (phi,), _p(params))
+
+
+def static_torque(phi, params: ModelParameters | np.ndarray):
+    """dPi/dphi, N m: the torque a motor must apply to hold the body still at phi."""
+    return _evaluate("static_torque", (phi,), _p(params))
+
+
+def dissipation(Omega, params: ModelParameters | np.ndarray, direction=None):
+    """D(Omega), N m (METHOD.md §3); ``direction`` defaults to sign(Omega)."""
+    if direction is None:
+        direction = np.sign(Omega)
+    return _evaluate("dissipation", (Omega, direction), _p(params))
+
+
+def acceleration(phi, Omega, u, params: ModelParameters | np.ndarray, direction=None):
+    """eps = dOmega/dt, rad/s^2, from Lagrange's equation (METHOD.md §3).
+
+    ``direction`` (the sign used by the Coulomb and quadratic friction) defaults to
+    sign(Omega); pass it explicitly at rest.
+    """
+    if direction is None:
+        direction = np.sign(Omega)
+    return _evaluate("acceleration", (phi, Omega, u, direction), _p(params))
+
+
+def motor_torque(phi, Omega, eps, params: ModelParameters | np.ndarray, direction=None):
+    """Inverse dynamics: the motor torque u, N m, that gives acceleration ``eps`` (METHOD.md §3).
+
+    ``direction`` (sign used by the Coulomb and quadratic friction) defaults to sign(Omega).
+    """
+    if direction is None:
+        direction = np.sign(Omega)
+    return _evaluate("motor_torque", (phi, Omega, eps, direction), _p(params))
+
+
+def mechanical_energy(phi, Omega, params: ModelParameters | np.ndarray):
+    """E = M(phi) Omega^2 / 2 + Pi(phi), J (METHOD.md §3)."""
+    return _evaluate("mechanical_energy", (phi, Omega), _p(params))

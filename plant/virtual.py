@@ -1,0 +1,421 @@
+"""The virtual device: a simulated gimbal that writes logs as a real rig would (INTERFACES.md).
+
+It integrates the model of :mod:`plant.model` (the true body of ``virtual.toml`` on the gimbal
+of ``device.toml``) with a fixed-step fourth-order Runge-Kutta scheme, sample by sample, the
+motor torque held over each sample (zero-order hold, METHOD.md §4). Stops are events: the
+instant the speed crosses zero inside a sample is found by root-finding on the integrator's
+step length, and static friction then decides whether the body stays at rest
+(|u - static torque| <= a1) or breaks away (METHOD.md §4).
+
+What leaves the device is what a rig produces: encoder readings floor(phi/q) q at the sample
+rate and the logged torque with its noise. The true states are returned beside the log for
+tests and benchmarks, never written where ``identify`` or ``program`` could read them.
+
+Integrator accuracy: ``SUBSTEPS`` RK4 steps per sample. With no dissipation and no torque the
+mechanical energy is conserved to better than 1e-9 relative over 10 s (tests/plant).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+from scipy.optimize import brentq
+
+from plant.config import Device, Virtual
+from plant.errors import InputError
+from plant.logs import Log, Program
+from plant.model import (
+    MODEL,
+    ModelParameters,
+    acceleration,
+    inertia_harmonics,
+    motor_torque,
+    reduced_inertia,
+    static_torque,
+)
+
+__all__ = [
+    "SUBSTEPS",
+    "MAX_BRAKING_TIME",
+    "true_parameters",
+    "PassTruth",
+    "SimulatedPass",
+    "simulate_braking",
+    "run_program",
+    "ideal_program",
+    "simulate_ideal_reverse",
+    "SpeedObserver",
+    "encoder_reading",
+]
+
+SUBSTEPS = 8
+"""RK4 steps per encoder sample (integration step dt/8: 0.125 ms at 1 kHz)."""
+
+MAX_BRAKING_TIME = 600.0
+"""s: a braking pass that has not stopped by then is a protocol error."""
+
+_BLOCK = 1000
+"""Samples integrated per call while the torque and the direction of motion are constant."""
+
+# Seeds of the independent random streams of one stage (numpy SeedSequence entropy words).
+_STREAM_BRAKING = 0
+_STREAM_REVERSE = 1
+
+
+def _build_step() -> ca.Function:
+    """``step(x, u, direction, p, h)``: advance x = (phi, Omega) by h with u held constant."""
+    x = ca.SX.sym("x", 2)
+    u, direction, h = ca.SX.sym("u"), ca.SX.sym("direction"), ca.SX.sym("h")
+    f = MODEL.state_derivative()
+    dt = h / SUBSTEPS
+    xk = x
+    for _ in range(SUBSTEPS):
+        k1 = f(xk, u, direction, MODEL.p)
+        k2 = f(xk + dt / 2 * k1, u, direction, MODEL.p)
+        k3 = f(xk + dt / 2 * k2, u, direction, MODEL.p)
+        k4 = f(xk + dt * k3, u, direction, MODEL.p)
+        xk = xk + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    return ca.Function("step", [x, u, direction, MODEL.p, h], [xk])
+
+
+_STEP = _build_step()
+_STEP_BLOCK = _STEP.mapaccum(_BLOCK)
+
+
+def _step(x: np.ndarray, u: float, direction: float, p: np.ndarray, h: float) -> np.ndarray:
+    return np.asarray(_STEP(x, u, direction, p, h)).ravel()
+
+
+def true_parameters(device: Device, stage: int, virtual: Virtual) -> ModelParameters:
+    """The true model of stage ``stage`` (1-based): device.toml's gimbal, virtual.toml's body.
+
+    The tare M_tare of device.toml is taken as exact; gravity terms Gs = m g x_c, Gc = m g y_c
+    (METHOD.md §3).
+    """
+    st = device.stages[stage - 1]
+    body = virtual.body
+    g = device.gravity
+    return ModelParameters(
+        inertia_harmonics=inertia_harmonics(body.inertia, st.gear_ratio, st.tare_inertia),
+        stiffness=device.spring.stiffness,
+        zero_angle=device.spring.zero_angle,
+        gravity_sin=body.mass * g * body.com[0],
+        gravity_cos=body.mass * g * body.com[1],
+        coulomb=virtual.friction.coulomb,
+        viscous=virtual.friction.viscous,
+        quadratic=virtual.friction.quadratic,
+    )
+
+
+def encoder_reading(phi: np.ndarray, quantum: float) -> np.ndarray:
+    """Incremental encoder: floor(phi / q) q (INTERFACES.md, logs)."""
+    return np.floor(np.asarray(phi) / quantum) * quantum
+
+
+@dataclass(frozen=True)
+class PassTruth:
+    """True states of the virtual device at the log's rows (never written to a log)."""
+
+    t: np.ndarray
+    """s, the log's time stamps."""
+    phi: np.ndarray
+    """rad, true angle at t."""
+    omega: np.ndarray
+    """rad/s, true speed at t."""
+    torque: np.ndarray
+    """N m, torque applied over [t_k, t_k+1) (the log adds noise to it)."""
+    end_time: float
+    """s: braking, the exact instant the speed reaches zero; reverse, the end of the program."""
+    end_phi: float
+    """rad, true angle at end_time."""
+    end_omega: float
+    """rad/s, true speed at end_time."""
+
+
+@dataclass(frozen=True)
+class SimulatedPass:
+    """One pass of the virtual device: the log a rig writes, and the truth beside it."""
+
+    log: Log
+    """What the rig writes (encoder angle, logged torque)."""
+    truth: PassTruth
+    """The simulator's true states."""
+
+
+def _rng(virtual: Virtual, stage: int, stream: int) -> np.random.Generator:
+    """Independent, reproducible random stream per (seed, stage, pass)."""
+    return np.random.default_rng([virtual.run.seed, stage, stream])
+
+
+def _make_log(t, phi_true, torque, quantum, noise, rng) -> Log:
+    logged = torque + (rng.normal(0.0, noise, len(torque)) if noise > 0 else 0.0)
+    return Log(t=np.asarray(t), phi=encoder_reading(phi_true, quantum), torque=np.asarray(logged))
+
+
+def simulate_braking(device: Device, stage: int, virtual: Virtual) -> SimulatedPass:
+    """The braking pass of METHOD.md §4 for stage ``stage`` (1-based).
+
+    Release at ``release_angle_deg`` with the stage's launch speed; the motor applies the
+    constant ``braking_torque`` against the motion; the pass ends at the first instant the
+    speed reaches zero (an event located inside its sample by Brent's method on the step
+    length). The log holds every sample up to that instant.
+
+    Raises
+    ------
+    InputError
+        If the body does not stop within ``MAX_BRAKING_TIME``.
+    """
+    st = device.stages[stage - 1]
+    p = true_parameters(device, stage, virtual).vector
+    dt = device.encoder.dt
+    u = -st.braking_torque
+    x = np.array([math.radians(virtual.run.release_angle_deg), st.launch_speed])
+    states = [x[None, :]]
+    max_samples = int(MAX_BRAKING_TIME / dt)
+    n = 1
+    while True:
+        block = np.asarray(_STEP_BLOCK(x, u, 1.0, p, dt)).T  # (_BLOCK, 2)
+        stopped = np.nonzero(block[:, 1] <= 0.0)[0]
+        if stopped.size:
+            k = stopped[0]
+            states.append(block[:k])
+            n += k
+            x = block[k - 1] if k > 0 else x
+            break
+        states.append(block)
+        n += _BLOCK
+        x = block[-1]
+        if n > max_samples:
+            raise InputError(
+                f"stage {stage}: the braking pass does not stop within {MAX_BRAKING_TIME:g} s; "
+                "raise braking_torque or lower launch_speed in device.toml"
+            )
+    # Event: the speed reaches zero h* after the last sample, 0 < h* <= dt.
+    h_stop = brentq(lambda h: _step(x, u, 1.0, p, h)[1], 0.0, dt, xtol=1e-15, rtol=1e-15)
+    end = _step(x, u, 1.0, p, h_stop)
+    traj = np.concatenate(states)
+    t = np.arange(n) * dt
+    if h_stop >= dt * (1 - 1e-12):  # the stop falls on a sample: it belongs to the log
+        traj = np.vstack([traj, [end[0], 0.0]])
+        t = np.arange(n + 1) * dt
+    torque = np.full(len(t), u)
+    rng = _rng(virtual, stage, _STREAM_BRAKING)
+    truth = PassTruth(
+        t=t,
+        phi=traj[:, 0],
+        omega=traj[:, 1],
+        torque=torque,
+        end_time=(n - 1) * dt + h_stop,
+        end_phi=float(end[0]),
+        end_omega=0.0,
+    )
+    log = _make_log(t, traj[:, 0], torque, device.encoder.quantum, virtual.run.torque_noise, rng)
+    return SimulatedPass(log=log, truth=truth)
+
+
+class SpeedObserver:
+    """The virtual controller's speed estimate from the encoder alone.
+
+    A second-order tracking loop (the digital equivalent of a type-2 PLL), run once per
+    sample on the quantized angle y_k:
+
+        predict  phi^- = phi + omega dt
+        correct  e = y_k - phi^-,  phi = phi^- + l1 e,  omega = omega + l2 e
+
+    with l1 = 2 w dt and l2 = w^2 dt: both closed-loop poles at s = -w (critically damped),
+    w the bandwidth of virtual.toml's ``speed_observer_bandwidth``. A type-2 loop follows a
+    constant acceleration without a steady speed error, and filters the quantization noise
+    above w. This is the kind of estimate a real drive's controller has.
+    """
+
+    def __init__(self, phi0: float, omega0: float, bandwidth: float, dt: float) -> None:
+        self.phi = phi0
+        self.omega = omega0
+        self.dt = dt
+        self.l1 = 2.0 * bandwidth * dt
+        self.l2 = bandwidth * bandwidth * dt
+
+    def update(self, y: float) -> float:
+        """Take the encoder reading of this sample; return the speed estimate, rad/s."""
+        predicted = self.phi + self.omega * self.dt
+        error = y - predicted
+        self.phi = predicted + self.l1 * error
+        self.omega += self.l2 * error
+        return self.omega
+
+
+def _advance(x: np.ndarray, u: float, h: float, p: np.ndarray, coulomb: float) -> np.ndarray:
+    """Advance the true state over h with torque u held, with stops and static friction.
+
+    Between stops the direction of motion is fixed; a zero crossing of the speed inside the
+    interval is located (Brent), the body is set at rest there, and static friction decides
+    (METHOD.md §4): it stays while |u - static torque| <= a1, else it breaks away in the
+    direction of the net torque.
+    """
+    remaining = h
+    for _ in range(8):  # at most a few stops per sample
+        if remaining <= 0.0:
+            return x
+        if x[1] == 0.0:
+            net = u - static_torque(x[0], p)
+            if abs(net) <= coulomb:
+                return x
+            direction = math.copysign(1.0, net)
+        else:
+            direction = math.copysign(1.0, x[1])
+        nxt = _step(x, u, direction, p, remaining)
+        if nxt[1] * direction > 0.0:
+            return nxt
+        h_stop = brentq(
+            lambda s: _step(x, u, direction, p, s)[1] * direction, 0.0, remaining, xtol=1e-15
+        )
+        x = _step(x, u, direction, p, h_stop)
+        x[1] = 0.0
+        remaining -= h_stop
+    return x
+
+
+def run_program(
+    device: Device,
+    stage: int,
+    virtual: Virtual,
+    program: Program,
+    start: tuple[float, float],
+    *,
+    ideal: bool = False,
+) -> SimulatedPass:
+    """Execute ``program`` in closed loop on the virtual device (INTERFACES.md, program.csv).
+
+    Every sample the controller reads the encoder, updates its speed estimate
+    (:class:`SpeedObserver`), computes
+
+        u = clip(torque_ff - k_phi (phi - phi_ref) - k_omega (omega - omega_ref), +-torque_limit)
+
+    limits the change from the previous sample to torque_rate_limit dt, and holds u over the
+    sample. Before the program the motor holds the body at rest, so the rate limiter starts
+    from the static torque at the start angle.
+
+    Parameters
+    ----------
+    start : (phi, Omega)
+        True state at the start of the program (rad, rad/s), e.g. the braking's rest.
+    ideal : bool
+        An ideal drive for the ideal reverse: no torque or rate limit, and feedback on the
+        true state instead of the encoder and the speed observer. The log is still the
+        encoder's.
+    """
+    p = true_parameters(device, stage, virtual).vector
+    enc = device.encoder
+    dt = enc.dt
+    q = enc.quantum
+    n = len(program.t)
+    u_max = math.inf if ideal else device.motor.torque_limit
+    du_max = math.inf if ideal else device.motor.torque_rate_limit * dt
+    coulomb = virtual.friction.coulomb
+
+    x = np.array(start, dtype=float)
+    u_prev = float(static_torque(x[0], p))
+    observer = SpeedObserver(
+        float(encoder_reading(x[0], q)), x[1], virtual.controller.speed_observer_bandwidth, dt
+    )
+    phi_true = np.empty(n)
+    omega_true = np.empty(n)
+    applied = np.empty(n)
+    ff, kp, kw = program.torque_ff, program.k_phi, program.k_omega
+    ref_phi, ref_omega = program.phi_ref, program.omega_ref
+    for k in range(n):
+        phi_true[k], omega_true[k] = x
+        y = math.floor(x[0] / q) * q
+        omega_hat = observer.update(y)
+        if ideal:
+            y, omega_hat = x
+        u = ff[k] - kp[k] * (y - ref_phi[k]) - kw[k] * (omega_hat - ref_omega[k])
+        u = min(max(u, -u_max), u_max)
+        u = min(max(u, u_prev - du_max), u_prev + du_max)
+        applied[k] = u
+        u_prev = u
+        x = _advance(x, u, dt, p, coulomb)
+    truth = PassTruth(
+        t=np.asarray(program.t, dtype=float),
+        phi=phi_true,
+        omega=omega_true,
+        torque=applied,
+        end_time=float(program.t[-1] + dt),
+        end_phi=float(x[0]),
+        end_omega=float(x[1]),
+    )
+    rng = _rng(virtual, stage, _STREAM_REVERSE)
+    log = _make_log(truth.t, phi_true, applied, q, virtual.run.torque_noise, rng)
+    return SimulatedPass(log=log, truth=truth)
+
+
+IDEAL_BANDWIDTH = 5.0
+"""rad/s: closed-loop bandwidth of the ideal reverse's feedback (it only mops up the
+zero-order-hold residue; the feedforward is the exact inverse dynamics)."""
+
+
+def ideal_program(device: Device, stage: int, virtual: Virtual, braking: SimulatedPass) -> Program:
+    """The exact mirror of a simulated braking pass, as a program (METHOD.md §4).
+
+    The reference is the braking trajectory run backwards from its true rest point:
+    x_ref(t') = (phi(T - t'), -Omega(T - t')), obtained by integrating the braking's own
+    dynamics with a negative step from (phi7, 0), so no interpolation enters. The
+    feedforward is the true model's inverse dynamics along it (:func:`plant.model.motor_torque`),
+    averaged over each sample for the zero-order hold; the gains put both closed-loop poles
+    at -IDEAL_BANDWIDTH with the true M(phi_ref).
+    """
+    st = device.stages[stage - 1]
+    params = true_parameters(device, stage, virtual)
+    p = params.vector
+    dt = device.encoder.dt
+    T = braking.truth.end_time
+    n = int(math.floor(T / dt + 1e-9)) + 1
+    u_b = -st.braking_torque
+    # Braking states at times T - k dt, k = 0..n-1, by backward integration.
+    back = np.empty((n, 2))
+    back[0] = (braking.truth.end_phi, 0.0)
+    x = back[0]
+    for start in range(1, n, _BLOCK):
+        count = min(_BLOCK, n - start)
+        block = np.asarray(_STEP_BLOCK(x, u_b, 1.0, p, -dt)).T[:count]
+        back[start : start + count] = block
+        x = block[-1]
+    phi_ref = back[:, 0]
+    omega_ref = -back[:, 1]
+    # The braking's acceleration at the mirrored states is the reverse's acceleration.
+    eps_ref = acceleration(back[:, 0], back[:, 1], u_b, p, direction=np.ones(n))
+    u_needed = motor_torque(phi_ref, omega_ref, eps_ref, p, direction=-np.ones(n))
+    torque_ff = np.empty(n)
+    torque_ff[:-1] = (u_needed[:-1] + u_needed[1:]) / 2
+    torque_ff[-1] = u_needed[-1]
+    M = reduced_inertia(phi_ref, p)
+    w = IDEAL_BANDWIDTH
+    return Program(
+        t=np.arange(n) * dt,
+        phi_ref=phi_ref,
+        omega_ref=omega_ref,
+        torque_ff=torque_ff,
+        k_phi=M * w * w,
+        k_omega=2.0 * M * w,
+    )
+
+
+def simulate_ideal_reverse(
+    device: Device, stage: int, virtual: Virtual, braking: SimulatedPass
+) -> SimulatedPass:
+    """The ideal reverse pass: the exact mirror driven by an ideal drive.
+
+    Ideal actuator (no torque or rate limit) and ideal sensing (feedback on the true state);
+    the feedforward is the true inverse dynamics. The speed matches the braking's at the same
+    angle to about 1e-6 rad/s, so identification can be tested apart from the
+    optimal-control work (issue 3). The log is the encoder's, as always.
+
+    Identification can be tested on it apart from the optimal-control work (issue 3).
+    """
+    program = ideal_program(device, stage, virtual, braking)
+    return run_program(
+        device, stage, virtual, program, (braking.truth.end_phi, 0.0), ideal=True
+    )

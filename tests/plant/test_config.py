@@ -1,0 +1,340 @@
+"""device.toml and virtual.toml: the examples of INTERFACES.md load, bad input is one line."""
+
+import math
+
+import numpy as np
+import pytest
+
+from plant.config import (
+    ControllerSettings,
+    RunSettings,
+    TrueBody,
+    load_device,
+    load_virtual,
+)
+from plant.errors import InputError
+
+# The example of INTERFACES.md: the paper's icosahedron design, two stages of three nodes.
+DEVICE_TABLE = """\
+[device]
+name = "bench-A"
+gravity = 9.80665            # m/s^2
+"""
+
+SPRING = """
+[spring]                     # torsion element, reduced to phi
+stiffness = 0.0              # N m/rad (0 = none)
+zero_angle = 0.0             # rad
+"""
+
+MOTOR = """
+[motor]                      # reduced to phi
+torque_limit = 0.5           # N m, |u| <= this
+torque_rate_limit = 20.0     # N m/s, |du/dt| <= this
+"""
+
+ENCODER = """
+[encoder]
+counts_per_rev = 65536
+sample_rate = 1000.0         # Hz
+"""
+
+DEVICE_HEAD = DEVICE_TABLE + SPRING + MOTOR + ENCODER
+
+STAGE_1 = """
+[[stage]]
+gear_ratio = 0.7639320225    # lambda = tan(beta); 0 = outer frame locked
+tare_inertia = 0.0           # M_tare(lambda), kg m^2, reduced to phi
+nodes_deg = [0.0, 120.0, 240.0]
+launch_speed = 6.0           # rad/s at the release
+braking_torque = 0.005       # N m against the motion, braking pass
+"""
+
+STAGE_2 = """
+[[stage]]
+gear_ratio = 5.2360679775
+tare_inertia = 0.0
+nodes_deg = [60.0, 180.0, 300.0]
+launch_speed = 2.5
+braking_torque = 0.07
+"""
+
+DEVICE_BODY = """
+[body]                       # optional
+mass = 4.0                   # kg; with it, identify reports the centre of mass
+"""
+
+DEVICE_TOML = DEVICE_HEAD + STAGE_1 + STAGE_2 + DEVICE_BODY
+
+VIRTUAL_TOML = """\
+[body]
+mass = 4.0
+inertia = [0.05, 0.06, 0.07, 0.002, -0.001, 0.003]   # Jx, Jy, Jz, Jxy, Jyz, Jxz
+com = [0.001, -0.002, 0.01]
+
+[friction]
+coulomb = 1.0e-4
+viscous = 1.0e-4
+quadratic = 1.0e-3
+
+[run]
+release_angle_deg = -30.0
+torque_noise = 1.0e-4
+seed = 7
+
+[controller]
+speed_observer_bandwidth = 150
+"""
+
+
+def write(tmp_path, name, text):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def edited(text, old, new):
+    assert old in text, f"test setup: {old!r} not in the example"
+    return text.replace(old, new, 1)
+
+
+def test_example_device_loads(tmp_path):
+    device = load_device(write(tmp_path, "device.toml", DEVICE_TOML))
+    assert device.name == "bench-A"
+    assert device.gravity == 9.80665
+    assert (device.spring.stiffness, device.spring.zero_angle) == (0.0, 0.0)
+    assert (device.motor.torque_limit, device.motor.torque_rate_limit) == (0.5, 20.0)
+    assert device.encoder.counts_per_rev == 65536
+    assert isinstance(device.encoder.counts_per_rev, int)
+    assert device.encoder.quantum == 2 * math.pi / 65536
+    assert device.encoder.dt == 1e-3
+    assert [s.gear_ratio for s in device.stages] == [0.7639320225, 5.2360679775]
+    # The icosahedron gear ratios are 3 -+ sqrt 5 (METHOD.md §5).
+    assert device.stages[0].gear_ratio == pytest.approx(3 - math.sqrt(5), abs=1e-10)
+    assert device.stages[1].gear_ratio == pytest.approx(3 + math.sqrt(5), abs=1e-10)
+    assert device.stages[0].nodes_deg == (0.0, 120.0, 240.0)
+    np.testing.assert_allclose(device.stages[1].nodes, np.radians([60, 180, 300]))
+    assert (device.stages[1].launch_speed, device.stages[1].braking_torque) == (2.5, 0.07)
+    assert device.body is not None and device.body.mass == 4.0
+    assert device.n_axes == 6
+
+
+def test_optional_tables_and_keys_take_their_defaults(tmp_path):
+    table = edited(DEVICE_TABLE, "gravity = 9.80665", "")
+    stage = edited(STAGE_1, "tare_inertia = 0.0", "")
+    text = table + MOTOR + ENCODER + stage + STAGE_2
+    device = load_device(write(tmp_path, "device.toml", text))
+    assert device.gravity == 9.80665
+    assert (device.spring.stiffness, device.spring.zero_angle) == (0.0, 0.0)
+    assert device.stages[0].tare_inertia == 0.0
+    assert device.body is None
+
+
+def test_integers_are_accepted_as_floats(tmp_path):
+    text = edited(DEVICE_TOML, "sample_rate = 1000.0", "sample_rate = 1000")
+    device = load_device(write(tmp_path, "device.toml", text))
+    assert device.encoder.sample_rate == 1000.0
+    assert isinstance(device.encoder.sample_rate, float)
+
+
+def test_cone_plus_z_design_has_six_axes(tmp_path):
+    # Five nodes on one cone and a lambda = 0 stage (METHOD.md §5). The z stage gives one
+    # axis whatever its nodes, and a second z stage adds none.
+    cone = edited(STAGE_1, "[0.0, 120.0, 240.0]", "[0.0, 72.0, 144.0, 216.0, 288.0]")
+    z_axis = edited(STAGE_2, "gear_ratio = 5.2360679775", "gear_ratio = 0.0")
+    device = load_device(write(tmp_path, "device.toml", DEVICE_HEAD + cone + z_axis + z_axis))
+    assert device.n_axes == 6
+
+
+def test_example_virtual_loads(tmp_path):
+    virtual = load_virtual(write(tmp_path, "virtual.toml", VIRTUAL_TOML))
+    body = virtual.body
+    assert body.mass == 4.0
+    np.testing.assert_array_equal(body.inertia, [0.05, 0.06, 0.07, 0.002, -0.001, 0.003])
+    np.testing.assert_array_equal(body.com, [0.001, -0.002, 0.01])
+    assert body.inertia.shape == (6,) and body.com.shape == (3,)
+    assert not body.inertia.flags.writeable and not body.com.flags.writeable
+    np.testing.assert_array_equal(
+        body.tensor, [[0.05, 0.002, 0.003], [0.002, 0.06, -0.001], [0.003, -0.001, 0.07]]
+    )
+    assert (virtual.friction.coulomb, virtual.friction.viscous) == (1e-4, 1e-4)
+    assert virtual.friction.quadratic == 1e-3
+    assert virtual.run == RunSettings(release_angle_deg=-30.0, torque_noise=1e-4, seed=7)
+    assert virtual.controller == ControllerSettings(speed_observer_bandwidth=150.0)
+
+
+def test_virtual_run_and_controller_are_optional(tmp_path):
+    virtual = load_virtual(write(tmp_path, "virtual.toml", VIRTUAL_TOML.partition("[run]")[0]))
+    assert virtual.run == RunSettings()
+    assert virtual.controller == ControllerSettings()
+
+
+def test_true_body_built_in_code_is_read_only():
+    body = TrueBody(mass=1.0, inertia=[1, 2, 2, 0, 0, 0], com=[0, 0, 0])
+    assert body.inertia.dtype == float and not body.inertia.flags.writeable
+    with pytest.raises(ValueError):
+        body.com[0] = 1.0
+
+
+def assert_one_line(error, *parts):
+    message = str(error.value)
+    assert "\n" not in message
+    for part in parts:
+        assert part in message, f"{part!r} not in {message!r}"
+
+
+# Each case edits the example: old text -> new text; the message must name the key and the fault.
+DEVICE_FAULTS = [
+    pytest.param("torque_limit = 0.5", "", "motor.torque_limit", "missing", id="missing key"),
+    pytest.param(
+        "sample_rate = 1000.0",
+        'sample_rate = "fast"',
+        "encoder.sample_rate",
+        "must be a number",
+        id="wrong type",
+    ),
+    pytest.param(
+        "gravity = 9.80665",
+        "gravity = true",
+        "device.gravity",
+        "must be a number",
+        id="boolean is no number",
+    ),
+    pytest.param(
+        "gear_ratio = 5.2360679775",
+        "gear_ratio = -0.5",
+        "stage[2].gear_ratio",
+        "must be >= 0, got -0.5",
+        id="gear ratio < 0",
+    ),
+    pytest.param(
+        "[60.0, 180.0, 300.0]",
+        "[60.0, 180.0, 360.0]",
+        "stage[2].nodes_deg[3]",
+        "[0, 360)",
+        id="node at 360",
+    ),
+    pytest.param(
+        "[0.0, 120.0, 240.0]",
+        "[-1.0, 120.0, 240.0]",
+        "stage[1].nodes_deg[1]",
+        "[0, 360)",
+        id="node at -1",
+    ),
+    pytest.param(
+        "[0.0, 120.0, 240.0]",
+        "[0.0, 120.0, 0.0]",
+        "stage[1].nodes_deg",
+        "duplicate",
+        id="duplicate node",
+    ),
+    pytest.param(
+        STAGE_2,
+        "",
+        "stage",
+        "3 distinct axes, 6 are needed",
+        id="one stage of 3 nodes",
+    ),
+    pytest.param(
+        "gear_ratio = 5.2360679775",
+        "gear_ratio = 0.0",
+        "stage",
+        "4 distinct axes, 6 are needed",
+        id="z stage gives one axis",
+    ),
+    pytest.param(
+        "counts_per_rev = 65536",
+        "counts_per_rev = 65536.0",
+        "encoder.counts_per_rev",
+        "must be an integer, got 65536.0",
+        id="non-integer counts",
+    ),
+    pytest.param(
+        "launch_speed = 2.5",
+        "launch_sped = 2.5",
+        "stage[2].launch_sped",
+        "unknown key",
+        id="unknown key",
+    ),
+    pytest.param("[spring]", "[sprng]", "sprng", "unknown table", id="unknown table"),
+    pytest.param(
+        ENCODER,
+        "",
+        "encoder",
+        "missing required table",
+        id="missing table",
+    ),
+    pytest.param("[motor]", "[motor", "line", "invalid TOML", id="bad TOML syntax"),
+]
+
+
+@pytest.mark.parametrize("old, new, key, fault", DEVICE_FAULTS)
+def test_bad_device_is_one_line_naming_file_and_key(tmp_path, old, new, key, fault):
+    path = write(tmp_path, "device.toml", edited(DEVICE_TOML, old, new))
+    with pytest.raises(InputError) as error:
+        load_device(path)
+    assert_one_line(error, str(path), key, fault)
+
+
+VIRTUAL_FAULTS = [
+    pytest.param(
+        "[0.05, 0.06,",
+        "[0.05, -0.01,",
+        "body.inertia",
+        "Jy must be > 0, got -0.01",
+        id="negative inertia",
+    ),
+    pytest.param(
+        "[0.05, 0.06, 0.07, 0.002, -0.001, 0.003]",
+        "[1, 1, 3, 0, 0, 0]",
+        "body.inertia",
+        "not a physical inertia tensor: principal moments [1, 1, 3]",
+        id="triangle inequality",
+    ),
+    pytest.param(
+        "0.002, -0.001, 0.003]",
+        "0.06, 0, 0]",
+        "body.inertia",
+        "not a physical inertia tensor",
+        id="not positive definite",
+    ),
+    pytest.param(
+        "0.002, -0.001, 0.003]",
+        "0.002, -0.001]",
+        "body.inertia",
+        "must have 6 entries",
+        id="inertia of 5",
+    ),
+    pytest.param(
+        "[0.001, -0.002, 0.01]",
+        "[0.001, -0.002]",
+        "body.com",
+        "must have 3 entries",
+        id="com of 2",
+    ),
+    pytest.param("viscous = 1.0e-4", "", "friction.viscous", "missing", id="missing friction"),
+    pytest.param("seed = 7", "seed = -1", "run.seed", "must be >= 0", id="negative seed"),
+    pytest.param(
+        "bandwidth = 150",
+        "bandwidth = 0",
+        "controller.speed_observer_bandwidth",
+        "must be > 0",
+        id="zero bandwidth",
+    ),
+]
+
+
+@pytest.mark.parametrize("old, new, key, fault", VIRTUAL_FAULTS)
+def test_bad_virtual_is_one_line_naming_file_and_key(tmp_path, old, new, key, fault):
+    path = write(tmp_path, "virtual.toml", edited(VIRTUAL_TOML, old, new))
+    with pytest.raises(InputError) as error:
+        load_virtual(path)
+    assert_one_line(error, str(path), key, fault)
+
+
+@pytest.mark.parametrize("load", [load_device, load_virtual])
+def test_missing_file_is_one_line_naming_it(tmp_path, load):
+    path = tmp_path / "absent.toml"
+    with pytest.raises(InputError) as error:
+        load(path)
+    assert_one_line(error, str(path), "not found")

@@ -1,0 +1,369 @@
+"""Logs and programs: exact round trips, the Stieltjes motor work, atomic writes, bad input."""
+
+import math
+import os
+import re
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from plant.errors import InputError
+from plant.logs import (
+    Log,
+    Program,
+    read_log,
+    read_program,
+    write_atomic,
+    write_log,
+    write_program,
+)
+
+
+@dataclass(frozen=True)
+class Encoder:
+    """Stand-in for plant.config.Encoder: the readers only use it duck-typed."""
+
+    counts_per_rev: int = 65536
+    sample_rate: float = 1000.0
+
+    @property
+    def quantum(self) -> float:
+        return 2.0 * math.pi / self.counts_per_rev
+
+    @property
+    def dt(self) -> float:
+        return 1.0 / self.sample_rate
+
+
+ENCODER = Encoder()
+Q = ENCODER.quantum
+
+finite = st.floats(allow_nan=False, allow_infinity=False)
+
+
+def bits(array: np.ndarray) -> np.ndarray:
+    """The float64 bit patterns, so that -0.0 != 0.0 and equality means identity."""
+    return np.asarray(array, dtype=np.float64).view(np.int64)
+
+
+def make_log(n: int = 50) -> Log:
+    """A plausible braking pass: 6 rad/s at the release, uniform deceleration to rest."""
+    t = np.arange(n) * ENCODER.dt
+    angle = 6.0 * (t - t**2 / (2.0 * t[-1]))
+    counts = np.floor(angle / Q) + 1000
+    torque = -0.005 + 1e-4 * np.sin(np.arange(n))
+    return Log(t=t, phi=counts * Q, torque=torque)
+
+
+def make_program(n: int = 50) -> Program:
+    t = np.arange(n) * ENCODER.dt
+    return Program(
+        t=t,
+        phi_ref=1.0 - 0.1 * t,
+        omega_ref=-0.1 + 0 * t,
+        torque_ff=0.01 * np.cos(t),
+        k_phi=np.full(n, 2.0),
+        k_omega=np.full(n, 0.3),
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# Round trips
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    counts_per_rev=st.integers(16, 2**24),
+    sample_rate=st.floats(10.0, 1e5),
+    start=st.integers(-(10**6), 10**6),
+    steps=st.lists(st.integers(0, 40), min_size=1, max_size=200),
+    kind=st.sampled_from(["braking", "reverse"]),
+    data=st.data(),
+)
+def test_log_round_trip_is_exact(
+    tmp_path_factory, counts_per_rev, sample_rate, start, steps, kind, data
+):
+    encoder = Encoder(counts_per_rev, sample_rate)
+    sign = 1 if kind == "braking" else -1
+    counts = start + sign * np.cumsum([0, steps[0] + 1, *steps[1:]])  # the pass must move
+    n = len(counts)
+    log = Log(
+        t=np.arange(n) / sample_rate,
+        phi=counts * encoder.quantum,
+        torque=data.draw(st.lists(finite, min_size=n, max_size=n)),
+    )
+    path = tmp_path_factory.mktemp("logs") / f"{kind}.csv"
+    write_log(path, log)
+    back = read_log(path, encoder, kind)
+    for name in ("t", "phi", "torque"):
+        np.testing.assert_array_equal(bits(getattr(back, name)), bits(getattr(log, name)))
+
+
+@settings(max_examples=40, deadline=None)
+@given(n=st.integers(2, 100), sample_rate=st.floats(10.0, 1e5), data=st.data())
+def test_program_round_trip_is_exact(tmp_path_factory, n, sample_rate, data):
+    columns = [data.draw(st.lists(finite, min_size=n, max_size=n)) for _ in range(5)]
+    program = Program(np.arange(n) / sample_rate, *columns)
+    path = tmp_path_factory.mktemp("programs") / "program.csv"
+    write_program(path, program)
+    back = read_program(path, Encoder(sample_rate=sample_rate))
+    for name in ("t", "phi_ref", "omega_ref", "torque_ff", "k_phi", "k_omega"):
+        np.testing.assert_array_equal(bits(getattr(back, name)), bits(getattr(program, name)))
+
+
+def test_files_are_byte_identical_when_written_twice(tmp_path):
+    log = make_log(200)
+    write_log(tmp_path / "a.csv", log)
+    write_log(tmp_path / "b.csv", log)
+    write_log(tmp_path / "c.csv", read_log(tmp_path / "a.csv", ENCODER, "braking"))
+    first = (tmp_path / "a.csv").read_bytes()
+    assert first == (tmp_path / "b.csv").read_bytes() == (tmp_path / "c.csv").read_bytes()
+    assert first.startswith(b"t,phi,torque\n0.0,") and b"\r" not in first
+
+    write_program(tmp_path / "p.csv", make_program())
+    write_program(tmp_path / "q.csv", make_program())
+    program = (tmp_path / "p.csv").read_bytes()
+    assert program == (tmp_path / "q.csv").read_bytes()
+    assert program.startswith(b"t,phi_ref,omega_ref,torque_ff,k_phi,k_omega\n")
+
+
+def test_reading_a_normal_log_is_fast(tmp_path):
+    # 30,000 rows (30 s at 1 kHz) is an ordinary braking pass; the budget is 0.5 s.
+    log = make_log(30_000)
+    write_log(tmp_path / "braking.csv", log)
+    start = time.perf_counter()
+    read_log(tmp_path / "braking.csv", ENCODER, "braking")
+    assert time.perf_counter() - start < 0.5
+
+
+# ---------------------------------------------------------------------------------------------
+# The dataclasses
+
+
+def test_motor_work_is_the_zero_order_hold_sum():
+    rng = np.random.default_rng(1)
+    n = 500
+    log = Log(
+        t=np.arange(n) * ENCODER.dt,
+        phi=np.cumsum(rng.integers(0, 30, n)) * Q,
+        torque=rng.normal(0.0, 0.01, n),
+    )
+    expected = [0.0]
+    for k in range(1, n):
+        expected.append(expected[-1] + log.torque[k - 1] * (log.phi[k] - log.phi[k - 1]))
+    # Same products summed in the same order: equal up to rounding of the running sum.
+    np.testing.assert_allclose(log.motor_work(), expected, rtol=1e-12, atol=1e-15)
+
+
+def test_constant_torque_does_work_torque_times_angle():
+    log = make_log(300)
+    constant = Log(t=log.t, phi=log.phi, torque=np.full(len(log), 0.02))
+    np.testing.assert_allclose(constant.motor_work(), 0.02 * (log.phi - log.phi[0]), atol=1e-15)
+
+
+def test_arrays_are_read_only_float64_copies():
+    phi = np.arange(3) * Q
+    log = Log(t=[0, 1e-3, 2e-3], phi=phi, torque=[1, 2, 3])
+    phi[1] = 99.0
+    assert log.phi[1] == Q and len(log) == 3
+    for array in (log.t, log.phi, log.torque, *vars(make_program()).values()):
+        assert array.dtype == np.float64 and not array.flags.writeable
+        with pytest.raises(ValueError):
+            array[0] = 1.0
+
+
+def test_unequal_lengths_are_a_programming_error():
+    with pytest.raises(ValueError, match="unequal length"):
+        Log(t=[0.0, 1e-3], phi=[0.0, Q, 2 * Q], torque=[0.0, 0.0])
+    with pytest.raises(ValueError, match="unequal length"):
+        Program([0.0, 1e-3], [0.0, 0.0], [0.0, 0.0], [0.0], [0.0, 0.0], [0.0, 0.0])
+    with pytest.raises(ValueError):
+        read_log("unused.csv", ENCODER, "forward")
+
+
+def test_writing_non_finite_values_is_refused(tmp_path):
+    log = make_log(5)
+    bad = Log(t=log.t, phi=log.phi, torque=[0.0, math.nan, 0.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match="torque"):
+        write_log(tmp_path / "braking.csv", bad)
+    assert os.listdir(tmp_path) == []
+
+
+# ---------------------------------------------------------------------------------------------
+# write_atomic
+
+
+def test_write_atomic_leaves_only_the_target(tmp_path):
+    target = tmp_path / "out.csv"
+    write_atomic(target, "one\n")
+    write_atomic(str(target), "two\r\n")
+    assert os.listdir(tmp_path) == ["out.csv"]
+    assert target.read_bytes() == b"two\r\n"  # written as given, no newline translation
+
+
+@pytest.mark.parametrize("step", ["replace", "fsync"])
+def test_a_failed_write_keeps_the_old_file(tmp_path, monkeypatch, step):
+    target = tmp_path / "braking.csv"
+    target.write_text("old content\n")
+
+    def fail(*args, **kwargs):
+        raise OSError("disk on fire")
+
+    monkeypatch.setattr(os, step, fail)
+    with pytest.raises(OSError, match="disk on fire"):
+        write_log(target, make_log())
+    with pytest.raises(OSError, match="disk on fire"):
+        write_atomic(tmp_path / "new.csv", "never\n")
+    assert target.read_text() == "old content\n"
+    assert os.listdir(tmp_path) == ["braking.csv"]
+
+
+# ---------------------------------------------------------------------------------------------
+# Bad input
+
+LOG_HEADER = "t,phi,torque"
+PROGRAM_HEADER = "t,phi_ref,omega_ref,torque_ff,k_phi,k_omega"
+
+
+def log_rows(n: int = 6, kind: str = "braking") -> list[str]:
+    """Data rows of a valid log; rows[i] is line i + 2 of the file."""
+    sign = 1 if kind == "braking" else -1
+    return [f"{k / 1000!r},{sign * k * k * Q!r},-0.005" for k in range(n)]
+
+
+def program_rows(n: int = 6) -> list[str]:
+    return [f"{k / 1000!r},1.0,-0.5,0.01,2.0,0.3" for k in range(n)]
+
+
+def text(header: str, rows: list[str], end: str = "\n") -> str:
+    return end.join([header, *rows]) + end
+
+
+def log_with(index: int, row: str) -> str:
+    """A valid braking log with data row ``index`` (line index + 2) replaced."""
+    rows = log_rows()
+    rows[index] = row
+    return text(LOG_HEADER, rows)
+
+
+def program_with(index: int, row: str) -> str:
+    """A valid program with data row ``index`` (line index + 2) replaced."""
+    rows = program_rows()
+    rows[index] = row
+    return text(PROGRAM_HEADER, rows)
+
+
+def assert_one_line(error: pytest.ExceptionInfo, path, line: int | None, *words: str) -> None:
+    message = str(error.value)
+    assert "\n" not in message and "\r" not in message
+    assert message.startswith(str(path))
+    if line is not None:
+        assert re.search(rf"\bline {line}\b", message), message
+    for word in words:
+        assert word in message, message
+
+
+BAD_LOGS = {
+    # name: (kind, content or None for a missing file, line named, words in the message)
+    "missing file": ("braking", None, None, ["no such file"]),
+    "empty file": ("braking", "", None, ["empty"]),
+    "blank lines only": ("braking", "\n \n\r\n", None, ["empty"]),
+    "header with a column missing": ("braking", text("t,phi", log_rows()), 1, ["'t,phi'"]),
+    "header with other names": ("braking", text("time,phi,torque", log_rows()), 1, ["time"]),
+    "header with an extra column": ("braking", text("t,phi,torque,x", log_rows()), 1, []),
+    "no header": ("braking", "\n".join(log_rows()), 1, ["expected 't,phi,torque'"]),
+    "too few fields": ("braking", log_with(2, "0.002,0.0"), 4, ["2 fields"]),
+    "too many fields": ("braking", log_with(3, "0.003,0,0,0"), 5, ["4 fields"]),
+    "blank line inside": ("braking", log_with(1, ""), 3, ["blank"]),
+    "phi not a number": ("braking", log_with(2, "0.002,abc,0"), 4, ["phi", "'abc'"]),
+    "empty torque": ("braking", log_with(4, "0.004,0.0,"), 6, ["torque", "not a number"]),
+    "nan torque": ("braking", log_with(3, "0.003,0.0,nan"), 5, ["torque", "not finite"]),
+    "infinite phi": ("braking", log_with(5, "0.005,-inf,0"), 7, ["phi", "not finite"]),
+    "header only": ("braking", text(LOG_HEADER, []), None, ["0 data row"]),
+    "one row": ("braking", text(LOG_HEADER, log_rows(1)), None, ["1 data row"]),
+    "t not from 0": ("braking", log_with(0, "0.5,0.0,0"), 2, ["t = 0.5"]),
+    "t repeated": ("braking", log_with(3, f"0.002,{9 * Q!r},0"), 5, ["strictly increasing"]),
+    "t going back": ("braking", log_with(2, f"0.0005,{4 * Q!r},0"), 4, ["strictly increasing"]),
+    "sample skipped": ("braking", log_with(5, f"0.006,{25 * Q!r},0"), 7, ["0.002 s", "0.001 s"]),
+    "wrong sample rate": (
+        "braking",
+        text(LOG_HEADER, [f"{k / 500!r},{k * Q!r},0" for k in range(5)]),
+        3,
+        ["time step 0.002 s, expected 0.001 s"],
+    ),
+    "phi off the grid": (
+        "braking",
+        log_with(3, "0.003,0.12345,0"),
+        5,
+        ["phi = 0.12345 is not on the encoder grid (q = 9.587e-05 rad)"],
+    ),
+    "braking going back": ("braking", text(LOG_HEADER, log_rows(kind="reverse")), 7, ["larger"]),
+    "braking standing still": (
+        "braking",
+        text(LOG_HEADER, [f"{k / 1000!r},0.0,0" for k in range(4)]),
+        5,
+        ["braking", "larger phi"],
+    ),
+    "reverse going forward": ("reverse", text(LOG_HEADER, log_rows()), 7, ["reverse", "smaller"]),
+}
+
+
+@pytest.mark.parametrize("case", BAD_LOGS, ids=list(BAD_LOGS))
+def test_bad_logs_are_one_line_input_errors(tmp_path, case):
+    kind, content, line, words = BAD_LOGS[case]
+    path = tmp_path / "stage1" / f"{kind}.csv"
+    path.parent.mkdir()
+    if content is not None:
+        path.write_bytes(content.encode())
+    with pytest.raises(InputError) as error:
+        read_log(path, ENCODER, kind)
+    assert_one_line(error, path, line, *words)
+
+
+BAD_PROGRAMS = {
+    # name: (content or None for a missing file, line named, words in the message)
+    "missing file": (None, None, ["no such file"]),
+    "empty file": ("", None, ["empty"]),
+    "log header": (text(LOG_HEADER, log_rows()), 1, [PROGRAM_HEADER]),
+    "too few fields": (program_with(1, "0.001,1,2"), 3, ["3 fields"]),
+    "gain not a number": (program_with(4, "0.004,1,2,3,x,5"), 6, ["k_phi = 'x'"]),
+    "infinite gain": (program_with(2, "0.002,1,2,3,4,inf"), 4, ["k_omega", "not finite"]),
+    "one row": (text(PROGRAM_HEADER, program_rows(1)), None, ["1 data row"]),
+    "t not from 0": (program_with(0, "0.001,1,1,1,1,1"), 2, ["t = 0.001"]),
+    "t going back": (program_with(3, "0.001,1,1,1,1,1"), 5, ["strictly increasing"]),
+    "wrong sample rate": (program_with(2, "0.0021,1,1,1,1,1"), 4, ["expected 0.001 s"]),
+}
+
+
+@pytest.mark.parametrize("case", BAD_PROGRAMS, ids=list(BAD_PROGRAMS))
+def test_bad_programs_are_one_line_input_errors(tmp_path, case):
+    content, line, words = BAD_PROGRAMS[case]
+    path = tmp_path / "stage2" / "program.csv"
+    path.parent.mkdir()
+    if content is not None:
+        path.write_bytes(content.encode())
+    with pytest.raises(InputError) as error:
+        read_program(path, ENCODER)
+    assert_one_line(error, path, line, *words)
+
+
+def test_tolerated_variants_read_like_the_plain_file(tmp_path):
+    plain = tmp_path / "plain.csv"
+    plain.write_text(text(LOG_HEADER, log_rows()))
+    variants = {
+        "crlf.csv": text(LOG_HEADER, log_rows(), end="\r\n"),
+        "spaces.csv": text("  t , phi ,torque \r", [r.replace(",", " , ") for r in log_rows()]),
+        "trailing_blank_lines.csv": text(LOG_HEADER, log_rows()) + "\n  \n\r\n",
+        "no_final_newline.csv": text(LOG_HEADER, log_rows()).rstrip("\n"),
+        "bom.csv": "\ufeff" + text(LOG_HEADER, log_rows()),
+    }
+    expected = read_log(plain, ENCODER, "braking")
+    for name, content in variants.items():
+        (tmp_path / name).write_bytes(content.encode())
+        log = read_log(tmp_path / name, ENCODER, "braking")
+        for field in ("t", "phi", "torque"):
+            np.testing.assert_array_equal(getattr(log, field), getattr(expected, field), name)
