@@ -1,11 +1,96 @@
-"""Command line of rsp-inertia: parse arguments, call one library function, print."""
+"""Command line of rsp-inertia: parse arguments, call one library function, print.
+
+Bad input (:class:`plant.errors.InputError`) becomes one line on stderr and exit status 2;
+argparse's own usage errors exit with 2 as well.
+"""
 
 from __future__ import annotations
 
+import argparse
 import sys
+from pathlib import Path
+
+from plant.errors import InputError
+
+
+def _cmd_demo(args: argparse.Namespace) -> None:
+    from rsp_inertia.pipeline import demo
+
+    demo(args.exp, progress=lambda text: print(text, flush=True))
+
+
+def _cmd_simulate(args: argparse.Namespace) -> None:
+    from rsp_inertia.pipeline import simulate
+
+    if args.ideal and args.part != "reverse":
+        raise InputError("--ideal goes with --part reverse")
+    simulate(
+        args.exp,
+        args.stage,
+        args.part,
+        ideal=args.ideal,
+        progress=lambda summary: print(summary, flush=True),
+    )
+
+
+def _cmd_design(args: argparse.Namespace) -> None:
+    from rsp_inertia.design import run_design
+
+    print(run_design(args.exp, args.plot))
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="rsp-inertia",
+        description="Inertia tensor and centre of mass by reverse-symmetrical semi-program "
+        "precession (RSP) on a biaxial gimbal.",
+    )
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser("demo", help="build the default virtual experiment and run it")
+    p.add_argument(
+        "exp", nargs="?", type=Path, default=Path("demo-experiment"), metavar="EXP",
+        help="experiment folder (default: ./demo-experiment); existing inputs are kept",
+    )
+    p.set_defaults(run=_cmd_demo)
+
+    p = sub.add_parser("simulate", help="the virtual device writes a stage's logs")
+    p.add_argument("exp", type=Path, metavar="EXP", help="experiment folder with virtual.toml")
+    p.add_argument("--stage", type=int, help="one stage (from 1); default: all")
+    p.add_argument(
+        "--part", choices=("braking", "reverse"), default="braking",
+        help="braking pass, or the reverse pass running stageN/program.csv in closed loop",
+    )
+    p.add_argument(
+        "--ideal", action="store_true",
+        help="with --part reverse: the exact mirror on an ideal drive (no program needed)",
+    )
+    p.set_defaults(run=_cmd_simulate)
+
+    p = sub.add_parser("design", help="conditioning of axis designs (icosahedron, cone + z, EXP)")
+    p.add_argument(
+        "exp", nargs="?", type=Path, metavar="EXP",
+        help="also report the design of this experiment's device.toml",
+    )
+    p.add_argument(
+        "--plot", type=Path, default=None, metavar="PNG",
+        help="where to write 1/cond(V) against the opening angle "
+        "(default: EXP/design.png, or ./design.png)",
+    )
+    p.set_defaults(run=_cmd_design)
+    return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``rsp-inertia`` console script."""
-    print("rsp-inertia: under construction", file=sys.stderr)
-    return 1
+    """Entry point of the ``rsp-inertia`` console script; returns the exit status."""
+    args = _parser().parse_args(argv)
+    try:
+        args.run(args)
+    except InputError as error:
+        print(f"rsp-inertia: error: {error}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,200 @@
+"""The experiment pipeline behind the commands: files in, files out, no physics here.
+
+Each function takes an experiment folder, calls the library (plant/, estimation/, ocp/) and
+writes the outputs atomically. What it did comes back as small summary records that the
+command line prints.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from plant.errors import InputError
+from plant.experiment import Experiment, open_experiment
+from plant.logs import read_log, read_program, write_atomic, write_log
+from plant.virtual import (
+    SimulatedPass,
+    run_program,
+    simulate_braking,
+    simulate_ideal_reverse,
+)
+
+__all__ = [
+    "DEFAULT_EXPERIMENT",
+    "PassSummary",
+    "create_default_experiment",
+    "simulate",
+    "demo",
+]
+
+DEFAULT_EXPERIMENT = Path("demo-experiment")
+"""Where ``rsp-inertia demo`` builds its experiment when no folder is given."""
+
+PARTS = ("braking", "reverse")
+
+
+@dataclass(frozen=True)
+class PassSummary:
+    """What one simulated pass produced."""
+
+    stage: int
+    """Stage number, from 1."""
+    part: str
+    """'braking', 'reverse' or 'ideal reverse'."""
+    path: Path
+    """The log written."""
+    rows: int
+    """Rows of the log."""
+    duration: float
+    """s, the pass's physical duration."""
+    turns: float
+    """Turns covered by the pass (encoder angle span / 2 pi)."""
+    turns_past_last_node: float | None
+    """Braking only: turns after the first passage of the stage's last node."""
+
+    def __str__(self) -> str:
+        text = (
+            f"stage {self.stage}: {self.part}: {self.duration:.2f} s, {self.rows} rows, "
+            f"{self.turns:.2f} turns"
+        )
+        if self.turns_past_last_node is not None:
+            text += f" ({self.turns_past_last_node:.2f} past the last node)"
+        return f"{text} -> {self.path}"
+
+
+def create_default_experiment(root: str | Path) -> Path:
+    """Write the default experiment's device.toml and virtual.toml into ``root``.
+
+    The default is the paper's scenario (plant/defaults/). Files already present are kept
+    as they are (an experiment's inputs are never overwritten), so a user can edit them and
+    rerun the demo.
+    """
+    root = Path(root)
+    root.mkdir(parents=True, exist_ok=True)
+    for name in ("device.toml", "virtual.toml"):
+        target = root / name
+        if not target.exists():
+            text = resources.files("plant").joinpath("defaults", name).read_text()
+            write_atomic(target, text)
+    return root
+
+
+def _turns_past_last_node(phi: np.ndarray, nodes: np.ndarray) -> float:
+    """Turns from the first passage of the last node (in order of passage) to the end."""
+    first = phi[0]
+    passages = first + np.mod(nodes - first, 2 * math.pi)  # first passage of each node
+    return float((phi[-1] - passages.max()) / (2 * math.pi))
+
+
+def _summary(
+    exp: Experiment, stage: int, part: str, path: Path, sim: SimulatedPass
+) -> PassSummary:
+    log = sim.log
+    past = None
+    if part == "braking":
+        past = _turns_past_last_node(log.phi, exp.device.stages[stage - 1].nodes)
+    return PassSummary(
+        stage=stage,
+        part=part,
+        path=path,
+        rows=len(log),
+        duration=sim.truth.end_time,
+        turns=float(abs(log.phi[-1] - log.phi[0]) / (2 * math.pi)),
+        turns_past_last_node=past,
+    )
+
+
+def _braking_truth(exp: Experiment, stage: int, virtual) -> SimulatedPass:
+    """Re-run the (deterministic) braking pass and check it is the one on disk.
+
+    The reverse pass starts where the braking stopped; the simulator regenerates that state
+    rather than storing truth next to the logs, and refuses a braking.csv it did not write
+    with these settings.
+    """
+    braking = simulate_braking(exp.device, stage, virtual)
+    path = exp.braking_path(stage)
+    if not path.is_file():
+        raise InputError(f"{path}: not found: simulate the braking first (--part braking)")
+    on_disk = read_log(path, exp.device.encoder, "braking")
+    same = len(on_disk) == len(braking.log) and all(
+        np.array_equal(getattr(on_disk, c), getattr(braking.log, c)) for c in ("t", "phi", "torque")
+    )
+    if not same:
+        raise InputError(
+            f"{path}: not the virtual device's braking pass for the current device.toml and "
+            "virtual.toml; simulate it again (--part braking)"
+        )
+    return braking
+
+
+def simulate(
+    root: str | Path,
+    stage: int | None = None,
+    part: str = "braking",
+    *,
+    ideal: bool = False,
+    progress: Callable[[PassSummary], None] | None = None,
+) -> list[PassSummary]:
+    """``rsp-inertia simulate``: the virtual device writes the logs of one part.
+
+    Parameters
+    ----------
+    root : path
+        Experiment folder with device.toml and virtual.toml.
+    stage : int, optional
+        One stage (from 1); all stages by default.
+    part : {'braking', 'reverse'}
+        The braking pass writes stageN/braking.csv. The reverse pass runs stageN/program.csv
+        in closed loop and writes stageN/reverse.csv; with ``ideal`` it runs the exact mirror
+        of the braking on an ideal drive instead (no program needed).
+    progress : callable, optional
+        Called with each stage's summary as soon as it is written.
+    """
+    if part not in PARTS:
+        raise InputError(f"--part: must be one of {', '.join(PARTS)}, got {part!r}")
+    exp = open_experiment(root)
+    virtual = exp.load_virtual()
+    summaries = []
+    for st in exp.stages(stage):
+        exp.stage_dir(st).mkdir(exist_ok=True)
+        if part == "braking":
+            sim = simulate_braking(exp.device, st, virtual)
+            path = exp.braking_path(st)
+            label = "braking"
+        else:
+            braking = _braking_truth(exp, st, virtual)
+            if ideal:
+                sim = simulate_ideal_reverse(exp.device, st, virtual, braking)
+                label = "ideal reverse"
+            else:
+                program = read_program(exp.program_path(st), exp.device.encoder)
+                start = (braking.truth.end_phi, 0.0)
+                sim = run_program(exp.device, st, virtual, program, start)
+                label = "reverse"
+            path = exp.reverse_path(st)
+        write_log(path, sim.log)
+        summary = _summary(exp, st, label, path, sim)
+        if progress is not None:
+            progress(summary)
+        summaries.append(summary)
+    return summaries
+
+
+def demo(
+    root: str | Path = DEFAULT_EXPERIMENT, progress: Callable[[str], None] | None = None
+) -> list[PassSummary]:
+    """``rsp-inertia demo``: build the default experiment and run it on the virtual device.
+
+    For now: the default experiment (paper scenario, icosahedron stages) and every stage's
+    braking pass.
+    """
+    say = progress or (lambda _text: None)
+    root = create_default_experiment(root)
+    say(f"experiment folder: {root}")
+    return simulate(root, part="braking", progress=lambda s: say(str(s)))
