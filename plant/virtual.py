@@ -219,31 +219,38 @@ def simulate_braking(device: Device, stage: int, virtual: Virtual) -> SimulatedP
 class SpeedObserver:
     """The virtual controller's speed estimate from the encoder alone.
 
-    A second-order tracking loop (the digital equivalent of a type-2 PLL), run once per
-    sample on the quantized angle y_k:
+    A third-order tracking loop (an alpha-beta-gamma tracker: angle, speed and acceleration
+    states), run once per sample on the quantized angle y_k:
 
-        predict  phi^- = phi + omega dt
-        correct  e = y_k - phi^-,  phi = phi^- + l1 e,  omega = omega + l2 e
+        predict  phi^- = phi + omega dt + acc dt^2/2,  omega^- = omega + acc dt
+        correct  e = y_k - phi^-
+                 phi = phi^- + l1 e,  omega = omega^- + l2 e,  acc = acc + l3 e
 
-    with l1 = 2 w dt and l2 = w^2 dt: both closed-loop poles at s = -w (critically damped),
-    w the bandwidth of virtual.toml's ``speed_observer_bandwidth``. A type-2 loop follows a
-    constant acceleration without a steady speed error, and filters the quantization noise
-    above w. This is the kind of estimate a real drive's controller has.
+    with l1 = 3 w dt, l2 = 3 w^2 dt, l3 = w^3 dt: the characteristic polynomial (s + w)^3,
+    w the bandwidth of virtual.toml's ``speed_observer_bandwidth``. Being type 3, the loop
+    follows a constant speed and a constant acceleration without steady error (a type-2
+    alpha-beta tracker would trail an acceleration a by about 2a/w); the quantization's
+    fluctuation reaches the estimate only through the loop's low-pass. This is the kind of
+    estimate a real drive's controller has.
     """
 
     def __init__(self, phi0: float, omega0: float, bandwidth: float, dt: float) -> None:
         self.phi = phi0
         self.omega = omega0
+        self.acc = 0.0
         self.dt = dt
-        self.l1 = 2.0 * bandwidth * dt
-        self.l2 = bandwidth * bandwidth * dt
+        self.l1 = 3.0 * bandwidth * dt
+        self.l2 = 3.0 * bandwidth**2 * dt
+        self.l3 = bandwidth**3 * dt
 
     def update(self, y: float) -> float:
         """Take the encoder reading of this sample; return the speed estimate, rad/s."""
-        predicted = self.phi + self.omega * self.dt
+        dt = self.dt
+        predicted = self.phi + self.omega * dt + self.acc * dt * dt / 2
         error = y - predicted
         self.phi = predicted + self.l1 * error
-        self.omega += self.l2 * error
+        self.omega += self.acc * dt + self.l2 * error
+        self.acc += self.l3 * error
         return self.omega
 
 

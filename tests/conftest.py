@@ -1,0 +1,23 @@
+"""Shared fixtures: the default experiment of ``rsp-inertia demo`` (plant/defaults/)."""
+
+from pathlib import Path
+
+import pytest
+
+import plant
+from plant.config import Device, Virtual, load_device, load_virtual
+
+DEFAULTS = Path(plant.__file__).parent / "defaults"
+"""The embedded default experiment: the paper's icosahedron design on a virtual gimbal."""
+
+
+@pytest.fixture(scope="session")
+def default_device() -> Device:
+    """The gimbal of plant/defaults/device.toml (two stages, lam = 0.764 and 5.236)."""
+    return load_device(DEFAULTS / "device.toml")
+
+
+@pytest.fixture(scope="session")
+def default_virtual() -> Virtual:
+    """The true body, friction and run settings of plant/defaults/virtual.toml."""
+    return load_virtual(DEFAULTS / "virtual.toml")
