@@ -1,1 +1,1 @@
-"""estimation package."""
+"""Identification: encoder smoothing, energy balances, least squares, tensor, uncertainty."""

@@ -1,1 +1,1 @@
-"""ocp package."""
+"""Torque program of the reverse pass: mirrored reference, CasADi OCP, LQR regulator."""
