@@ -1,0 +1,195 @@
+"""Both passes of a stage at common angles: the node formula and the balance equations.
+
+Reverse minus braking balance between two angles a < b covered by both passes
+(METHOD.md §5), with S = Omega^2 + Omega'^2 the two passes' squared speeds at one angle and
+W(phi) = A(release -> phi) + A'(phi7 -> phi) the motor work of both passes up to phi:
+
+    1/2 M(phi_b) S_b - 1/2 M(phi_a) S_a + 2 (Pi_b - Pi_a) = W_b - W_a = A_ab - A'_ab
+
+so that 1/2 M(phi) S(phi) + 2 Pi(phi) - W(phi) is the same constant C at every angle: one
+equation per angle, differences of which are every pair's balance. Friction does not appear:
+it does the same work on both passes at the same angle and speed.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from estimation.energy import PassEstimate, sample_at
+from plant.config import Device, Stage
+from plant.errors import InputError
+
+__all__ = [
+    "MIN_SPEED_FRACTION",
+    "EDGE_MARGIN",
+    "POSITION_SPACING_BANDWIDTHS",
+    "StageBalance",
+    "usable_range",
+    "stage_balance",
+    "NodeEstimate",
+    "node_formula",
+]
+
+MIN_SPEED_FRACTION = 0.2
+"""Angles where the braking speed is below this fraction of its top speed are left out:
+near rest the mirror cannot be exact (torque-rate limit, static friction, METHOD.md §4)."""
+
+EDGE_MARGIN = 0.1
+"""rad left out at each end of the common range (smoother start-up, release transient)."""
+
+POSITION_SPACING_BANDWIDTHS = 1.0
+"""Balance angles are spaced by one smoother time constant (1 / w_c) at the top speed.
+Measured on the default experiment (speed noise alone): spacing 3/w_c leaves J_k errors of
+~1e-5, 1/w_c ~1e-6, 0.3/w_c no better (the smoother's errors are correlated over ~1/w_c)."""
+
+
+def _spring_potential(phi: np.ndarray, device: Device) -> np.ndarray:
+    """Spring part of Pi (METHOD.md §3); gravity is estimated, not known."""
+    c, phi0 = device.spring.stiffness, device.spring.zero_angle
+    return c / 2 * (phi - phi0) ** 2
+
+
+def usable_range(braking: PassEstimate, reverse: PassEstimate, stage: int) -> tuple[float, float]:
+    """Angles covered by both passes, at a braking speed worth balancing (constants above)."""
+    b, r = braking.smoothed, reverse.smoothed
+    lo = max(b.phi[0], r.phi[-1]) + EDGE_MARGIN
+    fast = np.nonzero(b.omega >= MIN_SPEED_FRACTION * b.omega.max())[0]
+    hi = min(b.phi[fast[-1]], r.phi[0]) - EDGE_MARGIN
+    if hi - lo < 2 * math.pi:
+        raise InputError(
+            f"stage {stage}: the braking and reverse logs overlap over {max(hi - lo, 0) / (2 * math.pi):.2f} "
+            "turns at useful speed; at least 2 full turns are needed (longer braking: lower "
+            "braking_torque or higher launch_speed)"
+        )
+    return lo, hi
+
+
+@dataclass(frozen=True)
+class StageBalance:
+    """One stage's balance equations at common angles (module docstring)."""
+
+    stage: int
+    """Stage number, from 1."""
+    gear_ratio: float
+    """lambda."""
+    tare_inertia: float
+    """M_tare, kg m^2."""
+    phi: np.ndarray
+    """rad, the angles, ascending."""
+    speed_sq: np.ndarray
+    """S = Omega^2 + Omega'^2, rad^2/s^2."""
+    speed_sq_var: np.ndarray
+    """var(S), from the smoothers."""
+    work: np.ndarray
+    """W(phi) = A(release->phi) + A'(phi7->phi) minus 2 Pi_spring(phi), J."""
+    work_cov: np.ndarray
+    """(n, n) covariance of ``work`` from the torque logs' noise (random walks), J^2."""
+
+
+def stage_balance(
+    device: Device, stage: int, braking: PassEstimate, reverse: PassEstimate
+) -> StageBalance:
+    """The balance equations of stage ``stage`` at evenly spaced common angles."""
+    st: Stage = device.stages[stage - 1]
+    lo, hi = usable_range(braking, reverse, stage)
+    bandwidth = min(braking.smoothed.bandwidth, reverse.smoothed.bandwidth)
+    top = max(np.abs(braking.smoothed.omega).max(), np.abs(reverse.smoothed.omega).max())
+    spacing = POSITION_SPACING_BANDWIDTHS / bandwidth * top
+    phi = np.arange(lo, hi, spacing)
+    b = sample_at(braking, phi)
+    r = sample_at(reverse, phi)
+    S = b.omega**2 + r.omega**2
+    S_var = 4 * b.omega**2 * b.omega_std**2 + 4 * r.omega**2 * r.omega_std**2
+    work = b.work + r.work - 2 * _spring_potential(phi, device)
+    cov = braking.sigma_torque**2 * np.minimum.outer(b.work_var_steps, b.work_var_steps)
+    cov += reverse.sigma_torque**2 * np.minimum.outer(r.work_var_steps, r.work_var_steps)
+    return StageBalance(
+        stage=stage,
+        gear_ratio=st.gear_ratio,
+        tare_inertia=st.tare_inertia,
+        phi=phi,
+        speed_sq=S,
+        speed_sq_var=S_var,
+        work=work,
+        work_cov=cov,
+    )
+
+
+@dataclass(frozen=True)
+class NodeEstimate:
+    """Reduced inertia at one node from its whole-turn pairs (METHOD.md §5)."""
+
+    stage: int
+    """Stage number, from 1."""
+    node_deg: float
+    """Node angle, deg."""
+    M: float
+    """kg m^2, RSP formula with the measured reverse speeds (inverse-variance mean of pairs)."""
+    M_std: float
+    """kg m^2."""
+    M_plain: float
+    """kg m^2, the paper's formula (6)/(7): braking speeds only."""
+    M_plain_std: float
+    """kg m^2."""
+    pairs: int
+    """Number of one-turn pairs used."""
+
+
+def node_formula(
+    device: Device, stage: int, braking: PassEstimate, reverse: PassEstimate
+) -> list[NodeEstimate]:
+    """M at each node of the stage from every one-turn pair (phi_a, phi_a + 2 pi).
+
+    METHOD.md §5: M = 2 (A' - A + 2 dPi) / (Omega_a^2 + Omega'_a^2 - Omega_b^2 - Omega'_b^2),
+    and the paper's plain form M = (A' - A + 2 dPi) / (Omega_a^2 - Omega_b^2). Gravity cancels
+    over whole turns; dPi is the spring's. Pairs are combined by their inverse variances
+    (speed noise from the smoothers, work noise from the torque logs).
+    """
+    st = device.stages[stage - 1]
+    lo, hi = usable_range(braking, reverse, stage)
+    estimates = []
+    for node_deg, node in zip(st.nodes_deg, st.nodes):
+        first = node + 2 * math.pi * math.ceil((lo - node) / (2 * math.pi))
+        passages = np.arange(first, hi, 2 * math.pi)
+        if passages.size < 2:
+            raise InputError(
+                f"stage {stage}: node {node_deg:g} deg: the passes cover no whole turn from it "
+                f"at useful speed ({passages.size} passage(s) in the common range); the braking "
+                "must cover more turns"
+            )
+        b = sample_at(braking, passages)
+        r = sample_at(reverse, passages)
+        a_, b_ = slice(None, -1), slice(1, None)
+        A = b.work[b_] - b.work[a_]  # braking work a -> b (negative)
+        A_rev = r.work[a_] - r.work[b_]  # reverse work b -> a (positive when driving)
+        dPi = _spring_potential(passages[b_], device) - _spring_potential(passages[a_], device)
+        num = A_rev - A + 2 * dPi
+        num_var = braking.sigma_torque**2 * (b.work_var_steps[b_] - b.work_var_steps[a_])
+        num_var += reverse.sigma_torque**2 * (r.work_var_steps[a_] - r.work_var_steps[b_])
+        wb2, wr2 = b.omega**2, r.omega**2
+        vb = 4 * wb2 * b.omega_std**2
+        vr = 4 * wr2 * r.omega_std**2
+        den = wb2[a_] + wr2[a_] - wb2[b_] - wr2[b_]
+        den_var = vb[a_] + vr[a_] + vb[b_] + vr[b_]
+        M = 2 * num / den
+        M_var = M**2 * (num_var / num**2 + den_var / den**2)
+        den_plain = wb2[a_] - wb2[b_]
+        M_plain = num / den_plain
+        M_plain_var = M_plain**2 * (num_var / num**2 + (vb[a_] + vb[b_]) / den_plain**2)
+        w = 1 / M_var
+        w_plain = 1 / M_plain_var
+        estimates.append(
+            NodeEstimate(
+                stage=stage,
+                node_deg=float(node_deg),
+                M=float(np.sum(w * M) / np.sum(w)),
+                M_std=float(1 / math.sqrt(np.sum(w))),
+                M_plain=float(np.sum(w_plain * M_plain) / np.sum(w_plain)),
+                M_plain_std=float(1 / math.sqrt(np.sum(w_plain))),
+                pairs=int(M.size),
+            )
+        )
+    return estimates

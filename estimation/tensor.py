@@ -1,0 +1,169 @@
+"""The inertia tensor from the stages' balances: least squares, axis solve, physical checks.
+
+Least squares over many turns (METHOD.md §5). With w(phi) = (lam sin phi, lam cos phi, 1),
+(1 + lam^2) J_e(phi) = w^T J w = v(phi) . [Jx Jy Jz Jxy Jyz Jxz], v the design-matrix row of
+the unnormalised w (METHOD.md §2: the harmonic form of M per stage written in the tensor's
+entries, so that all stages share one set of unknowns). Each balance angle of stage s gives
+
+    1/2 S v(phi) . J + 2 Gs sin phi + 2 Gc cos phi - C_s = W(phi) - 1/2 S M_tare
+
+(estimation.balance), linear in the six entries, the gravity terms Gs = m g x_c,
+Gc = m g y_c shared by all stages, and one constant per stage. Weighted (generalised) least
+squares: the covariance of the equations is the torque logs' random walks (exact, from the
+logs' noise) plus the speed noise, 1/4 M^2 var(S) on the diagonal (M from a first unweighted
+pass). The covariance of the estimate is scaled by the residuals' chi^2 per degree of
+freedom, so that whatever the noise model misses shows in the standard deviations.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+
+from estimation.balance import StageBalance
+from plant.geometry import design_matrix, tensor_from_entries
+
+__all__ = [
+    "TensorFit",
+    "fit_tensor",
+    "axis_values",
+    "tensor_from_axes",
+    "principal",
+    "physical_warnings",
+]
+
+
+@dataclass(frozen=True)
+class TensorFit:
+    """Result of the least squares over every stage's balance angles."""
+
+    entries: np.ndarray
+    """[Jx, Jy, Jz, Jxy, Jyz, Jxz], kg m^2 (products as tensor entries)."""
+    entries_cov: np.ndarray
+    """(6, 6) covariance, kg^2 m^4."""
+    gravity: np.ndarray
+    """[Gs, Gc] = m g [x_c, y_c], N m."""
+    gravity_cov: np.ndarray
+    """(2, 2) covariance, N^2 m^2."""
+    chi2_dof: float
+    """Residual chi^2 per degree of freedom of the weighted fit (1 when the noise model fits)."""
+    n_equations: int
+    """Balance angles used, all stages."""
+
+
+def _rows(bal: StageBalance) -> np.ndarray:
+    """The 8 shared columns of a stage's equations (six entries, Gs, Gc)."""
+    lam = bal.gear_ratio
+    w = np.column_stack(
+        [lam * np.sin(bal.phi), lam * np.cos(bal.phi), np.ones_like(bal.phi)]
+    )
+    v = design_matrix(w)  # rows v(phi): v . J = w^T J w = (1 + lam^2) J_e
+    return np.column_stack([0.5 * bal.speed_sq[:, None] * v, 2 * np.sin(bal.phi), 2 * np.cos(bal.phi)])
+
+
+def fit_tensor(balances: list[StageBalance]) -> TensorFit:
+    """Generalised least squares for the tensor and the gravity terms (module docstring)."""
+    n_stages = len(balances)
+    blocks, rhs, covs = [], [], []
+    for s, bal in enumerate(balances):
+        shared = _rows(bal)
+        const = np.zeros((len(bal.phi), n_stages))
+        const[:, s] = -1.0
+        blocks.append(np.hstack([shared, const]))
+        rhs.append(bal.work - 0.5 * bal.speed_sq * bal.tare_inertia)
+    A = np.vstack(blocks)
+    y = np.concatenate(rhs)
+    # First pass, unweighted: the reduced inertia at each angle for the speed-noise weights.
+    x0, *_ = np.linalg.lstsq(A, y, rcond=None)
+    for bal in balances:
+        lam = bal.gear_ratio
+        w = np.column_stack(
+            [lam * np.sin(bal.phi), lam * np.cos(bal.phi), np.ones_like(bal.phi)]
+        )
+        M = design_matrix(w) @ x0[:6] + bal.tare_inertia
+        cov = bal.work_cov + np.diag(0.25 * M**2 * bal.speed_sq_var)
+        covs.append(cov)
+    # Whitening stage by stage (block-diagonal covariance).
+    Aw, yw = [], []
+    start = 0
+    for cov in covs:
+        n = cov.shape[0]
+        L = np.linalg.cholesky(cov + np.eye(n) * 1e-30)
+        Aw.append(scipy.linalg.solve_triangular(L, A[start : start + n], lower=True))
+        yw.append(scipy.linalg.solve_triangular(L, y[start : start + n], lower=True))
+        start += n
+    Aw = np.vstack(Aw)
+    yw = np.concatenate(yw)
+    x, *_ = np.linalg.lstsq(Aw, yw, rcond=None)
+    resid = yw - Aw @ x
+    dof = max(len(yw) - Aw.shape[1], 1)
+    chi2_dof = float(resid @ resid / dof)
+    cov_x = np.linalg.pinv(Aw.T @ Aw) * chi2_dof
+    return TensorFit(
+        entries=x[:6],
+        entries_cov=cov_x[:6, :6],
+        gravity=x[6:8],
+        gravity_cov=cov_x[6:8, 6:8],
+        chi2_dof=chi2_dof,
+        n_equations=len(yw),
+    )
+
+
+def axis_values(entries: np.ndarray, cov: np.ndarray, directions: np.ndarray):
+    """J_k = e_k^T J e_k for unit directions, with standard deviations (METHOD.md §5 (8))."""
+    V = design_matrix(directions)
+    values = V @ entries
+    stds = np.sqrt(np.einsum("ij,jk,ik->i", V, cov, V))
+    return values, stds
+
+
+def tensor_from_axes(values: np.ndarray, stds: np.ndarray, directions: np.ndarray):
+    """Tensor entries from axis moments through V: solve (6 axes) or weighted least squares.
+
+    Returns the entries, their covariance and cond(V).
+    """
+    V = design_matrix(directions)
+    W = 1 / np.asarray(stds)
+    x, *_ = np.linalg.lstsq(V * W[:, None], values * W, rcond=None)
+    cov = np.linalg.pinv((V * W[:, None]).T @ (V * W[:, None]))
+    return x, cov, float(np.linalg.cond(V))
+
+
+def principal(entries: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Principal moments (ascending) and axes (rows, unit vectors) of the tensor."""
+    moments, vectors = np.linalg.eigh(tensor_from_entries(entries))
+    return moments, vectors.T
+
+
+def physical_warnings(entries: np.ndarray, cov: np.ndarray, samples: int = 2000) -> list[str]:
+    """Warnings when the tensor is not a physical one within its uncertainty.
+
+    A rigid body's tensor is positive definite and its principal moments obey the triangle
+    inequality I1 + I2 >= I3 (NOTES.md). A violation is reported when it holds beyond two
+    standard deviations of the margin, estimated by sampling the entries' covariance
+    (seeded, deterministic).
+    """
+    rng = np.random.default_rng(0)
+    draws = rng.multivariate_normal(entries, cov, size=samples, check_valid="ignore")
+
+    def margins(e):
+        m = np.linalg.eigvalsh(tensor_from_entries(e))
+        return m[0], m[0] + m[1] - m[2]
+    smallest, triangle = margins(entries)
+    spread = np.array([margins(d) for d in draws])
+    std_small, std_tri = spread.std(axis=0)
+    warnings = []
+    if smallest < -2 * std_small:
+        warnings.append(
+            f"the tensor is not positive definite: smallest principal moment "
+            f"{smallest:.6g} +- {std_small:.2g} kg m^2"
+        )
+    if triangle < -2 * std_tri:
+        warnings.append(
+            f"the principal moments break the triangle inequality I1 + I2 >= I3 by "
+            f"{-triangle:.6g} +- {std_tri:.2g} kg m^2"
+        )
+    return warnings
+
