@@ -33,6 +33,14 @@ def _cmd_simulate(args: argparse.Namespace) -> None:
     )
 
 
+def _cmd_identify(args: argparse.Namespace) -> None:
+    from rsp_inertia.pipeline import format_identification, identify
+
+    result = identify(args.exp, progress=lambda text: print(text, flush=True))
+    print(format_identification(result))
+    print(f"result -> {args.exp / 'result.json'}")
+
+
 def _cmd_design(args: argparse.Namespace) -> None:
     from rsp_inertia.design import run_design
 
@@ -66,6 +74,10 @@ def _parser() -> argparse.ArgumentParser:
         help="with --part reverse: the exact mirror on an ideal drive (no program needed)",
     )
     p.set_defaults(run=_cmd_simulate)
+
+    p = sub.add_parser("identify", help="all stages' logs -> EXP/result.json")
+    p.add_argument("exp", type=Path, metavar="EXP", help="experiment folder")
+    p.set_defaults(run=_cmd_identify)
 
     p = sub.add_parser("design", help="conditioning of axis designs (icosahedron, cone + z, EXP)")
     p.add_argument(

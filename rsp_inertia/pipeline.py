@@ -7,6 +7,7 @@ command line prints.
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -15,8 +16,11 @@ from pathlib import Path
 
 import numpy as np
 
+from estimation.identify import ENTRY_NAMES, Identification
+from estimation.identify import identify as identify_experiment
 from plant.errors import InputError
 from plant.experiment import Experiment, open_experiment
+from plant.geometry import tensor_from_entries
 from plant.logs import read_log, read_program, write_atomic, write_log
 from plant.virtual import (
     SimulatedPass,
@@ -30,6 +34,8 @@ __all__ = [
     "PassSummary",
     "create_default_experiment",
     "simulate",
+    "identify",
+    "format_identification",
     "demo",
 ]
 
@@ -186,15 +192,72 @@ def simulate(
     return summaries
 
 
+def identify(
+    root: str | Path, progress: Callable[[str], None] | None = None
+) -> Identification:
+    """``rsp-inertia identify``: all stages' logs -> EXP/result.json (written atomically)."""
+    exp = open_experiment(root)
+    result = identify_experiment(exp, progress)
+    write_atomic(exp.result_path, json.dumps(result.to_json(), indent=2) + "\n")
+    return result
+
+
+def format_identification(result: Identification, truth: np.ndarray | None = None) -> str:
+    """A short human table of an identification (optionally against a known tensor)."""
+    lines = []
+    head = f"{'':5} {'RSP least squares':>26} {'RSP node formula':>26}"
+    if truth is not None:
+        head += f" {'truth':>12} {'LS error':>10} {'node error':>10}"
+    lines.append(head)
+    node_std = np.sqrt(np.diag(result.node_entries_cov))
+    scale = None if truth is None else np.abs(np.linalg.eigvalsh(tensor_from_entries(truth))).max()
+    for k, name in enumerate(ENTRY_NAMES):
+        row = (
+            f"{name:5} {result.entries[k]:14.8f} +- {result.entries_std[k]:8.1e}"
+            f" {result.node_entries[k]:14.8f} +- {node_std[k]:8.1e}"
+        )
+        if truth is not None:
+            row += (
+                f" {truth[k]:12.8f} {(result.entries[k] - truth[k]) / scale:+10.1e}"
+                f" {(result.node_entries[k] - truth[k]) / scale:+10.1e}"
+            )
+        lines.append(row)
+    if truth is not None:
+        lines.append("(errors relative to the largest principal moment)")
+    lines.append(f"axes (cond(V) = {result.condition_number:.4f}):")
+    for a in result.axes:
+        lines.append(
+            f"  stage {a.stage} node {a.phi_deg:6.1f} deg: J = {a.J:.8f} +- {a.J_std:.1e}"
+            f"  node formula {a.J_node:.8f} +- {a.J_node_std:.1e}  plain {a.J_plain:.8f}"
+        )
+    if result.com is not None:
+        lines.append(
+            f"centre of mass: x = {result.com[0] * 1e3:.4f} +- {result.com_std[0] * 1e3:.4f} mm,"
+            f" y = {result.com[1] * 1e3:.4f} +- {result.com_std[1] * 1e3:.4f} mm"
+        )
+    lines += [f"warning: {w}" for w in result.warnings]
+    return "\n".join(lines)
+
+
 def demo(
     root: str | Path = DEFAULT_EXPERIMENT, progress: Callable[[str], None] | None = None
-) -> list[PassSummary]:
+) -> Identification:
     """``rsp-inertia demo``: build the default experiment and run it on the virtual device.
 
-    For now: the default experiment (paper scenario, icosahedron stages) and every stage's
-    braking pass.
+    For now: the default experiment (paper scenario, icosahedron stages), every stage's
+    braking pass, the ideal reverse (the torque program comes with the OCP work), and the
+    identification, printed against the virtual device's true tensor.
     """
     say = progress or (lambda _text: None)
     root = create_default_experiment(root)
     say(f"experiment folder: {root}")
-    return simulate(root, part="braking", progress=lambda s: say(str(s)))
+    simulate(root, part="braking", progress=lambda s: say(str(s)))
+    simulate(root, part="reverse", ideal=True, progress=lambda s: say(str(s)))
+    result = identify(root, progress=say)
+    truth = open_experiment(root).load_virtual()
+    say(format_identification(result, truth.body.inertia))
+    if result.com is not None:
+        say(f"true centre of mass: x = {truth.body.com[0] * 1e3:.4f} mm, "
+            f"y = {truth.body.com[1] * 1e3:.4f} mm")
+    say(f"result -> {root / 'result.json'}")
+    return result
