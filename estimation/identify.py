@@ -22,6 +22,7 @@ import numpy as np
 
 from estimation.balance import node_formula, stage_balance
 from estimation.energy import check_braking_monotone, estimate_pass
+from estimation.pendulum import PendulumEstimate, estimate_pendulum
 from estimation.tensor import (
     axis_values,
     fit_tensor,
@@ -34,7 +35,14 @@ from plant.experiment import Experiment
 from plant.geometry import axis_direction, design_matrix
 from plant.logs import read_log
 
-__all__ = ["MAX_CONDITION", "AxisResult", "Identification", "identify"]
+__all__ = [
+    "MAX_CONDITION",
+    "AxisResult",
+    "PendulumResult",
+    "Identification",
+    "identify",
+    "identify_pendulum",
+]
 
 ENTRY_NAMES = ("Jx", "Jy", "Jz", "Jxy", "Jyz", "Jxz")
 
@@ -72,6 +80,49 @@ class AxisResult:
 
 
 @dataclass(frozen=True)
+class PendulumResult:
+    """The torsion-pendulum baseline: per-axis moments and, with every node run, tensors."""
+
+    runs: list[PendulumEstimate]
+    """One per pendulum log found."""
+    J_classic: np.ndarray
+    """kg m^2 per run, (M - M_tare) / (1 + lam^2) from the classic period formula."""
+    J_classic_std: np.ndarray
+    """kg m^2."""
+    J_damped: np.ndarray
+    """kg m^2 per run, from the damped fit."""
+    J_damped_std: np.ndarray
+    """kg m^2."""
+    entries_classic: np.ndarray | None
+    """Tensor through V from the classic J_k, when every node has a run."""
+    entries_damped: np.ndarray | None
+    """Tensor through V from the damped-fit J_k, when every node has a run."""
+
+    def to_json(self) -> dict:
+        """The result.json section ``pendulum``."""
+        axes = [
+            {
+                "stage": r.stage,
+                "phi_deg": r.node_deg,
+                "period": r.period,
+                "period_std": r.period_std,
+                "J_classic": float(self.J_classic[i]),
+                "J_classic_std": float(self.J_classic_std[i]),
+                "J_damped": float(self.J_damped[i]),
+                "J_damped_std": float(self.J_damped_std[i]),
+            }
+            for i, r in enumerate(self.runs)
+        ]
+        def entries(e):
+            return None if e is None else dict(zip(ENTRY_NAMES, map(float, e)))
+        return {
+            "axes": axes,
+            "tensor_classic": entries(self.entries_classic),
+            "tensor_damped": entries(self.entries_damped),
+        }
+
+
+@dataclass(frozen=True)
 class Identification:
     """Everything ``identify`` finds; :meth:`to_json` gives result.json (INTERFACES.md)."""
 
@@ -101,6 +152,8 @@ class Identification:
     """Least squares: balance angles used."""
     warnings: list[str] = field(default_factory=list)
     """Physical-sense and design warnings."""
+    pendulum: PendulumResult | None = None
+    """The torsion-pendulum baseline, when its logs are present."""
 
     @property
     def entries_std(self) -> np.ndarray:
@@ -150,6 +203,7 @@ class Identification:
             },
             "least_squares": {"equations": self.n_equations, "chi2_dof": self.chi2_dof},
             "warnings": list(self.warnings),
+            "pendulum": None if self.pendulum is None else self.pendulum.to_json(),
         }
 
 
@@ -231,6 +285,7 @@ def identify(
         com = fit.gravity / weight
         com_std = gravity_std / weight
     warnings += physical_warnings(fit.entries, fit.entries_cov)
+    pendulum = identify_pendulum(exp, say)
     return Identification(
         entries=fit.entries,
         entries_cov=fit.entries_cov,
@@ -245,4 +300,59 @@ def identify(
         chi2_dof=fit.chi2_dof,
         n_equations=fit.n_equations,
         warnings=warnings,
+        pendulum=pendulum,
+    )
+
+
+def identify_pendulum(
+    exp: Experiment, progress: Callable[[str], None] | None = None
+) -> PendulumResult | None:
+    """The torsion-pendulum baseline from every ``stageN/pendulum_kK.csv`` present.
+
+    None when there is no such log. The stiffness is device.toml's ``[pendulum]`` one.
+    """
+    device = exp.device
+    found = [
+        (stage, k)
+        for stage in exp.stages()
+        for k in range(1, len(device.stages[stage - 1].nodes) + 1)
+        if exp.pendulum_path(stage, k).is_file()
+    ]
+    if not found:
+        return None
+    if device.pendulum is None:
+        raise InputError(
+            f"{exp.root / 'device.toml'}: pendulum: pendulum logs are present but the "
+            "[pendulum] table (its stiffness) is missing"
+        )
+    runs, directions = [], []
+    for stage, k in found:
+        st = device.stages[stage - 1]
+        path = exp.pendulum_path(stage, k)
+        log = read_log(path, device.encoder, "pendulum")
+        runs.append(
+            estimate_pendulum(log, device.pendulum.stiffness, stage, st.nodes_deg[k - 1], str(path))
+        )
+        directions.append(axis_direction(st.nodes[k - 1], st.gear_ratio))
+    scale = np.array([1 + device.stages[r.stage - 1].gear_ratio ** 2 for r in runs])
+    tare = np.array([device.stages[r.stage - 1].tare_inertia for r in runs])
+    J_classic = (np.array([r.M_classic for r in runs]) - tare) / scale
+    J_classic_std = np.array([r.M_classic_std for r in runs]) / scale
+    J_damped = (np.array([r.M_damped for r in runs]) - tare) / scale
+    J_damped_std = np.array([r.M_damped_std for r in runs]) / scale
+    entries_classic = entries_damped = None
+    if len(found) == sum(len(st.nodes) for st in device.stages):
+        directions = np.array(directions)
+        entries_classic = tensor_from_axes(J_classic, np.ones(len(runs)), directions)[0]
+        entries_damped = tensor_from_axes(J_damped, np.ones(len(runs)), directions)[0]
+    if progress is not None:
+        progress(f"pendulum: {len(runs)} run(s) reduced")
+    return PendulumResult(
+        runs=runs,
+        J_classic=J_classic,
+        J_classic_std=J_classic_std,
+        J_damped=J_damped,
+        J_damped_std=J_damped_std,
+        entries_classic=entries_classic,
+        entries_damped=entries_damped,
     )

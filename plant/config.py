@@ -34,6 +34,7 @@ __all__ = [
     "Encoder",
     "Friction",
     "Motor",
+    "Pendulum",
     "RunSettings",
     "Spring",
     "Stage",
@@ -125,6 +126,18 @@ class Body:
 
 
 @dataclass(frozen=True)
+class Pendulum:
+    """Torsion-pendulum baseline runs: the torsion element attached for them (motor off)."""
+
+    stiffness: float
+    """c, N m/rad, reduced to phi, > 0: the spring is zeroed at the node for each run."""
+    amplitude_deg: float = 5.0
+    """Initial deflection from the node, deg, > 0."""
+    duration: float = 30.0
+    """Logged time per run, s, > 0."""
+
+
+@dataclass(frozen=True)
 class Device:
     """The gimbal as described by ``device.toml``."""
 
@@ -142,6 +155,8 @@ class Device:
     """The ``[[stage]]`` tables in file order; stage k lives in the folder ``stage{k}/``."""
     body: Body | None
     """The optional ``[body]`` table."""
+    pendulum: Pendulum | None = None
+    """The optional ``[pendulum]`` table (torsion-pendulum baseline)."""
 
     @property
     def n_axes(self) -> int:
@@ -193,7 +208,7 @@ def load_device(path: str | os.PathLike) -> Device:
 
 
 def _device(doc: dict[str, Any]) -> Device:
-    _known(doc, "", {"device", "spring", "motor", "encoder", "stage", "body"})
+    _known(doc, "", {"device", "spring", "motor", "encoder", "stage", "body", "pendulum"})
 
     table = _table(doc, "device", {"name", "gravity"})
     name = _get(table, "device", "name", str)
@@ -222,7 +237,16 @@ def _device(doc: dict[str, Any]) -> Device:
     table = _table(doc, "body", {"mass"}, required=False)
     body = None if table is None else Body(mass=_get(table, "body", "mass", float, bound="> 0"))
 
-    device = Device(name, gravity, spring, motor, encoder, stages, body)
+    table = _table(doc, "pendulum", {"stiffness", "amplitude_deg", "duration"}, required=False)
+    pendulum = None
+    if table is not None:
+        pendulum = Pendulum(
+            stiffness=_get(table, "pendulum", "stiffness", float, bound="> 0"),
+            amplitude_deg=_get(table, "pendulum", "amplitude_deg", float, default=5.0, bound="> 0"),
+            duration=_get(table, "pendulum", "duration", float, default=30.0, bound="> 0"),
+        )
+
+    device = Device(name, gravity, spring, motor, encoder, stages, body, pendulum)
     if device.n_axes < REQUIRED_AXES:
         raise _ContentError(
             "stage",

@@ -7,6 +7,7 @@ One folder is one experiment::
     EXP/stageN/braking.csv   encoder log of the braking pass of stage N (1-based)
     EXP/stageN/program.csv   torque program of the reverse pass
     EXP/stageN/reverse.csv   log of the reverse pass
+    EXP/stageN/pendulum_kK.csv  torsion-pendulum baseline run at node K (optional)
     EXP/result.json          written by ``identify``
 """
 
@@ -52,6 +53,10 @@ class Experiment:
     def reverse_path(self, stage: int) -> Path:
         """``stageN/reverse.csv``."""
         return self.stage_dir(stage) / "reverse.csv"
+
+    def pendulum_path(self, stage: int, node: int) -> Path:
+        """``stageN/pendulum_kK.csv``: torsion-pendulum run at node K (1-based) of stage N."""
+        return self.stage_dir(stage) / f"pendulum_k{node}.csv"
 
     @property
     def result_path(self) -> Path:

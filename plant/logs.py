@@ -27,8 +27,8 @@ LOG_COLUMNS = ("t", "phi", "torque")
 PROGRAM_COLUMNS = ("t", "phi_ref", "omega_ref", "torque_ff", "k_phi", "k_omega")
 """Header of program.csv."""
 
-LOG_KINDS = ("braking", "reverse")
-"""The two passes of a stage (METHOD.md §4)."""
+LOG_KINDS = ("braking", "reverse", "pendulum")
+"""The two passes of a stage (METHOD.md §4), and the torsion-pendulum baseline runs."""
 
 T0_TOLERANCE = 1e-9
 """s, how far from 0 the first time stamp may be."""

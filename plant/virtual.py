@@ -17,6 +17,7 @@ mechanical energy is conserved to better than 1e-9 relative over 10 s (tests/pla
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -47,6 +48,8 @@ __all__ = [
     "run_program",
     "ideal_program",
     "simulate_ideal_reverse",
+    "pendulum_parameters",
+    "simulate_pendulum",
     "SpeedObserver",
     "encoder_reading",
 ]
@@ -63,6 +66,7 @@ _BLOCK = 1000
 # Seeds of the independent random streams of one stage (numpy SeedSequence entropy words).
 _STREAM_BRAKING = 0
 _STREAM_REVERSE = 1
+_STREAM_PENDULUM = 2
 
 
 def _build_step() -> ca.Function:
@@ -426,3 +430,68 @@ def simulate_ideal_reverse(
     return run_program(
         device, stage, virtual, program, (braking.truth.end_phi, 0.0), ideal=True
     )
+
+
+def pendulum_parameters(device: Device, stage: int, virtual: Virtual, node: int) -> ModelParameters:
+    """The true model during the pendulum run at node ``node`` (0-based) of a stage.
+
+    The torsion element of device.toml's ``[pendulum]`` is attached and zeroed at the node;
+    everything else (body, gravity, friction) is the stage's.
+    """
+    if device.pendulum is None:
+        raise InputError("device.toml: pendulum: missing [pendulum] table (its stiffness)")
+    return dataclasses.replace(
+        true_parameters(device, stage, virtual),
+        stiffness=device.pendulum.stiffness,
+        zero_angle=float(device.stages[stage - 1].nodes[node]),
+    )
+
+
+def simulate_pendulum(device: Device, stage: int, virtual: Virtual, node: int) -> SimulatedPass:
+    """Torsion-pendulum run at node ``node`` (0-based) of a stage: motor off, free oscillation.
+
+    Released at rest, ``amplitude_deg`` past the node, and logged for ``duration`` seconds;
+    each stop (twice a period) is an event with static friction, as in every pass.
+    The logged torque is the motor's: zero, plus the log's noise.
+    """
+    params = pendulum_parameters(device, stage, virtual, node)
+    p = params.vector
+    dt = device.encoder.dt
+    n = int(round(device.pendulum.duration / dt)) + 1
+    coulomb = virtual.friction.coulomb
+    x = np.array([params.zero_angle + math.radians(device.pendulum.amplitude_deg), 0.0])
+    traj = np.empty((n, 2))
+    traj[0] = x
+    k = 1
+    while k < n:
+        if x[1] == 0.0:  # at rest: static friction decides, sample by sample
+            x = _advance(x, 0.0, dt, p, coulomb)
+            traj[k] = x
+            k += 1
+            continue
+        direction = math.copysign(1.0, x[1])
+        block = np.asarray(_STEP_BLOCK(x, 0.0, direction, p, dt)).T
+        count = min(_BLOCK, n - k)
+        turned = np.nonzero(block[:count, 1] * direction <= 0.0)[0]
+        good = turned[0] if turned.size else count
+        traj[k : k + good] = block[:good]
+        k += good
+        x = block[good - 1] if good > 0 else x
+        if turned.size and k < n:  # the sample with the stop: exact event and static friction
+            x = _advance(x, 0.0, dt, p, coulomb)
+            traj[k] = x
+            k += 1
+    t = np.arange(n) * dt
+    torque = np.zeros(n)
+    truth = PassTruth(
+        t=t,
+        phi=traj[:, 0],
+        omega=traj[:, 1],
+        torque=torque,
+        end_time=float(t[-1]),
+        end_phi=float(traj[-1, 0]),
+        end_omega=float(traj[-1, 1]),
+    )
+    rng = np.random.default_rng([virtual.run.seed, stage, _STREAM_PENDULUM, node])
+    log = _make_log(t, traj[:, 0], torque, device.encoder.quantum, virtual.run.torque_noise, rng)
+    return SimulatedPass(log=log, truth=truth)

@@ -66,8 +66,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("exp", type=Path, metavar="EXP", help="experiment folder with virtual.toml")
     p.add_argument("--stage", type=int, help="one stage (from 1); default: all")
     p.add_argument(
-        "--part", choices=("braking", "reverse"), default="braking",
-        help="braking pass, or the reverse pass running stageN/program.csv in closed loop",
+        "--part", choices=("braking", "reverse", "pendulum"), default="braking",
+        help="braking pass, the reverse pass running stageN/program.csv in closed loop, "
+        "or the torsion-pendulum runs (one per node)",
     )
     p.add_argument(
         "--ideal", action="store_true",

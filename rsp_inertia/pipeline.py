@@ -27,6 +27,7 @@ from plant.virtual import (
     run_program,
     simulate_braking,
     simulate_ideal_reverse,
+    simulate_pendulum,
 )
 
 __all__ = [
@@ -42,7 +43,7 @@ __all__ = [
 DEFAULT_EXPERIMENT = Path("demo-experiment")
 """Where ``rsp-inertia demo`` builds its experiment when no folder is given."""
 
-PARTS = ("braking", "reverse")
+PARTS = ("braking", "reverse", "pendulum")
 
 
 @dataclass(frozen=True)
@@ -155,10 +156,11 @@ def simulate(
         Experiment folder with device.toml and virtual.toml.
     stage : int, optional
         One stage (from 1); all stages by default.
-    part : {'braking', 'reverse'}
+    part : {'braking', 'reverse', 'pendulum'}
         The braking pass writes stageN/braking.csv. The reverse pass runs stageN/program.csv
         in closed loop and writes stageN/reverse.csv; with ``ideal`` it runs the exact mirror
-        of the braking on an ideal drive instead (no program needed).
+        of the braking on an ideal drive instead (no program needed). The pendulum part
+        writes stageN/pendulum_kK.csv, one torsion-pendulum run per node K.
     progress : callable, optional
         Called with each stage's summary as soon as it is written.
     """
@@ -169,6 +171,16 @@ def simulate(
     summaries = []
     for st in exp.stages(stage):
         exp.stage_dir(st).mkdir(exist_ok=True)
+        if part == "pendulum":
+            for k in range(len(exp.device.stages[st - 1].nodes)):
+                sim = simulate_pendulum(exp.device, st, virtual, k)
+                path = exp.pendulum_path(st, k + 1)
+                write_log(path, sim.log)
+                summary = _summary(exp, st, f"pendulum at node {k + 1}", path, sim)
+                if progress is not None:
+                    progress(summary)
+                summaries.append(summary)
+            continue
         if part == "braking":
             sim = simulate_braking(exp.device, st, virtual)
             path = exp.braking_path(st)
@@ -230,6 +242,22 @@ def format_identification(result: Identification, truth: np.ndarray | None = Non
             f"  stage {a.stage} node {a.phi_deg:6.1f} deg: J = {a.J:.8f} +- {a.J_std:.1e}"
             f"  node formula {a.J_node:.8f} +- {a.J_node_std:.1e}  plain {a.J_plain:.8f}"
         )
+    if result.pendulum is not None:
+        pend = result.pendulum
+        lines.append("torsion-pendulum baseline (classic / damped fit):")
+        for i, r in enumerate(pend.runs):
+            lines.append(
+                f"  stage {r.stage} node {r.node_deg:6.1f} deg: tau = {r.period:.5f} s,"
+                f" J = {pend.J_classic[i]:.8f} / {pend.J_damped[i]:.8f}"
+            )
+        if truth is not None and pend.entries_classic is not None:
+            err_c = np.abs(pend.entries_classic - truth).max() / scale
+            err_d = np.abs(pend.entries_damped - truth).max() / scale
+            err_ls = np.abs(result.entries - truth).max() / scale
+            lines.append(
+                f"worst tensor error / largest moment: RSP {err_ls:.1e}, pendulum classic "
+                f"{err_c:.1e}, pendulum damped fit {err_d:.1e}"
+            )
     if result.com is not None:
         lines.append(
             f"centre of mass: x = {result.com[0] * 1e3:.4f} +- {result.com_std[0] * 1e3:.4f} mm,"
@@ -253,6 +281,8 @@ def demo(
     say(f"experiment folder: {root}")
     simulate(root, part="braking", progress=lambda s: say(str(s)))
     simulate(root, part="reverse", ideal=True, progress=lambda s: say(str(s)))
+    if open_experiment(root).device.pendulum is not None:
+        simulate(root, part="pendulum", progress=lambda s: say(str(s)))
     result = identify(root, progress=say)
     truth = open_experiment(root).load_virtual()
     say(format_identification(result, truth.body.inertia))
