@@ -1,0 +1,390 @@
+"""Axis geometry: instantaneous axes, the design matrix V and the axis designs.
+
+Pure numpy (plus one bounded scalar search from scipy). Every formula cites METHOD.md:
+the axis direction is §1, the tensor convention §2, the design matrix and the two
+designs of the paper (icosahedron, one cone plus the z axis) §5 "Axis designs".
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy.optimize import minimize_scalar
+
+from plant.errors import InputError
+
+__all__ = [
+    "AxisDesign",
+    "axis_angles_deg",
+    "axis_direction",
+    "best_cone_opening",
+    "condition_number",
+    "cone_plus_z_design",
+    "design_matrix",
+    "device_design",
+    "entries_from_tensor",
+    "icosahedron_design",
+    "rcond_curve",
+    "tensor_from_entries",
+]
+
+
+def axis_direction(phi: ArrayLike, gear_ratio: ArrayLike) -> np.ndarray:
+    """Unit vector of the instantaneous axis in body coordinates (METHOD.md §1).
+
+    With psi = lambda * phi and nutation pi/2 the body turns about
+
+        e(phi) = (lambda sin phi, lambda cos phi, 1) / sqrt(1 + lambda^2),
+
+    a line on the cone of half-opening beta = arctan(lambda) about the shaft z.
+
+    Parameters
+    ----------
+    phi : array_like
+        Proper-rotation angle (rad), scalar or array.
+    gear_ratio : array_like
+        Gear ratio lambda = tan(beta) (dimensionless); broadcast against ``phi``.
+        ``lambda = 0`` gives the z axis whatever ``phi``.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``broadcast(phi, gear_ratio).shape + (3,)``, unit vectors (ex, ey, ez).
+
+    Examples
+    --------
+    >>> axis_direction(0.3, 0.0)
+    array([0., 0., 1.])
+    """
+    phi, lam = np.broadcast_arrays(np.asarray(phi, float), np.asarray(gear_ratio, float))
+    e = np.stack([lam * np.sin(phi), lam * np.cos(phi), np.ones_like(phi)], axis=-1)
+    return e / np.sqrt(1.0 + lam**2)[..., None]
+
+
+def design_matrix(directions: ArrayLike) -> np.ndarray:
+    """Design matrix V of a set of axes (METHOD.md §5, the paper's (8)).
+
+    Row k is V_k = (ex^2, ey^2, ez^2, 2 ex ey, 2 ey ez, 2 ex ez), so that
+    V_k . [Jx, Jy, Jz, Jxy, Jyz, Jxz] = e_k^T J e_k = J_e about axis k, with the products
+    of inertia as tensor entries (METHOD.md §2).
+
+    Parameters
+    ----------
+    directions : array_like
+        Shape ``(n, 3)`` (or ``(..., 3)``), unit axis vectors.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(n, 6)`` (or ``(..., 6)``).
+    """
+    e = np.asarray(directions, float)
+    if e.shape[-1:] != (3,):
+        raise ValueError(f"directions must have shape (n, 3), got {e.shape}")
+    x, y, z = e[..., 0], e[..., 1], e[..., 2]
+    return np.stack([x * x, y * y, z * z, 2 * x * y, 2 * y * z, 2 * x * z], axis=-1)
+
+
+def condition_number(V: ArrayLike) -> float:
+    """Condition number of V in the 2-norm: largest over smallest singular value.
+
+    Parameters
+    ----------
+    V : array_like
+        Shape ``(n, 6)``, ``n >= 6`` (a design matrix, METHOD.md §5).
+
+    Returns
+    -------
+    float
+        ``sigma_max / sigma_min``; ``inf`` when V is rank-deficient.
+
+    Notes
+    -----
+    The paper quotes "rcond" values (Fig. 1) without naming the norm; this module uses the
+    2-norm throughout, which reproduces its 1.58 (icosahedron) and, to 6e-4, its 1.4899.
+    """
+    s = np.linalg.svd(np.asarray(V, float), compute_uv=False)
+    if s[-1] <= s[0] * np.finfo(float).eps * max(np.shape(V)):
+        return float("inf")
+    return float(s[0] / s[-1])
+
+
+def axis_angles_deg(directions: ArrayLike) -> np.ndarray:
+    """Angles between the axes taken as lines (not as vectors), in degrees.
+
+    An axis and its opposite are the same line (J_e is even in e), so the angle is
+    arccos|e_i . e_j|, in [0, 90] deg.
+
+    Parameters
+    ----------
+    directions : array_like
+        Shape ``(n, 3)``, axis vectors (normalised here).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(n, n)``, symmetric, zero on the diagonal.
+    """
+    e = np.asarray(directions, float)
+    e = e / np.linalg.norm(e, axis=-1, keepdims=True)
+    # Rounding can push |cos| a hair above 1; clip so arccos never returns NaN.
+    cos = np.clip(np.abs(e @ e.T), 0.0, 1.0)
+    angles = np.degrees(np.arccos(cos))
+    np.fill_diagonal(angles, 0.0)
+    return angles
+
+
+def tensor_from_entries(j6: ArrayLike) -> np.ndarray:
+    """Inertia tensor from its six entries (METHOD.md §2).
+
+    Parameters
+    ----------
+    j6 : array_like
+        ``[Jx, Jy, Jz, Jxy, Jyz, Jxz]`` (kg m^2), products as tensor entries
+        (Jxy = -integral of x y dm), shape ``(6,)`` or ``(..., 6)``.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(3, 3)`` (or ``(..., 3, 3)``), symmetric.
+    """
+    jx, jy, jz, jxy, jyz, jxz = np.moveaxis(np.asarray(j6, float), -1, 0)
+    return np.stack(
+        [
+            np.stack([jx, jxy, jxz], axis=-1),
+            np.stack([jxy, jy, jyz], axis=-1),
+            np.stack([jxz, jyz, jz], axis=-1),
+        ],
+        axis=-2,
+    )
+
+
+def entries_from_tensor(J: ArrayLike) -> np.ndarray:
+    """Six entries ``[Jx, Jy, Jz, Jxy, Jyz, Jxz]`` of an inertia tensor (METHOD.md §2).
+
+    Inverse of :func:`tensor_from_entries`. Each product is the mean of the two mirror
+    entries, so a tensor that is symmetric only up to rounding gives its symmetric part.
+
+    Parameters
+    ----------
+    J : array_like
+        Shape ``(3, 3)`` (or ``(..., 3, 3)``), kg m^2.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(6,)`` (or ``(..., 6)``).
+    """
+    J = np.asarray(J, float)
+    if J.shape[-2:] != (3, 3):
+        raise ValueError(f"J must have shape (3, 3), got {J.shape}")
+    return np.stack(
+        [
+            J[..., 0, 0],
+            J[..., 1, 1],
+            J[..., 2, 2],
+            0.5 * (J[..., 0, 1] + J[..., 1, 0]),
+            0.5 * (J[..., 1, 2] + J[..., 2, 1]),
+            0.5 * (J[..., 0, 2] + J[..., 2, 0]),
+        ],
+        axis=-1,
+    )
+
+
+def _frozen_array(values: ArrayLike, dtype: type) -> np.ndarray:
+    """1-D read-only copy, so a frozen design cannot be changed through its arrays."""
+    a = np.array(values, dtype=dtype).reshape(-1)
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class AxisDesign:
+    """A set of instantaneous axes in the body, one per (stage, node) (METHOD.md §5).
+
+    Axis k is ``axis_direction(phis[k], gear_ratios[k])``. The arrays are copied and made
+    read-only. Equality is identity (arrays have no single truth value).
+    """
+
+    name: str
+    """Label used in reports."""
+    gear_ratios: np.ndarray
+    """(n,) gear ratio lambda = tan(beta) of each axis (dimensionless)."""
+    phis: np.ndarray
+    """(n,) node angle phi of each axis (rad)."""
+    stages: np.ndarray
+    """(n,) 1-based index of the stage (gear ratio) that realises each axis."""
+
+    def __post_init__(self) -> None:
+        lam = _frozen_array(self.gear_ratios, float)
+        phi = _frozen_array(self.phis, float)
+        stage = _frozen_array(self.stages, int)
+        if not lam.size == phi.size == stage.size:
+            raise ValueError(
+                f"{self.name}: gear_ratios, phis and stages differ in length "
+                f"({lam.size}, {phi.size}, {stage.size})"
+            )
+        object.__setattr__(self, "gear_ratios", lam)
+        object.__setattr__(self, "phis", phi)
+        object.__setattr__(self, "stages", stage)
+
+    @property
+    def n_axes(self) -> int:
+        """Number of axes n."""
+        return int(self.phis.size)
+
+    @property
+    def directions(self) -> np.ndarray:
+        """(n, 3) unit axis vectors in body coordinates (METHOD.md §1)."""
+        return axis_direction(self.phis, self.gear_ratios)
+
+    @property
+    def matrix(self) -> np.ndarray:
+        """(n, 6) design matrix V (METHOD.md §5)."""
+        return design_matrix(self.directions)
+
+    @property
+    def condition(self) -> float:
+        """2-norm condition number of V."""
+        return condition_number(self.matrix)
+
+    @property
+    def angles_deg(self) -> np.ndarray:
+        """(n, n) angles between the axes as lines (deg)."""
+        return axis_angles_deg(self.directions)
+
+
+def icosahedron_design() -> AxisDesign:
+    """The paper's two-stage design: the six axes of a regular icosahedron (METHOD.md §5).
+
+    Stage 1: lambda1 = 3 - sqrt 5 (0.7639), nodes phi = 0, 120, 240 deg.
+    Stage 2: lambda2 = 3 + sqrt 5 (5.2361), nodes phi = 60, 180, 300 deg.
+    All 15 angles between the axes are arccos(1/sqrt 5) = 63.43 deg, cond(V) = sqrt(5/2).
+
+    Returns
+    -------
+    AxisDesign
+        Six axes named "icosahedron".
+    """
+    s5 = np.sqrt(5.0)
+    return AxisDesign(
+        name="icosahedron",
+        gear_ratios=np.repeat([3.0 - s5, 3.0 + s5], 3),
+        phis=np.radians([0.0, 120.0, 240.0, 60.0, 180.0, 300.0]),
+        stages=np.repeat([1, 2], 3),
+    )
+
+
+def _cone_gear_ratio(opening_deg: float) -> float:
+    """Gear ratio lambda = tan(beta) of a cone of opening 2 beta (deg) (METHOD.md §1)."""
+    if not 0.0 <= opening_deg < 180.0:
+        raise InputError(f"cone opening angle {opening_deg} deg: must lie in [0, 180)")
+    return float(np.tan(np.radians(opening_deg) / 2.0))
+
+
+def cone_plus_z_design(opening_deg: float) -> AxisDesign:
+    """Five axes 72 deg apart on one cone plus the z axis (METHOD.md §5, paper Fig. 1).
+
+    Parameters
+    ----------
+    opening_deg : float
+        Opening angle 2 beta of the cone (deg), in [0, 180); lambda = tan(beta).
+
+    Returns
+    -------
+    AxisDesign
+        Stage 1: the cone, nodes phi = 0, 72, 144, 216, 288 deg. Stage 2: lambda = 0,
+        the z axis (phi = 0).
+
+    Raises
+    ------
+    InputError
+        If the opening angle is outside [0, 180) deg.
+    """
+    lam = _cone_gear_ratio(opening_deg)
+    return AxisDesign(
+        name=f"cone+z (2beta = {opening_deg:.3f} deg)",
+        gear_ratios=np.append(np.full(5, lam), 0.0),
+        phis=np.radians(np.append(72.0 * np.arange(5), 0.0)),
+        stages=np.array([1, 1, 1, 1, 1, 2]),
+    )
+
+
+def _cone_condition(opening_deg: float) -> float:
+    """cond(V) of the cone-plus-z design at one opening angle (deg)."""
+    return cone_plus_z_design(opening_deg).condition
+
+
+def rcond_curve(openings_deg: ArrayLike) -> np.ndarray:
+    """Reciprocal condition number 1/cond(V) of the cone-plus-z design (paper Fig. 1).
+
+    Parameters
+    ----------
+    openings_deg : array_like
+        Opening angles 2 beta (deg), each in [0, 180).
+
+    Returns
+    -------
+    numpy.ndarray
+        Same shape as ``openings_deg``; 0 where V is singular (2 beta = 0).
+    """
+    openings = np.asarray(openings_deg, float)
+    flat = [1.0 / _cone_condition(float(o)) for o in openings.reshape(-1)]
+    return np.array(flat, float).reshape(openings.shape)
+
+
+def best_cone_opening() -> tuple[float, float]:
+    """Opening angle 2 beta of the cone-plus-z design that minimises cond(V) (METHOD.md §5).
+
+    cond(V) has a cusp at its minimum (two singular values cross there), so a smooth
+    optimiser alone is unreliable: a 0.1 deg grid over (0, 180) locates the basin, then a
+    bounded scalar search (xatol 1e-6 deg) refines it within one grid step either side.
+
+    Returns
+    -------
+    tuple of float
+        ``(opening_deg, cond)``: about 141.967 deg and 1.48925 (the paper's Fig. 1 reads
+        140 deg, 1.4899).
+    """
+    step = 0.1
+    grid = np.arange(step, 180.0, step)
+    conds = 1.0 / rcond_curve(grid)
+    i = int(np.argmin(conds))
+    lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
+    res = minimize_scalar(
+        _cone_condition, bounds=(lo, hi), method="bounded", options={"xatol": 1e-6}
+    )
+    if res.fun <= conds[i]:
+        return float(res.x), float(res.fun)
+    return float(grid[i]), float(conds[i])
+
+
+def device_design(device: Any) -> AxisDesign:
+    """Axes that a device's stages realise, in stage order (METHOD.md §1, §5).
+
+    Parameters
+    ----------
+    device : object
+        Has ``stages``, each with ``gear_ratio`` (lambda, float) and ``nodes_deg``
+        (node angles phi, deg). A stage with ``gear_ratio == 0`` spins about z: it gives
+        one axis (phi = 0) whatever its nodes, since every node would give the same axis.
+
+    Returns
+    -------
+    AxisDesign
+        Named "device"; stage indices are 1-based positions in ``device.stages``. Whether
+        the axes determine the tensor (rank, cond(V)) is checked elsewhere.
+    """
+    lams: list[float] = []
+    phis: list[float] = []
+    stages: list[int] = []
+    for index, stage in enumerate(device.stages, start=1):
+        lam = float(stage.gear_ratio)
+        nodes = [0.0] if lam == 0.0 else [float(n) for n in stage.nodes_deg]
+        lams += [lam] * len(nodes)
+        phis += list(np.radians(nodes))
+        stages += [index] * len(nodes)
+    return AxisDesign(name="device", gear_ratios=lams, phis=phis, stages=stages)

@@ -1,0 +1,181 @@
+"""Presentation of axis designs: a text report and the conditioning figure (paper Fig. 1).
+
+The geometry itself (directions, V, cond(V), the optimum cone) lives in
+:mod:`plant.geometry` (METHOD.md §5 "Axis designs"); this module only formats and draws it.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from numpy.typing import ArrayLike
+
+from plant.config import load_device
+from plant.geometry import (
+    AxisDesign,
+    best_cone_opening,
+    cone_plus_z_design,
+    device_design,
+    icosahedron_design,
+    rcond_curve,
+)
+
+__all__ = ["DEFAULT_OPENINGS_DEG", "design_report", "plot_cone_conditioning", "run_design"]
+
+DEFAULT_OPENINGS_DEG = np.linspace(10.0, 175.0, 661)
+"""Opening angles 2 beta (deg) of the default Fig. 1 curve: 10 to 175 deg in 0.25 deg steps."""
+
+
+def _axes_table(design: AxisDesign) -> list[str]:
+    """One line per axis: stage, lambda, cone opening, node, direction."""
+    lines = [
+        f"  {'axis':>4} {'stage':>5} {'lambda':>9} {'2beta[deg]':>10} {'node[deg]':>9}"
+        f" {'ex':>9} {'ey':>9} {'ez':>9}"
+    ]
+    for k, (stage, lam, phi, e) in enumerate(
+        zip(design.stages, design.gear_ratios, design.phis, design.directions), start=1
+    ):
+        opening = 2.0 * np.degrees(np.arctan(abs(lam)))
+        lines.append(
+            f"  {k:>4d} {stage:>5d} {lam:>9.4f} {opening:>10.3f} {np.degrees(phi):>9.3f}"
+            f" {e[0]:>9.5f} {e[1]:>9.5f} {e[2]:>9.5f}"
+        )
+    return lines
+
+
+def _angles_table(angles: np.ndarray) -> list[str]:
+    """The angle matrix between the axes (deg) and its off-diagonal min/max/mean."""
+    n = angles.shape[0]
+    header = "  " + " " * 4 + "".join(f"{j:>8d}" for j in range(1, n + 1))
+    lines = ["  Angles between the axes [deg]:", header]
+    for i in range(n):
+        lines.append(f"  {i + 1:>4d}" + "".join(f"{a:>8.2f}" for a in angles[i]))
+    if n > 1:
+        off = angles[np.triu_indices(n, k=1)]
+        lines.append(
+            f"  {off.size} angles off the diagonal: min {off.min():.4f}  max {off.max():.4f}"
+            f"  mean {off.mean():.4f} deg"
+        )
+    return lines
+
+
+def design_report(designs: list[AxisDesign]) -> str:
+    """Human-readable report of axis designs (METHOD.md §5 "Axis designs").
+
+    Parameters
+    ----------
+    designs : list of AxisDesign
+        Designs to describe, in order.
+
+    Returns
+    -------
+    str
+        For each design: its name, a table of its axes (stage, gear ratio lambda, cone
+        opening 2 beta = 2 arctan lambda, node angle, unit direction), the matrix of angles
+        between the axes with the min/max/mean of the off-diagonal ones, and cond(V) to four
+        decimals. Ends with a newline.
+
+    Examples
+    --------
+    >>> from plant.geometry import icosahedron_design
+    >>> "cond(V) = 1.5811" in design_report([icosahedron_design()])
+    True
+    """
+    blocks = []
+    for design in designs:
+        stages = np.unique(design.stages)
+        lines = [f"Axis design: {design.name}  ({design.n_axes} axes, {stages.size} stages)"]
+        lines += _axes_table(design)
+        lines += _angles_table(design.angles_deg)
+        lines.append(f"  cond(V) = {design.condition:.4f}   (2-norm, V is {design.n_axes}x6)")
+        blocks.append("\n".join(lines))
+    return "\n\n".join(blocks) + "\n"
+
+
+def plot_cone_conditioning(
+    path: str | os.PathLike[str], openings_deg: ArrayLike | None = None
+) -> None:
+    """Write the paper's Fig. 1 as a PNG: 1/cond(V) of the cone-plus-z design vs 2 beta.
+
+    The optimum opening (:func:`plant.geometry.best_cone_opening`) is marked and the
+    icosahedron's 1/cond(V) = sqrt(2/5) is drawn as a horizontal reference
+    (METHOD.md §5 "Axis designs"). The file is written atomically: to a temporary file in
+    the same folder, then renamed over ``path``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output PNG file; its folder must exist.
+    openings_deg : array_like, optional
+        Opening angles 2 beta (deg) of the curve, each in [0, 180). Default
+        :data:`DEFAULT_OPENINGS_DEG` (10 to 175 deg in 0.25 deg steps).
+    """
+    path = Path(path)
+    openings = DEFAULT_OPENINGS_DEG if openings_deg is None else np.asarray(openings_deg, float)
+    rcond = rcond_curve(openings)
+    best_deg, best_cond = best_cone_opening()
+    ico_rcond = 1.0 / icosahedron_design().condition
+
+    fig = Figure(figsize=(6.4, 4.2), dpi=120)
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    ax.plot(openings, rcond, color="C0", label="five axes on a cone + z axis")
+    ax.axhline(ico_rcond, color="C2", linestyle="--",
+               label=f"icosahedron (two stages): {ico_rcond:.4f}")
+    ax.plot([best_deg], [1.0 / best_cond], "o", color="C3",
+            label=f"optimum 2\u03b2 = {best_deg:.2f}\u00b0, cond(V) = {best_cond:.4f}")
+    ax.axvline(best_deg, color="C3", linewidth=0.8, alpha=0.5)
+    ax.set_xlabel("cone opening angle 2\u03b2 [deg]")
+    ax.set_ylabel("1 / cond(V)")
+    ax.set_title("Conditioning of the design matrix V (paper Fig. 1)")
+    ax.set_ylim(bottom=0.0)
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="lower center", fontsize="small")
+    fig.tight_layout()
+
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".png", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            fig.savefig(f, format="png")
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp's 0600 would hide the figure from others
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def run_design(exp: Path | None = None, plot: Path | None = None) -> str:
+    """``rsp-inertia design``: both paper designs (and EXP's), their report, and Fig. 1.
+
+    Parameters
+    ----------
+    exp : path, optional
+        An experiment folder whose device.toml design is reported too.
+    plot : path, optional
+        Where to write Fig. 1 (default: EXP/design.png, or ./design.png).
+
+    Returns
+    -------
+    str
+        The report, with the optimum opening angle and the plot's path.
+    """
+    best_deg, best_cond = best_cone_opening()
+    designs = [icosahedron_design(), cone_plus_z_design(best_deg)]
+    if exp is not None:
+        designs.append(device_design(load_device(Path(exp) / "device.toml")))
+    if plot is None:
+        plot = (Path(exp) if exp is not None else Path(".")) / "design.png"
+    plot_cone_conditioning(plot)
+    return (
+        design_report(designs)
+        + f"\ncone + z: cond(V) is least at 2beta = {best_deg:.3f} deg, cond(V) = {best_cond:.4f}"
+        + " (paper Fig. 1: 140 deg, 1.4899)"
+        + f"\nplot of 1/cond(V) against 2beta -> {plot}"
+    )
