@@ -1,0 +1,110 @@
+"""The command line: simulate writes valid logs; bad input is one line on stderr, exit 2."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from plant.config import load_device
+from plant.logs import read_log
+from rsp_inertia.cli import main
+from rsp_inertia.pipeline import create_default_experiment
+
+
+@pytest.fixture
+def experiment(tmp_path):
+    return create_default_experiment(tmp_path / "exp")
+
+
+def one_line_error(capsys, *needles):
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    for needle in needles:
+        assert needle in err, err
+    return err
+
+
+def test_simulate_braking_writes_valid_logs(experiment, capsys):
+    assert main(["simulate", str(experiment), "--stage", "1"]) == 0
+    device = load_device(experiment / "device.toml")
+    log = read_log(experiment / "stage1" / "braking.csv", device.encoder, "braking")
+    assert np.all(np.diff(log.phi) >= 0)  # the braking never turns back
+    assert (log.phi[-1] - log.phi[0]) / (2 * math.pi) > 3
+    assert "stage 1: braking" in capsys.readouterr().out
+
+
+def test_ideal_reverse_and_pendulum_write_valid_logs(experiment):
+    assert main(["simulate", str(experiment), "--stage", "2"]) == 0
+    assert main(["simulate", str(experiment), "--stage", "2", "--part", "reverse", "--ideal"]) == 0
+    assert main(["simulate", str(experiment), "--stage", "2", "--part", "pendulum"]) == 0
+    device = load_device(experiment / "device.toml")
+    reverse = read_log(experiment / "stage2" / "reverse.csv", device.encoder, "reverse")
+    braking = read_log(experiment / "stage2" / "braking.csv", device.encoder, "braking")
+    # The reverse starts where the braking stopped (same encoder zero, within a count).
+    assert abs(reverse.phi[0] - braking.phi[-1]) <= device.encoder.quantum
+    for k in (1, 2, 3):
+        read_log(experiment / "stage2" / f"pendulum_k{k}.csv", device.encoder, "pendulum")
+
+
+def test_same_inputs_give_the_same_files(experiment, tmp_path):
+    other = create_default_experiment(tmp_path / "other")
+    for root in (experiment, other):
+        assert main(["simulate", str(root), "--stage", "1"]) == 0
+    a = (experiment / "stage1" / "braking.csv").read_bytes()
+    assert a == (other / "stage1" / "braking.csv").read_bytes()
+
+
+def test_missing_folder(tmp_path, capsys):
+    assert main(["simulate", str(tmp_path / "nowhere")]) == 2
+    one_line_error(capsys, "nowhere")
+
+
+def test_bad_device_key(experiment, capsys):
+    path = experiment / "device.toml"
+    path.write_text(path.read_text().replace("gear_ratio = 0.7639320225", "gear_ratio = -0.5"))
+    assert main(["simulate", str(experiment)]) == 2
+    one_line_error(capsys, "device.toml", "stage[1].gear_ratio")
+
+
+def test_no_such_stage(experiment, capsys):
+    assert main(["simulate", str(experiment), "--stage", "3"]) == 2
+    one_line_error(capsys, "device.toml", "stage 3")
+
+
+def test_reverse_without_program(experiment, capsys):
+    assert main(["simulate", str(experiment), "--stage", "1"]) == 0
+    capsys.readouterr()
+    assert main(["simulate", str(experiment), "--stage", "1", "--part", "reverse"]) == 2
+    one_line_error(capsys, "program.csv")
+
+
+def test_reverse_refuses_a_foreign_braking_log(experiment, capsys):
+    assert main(["simulate", str(experiment), "--stage", "1"]) == 0
+    path = experiment / "virtual.toml"
+    path.write_text(path.read_text().replace("seed = 0", "seed = 5"))
+    capsys.readouterr()
+    assert main(["simulate", str(experiment), "--stage", "1", "--part", "reverse", "--ideal"]) == 2
+    one_line_error(capsys, "braking.csv", "simulate it again")
+
+
+def test_braking_that_never_stops(experiment, capsys):
+    path = experiment / "device.toml"
+    text = path.read_text().replace("braking_torque = 0.005 ", "braking_torque = 0.0   ")
+    path.write_text(text.replace("coulomb = 1.0e-4", "coulomb = 0.0"))
+    vpath = experiment / "virtual.toml"
+    vtext = vpath.read_text()
+    for key in ("coulomb = 1.0e-4", "viscous = 1.0e-4", "quadratic = 1.0e-3"):
+        vtext = vtext.replace(key, key.split("=")[0] + "= 0.0")
+    vpath.write_text(vtext)
+    assert main(["simulate", str(experiment), "--stage", "1"]) == 2
+    one_line_error(capsys, "stage 1", "does not stop")
+
+
+def test_demo_keeps_an_edited_input(experiment):
+    path = experiment / "device.toml"
+    edited = path.read_text().replace('name = "virtual-paper"', 'name = "edited"')
+    path.write_text(edited)
+    create_default_experiment(experiment)
+    assert path.read_text() == edited
