@@ -47,6 +47,9 @@ __all__ = [
     "acceleration",
     "mechanical_energy",
     "motor_torque",
+    "torque_regressor",
+    "energy_regressor",
+    "dissipation_regressor",
 ]
 
 PARAMETER_NAMES = ("M0", "Mc2", "Ms2", "Ms1", "Mc1", "c", "phi0", "Gs", "Gc", "a1", "a2", "a3")
@@ -204,6 +207,23 @@ class GimbalModel:
             "motor_torque": ca.Function(
                 "motor_torque", [phi, Omega, self.acc, self.direction, self.p], [self.tau]
             ),
+            # Lagrange's equation is linear in every parameter but the spring's: its
+            # Jacobian in p is the regressor of a least-squares fit of the model.
+            "torque_regressor": ca.Function(
+                "torque_regressor",
+                [phi, Omega, self.acc, self.direction, self.p],
+                [ca.jacobian(self.tau, self.p)],
+            ),
+            # Likewise the mechanical energy and the dissipative torque: the regressors of
+            # the energy balance E_b - E_a + integral of D dphi = motor work (METHOD.md §3).
+            "energy_regressor": ca.Function(
+                "energy_regressor", [phi, Omega, self.p], [ca.jacobian(self.E, self.p)]
+            ),
+            "dissipation_regressor": ca.Function(
+                "dissipation_regressor",
+                [Omega, self.direction, self.p],
+                [ca.jacobian(self.D, self.p)],
+            ),
         }
 
     def state_derivative(self) -> ca.Function:
@@ -279,6 +299,36 @@ def motor_torque(phi, Omega, eps, params: ModelParameters | np.ndarray, directio
     if direction is None:
         direction = np.sign(Omega)
     return _evaluate("motor_torque", (phi, Omega, eps, direction), _p(params))
+
+
+def torque_regressor(phi, Omega, eps, params: ModelParameters | np.ndarray, direction=None):
+    """d(motor_torque)/dp at each sample: rows of shape (12,), in PARAMETER_NAMES order.
+
+    The inverse dynamics are linear in every parameter except the spring's (c, phi0), so
+    u = regressor . p up to the spring's term; ``params`` supplies c and phi0.
+    """
+    if direction is None:
+        direction = np.sign(Omega)
+    return _regressor("torque_regressor", (phi, Omega, eps, direction), _p(params))
+
+
+def _regressor(name: str, args: tuple, p: np.ndarray) -> np.ndarray:
+    arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in args))
+    rows = [a.reshape(1, -1) for a in arrays]
+    out = np.asarray(MODEL.functions[name](*rows, p))  # (1, 12 n)
+    return out.reshape(arrays[0].shape + (len(PARAMETER_NAMES),))
+
+
+def energy_regressor(phi, Omega, params: ModelParameters | np.ndarray):
+    """dE/dp at each sample, rows of shape (12,): E = regressor . p up to the spring's term."""
+    return _regressor("energy_regressor", (phi, Omega), _p(params))
+
+
+def dissipation_regressor(Omega, params: ModelParameters | np.ndarray, direction=None):
+    """dD/dp at each sample, rows of shape (12,): D = regressor . p exactly."""
+    if direction is None:
+        direction = np.sign(Omega)
+    return _regressor("dissipation_regressor", (Omega, direction), _p(params))
 
 
 def mechanical_energy(phi, Omega, params: ModelParameters | np.ndarray):

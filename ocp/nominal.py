@@ -1,0 +1,115 @@
+"""Nominal model of a stage from its braking log, for the program's feedforward.
+
+Lagrange's equation (METHOD.md §3, plant.model) is linear in the harmonic coefficients of
+M(phi), the gravity terms and the dissipation coefficients (a1, a2, a3); the spring is
+known from device.toml. Along the smoothed braking pass (phi, Omega > 0, eps) with the
+logged torque u, least squares on
+
+    regressor(phi, Omega, eps) . p = u - (spring's term)
+
+gives the unknowns. It only has to be good enough for feedforward: the regulator absorbs
+the rest (and the identification never uses it).
+
+One parameter cannot come from a braking pass: with a constant braking torque, Coulomb
+friction a1 is a constant torque too, and only (u - a1) enters; worse, (M, a1 - u, a2, a3,
+gravity) then fit equally well at any common scale, so the absolute inertia is lost (that
+is what the reverse pass of the RSP method restores). The fit therefore puts a1 = 0: M comes
+out too small by the fraction a1 / braking_torque (2% on the default stage 1 at the paper's
+friction), well inside what the regulator has to absorb anyway.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from estimation.smoothing import Smoothed
+from plant.config import Device
+from plant.errors import InputError
+from plant.logs import Log
+from plant.model import (
+    PARAMETER_NAMES,
+    ModelParameters,
+    dissipation_regressor,
+    energy_regressor,
+    mechanical_energy,
+)
+
+__all__ = ["UNKNOWN", "fit_nominal"]
+
+UNKNOWN = ("M0", "Mc2", "Ms2", "Ms1", "Mc1", "Gs", "Gc", "a2", "a3")
+"""Parameters fitted; the spring's (c, phi0) come from device.toml, a1 is put to 0."""
+
+_MIN_SPEED_FRACTION = 0.05
+"""Samples slower than this fraction of the top speed are left out (static friction,
+over-confident smoothing near rest)."""
+
+_WINDOW = 0.25
+"""s per energy-balance window. Short windows leave the speed's noise large next to each
+window's energy change; on a stage whose friction nearly balances the inertia term (stage 1
+of the default experiment) that noise biases the fitted scale: 20 ms windows gave M 14x too
+small, 0.1 s 24% too small, 0.25 s within the 2% that a1 = 0 costs."""
+
+_MIN_WINDOWS = 20
+"""At least two windows per unknown."""
+
+
+def fit_nominal(device: Device, stage: int, log: Log, sm: Smoothed) -> ModelParameters:
+    """Least-squares nominal model of stage ``stage`` from its smoothed braking pass.
+
+    The equation of motion is fitted in its integrated form, the energy balance over
+    consecutive windows [a, b] of the pass (METHOD.md §3):
+
+        E(b) - E(a) + integral_a^b D dphi = motor work from a to b
+
+    which is linear in p like the equation of motion itself, but needs no acceleration: the
+    smoothed acceleration is noisy (quantization through a wide-band smoother), and noise in
+    a regressor biases least squares toward zero (errors in variables). The regressors are
+    the Jacobians of the model's own E and D (plant.model); the integral is a trapezoid sum
+    over the samples, the motor work the Stieltjes sum of the log.
+    """
+    spring = ModelParameters(
+        inertia_harmonics=np.zeros(5),
+        stiffness=device.spring.stiffness,
+        zero_angle=device.spring.zero_angle,
+    )
+    moving = np.nonzero(sm.omega > _MIN_SPEED_FRACTION * sm.omega.max())[0]
+    stride = max(int(round(_WINDOW / (sm.t[1] - sm.t[0]))), 1)
+    rows = np.arange(moving[0], moving[-1] + 1) if moving.size else moving
+    if rows.size < _MIN_WINDOWS * stride:
+        raise InputError(
+            f"stage {stage}: braking.csv: the body moves for only {rows.size * (sm.t[1] - sm.t[0]):.2f} s;"
+            f" fitting a model needs at least {_MIN_WINDOWS * _WINDOW:g} s of braking"
+        )
+    phi, omega = sm.phi[rows], sm.omega[rows]
+    # Cumulative integral of dD/dp dphi (trapezoid over the smoothed angle).
+    Dreg = dissipation_regressor(omega, spring, direction=np.ones_like(omega))
+    dphi = np.diff(phi)[:, None]
+    Dint = np.vstack([np.zeros(Dreg.shape[1]), np.cumsum((Dreg[1:] + Dreg[:-1]) / 2 * dphi, 0)])
+    Ereg = energy_regressor(phi, omega, spring)
+    work = log.motor_work()[rows]
+    ends = np.arange(0, rows.size, stride)
+    a, b = ends[:-1], ends[1:]
+    A = Ereg[b] - Ereg[a] + Dint[b] - Dint[a]
+    # The spring's energy is the model's energy with every unknown at zero.
+    spring_energy = mechanical_energy(phi, omega, spring)
+    y = work[b] - work[a] - (spring_energy[b] - spring_energy[a])
+    cols = [PARAMETER_NAMES.index(name) for name in UNKNOWN]
+    x, *_ = np.linalg.lstsq(A[:, cols], y, rcond=None)
+    values = dict(zip(UNKNOWN, x))
+    # Friction cannot be negative; a tiny negative estimate is noise.
+    friction = {k: max(values[k], 0.0) for k in ("a2", "a3")}
+    if values["M0"] <= 0:
+        raise InputError(
+            f"stage {stage}: braking.csv: the fitted reduced inertia is not positive "
+            f"({values['M0']:.3g} kg m^2): is the braking torque logged with its sign?"
+        )
+    return ModelParameters(
+        inertia_harmonics=np.array([values[k] for k in ("M0", "Mc2", "Ms2", "Ms1", "Mc1")]),
+        stiffness=device.spring.stiffness,
+        zero_angle=device.spring.zero_angle,
+        gravity_sin=values["Gs"],
+        gravity_cos=values["Gc"],
+        coulomb=0.0,
+        viscous=friction["a2"],
+        quadratic=friction["a3"],
+    )
