@@ -1,0 +1,80 @@
+"""From a braking log to the reverse pass's program (the ``program`` command's library call).
+
+Steps, each in its own module: smoothing (estimation.smoothing, the identification's own
+smoother), the mirror (ocp.reference), the nominal model (ocp.nominal), the OCP
+(ocp.program), the regulator (ocp.regulator).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from estimation.energy import check_braking_monotone
+from estimation.smoothing import smooth_log
+from ocp.nominal import fit_nominal
+from ocp.program import OcpSolution, solve_program_ocp
+from ocp.reference import Mirror, mirror
+from ocp.regulator import lqr_gains
+from plant.config import Device
+from plant.logs import Log, Program
+from plant.model import ModelParameters
+
+__all__ = ["ProgramResult", "make_program"]
+
+
+@dataclass(frozen=True)
+class ProgramResult:
+    """A program and how it was made."""
+
+    program: Program
+    """What program.csv holds."""
+    mirror: Mirror
+    """The reference."""
+    nominal: ModelParameters
+    """The nominal model fitted to the braking."""
+    ocp: OcpSolution
+    """The OCP's solution on its grid."""
+    seconds: float
+    """Wall time of the whole generation."""
+
+
+def make_program(
+    device: Device,
+    stage: int,
+    braking: Log,
+    source: str = "braking.csv",
+    nominal: ModelParameters | None = None,
+) -> ProgramResult:
+    """The torque program that drives stage ``stage`` back along the mirror of its braking.
+
+    Parameters
+    ----------
+    nominal : ModelParameters, optional
+        Use this nominal model instead of fitting one (tests of robustness perturb it).
+    """
+    start = time.perf_counter()
+    check_braking_monotone(braking, source)
+    sm = smooth_log(braking, device.encoder.quantum, source)
+    ref = mirror(sm, device.encoder.sample_rate, source)
+    model = nominal if nominal is not None else fit_nominal(device, stage, braking, sm)
+    sol = solve_program_ocp(device, stage, ref, model)
+    torque = np.interp(ref.t, sol.t, sol.torque)  # u is linear between grid points
+    k_phi, k_omega = lqr_gains(device, ref.t, ref.phi, ref.omega, torque, model)
+    program = Program(
+        t=ref.t,
+        phi_ref=ref.phi,
+        omega_ref=ref.omega,
+        torque_ff=torque,
+        k_phi=k_phi,
+        k_omega=k_omega,
+    )
+    return ProgramResult(
+        program=program,
+        mirror=ref,
+        nominal=model,
+        ocp=sol,
+        seconds=time.perf_counter() - start,
+    )

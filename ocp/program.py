@@ -1,0 +1,174 @@
+"""The torque program of the reverse pass: an optimal-control problem in CasADi (METHOD.md §4).
+
+States x = (phi, Omega, u): the body's angle and speed and the motor torque, which is a state
+so that its rate v = du/dt can be bounded (the motor's torque-rate limit). On a grid of step
+h (a multiple of the encoder's sample period), with v constant over each interval:
+
+    minimise   sum_k h [ (Omega_k - Omega'_k)^2 + W_PHI^2 (phi_k - phi'_k)^2 ] + RHO sum_k h v_k^2
+    subject to x_{k+1} = F(x_k, v_k)                (RK4 of the nominal model, plant.model)
+               x_0 = (phi7, 0, S(phi7))             (at rest where the braking stopped, held)
+               |u_k| <= torque_limit,  |v_k| <= torque_rate_limit
+
+with (phi', Omega') the mirror of the braking (ocp.reference). The model is the nominal one
+fitted to the braking log (ocp.nominal), in the reverse direction (Omega < 0, friction
+opposing). Solved by IPOPT through ``nlpsol`` on an SX graph, warm-started from the nominal
+inverse dynamics along the mirror.
+
+Before the OCP, the mirror's torque is checked against the motor: if the nominal model
+needs more than ``torque_limit`` anywhere, the mirror is impossible and nothing is written.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from ocp.reference import Mirror
+from plant.config import Device
+from plant.errors import InputError
+from plant.model import MODEL, ModelParameters, motor_torque, static_torque
+
+__all__ = ["W_PHI", "RHO", "GRID_STEP", "OcpSolution", "required_torque", "solve_program_ocp"]
+
+W_PHI = 2.0
+"""1/s: weight of the angle error against the speed error (an angle error of 1 rad costs
+as much as a speed error of 2 rad/s)."""
+
+RHO = 1e-4
+"""s^2 ... weight of the torque rate (N m/s)^2 against speed errors (rad/s)^2: a smoothness
+term small enough not to bend the tracking (a 1 N m/s rate costs as a 0.01 rad/s error)."""
+
+GRID_STEP = 0.02
+"""s, the OCP's interval (rounded to whole encoder samples): 50 intervals per second resolve
+the torque's variation within a turn (at 12 rad/s a turn lasts ~0.5 s)."""
+
+_DIRECTION = -1.0
+"""The reverse pass runs backwards: friction's sign term is that of a negative speed."""
+
+
+@dataclass(frozen=True)
+class OcpSolution:
+    """The optimal torque on the OCP grid, and how the solve went."""
+
+    t: np.ndarray
+    """s, OCP grid from 0."""
+    phi: np.ndarray
+    """rad, the nominal model's angle under the optimal torque."""
+    omega: np.ndarray
+    """rad/s."""
+    torque: np.ndarray
+    """N m, u at the grid points (linear in between)."""
+    iterations: int
+    """IPOPT iterations."""
+    success: bool
+    """IPOPT's verdict."""
+    solve_time: float
+    """s, build plus solve."""
+
+
+def required_torque(mirror: Mirror, nominal: ModelParameters) -> np.ndarray:
+    """Motor torque that the nominal model needs to follow the mirror exactly (inverse dynamics)."""
+    return motor_torque(
+        mirror.phi, mirror.omega, mirror.eps, nominal, direction=np.full(mirror.t.size, _DIRECTION)
+    )
+
+
+def _step_function(h: float) -> ca.Function:
+    """F(x, v, p): one RK4 step of length h of (phi, Omega, u) with du/dt = v."""
+    x = ca.SX.sym("x", 3)
+    v = ca.SX.sym("v")
+    f = MODEL.state_derivative()
+
+    def rhs(z):
+        return ca.vertcat(f(z[:2], z[2], _DIRECTION, MODEL.p), v)
+
+    k1 = rhs(x)
+    k2 = rhs(x + h / 2 * k1)
+    k3 = rhs(x + h / 2 * k2)
+    k4 = rhs(x + h * k3)
+    return ca.Function("F", [x, v, MODEL.p], [x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
+
+
+def solve_program_ocp(
+    device: Device, stage: int, mirror: Mirror, nominal: ModelParameters
+) -> OcpSolution:
+    """Solve the reverse pass's OCP (module docstring).
+
+    Raises
+    ------
+    InputError
+        When the mirror needs more torque than the motor has.
+    """
+    start = time.perf_counter()
+    motor = device.motor
+    needed = required_torque(mirror, nominal)
+    peak = float(np.max(np.abs(needed)))
+    if peak > motor.torque_limit:
+        k = int(np.argmax(np.abs(needed)))
+        raise InputError(
+            f"stage {stage}: the mirror of the braking needs {peak:.4g} N m at t = "
+            f"{mirror.t[k]:.2f} s of the reverse, the motor has {motor.torque_limit:g} N m "
+            "(device.toml motor.torque_limit): lower launch_speed or braking_torque"
+        )
+    dt = mirror.t[1] - mirror.t[0]
+    m = max(int(round(GRID_STEP / dt)), 1)
+    idx = np.arange(0, mirror.t.size, m)
+    N = idx.size - 1
+    h = m * dt
+    F = _step_function(h)
+    p = nominal.vector
+
+    # MX around a mapped SX step: derivatives are built for F once, not for N copies of it
+    # (an expanded SX graph of the same NLP takes ~3 s to differentiate, this ~0.2 s).
+    X = ca.MX.sym("X", 3, N + 1)
+    V = ca.MX.sym("V", 1, N)
+    ref_phi = mirror.phi[idx]
+    ref_omega = mirror.omega[idx]
+    shoot = F.map(N)(X[:, :-1], V, p)  # one symbolic call, N evaluations
+    err = ca.vertcat(X[1, :] - ref_omega[None, :], W_PHI * (X[0, :] - ref_phi[None, :]))
+    cost = h * ca.sumsqr(err) + RHO * h * ca.sumsqr(V)
+    w = ca.vertcat(ca.vec(X), ca.vec(V))
+    nlp = {"x": w, "f": cost, "g": ca.vec(X[:, 1:] - shoot)}
+    solver = ca.nlpsol(
+        "ocp",
+        "ipopt",
+        nlp,
+        {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.max_iter": 300},
+    )
+
+    # Bounds: the start is fixed (at rest, held); torque and rate within the motor's limits.
+    hold = float(static_torque(mirror.rest_angle, nominal))
+    lbx = np.tile([-np.inf, -np.inf, -motor.torque_limit], N + 1)
+    ubx = np.tile([np.inf, np.inf, motor.torque_limit], N + 1)
+    lbx[:3] = ubx[:3] = [mirror.rest_angle, 0.0, hold]
+    lbv = np.full(N, -motor.torque_rate_limit)
+    ubv = np.full(N, motor.torque_rate_limit)
+    # Warm start: the mirror and its torque, rate-limited.
+    u0 = np.clip(needed[idx], -motor.torque_limit, motor.torque_limit)
+    u0[0] = hold
+    v0 = np.clip(np.diff(u0) / h, lbv, ubv)
+    u0 = np.concatenate([[hold], hold + np.cumsum(v0) * h])
+    x0 = np.column_stack([ref_phi, ref_omega, u0]).ravel()
+    sol = solver(
+        x0=np.concatenate([x0, v0]),
+        lbx=np.concatenate([lbx, lbv]),
+        ubx=np.concatenate([ubx, ubv]),
+        lbg=0,
+        ubg=0,
+    )
+    stats = solver.stats()
+    z = np.asarray(sol["x"]).ravel()
+    states = z[: 3 * (N + 1)].reshape(N + 1, 3)
+    return OcpSolution(
+        t=mirror.t[idx],
+        phi=states[:, 0],
+        omega=states[:, 1],
+        torque=states[:, 2],
+        iterations=int(stats.get("iter_count", -1)),
+        success=bool(stats.get("success", False)),
+        solve_time=time.perf_counter() - start,
+    )
+

@@ -1,0 +1,33 @@
+"""Passes of the default experiment on the virtual device, simulated once per session.
+
+The truth (PassTruth) rides beside every log, so estimates can be compared with what the
+virtual body really did, never with numbers from an earlier run (STYLE.md, principle 6).
+"""
+
+import numpy as np
+import pytest
+
+from plant import virtual as vd
+
+STAGES = (1, 2)
+
+
+def tensor(entries) -> np.ndarray:
+    """The symmetric tensor of METHOD.md §2 from [Jx, Jy, Jz, Jxy, Jyz, Jxz]."""
+    Jx, Jy, Jz, Jxy, Jyz, Jxz = entries
+    return np.array([[Jx, Jxy, Jxz], [Jxy, Jy, Jyz], [Jxz, Jyz, Jz]])
+
+
+@pytest.fixture(scope="session")
+def default_brakings(default_device, default_virtual):
+    """The braking pass of each default stage (~0.3 s for both)."""
+    return {s: vd.simulate_braking(default_device, s, default_virtual) for s in STAGES}
+
+
+@pytest.fixture(scope="session")
+def default_ideal_reverses(default_device, default_virtual, default_brakings):
+    """The ideal reverse (exact mirror, ideal drive) of each default stage (~3.5 s for both)."""
+    return {
+        s: vd.simulate_ideal_reverse(default_device, s, default_virtual, default_brakings[s])
+        for s in STAGES
+    }

@@ -1,0 +1,101 @@
+"""The node formula and the least squares on exact data (estimation/balance.py, tensor.py).
+
+The smoother is left out: each pass is handed to the balances with the virtual device's true
+angle, speed and acceleration and its true (noise-free) torque, so whatever error is left is
+the formulas' own plus the simulator's. The reverse pass is the ideal reverse, the exact
+mirror of the braking (METHOD.md §4); with it the identified tensor of the virtual body must be
+that body's tensor (STYLE.md, principle 6).
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from estimation.balance import node_formula, stage_balance
+from estimation.energy import PassEstimate
+from estimation.smoothing import Smoothed
+from estimation.tensor import fit_tensor
+from plant import virtual as vd
+from plant.logs import Log
+from plant.model import acceleration, reduced_inertia
+from tests.estimation.conftest import STAGES, tensor
+
+EXACT_REL = 1e-6
+"""Relative tolerance on exact data. What is left: the integrator (energy conserved to 1e-9,
+tests/plant), the ideal reverse's speed mismatch (~1e-6 rad/s at several rad/s; the RSP
+formula removes its first-order effect, the plain formula does not), the Hermite
+interpolation between 1 ms rows (O(dphi^4), dphi ~ 1e-2 rad at stage 1's top speed). Together
+of order 1e-7 at the fastest stage; 1e-6 stays a decade below the smoother-limited accuracy
+(~1e-5) that the other tests check."""
+
+
+def exact_pass(sim: vd.SimulatedPass, params, direction: float) -> PassEstimate:
+    """A pass as estimate_pass would give it, but from the true states (no encoder, no noise)."""
+    truth = sim.truth
+    n = len(truth.t)
+    eps = np.asarray(
+        acceleration(truth.phi, truth.omega, truth.torque, params, direction=np.full(n, direction))
+    ).ravel()
+    smoothed = Smoothed(
+        t=truth.t,
+        phi=truth.phi,
+        omega=truth.omega,
+        eps=eps,
+        omega_std=np.full(n, 1e-6),  # any small constant: it only weights the equations
+        jerk_density=0.0,
+        bandwidth=100.0,  # sets the spacing of the balance angles (1 / w_c at top speed)
+    )
+    log = Log(t=truth.t, phi=truth.phi, torque=truth.torque)
+    return PassEstimate(
+        log=log,
+        smoothed=smoothed,
+        work=log.motor_work(),  # exact: the torque is held over each row (ZOH)
+        work_var_steps=np.concatenate([[0.0], np.cumsum(np.diff(truth.phi) ** 2)]),
+        sigma_torque=0.0,
+        source="exact",
+    )
+
+
+@pytest.fixture(scope="module")
+def exact_passes(default_device, default_virtual, default_brakings, default_ideal_reverses):
+    """{stage: (braking, reverse)} as exact PassEstimates."""
+    out = {}
+    for s in STAGES:
+        p = vd.true_parameters(default_device, s, default_virtual).vector
+        out[s] = (
+            exact_pass(default_brakings[s], p, +1.0),
+            exact_pass(default_ideal_reverses[s], p, -1.0),
+        )
+    return out
+
+
+@pytest.mark.parametrize("stage", STAGES)
+def test_node_formula_gives_the_true_reduced_inertia(
+    stage, default_device, default_virtual, exact_passes
+):
+    braking, reverse = exact_passes[stage]
+    p = vd.true_parameters(default_device, stage, default_virtual).vector
+    nodes = node_formula(default_device, stage, braking, reverse)
+    assert [n.node_deg for n in nodes] == list(default_device.stages[stage - 1].nodes_deg)
+    for n in nodes:
+        true_M = float(reduced_inertia(math.radians(n.node_deg), p))
+        assert n.pairs >= 1
+        assert n.M == pytest.approx(true_M, rel=EXACT_REL), n.node_deg
+        # On the exact mirror the paper's plain formula (6) holds as well.
+        assert n.M_plain == pytest.approx(true_M, rel=EXACT_REL), n.node_deg
+
+
+def test_least_squares_gives_the_true_tensor_and_centre_of_mass(
+    default_device, default_virtual, exact_passes
+):
+    balances = [stage_balance(default_device, s, *exact_passes[s]) for s in STAGES]
+    fit = fit_tensor(balances)
+    body = default_virtual.body
+    scale = np.linalg.eigvalsh(tensor(body.inertia)).max()
+    np.testing.assert_allclose(fit.entries, body.inertia, rtol=0, atol=EXACT_REL * scale)
+    # Gravity terms m g (x_c, y_c): the same relative tolerance on the torque m g |r_c|.
+    weight = body.mass * default_device.gravity
+    np.testing.assert_allclose(
+        fit.gravity / weight, body.com[:2], rtol=0, atol=EXACT_REL * np.linalg.norm(body.com[:2])
+    )

@@ -1,0 +1,129 @@
+"""Identification of the default experiment with the ideal reverse (estimation/identify.py).
+
+The whole chain as a user runs it (create the experiment, simulate the braking and the ideal
+reverse, identify from the files), compared with the virtual body of virtual.toml. Two bounds
+on every number: the reported standard deviation (4 std: a 4-sigma excursion has probability
+6e-5 per number, so over the ~20 numbers here a false alarm is a 1e-3 event), and the
+issue's accuracy targets.
+"""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from plant.experiment import open_experiment
+from rsp_inertia.pipeline import create_default_experiment, identify, simulate
+from tests.estimation.conftest import tensor
+
+ENTRY_NAMES = ("Jx", "Jy", "Jz", "Jxy", "Jyz", "Jxz")
+
+N_STD = 4.0
+"""Every estimate within this many of its reported standard deviations (module docstring)."""
+
+TARGET_AXIS_REL = 2e-5
+"""Issue target: each axial moment J_k within 2e-5 relative."""
+
+TARGET_ENTRY_REL = 2e-5
+"""Issue target: each tensor entry within 2e-5 of the largest principal moment."""
+
+TARGET_COM = 1e-4
+"""Issue target: centre of mass within 0.1 mm."""
+
+
+def axis(phi_deg: float, gear_ratio: float) -> np.ndarray:
+    """Instantaneous axis e = (lam sin phi, lam cos phi, 1) / sqrt(1 + lam^2) (METHOD.md §1)."""
+    phi = math.radians(phi_deg)
+    lam = gear_ratio
+    return np.array([lam * math.sin(phi), lam * math.cos(phi), 1.0]) / math.sqrt(1 + lam * lam)
+
+
+@pytest.fixture(scope="module")
+def ideal(tmp_path_factory):
+    """(root, result, truth): the default experiment identified from its ideal reverse (~8 s)."""
+    root = create_default_experiment(tmp_path_factory.mktemp("ideal"))
+    simulate(root, part="braking")
+    simulate(root, part="reverse", ideal=True)
+    result = identify(root)
+    exp = open_experiment(root)
+    return root, result, exp.load_virtual()
+
+
+def test_axial_moments_are_the_true_ones(ideal):
+    root, result, truth = ideal
+    device = open_experiment(root).device
+    J = tensor(truth.body.inertia)
+    nodes = [(k, deg) for k, st in enumerate(device.stages, 1) for deg in st.nodes_deg]
+    assert [(a.stage, a.phi_deg) for a in result.axes] == nodes
+    for a in result.axes:
+        e = axis(a.phi_deg, device.stages[a.stage - 1].gear_ratio)
+        np.testing.assert_allclose(a.direction, e, rtol=0, atol=1e-15)
+        true_J = e @ J @ e
+        label = f"stage {a.stage} node {a.phi_deg}"
+        assert abs(a.J - true_J) <= N_STD * a.J_std, label
+        # The issue's target. The reported J_std of stage 1's axes is itself of order 2e-5
+        # relative (torque-log noise), so this holds for the default realisation but the
+        # noise level does not guarantee it for every seed (see test_uncertainty).
+        assert abs(a.J - true_J) <= TARGET_AXIS_REL * true_J, label
+        # The node formula (the paper's method) is right within its own uncertainty.
+        assert abs(a.J_node - true_J) <= N_STD * a.J_node_std, label
+
+
+def test_tensor_entries_are_the_true_ones(ideal):
+    _, result, truth = ideal
+    scale = np.linalg.eigvalsh(tensor(truth.body.inertia)).max()
+    err = result.entries - truth.body.inertia
+    assert np.all(np.abs(err) <= N_STD * result.entries_std), err / result.entries_std
+    assert np.all(np.abs(err) <= TARGET_ENTRY_REL * scale), err / scale
+    node_std = np.sqrt(np.diag(result.node_entries_cov))
+    node_err = result.node_entries - truth.body.inertia
+    assert np.all(np.abs(node_err) <= N_STD * node_std), node_err / node_std
+
+
+def test_centre_of_mass_is_the_true_one(ideal):
+    _, result, truth = ideal
+    err = result.com - truth.body.com[:2]
+    assert np.all(np.abs(err) <= N_STD * result.com_std), err / result.com_std
+    assert np.all(np.abs(err) <= TARGET_COM), err
+
+
+def test_a_physical_body_raises_no_warning(ideal):
+    _, result, _ = ideal
+    assert result.warnings == []
+
+
+def test_result_json_holds_the_interface(ideal):
+    root, result, _ = ideal
+    doc = json.loads((root / "result.json").read_text())
+    assert set(doc["tensor"]) == set(ENTRY_NAMES)
+    assert set(doc["tensor_std"]) == set(ENTRY_NAMES)
+    np.testing.assert_array_equal([doc["tensor"][k] for k in ENTRY_NAMES], result.entries)
+    np.testing.assert_array_equal([doc["tensor_std"][k] for k in ENTRY_NAMES], result.entries_std)
+    assert len(doc["axes"]) == len(result.axes)
+    for entry, a in zip(doc["axes"], result.axes, strict=True):
+        assert {"stage", "phi_deg", "direction", "J", "J_std"} <= set(entry)
+        assert (entry["stage"], entry["phi_deg"], entry["J"], entry["J_std"]) == (
+            a.stage, a.phi_deg, a.J, a.J_std
+        )
+        assert entry["direction"] == pytest.approx(list(a.direction), abs=0)
+    assert set(doc["com"]) == {"x", "y"}
+    assert [doc["com"]["x"], doc["com"]["y"]] == list(result.com)
+    assert doc["warnings"] == []
+    # The icosahedron design (METHOD.md §5): cond(V) = sqrt(5/2). The gear ratios in
+    # device.toml carry ten decimals, which moves it by far less than 1e-9.
+    assert doc["condition_number"] == pytest.approx(math.sqrt(5 / 2), abs=1e-9)
+
+
+def test_principal_moments_and_axes_diagonalise_the_tensor(ideal):
+    root, _, _ = ideal
+    doc = json.loads((root / "result.json").read_text())
+    J = tensor([doc["tensor"][k] for k in ENTRY_NAMES])
+    moments = np.array(doc["principal_moments"])
+    axes = np.array(doc["principal_axes"])
+    scale = np.abs(moments).max()
+    # Rounding only: eigen-decomposition of a 3x3 symmetric matrix, relative 1e-14.
+    np.testing.assert_allclose(np.sort(moments), np.linalg.eigvalsh(J), rtol=0, atol=1e-13 * scale)
+    np.testing.assert_allclose(axes @ axes.T, np.eye(3), rtol=0, atol=1e-12)
+    for m, v in zip(moments, axes, strict=True):
+        np.testing.assert_allclose(J @ v, m * v, rtol=0, atol=1e-13 * scale)

@@ -1,0 +1,127 @@
+"""The reported uncertainty against a Monte Carlo of the virtual device.
+
+Each realisation is the default experiment (both stages, ideal reverse) with its own
+torque-noise seed and a release angle moved by a random fraction of a degree, so that the
+encoder's quantization pattern changes too. Errors are taken against the virtual body; a
+reported standard deviation is honest when the errors scatter like it.
+"""
+
+import re
+
+import numpy as np
+import pytest
+from scipy.stats import chi2
+
+from plant.experiment import open_experiment
+from rsp_inertia.pipeline import create_default_experiment, identify, simulate
+from tests.estimation.conftest import tensor
+
+RELEASE_JITTER_DEG = 0.5
+"""Release angles are drawn uniformly within this of the default (up to ~90 counts away)."""
+
+
+def _set(text: str, key: str, value) -> str:
+    text, count = re.subn(rf"(?m)^{key}\s*=\s*\S+", f"{key} = {value!r}", text)
+    assert count == 1, f"virtual.toml has no single {key}"
+    return text
+
+
+def realisation(root, seed: int, release_deg: float) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Identify one realisation; its errors and reported stds, by family of estimates."""
+    create_default_experiment(root)
+    path = root / "virtual.toml"
+    text = _set(path.read_text(), "seed", seed)
+    path.write_text(_set(text, "release_angle_deg", release_deg))
+    simulate(root, part="braking")
+    simulate(root, part="reverse", ideal=True)
+    result = identify(root)
+    body = open_experiment(root).load_virtual().body
+    J = tensor(body.inertia)
+    true_axes = np.array([a.direction @ J @ a.direction for a in result.axes])
+    return {
+        "tensor entries": (result.entries - body.inertia, result.entries_std),
+        "centre of mass": (result.com - body.com[:2], result.com_std),
+        "axial moments": (
+            np.array([a.J for a in result.axes]) - true_axes,
+            np.array([a.J_std for a in result.axes]),
+        ),
+        "node formula": (
+            np.array([a.J_node for a in result.axes]) - true_axes,
+            np.array([a.J_node_std for a in result.axes]),
+        ),
+    }
+
+
+def draws(n: int, entropy: int, virtual) -> list[tuple[int, float]]:
+    """n (seed, release angle) pairs around ``virtual``'s run settings, reproducible."""
+    rng = np.random.default_rng(entropy)
+    default = virtual.run.release_angle_deg
+    return [
+        (int(rng.integers(1, 2**31)), default + float(rng.uniform(-1, 1)) * RELEASE_JITTER_DEG)
+        for _ in range(n)
+    ]
+
+
+def test_errors_stay_within_five_std(tmp_path, default_virtual):
+    # Two realisations only (~13 s): a gross check that the reported
+    # uncertainty is not overconfident. 5 std: probability 6e-7 per number for honest stds.
+    for k, (seed, release) in enumerate(draws(2, entropy=20240611, virtual=default_virtual)):
+        families = realisation(tmp_path / f"r{k}", seed, release)
+        for name, (err, std) in families.items():
+            assert np.all(np.abs(err) < 5 * std), (name, seed, release, err / std)
+
+
+N_REALISATIONS = 10
+
+
+@pytest.fixture(scope="module")
+def monte_carlo(tmp_path_factory, default_virtual):
+    """{family: (errors, stds)} stacked over N_REALISATIONS realisations (~8 s each)."""
+    pairs = draws(N_REALISATIONS, entropy=7, virtual=default_virtual)
+    runs = [
+        realisation(tmp_path_factory.mktemp(f"mc{k}"), seed, release)
+        for k, (seed, release) in enumerate(pairs)
+    ]
+    return {
+        name: (np.array([r[name][0] for r in runs]), np.array([r[name][1] for r in runs]))
+        for name in runs[0]
+    }
+
+
+def honest_band(n: int, tail: float = 1e-3) -> tuple[float, float]:
+    """Band that holds the mean of n independent (error/std)^2 with probability 1 - 2 tail.
+
+    For honest standard deviations and Gaussian errors the mean is chi^2_n / n.
+    """
+    return chi2.ppf(tail, n) / n, chi2.ppf(1 - tail, n) / n
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("family", ["tensor entries", "centre of mass", "axial moments"])
+def test_least_squares_std_matches_the_scatter(family, monte_carlo):
+    err, std = monte_carlo[family]
+    mean_sq = float(np.mean((err / std) ** 2))
+    # Within a realisation the numbers of a family are correlated (the six axial moments
+    # come from one tensor, stage 1's three axes share Jz). The least favourable case, full
+    # correlation, leaves one independent square per realisation: n = N_REALISATIONS, a band
+    # of [0.15, 2.96] for 10. Less correlation only narrows the true spread.
+    lo, hi = honest_band(N_REALISATIONS)
+    assert lo < mean_sq < hi, (family, mean_sq)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="J_node_std overstates the scatter ~2.5-3x: node_formula (estimation/balance.py) "
+    "combines a node's one-turn pairs as independent although consecutive pairs share a "
+    "passage, and the smoother's omega_std is ~1.5x the actual speed error",
+)
+def test_node_formula_std_matches_the_scatter(monte_carlo):
+    err, std = monte_carlo["node formula"]
+    mean_sq = float(np.mean((err / std) ** 2))
+    # The node formula's std is almost all speed noise (the torque-noise part is under one
+    # per cent of its variance), sampled at nodes 60 deg or more apart, where the smoother's
+    # errors (correlated over 1 / w_c, a few hundredths of a radian) are independent: each
+    # number is its own square, n = 6 N_REALISATIONS, a band of [0.55, 1.65] for 60.
+    lo, hi = honest_band(err.size)
+    assert lo < mean_sq < hi, mean_sq
