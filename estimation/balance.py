@@ -52,17 +52,23 @@ def _spring_potential(phi: np.ndarray, device: Device) -> np.ndarray:
     return c / 2 * (phi - phi0) ** 2
 
 
+MIN_TURNS = 2.0
+"""Turns both passes must share at useful speed: every node then has at least one whole-turn
+pair, and the least squares sees M's pattern repeat (METHOD.md §4: at least two turns)."""
+
+
 def usable_range(braking: PassEstimate, reverse: PassEstimate, stage: int) -> tuple[float, float]:
     """Angles covered by both passes, at a braking speed worth balancing (constants above)."""
     b, r = braking.smoothed, reverse.smoothed
     lo = max(b.phi[0], r.phi[-1]) + EDGE_MARGIN
     fast = np.nonzero(b.omega >= MIN_SPEED_FRACTION * b.omega.max())[0]
     hi = min(b.phi[fast[-1]], r.phi[0]) - EDGE_MARGIN
-    if hi - lo < 2 * math.pi:
+    if hi - lo < MIN_TURNS * 2 * math.pi:
         raise InputError(
-            f"stage {stage}: the braking and reverse logs overlap over {max(hi - lo, 0) / (2 * math.pi):.2f} "
-            "turns at useful speed; at least 2 full turns are needed (longer braking: lower "
-            "braking_torque or higher launch_speed)"
+            f"{braking.source} and {reverse.source}: stage {stage}: the passes overlap over "
+            f"{max(hi - lo, 0) / (2 * math.pi):.2f} turns at useful speed; at least "
+            f"{MIN_TURNS:g} full turns are needed (a longer braking: lower braking_torque or "
+            "higher launch_speed)"
         )
     return lo, hi
 
@@ -139,14 +145,20 @@ class NodeEstimate:
 
 
 def node_formula(
-    device: Device, stage: int, braking: PassEstimate, reverse: PassEstimate
+    device: Device,
+    stage: int,
+    braking: PassEstimate,
+    reverse: PassEstimate,
+    speed_noise_scale: float = 1.0,
 ) -> list[NodeEstimate]:
     """M at each node of the stage from every one-turn pair (phi_a, phi_a + 2 pi).
 
     METHOD.md §5: M = 2 (A' - A + 2 dPi) / (Omega_a^2 + Omega'_a^2 - Omega_b^2 - Omega'_b^2),
     and the paper's plain form M = (A' - A + 2 dPi) / (Omega_a^2 - Omega_b^2). Gravity cancels
-    over whole turns; dPi is the spring's. Pairs are combined by their inverse variances
-    (speed noise from the smoothers, work noise from the torque logs).
+    over whole turns; dPi is the spring's. Pairs are combined by generalised least squares
+    (:func:`_combine_pairs`): speed noise from the smoothers, its variance times
+    ``speed_noise_scale`` (the calibration that the least squares finds on its residuals,
+    estimation.tensor), and work noise from the torque logs.
     """
     st = device.stages[stage - 1]
     lo, hi = usable_range(braking, reverse, stage)
@@ -156,9 +168,9 @@ def node_formula(
         passages = np.arange(first, hi, 2 * math.pi)
         if passages.size < 2:
             raise InputError(
-                f"stage {stage}: node {node_deg:g} deg: the passes cover no whole turn from it "
-                f"at useful speed ({passages.size} passage(s) in the common range); the braking "
-                "must cover more turns"
+                f"{braking.source}: stage {stage}: node {node_deg:g} deg: the passes cover no "
+                f"whole turn from it at useful speed ({passages.size} passage(s) in the common "
+                "range); the braking must cover more turns"
             )
         b = sample_at(braking, passages)
         r = sample_at(reverse, passages)
@@ -170,26 +182,47 @@ def node_formula(
         num_var = braking.sigma_torque**2 * (b.work_var_steps[b_] - b.work_var_steps[a_])
         num_var += reverse.sigma_torque**2 * (r.work_var_steps[a_] - r.work_var_steps[b_])
         wb2, wr2 = b.omega**2, r.omega**2
-        vb = 4 * wb2 * b.omega_std**2
-        vr = 4 * wr2 * r.omega_std**2
+        vb = 4 * wb2 * b.omega_std**2 * speed_noise_scale
+        vr = 4 * wr2 * r.omega_std**2 * speed_noise_scale
         den = wb2[a_] + wr2[a_] - wb2[b_] - wr2[b_]
-        den_var = vb[a_] + vr[a_] + vb[b_] + vr[b_]
         M = 2 * num / den
-        M_var = M**2 * (num_var / num**2 + den_var / den**2)
-        den_plain = wb2[a_] - wb2[b_]
-        M_plain = num / den_plain
-        M_plain_var = M_plain**2 * (num_var / num**2 + (vb[a_] + vb[b_]) / den_plain**2)
-        w = 1 / M_var
-        w_plain = 1 / M_plain_var
+        M_plain = num / (wb2[a_] - wb2[b_])
+        M_mean, M_std = _combine_pairs(M, num_var, den, vb + vr)
+        P_mean, P_std = _combine_pairs(M_plain, num_var / 4, wb2[a_] - wb2[b_], vb)
         estimates.append(
             NodeEstimate(
                 stage=stage,
                 node_deg=float(node_deg),
-                M=float(np.sum(w * M) / np.sum(w)),
-                M_std=float(1 / math.sqrt(np.sum(w))),
-                M_plain=float(np.sum(w_plain * M_plain) / np.sum(w_plain)),
-                M_plain_std=float(1 / math.sqrt(np.sum(w_plain))),
+                M=M_mean,
+                M_std=M_std,
+                M_plain=P_mean,
+                M_plain_std=P_std,
                 pairs=int(M.size),
             )
         )
     return estimates
+
+
+def _combine_pairs(M, num_var, den, passage_var) -> tuple[float, float]:
+    """Generalised mean of the consecutive pairs' M, with its standard deviation.
+
+    Pair i runs from passage i to i+1, so consecutive pairs share a passage: the speed error
+    there enters pair i's denominator with a minus sign and pair i+1's with a plus sign. To
+    first order dM_i = 2 dN_i / den_i - M_i dden_i / den_i with dden_i = dS_i - dS_{i+1};
+    the work errors dN_i are over disjoint stretches (independent), the passages' speed
+    errors dS_j independent, which makes the pairs' covariance tridiagonal:
+
+        var_i = (2/den_i)^2 var N_i + (M_i/den_i)^2 (var S_i + var S_{i+1})
+        cov_{i,i+1} = -(M_i/den_i)(M_{i+1}/den_{i+1}) var S_{i+1}
+
+    ``passage_var`` holds var S_j at every passage (len(M) + 1 of them). For the plain
+    formula M = N / den, pass var N / 4 (the factor 2 above).
+    """
+    g = M / den
+    cov = np.diag((2 / den) ** 2 * num_var + g**2 * (passage_var[:-1] + passage_var[1:]))
+    off = -g[:-1] * g[1:] * passage_var[1:-1]
+    cov += np.diag(off, 1) + np.diag(off, -1)
+    ones = np.ones_like(M)
+    weights = np.linalg.solve(cov, ones)
+    total = float(ones @ weights)
+    return float(weights @ M / total), float(1 / math.sqrt(total))

@@ -150,6 +150,8 @@ class Identification:
     """Least squares: residual chi^2 per degree of freedom."""
     n_equations: int
     """Least squares: balance angles used."""
+    speed_noise_scale: float
+    """Least squares: factor on the smoothers' speed variances fitted to the residuals."""
     warnings: list[str] = field(default_factory=list)
     """Physical-sense and design warnings."""
     pendulum: PendulumResult | None = None
@@ -201,7 +203,11 @@ class Identification:
                 "m_g_yc": float(self.gravity[1]),
                 "std": [float(s) for s in self.gravity_std],
             },
-            "least_squares": {"equations": self.n_equations, "chi2_dof": self.chi2_dof},
+            "least_squares": {
+                "equations": self.n_equations,
+                "chi2_dof": self.chi2_dof,
+                "speed_noise_scale": self.speed_noise_scale,
+            },
             "warnings": list(self.warnings),
             "pendulum": None if self.pendulum is None else self.pendulum.to_json(),
         }
@@ -221,7 +227,7 @@ def identify(
     say = progress or (lambda _text: None)
     device = exp.device
     q = device.encoder.quantum
-    balances, nodes = [], []
+    balances, passes = [], []
     for stage in exp.stages():
         b_path, r_path = exp.braking_path(stage), exp.reverse_path(stage)
         braking = read_log(b_path, device.encoder, "braking")
@@ -230,8 +236,14 @@ def identify(
         b_est = estimate_pass(braking, q, str(b_path))
         r_est = estimate_pass(reverse, q, str(r_path))
         balances.append(stage_balance(device, stage, b_est, r_est))
-        nodes.extend(node_formula(device, stage, b_est, r_est))
+        passes.append((stage, b_est, r_est))
         say(f"stage {stage}: {len(braking)} + {len(reverse)} rows smoothed and balanced")
+    fit = fit_tensor(balances)
+    nodes = [
+        node
+        for stage, b_est, r_est in passes
+        for node in node_formula(device, stage, b_est, r_est, fit.speed_noise_scale)
+    ]
 
     directions = np.array(
         [
@@ -250,7 +262,6 @@ def identify(
     if cond > WARN_CONDITION:
         warnings.append(f"the axis design is poorly conditioned: cond(V) = {cond:.3g}")
 
-    fit = fit_tensor(balances)
     J_ls, J_ls_std = axis_values(fit.entries, fit.entries_cov, directions)
     J_node, J_node_std, J_plain, J_plain_std = [], [], [], []
     for n in nodes:
@@ -299,6 +310,7 @@ def identify(
         condition_number=cond,
         chi2_dof=fit.chi2_dof,
         n_equations=fit.n_equations,
+        speed_noise_scale=fit.speed_noise_scale,
         warnings=warnings,
         pendulum=pendulum,
     )

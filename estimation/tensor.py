@@ -11,16 +11,18 @@ entries, so that all stages share one set of unknowns). Each balance angle of st
 Gc = m g y_c shared by all stages, and one constant per stage. Weighted (generalised) least
 squares: the covariance of the equations is the torque logs' random walks (exact, from the
 logs' noise) plus the speed noise, 1/4 M^2 var(S) on the diagonal (M from a first unweighted
-pass). The covariance of the estimate is scaled by the residuals' chi^2 per degree of
-freedom, so that whatever the noise model misses shows in the standard deviations.
+pass). The speed noise's size is calibrated on the residuals (:func:`fit_tensor`), so that
+the standard deviations follow what the data show.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
+from scipy.optimize import brentq
 
 from estimation.balance import StageBalance
 from plant.geometry import design_matrix, tensor_from_entries
@@ -49,6 +51,8 @@ class TensorFit:
     """(2, 2) covariance, N^2 m^2."""
     chi2_dof: float
     """Residual chi^2 per degree of freedom of the weighted fit (1 when the noise model fits)."""
+    speed_noise_scale: float
+    """Factor applied to the smoothers' speed variances so that chi^2/dof = 1."""
     n_equations: int
     """Balance angles used, all stages."""
 
@@ -63,51 +67,75 @@ def _rows(bal: StageBalance) -> np.ndarray:
     return np.column_stack([0.5 * bal.speed_sq[:, None] * v, 2 * np.sin(bal.phi), 2 * np.cos(bal.phi)])
 
 
+def _whitened(A: np.ndarray, y: np.ndarray, covs: list[np.ndarray]):
+    """A and y multiplied by the inverse Cholesky factor of the block-diagonal covariance."""
+    Aw, yw, start = [], [], 0
+    for cov in covs:
+        n = cov.shape[0]
+        L = np.linalg.cholesky(cov)
+        Aw.append(scipy.linalg.solve_triangular(L, A[start : start + n], lower=True))
+        yw.append(scipy.linalg.solve_triangular(L, y[start : start + n], lower=True))
+        start += n
+    return np.vstack(Aw), np.concatenate(yw)
+
+
 def fit_tensor(balances: list[StageBalance]) -> TensorFit:
-    """Generalised least squares for the tensor and the gravity terms (module docstring)."""
+    """Generalised least squares for the tensor and the gravity terms (module docstring).
+
+    The covariance of the equations has two parts: the torque logs' random walks, known
+    from the logs' own noise, and the speed noise, whose size the smoothers only estimate
+    (their standard deviations run ~1.5x the actual errors). The speed part is therefore
+    scaled by the factor s that makes the residuals' chi^2 per degree of freedom 1 (a root
+    found in log s). If even s -> 0 leaves chi^2/dof above 1 (something the noise model does
+    not contain), the whole covariance of the estimate is scaled by the remaining chi^2/dof.
+    """
     n_stages = len(balances)
-    blocks, rhs, covs = [], [], []
+    blocks, rhs = [], []
     for s, bal in enumerate(balances):
-        shared = _rows(bal)
         const = np.zeros((len(bal.phi), n_stages))
         const[:, s] = -1.0
-        blocks.append(np.hstack([shared, const]))
+        blocks.append(np.hstack([_rows(bal), const]))
         rhs.append(bal.work - 0.5 * bal.speed_sq * bal.tare_inertia)
     A = np.vstack(blocks)
     y = np.concatenate(rhs)
     # First pass, unweighted: the reduced inertia at each angle for the speed-noise weights.
     x0, *_ = np.linalg.lstsq(A, y, rcond=None)
+    speed_var = []
     for bal in balances:
         lam = bal.gear_ratio
         w = np.column_stack(
             [lam * np.sin(bal.phi), lam * np.cos(bal.phi), np.ones_like(bal.phi)]
         )
         M = design_matrix(w) @ x0[:6] + bal.tare_inertia
-        cov = bal.work_cov + np.diag(0.25 * M**2 * bal.speed_sq_var)
-        covs.append(cov)
-    # Whitening stage by stage (block-diagonal covariance).
-    Aw, yw = [], []
-    start = 0
-    for cov in covs:
-        n = cov.shape[0]
-        L = np.linalg.cholesky(cov + np.eye(n) * 1e-30)
-        Aw.append(scipy.linalg.solve_triangular(L, A[start : start + n], lower=True))
-        yw.append(scipy.linalg.solve_triangular(L, y[start : start + n], lower=True))
-        start += n
-    Aw = np.vstack(Aw)
-    yw = np.concatenate(yw)
-    x, *_ = np.linalg.lstsq(Aw, yw, rcond=None)
-    resid = yw - Aw @ x
-    dof = max(len(yw) - Aw.shape[1], 1)
-    chi2_dof = float(resid @ resid / dof)
-    cov_x = np.linalg.pinv(Aw.T @ Aw) * chi2_dof
+        speed_var.append(0.25 * M**2 * bal.speed_sq_var)
+    dof = max(len(y) - A.shape[1], 1)
+
+    def solve(scale: float):
+        covs = [bal.work_cov + np.diag(scale * v) for bal, v in zip(balances, speed_var)]
+        Aw, yw = _whitened(A, y, covs)
+        x, *_ = np.linalg.lstsq(Aw, yw, rcond=None)
+        r = yw - Aw @ x
+        return x, Aw, float(r @ r / dof)
+
+    lo, hi = 1e-4, 1e4
+    if solve(hi)[2] >= 1.0:
+        scale = hi
+    elif solve(lo)[2] <= 1.0:
+        scale = lo
+    else:
+        scale = math.exp(
+            brentq(lambda ls: math.log(solve(math.exp(ls))[2]), math.log(lo), math.log(hi), xtol=1e-3)
+        )
+    x, Aw, chi2_dof = solve(scale)
+    cov_x = np.linalg.pinv(Aw.T @ Aw) * max(chi2_dof, 1.0)
     return TensorFit(
         entries=x[:6],
         entries_cov=cov_x[:6, :6],
         gravity=x[6:8],
         gravity_cov=cov_x[6:8, 6:8],
         chi2_dof=chi2_dof,
-        n_equations=len(yw),
+        speed_noise_scale=scale,
+        n_equations=len(y),
     )
 
 

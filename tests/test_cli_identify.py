@@ -111,11 +111,6 @@ def too_few_turns(root, capsys):
     return identify_fails(root, capsys), paths
 
 
-FILE_NOT_NAMED = pytest.mark.xfail(
-    strict=True,
-    reason="bug: estimation/balance.py usable_range and node_formula raise InputError naming "
-    "'stage N' but neither log file (PassEstimate.source is at hand)",
-)
 
 
 def test_logs_that_do_not_overlap(experiment, capsys):
@@ -124,7 +119,6 @@ def test_logs_that_do_not_overlap(experiment, capsys):
     assert "overlap" in err
 
 
-@FILE_NOT_NAMED
 def test_logs_that_do_not_overlap_name_a_file(experiment, capsys):
     err, (b_path, r_path) = no_overlap(experiment, capsys)
     assert str(r_path) in err or str(b_path) in err
@@ -136,7 +130,6 @@ def test_too_few_turns_for_a_node(experiment, capsys):
     assert "node" in err
 
 
-@FILE_NOT_NAMED
 def test_too_few_turns_for_a_node_name_a_file(experiment, capsys):
     err, (b_path, r_path) = too_few_turns(experiment, capsys)
     assert str(r_path) in err or str(b_path) in err

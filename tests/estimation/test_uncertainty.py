@@ -110,12 +110,6 @@ def test_least_squares_std_matches_the_scatter(family, monte_carlo):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="J_node_std overstates the scatter ~2.5-3x: node_formula (estimation/balance.py) "
-    "combines a node's one-turn pairs as independent although consecutive pairs share a "
-    "passage, and the smoother's omega_std is ~1.5x the actual speed error",
-)
 def test_node_formula_std_matches_the_scatter(monte_carlo):
     err, std = monte_carlo["node formula"]
     mean_sq = float(np.mean((err / std) ** 2))
