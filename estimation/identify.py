@@ -234,7 +234,9 @@ def identify(
         check_braking_monotone(braking, str(b_path))
         reverse = read_log(r_path, device.encoder, "reverse")
         b_est = estimate_pass(braking, q, str(b_path))
-        r_est = estimate_pass(reverse, q, str(r_path))
+        # The torque channel's logging noise shows cleanly only in the braking log (constant
+        # applied torque); the reverse's own changes are largely real regulator torque.
+        r_est = estimate_pass(reverse, q, str(r_path), sigma_torque=b_est.sigma_torque)
         balances.append(stage_balance(device, stage, b_est, r_est))
         passes.append((stage, b_est, r_est))
         say(f"stage {stage}: {len(braking)} + {len(reverse)} rows smoothed and balanced")

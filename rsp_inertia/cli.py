@@ -33,6 +33,12 @@ def _cmd_simulate(args: argparse.Namespace) -> None:
     )
 
 
+def _cmd_program(args: argparse.Namespace) -> None:
+    from rsp_inertia.pipeline import program
+
+    program(args.exp, args.stage, progress=lambda text: print(text, flush=True))
+
+
 def _cmd_identify(args: argparse.Namespace) -> None:
     from rsp_inertia.pipeline import format_identification, identify
 
@@ -75,6 +81,11 @@ def _parser() -> argparse.ArgumentParser:
         help="with --part reverse: the exact mirror on an ideal drive (no program needed)",
     )
     p.set_defaults(run=_cmd_simulate)
+
+    p = sub.add_parser("program", help="stageN/braking.csv -> stageN/program.csv")
+    p.add_argument("exp", type=Path, metavar="EXP", help="experiment folder")
+    p.add_argument("--stage", type=int, help="one stage (from 1); default: all")
+    p.set_defaults(run=_cmd_program)
 
     p = sub.add_parser("identify", help="all stages' logs -> EXP/result.json")
     p.add_argument("exp", type=Path, metavar="EXP", help="experiment folder")

@@ -33,12 +33,14 @@ DEFAULT_OPENINGS_DEG = np.linspace(10.0, 175.0, 661)
 
 def _axes_table(design: AxisDesign) -> list[str]:
     """One line per axis: stage, lambda, cone opening, node, direction."""
-    lines = [
+    header = (
         f"  {'axis':>4} {'stage':>5} {'lambda':>9} {'2beta[deg]':>10} {'node[deg]':>9}"
         f" {'ex':>9} {'ey':>9} {'ez':>9}"
-    ]
+    )
+    lines = [header]
     for k, (stage, lam, phi, e) in enumerate(
-        zip(design.stages, design.gear_ratios, design.phis, design.directions), start=1
+        zip(design.stages, design.gear_ratios, design.phis, design.directions, strict=True),
+        start=1,
     ):
         opening = 2.0 * np.degrees(np.arctan(abs(lam)))
         lines.append(
@@ -125,17 +127,23 @@ def plot_cone_conditioning(
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
     ax.plot(openings, rcond, color="C0", label="five axes on a cone + z axis")
-    ax.axhline(ico_rcond, color="C2", linestyle="--",
-               label=f"icosahedron (two stages): {ico_rcond:.4f}")
-    ax.plot([best_deg], [1.0 / best_cond], "o", color="C3",
-            label=f"optimum 2\u03b2 = {best_deg:.2f}\u00b0, cond(V) = {best_cond:.4f}")
+    ax.axhline(
+        ico_rcond, color="C2", linestyle="--", label=f"icosahedron (two stages): {ico_rcond:.4f}"
+    )
+    ax.plot(
+        [best_deg],
+        [1.0 / best_cond],
+        "o",
+        color="C3",
+        label=f"optimum 2\u03b2 = {best_deg:.2f}\u00b0, cond(V) = {best_cond:.4f}",
+    )
     ax.axvline(best_deg, color="C3", linewidth=0.8, alpha=0.5)
     ax.set_xlabel("cone opening angle 2\u03b2 [deg]")
     ax.set_ylabel("1 / cond(V)")
     ax.set_title("Conditioning of the design matrix V (paper Fig. 1)")
     ax.set_ylim(bottom=0.0)
     ax.grid(True, alpha=0.3)
-    ax.legend(loc="lower center", fontsize="small")
+    ax.legend(loc="upper left", fontsize="small")
     fig.tight_layout()
 
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".png", dir=path.parent)

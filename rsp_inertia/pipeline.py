@@ -21,7 +21,8 @@ from estimation.identify import identify as identify_experiment
 from plant.errors import InputError
 from plant.experiment import Experiment, open_experiment
 from plant.geometry import tensor_from_entries
-from plant.logs import read_log, read_program, write_atomic, write_log
+from ocp.make import ProgramResult, make_program
+from plant.logs import read_log, read_program, write_atomic, write_log, write_program
 from plant.virtual import (
     SimulatedPass,
     run_program,
@@ -35,6 +36,7 @@ __all__ = [
     "PassSummary",
     "create_default_experiment",
     "simulate",
+    "program",
     "identify",
     "format_identification",
     "demo",
@@ -204,6 +206,35 @@ def simulate(
     return summaries
 
 
+def program(
+    root: str | Path,
+    stage: int | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> list[ProgramResult]:
+    """``rsp-inertia program``: stageN/braking.csv -> stageN/program.csv (written atomically).
+
+    Reads only device.toml and the braking log. Nothing is written for a stage whose mirror
+    the motor cannot drive (the error says what torque it needs).
+    """
+    exp = open_experiment(root)
+    results = []
+    for st in exp.stages(stage):
+        path = exp.braking_path(st)
+        braking = read_log(path, exp.device.encoder, "braking")
+        result = make_program(exp.device, st, braking, str(path))
+        write_program(exp.program_path(st), result.program)
+        if progress is not None:
+            prog = result.program
+            progress(
+                f"stage {st}: program: {len(prog.t)} rows over {prog.t[-1]:.2f} s, peak torque "
+                f"{abs(prog.torque_ff).max():.3f} N m, k_phi {prog.k_phi.mean():.3g} N m/rad, "
+                f"k_omega {prog.k_omega.mean():.3g} N m s/rad, OCP {result.ocp.iterations} "
+                f"iterations; {result.seconds:.2f} s -> {exp.program_path(st)}"
+            )
+        results.append(result)
+    return results
+
+
 def identify(
     root: str | Path, progress: Callable[[str], None] | None = None
 ) -> Identification:
@@ -272,15 +303,16 @@ def demo(
 ) -> Identification:
     """``rsp-inertia demo``: build the default experiment and run it on the virtual device.
 
-    For now: the default experiment (paper scenario, icosahedron stages), every stage's
-    braking pass, the ideal reverse (the torque program comes with the OCP work), and the
+    The default experiment (paper scenario, icosahedron stages): every stage's braking pass,
+    its torque program, the closed-loop reverse pass, the torsion-pendulum runs, and the
     identification, printed against the virtual device's true tensor.
     """
     say = progress or (lambda _text: None)
     root = create_default_experiment(root)
     say(f"experiment folder: {root}")
     simulate(root, part="braking", progress=lambda s: say(str(s)))
-    simulate(root, part="reverse", ideal=True, progress=lambda s: say(str(s)))
+    program(root, progress=say)
+    simulate(root, part="reverse", progress=lambda s: say(str(s)))
     if open_experiment(root).device.pendulum is not None:
         simulate(root, part="pendulum", progress=lambda s: say(str(s)))
     result = identify(root, progress=say)
