@@ -1,10 +1,13 @@
-"""`rsp-inertia design`: the report and the Fig. 1 plot through the command line."""
+"""Axis-design report and Fig. 1 (METHOD.md §5), directly and through `rsp-inertia design`."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
+from plant.geometry import best_cone_opening, cone_plus_z_design, icosahedron_design
 from rsp_inertia.cli import main
+from rsp_inertia.design import design_report, plot_cone_conditioning
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -36,3 +39,39 @@ def test_design_of_a_missing_experiment_is_one_line(tmp_path, capsys):
     assert main(["design", str(tmp_path / "nowhere")]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "device.toml" in err
+
+
+def test_report_states_the_icosahedron_and_the_cone_optimum() -> None:
+    opening, _ = best_cone_opening()
+    report = design_report([icosahedron_design(), cone_plus_z_design(opening)])
+    assert "icosahedron" in report
+    # arccos(1/sqrt 5) = 63.4349 deg between every pair of axes; cond(V) = sqrt(5/2).
+    assert "63.43" in report
+    assert "cond(V) = 1.5811" in report
+    reported = float(re.search(r"2beta = ([0-9.]+) deg", report).group(1))
+    assert abs(reported - 142.0) < 1.0
+    assert "cond(V) = 1.4892" in report
+
+
+def test_report_lists_every_axis() -> None:
+    report = design_report([icosahedron_design()])
+    # One table row per axis: index, stage, lambda, 2beta, node, ex, ey, ez.
+    axis_row = re.compile(r"\s+\d+\s+[12]" + r"\s+-?\d+\.\d+" * 6 + r"\s*$")
+    rows = [line for line in report.splitlines() if axis_row.match(line)]
+    assert len(rows) == 6
+
+
+def test_plot_writes_a_png(tmp_path: Path) -> None:
+    out = tmp_path / "cone_conditioning.png"
+    plot_cone_conditioning(out)
+    data = out.read_bytes()
+    assert data.startswith(PNG_SIGNATURE)
+    assert len(data) > 1000
+    # Atomic write: no temporary file left behind.
+    assert [p.name for p in tmp_path.iterdir()] == [out.name]
+
+
+def test_plot_accepts_its_own_openings(tmp_path: Path) -> None:
+    out = tmp_path / "coarse.png"
+    plot_cone_conditioning(str(out), openings_deg=[60.0, 100.0, 140.0, 170.0])
+    assert out.read_bytes().startswith(PNG_SIGNATURE)
