@@ -7,7 +7,6 @@ The geometry itself (directions, V, cond(V), the optimum cone) lives in
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +23,7 @@ from plant.geometry import (
     icosahedron_design,
     rcond_curve,
 )
+from rsp_inertia.plots import save_figure
 
 __all__ = ["DEFAULT_OPENINGS_DEG", "design_report", "plot_cone_conditioning", "run_design"]
 
@@ -146,17 +146,7 @@ def plot_cone_conditioning(
     ax.legend(loc="upper left", fontsize="small")
     fig.tight_layout()
 
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".png", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            fig.savefig(f, format="png")
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp's 0600 would hide the figure from others
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    save_figure(fig, path)
 
 
 def run_design(exp: Path | None = None, plot: Path | None = None) -> str:
