@@ -50,6 +50,7 @@ __all__ = [
     "simulate_ideal_reverse",
     "pendulum_parameters",
     "simulate_pendulum",
+    "free_motion",
     "SpeedObserver",
     "encoder_reading",
 ]
@@ -447,19 +448,13 @@ def pendulum_parameters(device: Device, stage: int, virtual: Virtual, node: int)
     )
 
 
-def simulate_pendulum(device: Device, stage: int, virtual: Virtual, node: int) -> SimulatedPass:
-    """Torsion-pendulum run at node ``node`` (0-based) of a stage: motor off, free oscillation.
+def _free_motion(x0: np.ndarray, p: np.ndarray, n: int, dt: float, coulomb: float) -> np.ndarray:
+    """True states at n samples of a motion with the motor off (u = 0), stops included.
 
-    Released at rest, ``amplitude_deg`` past the node, and logged for ``duration`` seconds;
-    each stop (twice a period) is an event with static friction, as in every pass.
-    The logged torque is the motor's: zero, plus the log's noise.
+    Between stops whole blocks are integrated at once; the sample holding a stop goes
+    through :func:`_advance` (event and static friction).
     """
-    params = pendulum_parameters(device, stage, virtual, node)
-    p = params.vector
-    dt = device.encoder.dt
-    n = int(round(device.pendulum.duration / dt)) + 1
-    coulomb = virtual.friction.coulomb
-    x = np.array([params.zero_angle + math.radians(device.pendulum.amplitude_deg), 0.0])
+    x = np.array(x0, dtype=float)
     traj = np.empty((n, 2))
     traj[0] = x
     k = 1
@@ -477,10 +472,25 @@ def simulate_pendulum(device: Device, stage: int, virtual: Virtual, node: int) -
         traj[k : k + good] = block[:good]
         k += good
         x = block[good - 1] if good > 0 else x
-        if turned.size and k < n:  # the sample with the stop: exact event and static friction
+        if turned.size and k < n:
             x = _advance(x, 0.0, dt, p, coulomb)
             traj[k] = x
             k += 1
+    return traj
+
+
+def simulate_pendulum(device: Device, stage: int, virtual: Virtual, node: int) -> SimulatedPass:
+    """Torsion-pendulum run at node ``node`` (0-based) of a stage: motor off, free oscillation.
+
+    Released at rest, ``amplitude_deg`` past the node, and logged for ``duration`` seconds;
+    each stop (twice a period) is an event with static friction, as in every pass.
+    The logged torque is the motor's: zero, plus the log's noise.
+    """
+    params = pendulum_parameters(device, stage, virtual, node)
+    dt = device.encoder.dt
+    n = int(round(device.pendulum.duration / dt)) + 1
+    x0 = np.array([params.zero_angle + math.radians(device.pendulum.amplitude_deg), 0.0])
+    traj = _free_motion(x0, params.vector, n, dt, virtual.friction.coulomb)
     t = np.arange(n) * dt
     torque = np.zeros(n)
     truth = PassTruth(
@@ -495,3 +505,22 @@ def simulate_pendulum(device: Device, stage: int, virtual: Virtual, node: int) -
     rng = np.random.default_rng([virtual.run.seed, stage, _STREAM_PENDULUM, node])
     log = _make_log(t, traj[:, 0], torque, device.encoder.quantum, virtual.run.torque_noise, rng)
     return SimulatedPass(log=log, truth=truth)
+
+
+def free_motion(
+    device: Device, stage: int, virtual: Virtual, duration: float, damped: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The body released as for the braking pass but with the motor off (paper Fig. 3).
+
+    ``damped`` keeps the friction (free damped motion); otherwise friction is removed too
+    (free undamped motion: energy is conserved). Returns true (t, phi, Omega).
+    """
+    params = true_parameters(device, stage, virtual)
+    if not damped:
+        params = dataclasses.replace(params, coulomb=0.0, viscous=0.0, quadratic=0.0)
+    dt = device.encoder.dt
+    n = int(round(duration / dt)) + 1
+    x0 = np.array([math.radians(virtual.run.release_angle_deg), device.stages[stage - 1].launch_speed])
+    coulomb = virtual.friction.coulomb if damped else 0.0
+    traj = _free_motion(x0, params.vector, n, dt, coulomb)
+    return np.arange(n) * dt, traj[:, 0], traj[:, 1]

@@ -298,6 +298,60 @@ def format_identification(result: Identification, truth: np.ndarray | None = Non
     return "\n".join(lines)
 
 
+def demo_figures(exp: Experiment, result: Identification) -> list[Path]:
+    """The demo's PNG figures in EXP: Fig. 1, and per stage Fig. 3 and Fig. 4; error chart.
+
+    Fig. 4 shows what a rig sees: the program's reference speed against the smoothed speed
+    of the reverse log. Fig. 3 and the error chart use the virtual device's truth.
+    """
+    from estimation.smoothing import smooth_log
+    from plant.virtual import free_motion
+    from rsp_inertia.design import plot_cone_conditioning
+    from rsp_inertia.plots import plot_errors, plot_motion, plot_tracking
+
+    device, virtual = exp.device, exp.load_virtual()
+    paths = [exp.root / "design.png"]
+    plot_cone_conditioning(paths[0])
+    for st in exp.stages():
+        braking = read_log(exp.braking_path(st), device.encoder, "braking")
+        reverse = read_log(exp.reverse_path(st), device.encoder, "reverse")
+        sb = smooth_log(braking, device.encoder.quantum)
+        sr = smooth_log(reverse, device.encoder.quantum)
+        duration = float(braking.t[-1] + reverse.t[-1])
+        plot_motion(
+            exp.root / f"motion_stage{st}.png",
+            (sb.t, sb.omega),
+            (sr.t, sr.omega),
+            free_motion(device, st, virtual, duration, damped=False)[::2],
+            free_motion(device, st, virtual, duration, damped=True)[::2],
+            f"Stage {st}: RSP motion and free motions (paper Fig. 3)",
+        )
+        prog = read_program(exp.program_path(st), device.encoder)
+        n = min(len(prog.t), len(sr.t))
+        plot_tracking(
+            exp.root / f"tracking_stage{st}.png",
+            prog.t[:n],
+            prog.omega_ref[:n],
+            sr.omega[:n],
+            f"Stage {st}: reverse pass, reference and smoothed output (paper Fig. 4)",
+        )
+        paths += [exp.root / f"motion_stage{st}.png", exp.root / f"tracking_stage{st}.png"]
+    tensor = tensor_from_entries(virtual.body.inertia)
+    directions = np.array([a.direction for a in result.axes])
+    J_true = np.einsum("ij,jk,ik->i", directions, tensor, directions)
+    errors = {
+        "RSP least squares": np.array([a.J for a in result.axes]) / J_true - 1,
+        "RSP node formula": np.array([a.J_node for a in result.axes]) / J_true - 1,
+    }
+    if result.pendulum is not None and len(result.pendulum.runs) == len(result.axes):
+        errors["pendulum classic"] = result.pendulum.J_classic / J_true - 1
+        errors["pendulum damped fit"] = result.pendulum.J_damped / J_true - 1
+    labels = [f"s{a.stage} {a.phi_deg:g} deg" for a in result.axes]
+    paths.append(exp.root / "errors.png")
+    plot_errors(paths[-1], labels, errors, "Relative error of each axial moment, per method")
+    return paths
+
+
 def demo(
     root: str | Path = DEFAULT_EXPERIMENT, progress: Callable[[str], None] | None = None
 ) -> Identification:
@@ -316,8 +370,10 @@ def demo(
     if open_experiment(root).device.pendulum is not None:
         simulate(root, part="pendulum", progress=lambda s: say(str(s)))
     result = identify(root, progress=say)
-    truth = open_experiment(root).load_virtual()
+    exp = open_experiment(root)
+    truth = exp.load_virtual()
     say(format_identification(result, truth.body.inertia))
+    say(f"figures -> {', '.join(str(p) for p in demo_figures(exp, result))}")
     if result.com is not None:
         say(f"true centre of mass: x = {truth.body.com[0] * 1e3:.4f} mm, "
             f"y = {truth.body.com[1] * 1e3:.4f} mm")

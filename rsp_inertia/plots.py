@@ -65,3 +65,58 @@ def plot_tracking(
     bottom.legend(loc="best", fontsize="small")
     fig.tight_layout()
     save_figure(fig, path)
+
+
+def plot_motion(
+    path: str | os.PathLike,
+    braking: tuple[np.ndarray, np.ndarray],
+    reverse: tuple[np.ndarray, np.ndarray],
+    undamped: tuple[np.ndarray, np.ndarray],
+    damped: tuple[np.ndarray, np.ndarray],
+    title: str,
+) -> None:
+    """The paper's Fig. 3: the symmetric semi-program motion (1), free undamped (2), damped (3).
+
+    Each argument is (t, Omega): the braking from the release, the reverse (its time shifted
+    to follow the braking, its speed as a magnitude so that the symmetry shows), and the two
+    free motions from the same release with the motor off.
+    """
+    fig = Figure(figsize=(7.0, 4.2), dpi=120)
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    tb, wb = braking
+    tr, wr = reverse
+    ax.plot(tb, wb, color="C0", label="(1) braking, then reverse (semi-program motion)")
+    ax.plot(tb[-1] + tr, np.abs(wr), color="C0", linestyle="--")
+    ax.plot(*undamped, color="C2", linewidth=0.8, label="(2) free undamped motion")
+    ax.plot(*damped, color="C3", linewidth=0.8, label="(3) free damped motion")
+    ax.axvline(tb[-1], color="grey", linewidth=0.6, alpha=0.6)
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("|speed| [rad/s]")
+    ax.set_ylim(bottom=0.0)
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="best", fontsize="small")
+    ax.set_title(title)
+    fig.tight_layout()
+    save_figure(fig, path)
+
+
+def plot_errors(
+    path: str | os.PathLike, labels: list[str], errors: dict[str, np.ndarray], title: str
+) -> None:
+    """Bar chart of |relative error| per axis for each method (log scale)."""
+    fig = Figure(figsize=(7.5, 4.2), dpi=120)
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    width = 0.8 / max(len(errors), 1)
+    x = np.arange(len(labels))
+    for i, (method, values) in enumerate(errors.items()):
+        ax.bar(x + (i - (len(errors) - 1) / 2) * width, np.abs(values), width, label=method)
+    ax.set_yscale("log")
+    ax.set_xticks(x, labels, fontsize="small")
+    ax.set_ylabel("|relative error| of J_k")
+    ax.grid(True, axis="y", alpha=0.3)
+    ax.legend(loc="best", fontsize="small")
+    ax.set_title(title)
+    fig.tight_layout()
+    save_figure(fig, path)
