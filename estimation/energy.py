@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from estimation.smoothing import Smoothed, smooth_log
+from estimation.smoothing import Smoothed, hermite, smooth_log
 from plant.errors import InputError
 from plant.logs import Log
 
@@ -147,24 +147,12 @@ def sample_at(est: PassEstimate, phi: np.ndarray) -> AngleSample:
     # One Newton step on phi(t) = phi* with the Hermite form of the smoothed angle.
     k = np.minimum(rows, nxt)
     t0, t1 = sm.t[k], sm.t[k + 1]
-    s = (t - t0) / (t1 - t0)
-    h = t1 - t0
-    p = (
-        (2 * s**3 - 3 * s**2 + 1) * sm.phi[k]
-        + (s**3 - 2 * s**2 + s) * h * sm.omega[k]
-        + (-2 * s**3 + 3 * s**2) * sm.phi[k + 1]
-        + (s**3 - s**2) * h * sm.omega[k + 1]
-    )
-    w_lin = sm.omega[k] + (sm.omega[k + 1] - sm.omega[k]) * s
+    p = hermite(t0, t1, sm.phi[k], sm.omega[k], sm.phi[k + 1], sm.omega[k + 1], t)
+    w_lin = sm.omega[k] + (sm.omega[k + 1] - sm.omega[k]) * (t - t0) / (t1 - t0)
     t = t + np.where(w_lin != 0, (phi - p) / np.where(w_lin != 0, w_lin, 1.0), 0.0)
     t = np.clip(t, t0, t1)
-    s = (t - t0) / h
-    omega = (
-        (2 * s**3 - 3 * s**2 + 1) * sm.omega[k]
-        + (s**3 - 2 * s**2 + s) * h * sm.eps[k]
-        + (-2 * s**3 + 3 * s**2) * sm.omega[k + 1]
-        + (s**3 - s**2) * h * sm.eps[k + 1]
-    )
+    s = (t - t0) / (t1 - t0)
+    omega = hermite(t0, t1, sm.omega[k], sm.eps[k], sm.omega[k + 1], sm.eps[k + 1], t)
     omega_std = sm.omega_std[k] + (sm.omega_std[k + 1] - sm.omega_std[k]) * s
     # Motor work at the smoothed angle (module docstring): last row at or before time t.
     K = k

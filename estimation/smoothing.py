@@ -43,7 +43,7 @@ from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 from plant.errors import InputError
 from plant.logs import Log
 
-__all__ = ["BLOCK", "BANDWIDTH_FACTOR", "Smoothed", "jerk_density", "smooth_log"]
+__all__ = ["BLOCK", "BANDWIDTH_FACTOR", "Smoothed", "hermite", "jerk_density", "smooth_log"]
 
 BLOCK = 10
 """Encoder samples per filter step."""
@@ -104,8 +104,8 @@ def jerk_density(log: Log, quantum: float) -> tuple[float, float]:
     return r * bandwidth**6, bandwidth
 
 
-def _hermite(t0, t1, f0, d0, f1, d1, t):
-    """Cubic Hermite interpolation on [t0, t1] with values f and derivatives d."""
+def hermite(t0, t1, f0, d0, f1, d1, t):
+    """Cubic Hermite interpolation on [t0, t1] with values f and derivatives d (arrays)."""
     h = t1 - t0
     s = (t - t0) / h
     s2, s3 = s * s, s * s * s
@@ -193,8 +193,8 @@ def smooth_log(log: Log, quantum: float, source: str = "log") -> Smoothed:
     k = np.clip(np.searchsorted(centres, t, side="right") - 1, 0, n_blocks - 2)
     t0, t1 = centres[k], centres[k + 1]
     a, b = xs[k], xs[k + 1]
-    phi = _hermite(t0, t1, a[:, 0], a[:, 1], b[:, 0], b[:, 1], t)
-    omega = _hermite(t0, t1, a[:, 1], a[:, 2], b[:, 1], b[:, 2], t)
+    phi = hermite(t0, t1, a[:, 0], a[:, 1], b[:, 0], b[:, 1], t)
+    omega = hermite(t0, t1, a[:, 1], a[:, 2], b[:, 1], b[:, 2], t)
     eps = a[:, 2] + (b[:, 2] - a[:, 2]) * (t - t0) / (t1 - t0)
     outside = (t < centres[0]) | (t > centres[-1])
     if np.any(outside):

@@ -57,13 +57,17 @@ class TensorFit:
     """Balance angles used, all stages."""
 
 
+def _design_rows(bal: StageBalance) -> np.ndarray:
+    """Rows v(phi) of the unnormalised axes w = (lam sin phi, lam cos phi, 1) at the balance
+    angles: v . J = w^T J w = (1 + lam^2) J_e (METHOD.md §1-2)."""
+    lam = bal.gear_ratio
+    w = np.column_stack([lam * np.sin(bal.phi), lam * np.cos(bal.phi), np.ones_like(bal.phi)])
+    return design_matrix(w)
+
+
 def _rows(bal: StageBalance) -> np.ndarray:
     """The 8 shared columns of a stage's equations (six entries, Gs, Gc)."""
-    lam = bal.gear_ratio
-    w = np.column_stack(
-        [lam * np.sin(bal.phi), lam * np.cos(bal.phi), np.ones_like(bal.phi)]
-    )
-    v = design_matrix(w)  # rows v(phi): v . J = w^T J w = (1 + lam^2) J_e
+    v = _design_rows(bal)
     return np.column_stack([0.5 * bal.speed_sq[:, None] * v, 2 * np.sin(bal.phi), 2 * np.cos(bal.phi)])
 
 
@@ -102,11 +106,7 @@ def fit_tensor(balances: list[StageBalance]) -> TensorFit:
     x0, *_ = np.linalg.lstsq(A, y, rcond=None)
     speed_var = []
     for bal in balances:
-        lam = bal.gear_ratio
-        w = np.column_stack(
-            [lam * np.sin(bal.phi), lam * np.cos(bal.phi), np.ones_like(bal.phi)]
-        )
-        M = design_matrix(w) @ x0[:6] + bal.tare_inertia
+        M = _design_rows(bal) @ x0[:6] + bal.tare_inertia
         speed_var.append(0.25 * M**2 * bal.speed_sq_var)
     dof = max(len(y) - A.shape[1], 1)
 

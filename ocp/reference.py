@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from estimation.smoothing import Smoothed
+from estimation.smoothing import Smoothed, hermite
 from plant.errors import InputError
 
 __all__ = ["Mirror", "rest_point", "mirror", "braking_states_at"]
@@ -68,12 +68,11 @@ def braking_states_at(sm: Smoothed, times: np.ndarray, rest: tuple[float, float]
     t = sm.t
     dt = t[1] - t[0]
     k = np.clip(np.floor((times - t[0]) / dt).astype(int), 0, len(t) - 2)
-    s = np.clip((times - t[k]) / dt, 0.0, None)
-    h00, h10 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s
-    h01, h11 = -2 * s**3 + 3 * s**2, s**3 - s**2
-    phi = h00 * sm.phi[k] + h10 * dt * sm.omega[k] + h01 * sm.phi[k + 1] + h11 * dt * sm.omega[k + 1]
-    omega = h00 * sm.omega[k] + h10 * dt * sm.eps[k] + h01 * sm.omega[k + 1] + h11 * dt * sm.eps[k + 1]
-    eps = sm.eps[k] + (sm.eps[k + 1] - sm.eps[k]) * np.minimum(s, 1.0)
+    at = np.maximum(times, t[k])
+    phi = hermite(t[k], t[k + 1], sm.phi[k], sm.omega[k], sm.phi[k + 1], sm.omega[k + 1], at)
+    omega = hermite(t[k], t[k + 1], sm.omega[k], sm.eps[k], sm.omega[k + 1], sm.eps[k + 1], at)
+    s = np.minimum((at - t[k]) / dt, 1.0)
+    eps = sm.eps[k] + (sm.eps[k + 1] - sm.eps[k]) * s
     tail = times > t[-1]
     if np.any(tail):
         T, phi7 = rest

@@ -360,7 +360,7 @@ class RunSettings:
 class ControllerSettings:
     """The virtual device's controller."""
 
-    speed_observer_bandwidth: float = 200.0
+    speed_observer_bandwidth: float = 100.0
     """Bandwidth of the speed estimate the controller forms from the encoder, rad/s, > 0."""
 
 
