@@ -1,11 +1,11 @@
-# Two entry points: `make demo` (the main job) and `make test`. Both build .venv from scratch
-# with nothing but python3, so they work on a clean clone and in CI.
+# Entry points: `make demo` (the main job), `make test` and `make bench` (the benchmarks). All
+# build .venv from scratch with nothing but python3, so they work on a clean clone and in CI.
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test clean
+.PHONY: demo test bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -18,6 +18,10 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
+
+# Accuracy and speed sweep -> benchmarks/results/ (cases/*.json made by the same code are reused).
+bench: $(STAMP)
+	$(BIN)/rsp-inertia bench
 
 clean:
 	rm -rf $(VENV) build *.egg-info

@@ -89,6 +89,20 @@ def _process_noise(T: float, q_j: float) -> np.ndarray:
     )
 
 
+def _sqrt(P: np.ndarray) -> np.ndarray:
+    """Matrix square root for the sigma points (upper factor, as filterpy expects).
+
+    Cholesky; if rounding has made P indefinite (a tiny negative eigenvalue), the symmetric
+    square root of P with its eigenvalues clipped at a small positive floor instead.
+    """
+    try:
+        return np.linalg.cholesky(P).T
+    except np.linalg.LinAlgError:
+        values, vectors = np.linalg.eigh((P + P.T) / 2)
+        floor = max(values.max(), 0.0) * 1e-15 + 1e-300
+        return (vectors * np.sqrt(np.maximum(values, floor))) @ vectors.T
+
+
 def jerk_density(log: Log, quantum: float) -> tuple[float, float]:
     """q_j and the bandwidth w_c it gives, from the log's top speed (module docstring).
 
@@ -157,18 +171,21 @@ def smooth_log(log: Log, quantum: float, source: str = "log") -> Smoothed:
         H = basis[:rows]
         return lambda x: H @ x
 
-    points = MerweScaledSigmaPoints(
-        3, alpha=0.5, beta=2.0, kappa=0.0, sqrt_method=lambda P: np.linalg.cholesky(P).T
-    )
+    points = MerweScaledSigmaPoints(3, alpha=0.5, beta=2.0, kappa=0.0, sqrt_method=_sqrt)
     ukf = UnscentedKalmanFilter(
         dim_x=3, dim_z=BLOCK, dt=T, hx=make_hx(BLOCK), fx=fx, points=points
     )
     ukf.Q = _process_noise(T, q_j)
-    # Start from a least-squares fit of the first block's kinematics, with a wide covariance.
-    first = z_all[:BLOCK]
-    x0, *_ = np.linalg.lstsq(basis, first, rcond=None)
+    # Start from a least-squares fit of the first blocks' kinematics with its own covariance
+    # (readings' variance times (H^T H)^-1), widened for the model's error over those blocks.
+    # A fixed wide P0 spans 13 orders of magnitude on a 20-bit encoder (q^2 ~ 4e-11 against
+    # 100 rad^2/s^4) and rounding then breaks its positive definiteness.
+    m = min(3 * BLOCK, n)
+    tau = log.t[:m] - centres[0]
+    H = np.column_stack([np.ones(m), tau, tau**2 / 2])
+    x0, *_ = np.linalg.lstsq(H, z_all[:m], rcond=None)
     ukf.x = x0
-    ukf.P = np.diag([quantum**2, 1.0, 100.0])
+    ukf.P = 100.0 * variance * np.linalg.inv(H.T @ H)
 
     means = np.empty((n_blocks, 3))
     covs = np.empty((n_blocks, 3, 3))

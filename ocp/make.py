@@ -58,7 +58,7 @@ def make_program(
     start = time.perf_counter()
     check_braking_monotone(braking, source)
     sm = smooth_log(braking, device.encoder.quantum, source)
-    ref = mirror(sm, device.encoder.sample_rate, source)
+    ref = mirror(sm, device.encoder.sample_rate, device.encoder.quantum, source)
     model = nominal if nominal is not None else fit_nominal(device, stage, braking, sm)
     sol = solve_program_ocp(device, stage, ref, model)
     torque = np.interp(ref.t, sol.t, sol.torque)  # u is linear between grid points

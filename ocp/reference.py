@@ -9,7 +9,8 @@ for 0 <= t' <= T. The braking states come from the UKF/RTS smoother of the ident
 
 The rest. The braking log ends at the last sample before the speed reaches zero; the rest
 lies less than a sample later. A straight line fitted to the smoothed speed over the last
-``REST_WINDOW`` seconds (the deceleration is constant to first order near rest) gives the
+``REST_WINDOW`` seconds, or over the last ``REST_COUNTS`` counts of motion if that is longer
+(the deceleration is constant to first order near rest) gives the
 rest time T (its root) and, integrated, the angles there and the rest angle phi7. Measured
 on the default stages, the line puts T within 1.3 ms (stage 1) and 0.2 ms (stage 2) of the
 truth; the last smoothed state alone 3.8 ms, a quadratic over the window 3.4 and 7.5 ms.
@@ -30,13 +31,15 @@ import numpy as np
 from estimation.smoothing import Smoothed, hermite
 from plant.errors import InputError
 
-__all__ = ["REST_WINDOW", "MAX_REST_GAP", "Mirror", "rest_point", "mirror", "braking_states_at"]
+__all__ = ["REST_WINDOW", "REST_COUNTS", "Mirror", "RestFit", "rest_fit", "rest_point", "mirror", "braking_states_at"]
 
 REST_WINDOW = 0.05
 """s of the braking's end over which the deceleration to rest is fitted."""
 
-MAX_REST_GAP = 10
-"""Samples: a braking log whose fitted rest lies further past its end did not reach rest."""
+REST_COUNTS = 20
+"""The fit's window is widened until the body moves at least this many encoder counts in it
+(a coarse encoder near rest moves a count in many samples: 50 ms of a 12-bit log near rest
+hold a count or two, too few to fit a deceleration)."""
 
 
 @dataclass(frozen=True)
@@ -55,10 +58,12 @@ class Mirror:
     """T, s: when the braking came to rest (braking log's time)."""
     rest_angle: float
     """phi7, rad: where it came to rest."""
+    fitted_from: float
+    """s, braking time from which on the mirror is the fitted deceleration, not the smoother."""
 
 
 @dataclass(frozen=True)
-class _RestFit:
+class RestFit:
     """Straight line fitted to the braking's speed over its last REST_WINDOW."""
 
     t_n: float
@@ -83,9 +88,15 @@ class _RestFit:
         return self.phi7 - self.decel * left**2 / 2, self.decel * left, np.full(left.shape, -self.decel)
 
 
-def _rest_fit(sm: Smoothed, source: str) -> _RestFit:
+def rest_fit(sm: Smoothed, source: str, quantum: float) -> RestFit:
+    """The deceleration to rest fitted over the braking's end (module docstring)."""
     dt = sm.t[1] - sm.t[0]
     n = max(int(round(REST_WINDOW / dt)), 3)
+    moved = sm.phi[-1] - sm.phi  # distance still to go at each sample
+    enough = np.nonzero(moved >= REST_COUNTS * quantum)[0]
+    if enough.size:
+        n = max(n, len(sm.t) - int(enough[-1]))
+    n = min(n, len(sm.t))
     slope, end = np.polyfit(sm.t[-n:] - sm.t[-1], sm.omega[-n:], 1)
     if slope >= 0.0:
         raise InputError(
@@ -94,8 +105,8 @@ def _rest_fit(sm: Smoothed, source: str) -> _RestFit:
         )
     # The log runs up to the rest, so the rest is not before its last sample: a fitted end
     # speed below zero is the smoother's scatter.
-    fit = _RestFit(float(sm.t[-1]), float(sm.t[-n]), max(float(end), 0.0), float(-slope), 0.0)
-    if fit.rest_time - fit.t_n > MAX_REST_GAP * dt:
+    fit = RestFit(float(sm.t[-1]), float(sm.t[-n]), max(float(end), 0.0), float(-slope), 0.0)
+    if fit.rest_time - fit.t_n > (sm.t[-1] - fit.start) + dt:
         raise InputError(
             f"{source}: the log ends {fit.rest_time - fit.t_n:.3g} s before the body comes to "
             f"rest (speed {fit.speed:.3g} rad/s): the braking did not reach rest"
@@ -105,9 +116,9 @@ def _rest_fit(sm: Smoothed, source: str) -> _RestFit:
     return dataclasses.replace(fit, phi7=float(sm.phi[-n]) + fit.decel * left**2 / 2)
 
 
-def rest_point(sm: Smoothed, source: str = "braking.csv") -> tuple[float, float]:
-    """Rest time T and angle phi7 of a braking pass (module docstring)."""
-    fit = _rest_fit(sm, source)
+def rest_point(sm: Smoothed, quantum: float, source: str = "braking.csv") -> tuple[float, float]:
+    """Rest time T and angle phi7 of a braking pass (module docstring); q the encoder count."""
+    fit = rest_fit(sm, source, quantum)
     return fit.rest_time, fit.phi7
 
 
@@ -137,9 +148,11 @@ def braking_states_at(sm: Smoothed, times: np.ndarray, rest: tuple[float, float]
     return phi, omega, eps
 
 
-def mirror(sm: Smoothed, sample_rate: float, source: str = "braking.csv") -> Mirror:
-    """The time mirror of a smoothed braking pass at the encoder's sample rate."""
-    fit = _rest_fit(sm, source)
+def mirror(
+    sm: Smoothed, sample_rate: float, quantum: float, source: str = "braking.csv"
+) -> Mirror:
+    """The time mirror of a smoothed braking pass at the encoder's sample rate (q: a count)."""
+    fit = rest_fit(sm, source, quantum)
     T, phi7 = fit.rest_time, fit.phi7
     dt = 1.0 / sample_rate
     n = int(math.floor(T / dt + 1e-9)) + 1
@@ -148,4 +161,6 @@ def mirror(sm: Smoothed, sample_rate: float, source: str = "braking.csv") -> Mir
     # Over the last window the fitted deceleration replaces the smoother (module docstring).
     last = T - t >= fit.start
     phi[last], omega[last], eps[last] = fit.states(T - t[last])
-    return Mirror(t=t, phi=phi, omega=-omega, eps=eps, rest_time=T, rest_angle=phi7)
+    return Mirror(
+        t=t, phi=phi, omega=-omega, eps=eps, rest_time=T, rest_angle=phi7, fitted_from=fit.start
+    )

@@ -26,6 +26,7 @@ import casadi as ca
 import control
 import numpy as np
 import scipy.linalg
+from threadpoolctl import threadpool_limits
 
 from plant.config import Device
 from plant.model import MODEL, ModelParameters, reduced_inertia
@@ -83,18 +84,26 @@ def lqr_gains(
     idx = np.unique(np.append(np.arange(0, t.size, step), t.size - 1))
     M = reduced_inertia(phi[idx], nominal)
     w = bandwidth(device, float(np.max(M)))
-    k_phi = np.empty(idx.size)
-    k_omega = np.empty(idx.size)
     p = nominal.vector
-    for j, i in enumerate(idx):
-        jac = np.asarray(_JAC(phi[i], omega[i], torque[i], _DIRECTION, p)).ravel()
-        A = np.array([[0.0, 1.0], [jac[0], jac[1]]])
-        B = np.array([[0.0], [1.0 / M[j]]])
-        # Zero-order-hold discretisation through the augmented matrix exponential.
-        aug = np.zeros((3, 3))
-        aug[:2, :2], aug[:2, 2:] = A * dt, B * dt
-        E = scipy.linalg.expm(aug)
-        Q = np.diag([(M[j] * w * w) ** 2, 0.0])
-        K, _, _ = control.dlqr(E[:2, :2], E[:2, 2:], Q, np.eye(1))
-        k_phi[j], k_omega[j] = K[0, 0], K[0, 1]
+    # 2x2 problems: BLAS threads only add overhead, and under load they oversubscribe the
+    # cores (measured: 24 ms per dlqr call with two other busy processes, 30x the idle time).
+    with threadpool_limits(limits=1):
+        K_all = [_gain(device, phi[i], omega[i], torque[i], M[j], w, p) for j, i in enumerate(idx)]
+    k_phi, k_omega = np.array(K_all).T
     return np.interp(t, t[idx], k_phi), np.interp(t, t[idx], k_omega)
+
+
+def _gain(device: Device, phi: float, omega: float, torque: float, M: float, w: float, p):
+    """[k_phi, k_omega] of the frozen-time discrete LQR at one point of the reference."""
+    dt = device.encoder.dt
+    jac = np.asarray(_JAC(phi, omega, torque, _DIRECTION, p)).ravel()
+    A = np.array([[0.0, 1.0], [jac[0], jac[1]]])
+    B = np.array([[0.0], [1.0 / M]])
+    # Zero-order-hold discretisation through the augmented matrix exponential.
+    aug = np.zeros((3, 3))
+    aug[:2, :2], aug[:2, 2:] = A * dt, B * dt
+    E = scipy.linalg.expm(aug)
+    Q = np.diag([(M * w * w) ** 2, 0.0])
+    K, _, _ = control.dlqr(E[:2, :2], E[:2, 2:], Q, np.eye(1))
+    return K[0, 0], K[0, 1]
+

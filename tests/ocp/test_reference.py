@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from estimation.smoothing import Smoothed
-from ocp.reference import REST_WINDOW, braking_states_at, mirror, rest_point
+from ocp.reference import braking_states_at, mirror, rest_fit, rest_point
 from plant import virtual as vd
 from plant.errors import InputError
 from tests.ocp.conftest import (
@@ -62,7 +62,7 @@ def test_mirror_of_the_mirror_is_the_braking(stage, default_device, smoothed, pr
     # Over the braking's last REST_WINDOW the mirror is the fitted deceleration, not the
     # smoother (ocp/reference.py): the identity holds before that.
     dt = default_device.encoder.dt
-    keep = (sm.t > sm.t[0]) & (sm.t < sm.t[-1] - REST_WINDOW - dt)
+    keep = (sm.t > sm.t[0]) & (sm.t < ref.fitted_from - dt)
     t = sm.t[keep]
     phi, omega, eps = braking_states_at(as_smoothed(ref), T - t, (T, ref.phi[-1]))
     # The reflected times fall off the mirror's grid by delta = T mod dt. The interpolation
@@ -130,7 +130,8 @@ def test_rest_point_of_the_exact_states_is_the_true_stop(
 ):
     braking = brakings[stage]
     params = vd.true_parameters(default_device, stage, default_virtual)
-    T, phi7 = rest_point(exact_states(braking, params))
+    exact = exact_states(braking, params)
+    T, phi7 = rest_point(exact, default_device.encoder.quantum)
     tr = braking.truth
     # rest_point fits a straight line to the speed over the last window W. A jerk j over the
     # window bends the speed by j s^2 / 2; the least-squares line through s^2 on [-W, 0] misses
@@ -138,7 +139,7 @@ def test_rest_point_of_the_exact_states_is_the_true_stop(
     # j W / 2. So T is off by at most (j W^2 / 12 + tau j W / 2) / |eps| (tau < dt the time
     # still to go), and phi7, the line's distance over the window, by at most j W^3 / 12.
     dt = default_device.encoder.dt
-    W = REST_WINDOW
+    W = exact.t[-1] - rest_fit(exact, "braking", default_device.encoder.quantum).start
     eps = true_accelerations(braking, params)
     jerk = np.abs(np.diff(eps[-round(W / dt) - 1 :])).max() / dt
     assert abs(T - tr.end_time) <= (jerk * W * W / 12 + dt * jerk * W / 2) / abs(eps[-1]) + 1e-12
@@ -151,7 +152,7 @@ def test_rest_point_of_the_smoothed_braking_is_the_true_stop(
 ):
     braking = brakings[stage]
     sm = smoothed[stage]
-    T, phi7 = rest_point(sm)
+    T, phi7 = rest_point(sm, default_device.encoder.quantum)
     tr = braking.truth
     dt = default_device.encoder.dt
     # With exact states T would be right to a small fraction of a sample (test above). The
@@ -174,4 +175,4 @@ def test_mirror_refuses_a_braking_that_does_not_stop(smoothed, default_device):
     k = int(np.flatnonzero((sm.eps > 0) & (sm.omega > 0))[0]) + 1
     cut = Smoothed(sm.t[:k], sm.phi[:k], sm.omega[:k], sm.eps[:k], sm.omega_std[:k], 0.0, 0.0)
     with pytest.raises(InputError, match="stage1/braking.csv: .*did not reach rest"):
-        mirror(cut, default_device.encoder.sample_rate, "stage1/braking.csv")
+        mirror(cut, default_device.encoder.sample_rate, default_device.encoder.quantum, "stage1/braking.csv")

@@ -1,0 +1,843 @@
+"""Batch benchmarks: accuracy and speed of the whole experiment over a grid of cases.
+
+One :class:`Case` is one virtual experiment end to end through the pipeline (braking,
+program, closed-loop reverse, torsion-pendulum runs, identification), with the bearing
+friction scaled, the encoder's resolution set and the noise seeded; :func:`run_case` returns
+its errors against the virtual device's truth and its timings as one flat row. A sweep
+(:func:`run_sweep`) runs many cases on local processes (joblib) or on a Dask cluster, keeps one
+JSON file per case so that an interrupted sweep resumes, and :func:`write_report` turns the
+rows into the Markdown tables and the chart of ``benchmarks/results/``.
+
+Only the Coulomb (a1) and viscous (a2) friction coefficients are scaled, never the quadratic
+one (a3): quadratic drag takes the fraction 1 - exp(-4 pi a3 / M) of the kinetic energy every
+turn whatever the speed (25% on stage 1 at the paper's a3, 95% at ten times it), so no
+multi-turn braking pass exists at a scaled a3.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import json
+import math
+import os
+import re
+import tempfile
+import time
+import traceback
+from collections.abc import Iterable, Iterator, Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy.optimize import brentq
+from threadpoolctl import threadpool_limits
+
+from estimation.pendulum import estimate_pendulum
+from plant.config import load_device
+from plant.errors import InputError
+from plant.experiment import open_experiment
+from plant.logs import read_log, write_atomic
+from plant.model import ModelParameters, dissipation
+from plant.virtual import true_parameters
+from rsp_inertia.pipeline import create_default_experiment, identify, program, simulate
+
+__all__ = [
+    "ENCODER_BITS",
+    "FRICTION_FACTORS",
+    "METHODS",
+    "MIN_TURNS_PAST_LAST_NODE",
+    "TORQUE_MARGIN",
+    "BenchReport",
+    "Case",
+    "accuracy_table",
+    "bench",
+    "code_fingerprint",
+    "default_cases",
+    "is_timing",
+    "run_case",
+    "run_sweep",
+    "write_report",
+]
+
+FRICTION_FACTORS = (0.0, 1.0, 10.0, 100.0)
+"""Factors on the paper's Coulomb and viscous friction in the default sweep."""
+
+ENCODER_BITS = (12, 16, 20)
+"""Encoder resolutions of the default sweep, bits (counts_per_rev = 2**bits)."""
+
+QUICK_FRICTION_FACTORS = (1.0, 10.0)
+"""``--quick``: the paper's friction and ten times it ..."""
+
+QUICK_ENCODER_BITS = (16,)
+"""... on the default 16-bit encoder, one seed."""
+
+TORQUE_MARGIN = 0.7
+"""Fraction of the motor's torque limit the mirror's reverse torque may need; the rest is the
+regulator's headroom (gravity, inertia slope, tracking corrections)."""
+
+MIN_TURNS_PAST_LAST_NODE = 3.0
+"""Turns the braking pass must cover after its first passage of the stage's last node, so that
+every node has whole-turn pairs for the node formula and the least squares."""
+
+MAX_PROTOCOL_TRIES = 8
+"""Braking torques tried per stage (the default, then halved each time)."""
+
+METHODS = {
+    "ls": "RSP least squares",
+    "node": "RSP node formula",
+    "pendulum": "pendulum classic",
+    "pendulum_damped": "pendulum damped fit",
+}
+"""Row-key suffixes of the four methods (``err_Jk_<key>``, ``err_tensor_<key>``) and their names."""
+
+
+@dataclass(frozen=True, order=True)
+class Case:
+    """One virtual experiment of a sweep; cases sort by friction, then bits, then seed."""
+
+    friction_factor: float
+    """Factor on the paper's Coulomb (a1) and viscous (a2) friction, >= 0; a3 is kept."""
+    encoder_bits: int
+    """Encoder resolution, bits: counts_per_rev = 2**encoder_bits."""
+    seed: int
+    """Seed of the virtual device's noise and of the release-angle jitter, >= 0."""
+
+    @property
+    def name(self) -> str:
+        """File-name stem of the case's result, e.g. ``friction10_bits16_seed0``."""
+        return f"friction{self.friction_factor:g}_bits{self.encoder_bits}_seed{self.seed}"
+
+
+def default_cases(seeds: int = 2, quick: bool = False) -> list[Case]:
+    """The default grid: friction x {0, 1, 10, 100} x bits {12, 16, 20} x ``seeds`` seeds.
+
+    With ``quick``: friction {1, 10} x 16 bits x one seed.
+    """
+    if seeds < 1:
+        raise InputError(f"--seeds: must be >= 1, got {seeds}")
+    factors, bits = FRICTION_FACTORS, ENCODER_BITS
+    if quick:
+        factors, bits, seeds = QUICK_FRICTION_FACTORS, QUICK_ENCODER_BITS, 1
+    return [Case(f, b, s) for f in factors for b in bits for s in range(seeds)]
+
+
+# --- one case ----------------------------------------------------------------------------
+
+
+def _set_key(text: str, key: str, value: object, where: str) -> str:
+    """Replace the value of the one ``key = ...`` line of a TOML text (keeps its comment)."""
+    pattern = rf"(?m)^({re.escape(key)}\s*=\s*)[^\s#]+"
+    text, n = re.subn(pattern, lambda m: f"{m.group(1)}{value!r}", text)
+    if n != 1:
+        raise InputError(f"{where}: expected one '{key} =' line, found {n}")
+    return text
+
+
+def _configure(root: Path, case: Case) -> None:
+    """Rewrite the default experiment's files for ``case`` (friction, encoder, seed, release)."""
+    if case.friction_factor < 0:
+        raise InputError(f"case {case.name}: friction_factor must be >= 0")
+    if not 1 <= case.encoder_bits <= 31:
+        raise InputError(f"case {case.name}: encoder_bits must be in 1..31")
+    path = root / "virtual.toml"
+    text = path.read_text()
+    virtual = open_experiment(root).load_virtual()
+    for key in ("coulomb", "viscous"):
+        value = getattr(virtual.friction, key) * case.friction_factor
+        text = _set_key(text, key, value, str(path))
+    text = _set_key(text, "seed", case.seed, str(path))
+    # A release angle jittered by the seed changes the encoder's quantization pattern too
+    # (the noise seed alone leaves it identical from run to run).
+    jitter = np.random.default_rng(case.seed).uniform(-1.0, 1.0)
+    release = float(virtual.run.release_angle_deg + jitter)
+    text = _set_key(text, "release_angle_deg", release, str(path))
+    write_atomic(path, text)
+    path = root / "device.toml"
+    text = _set_key(path.read_text(), "counts_per_rev", 2**case.encoder_bits, str(path))
+    write_atomic(path, text)
+
+
+def _set_protocol(root: Path, stage: int, launch_speed: float, braking_torque: float) -> None:
+    """Write one stage's launch speed and braking torque into device.toml."""
+    path = root / "device.toml"
+    text = path.read_text()
+    starts = [m.start() for m in re.finditer(r"(?m)^\[\[stage\]\]", text)] + [len(text)]
+    lo, hi = starts[stage - 1], starts[stage]
+    block = _set_key(text[lo:hi], "launch_speed", launch_speed, f"{path}: stage[{stage}]")
+    block = _set_key(block, "braking_torque", braking_torque, f"{path}: stage[{stage}]")
+    write_atomic(path, text[:lo] + block + text[hi:])
+    st = load_device(path).stages[stage - 1]
+    assert (st.launch_speed, st.braking_torque) == (launch_speed, braking_torque)
+
+
+def _reverse_torque(params: ModelParameters, speed: float, braking_torque: float) -> float:
+    """N m the mirror of a braking pass needs at ``speed``: braking_torque + 2 D(speed).
+
+    The braking obeys M eps = -b - D(Omega); its time reversal runs at -Omega with the same
+    acceleration, against the friction, so the motor supplies b + 2 D (METHOD.md §4). The
+    benchmark evaluates it with the virtual device's TRUE friction (``params``): it may use the
+    truth to choose its protocol, as an operator would from a trial run.
+    """
+    return braking_torque + 2.0 * float(dissipation(speed, params))
+
+
+def _fit_protocol(root: Path, stage: int) -> dict:
+    """Choose a stage's launch speed and braking torque, and run its braking pass (pipeline).
+
+    Keep the defaults if the mirror's torque (:func:`_reverse_torque`) stays within
+    TORQUE_MARGIN of the motor's limit; else lower the launch speed until it does. If the
+    braking then covers fewer than MIN_TURNS_PAST_LAST_NODE turns past the last node, halve
+    the braking torque (which lets the launch speed rise again, up to its default) and retry.
+    When no try gets there (high friction on a light stage: the friction then takes most of
+    the energy a launch within the torque margin gives), the try with the most turns is kept
+    and ``short_protocol_N`` says so; identification then decides whether it is enough.
+    """
+    exp = open_experiment(root)
+    st = exp.device.stages[stage - 1]
+    params = true_parameters(exp.device, stage, exp.load_virtual())
+    limit = TORQUE_MARGIN * exp.device.motor.torque_limit
+    if _reverse_torque(params, 1e-9, 0.0) >= limit:
+        raise InputError(
+            f"stage {stage}: the friction alone needs more than {TORQUE_MARGIN:g} of the "
+            "motor's torque limit for the reverse pass"
+        )
+    braking_torque = st.braking_torque
+    tries = []
+    for _ in range(MAX_PROTOCOL_TRIES):
+        speed = st.launch_speed
+        if _reverse_torque(params, speed, braking_torque) > limit:
+            speed = brentq(
+                lambda w, b=braking_torque: _reverse_torque(params, w, b) - limit,
+                1e-9,
+                st.launch_speed,
+                xtol=1e-9,
+            )
+            speed = math.floor(speed * 1e6) / 1e6  # a value a person would type, still within
+        _set_protocol(root, stage, speed, braking_torque)
+        braking = simulate(root, stage, "braking")[0]
+        tries.append((braking.turns_past_last_node, speed, braking_torque, braking))
+        if braking.turns_past_last_node >= MIN_TURNS_PAST_LAST_NODE:
+            break
+        braking_torque /= 2.0
+    turns, speed, braking_torque, braking = max(tries, key=lambda t: t[0])
+    if braking is not tries[-1][3]:  # leave the chosen protocol's braking log in place
+        _set_protocol(root, stage, speed, braking_torque)
+        braking = simulate(root, stage, "braking")[0]
+    return {
+        f"launch_speed_{stage}": speed,
+        f"braking_torque_{stage}": braking_torque,
+        f"turns_past_last_node_{stage}": turns,
+        f"short_protocol_{stage}": turns < MIN_TURNS_PAST_LAST_NODE,
+        f"braking_duration_{stage}": braking.duration,
+    }
+
+
+def _relative_errors(result, virtual) -> dict:
+    """Worst J_k error over the axes and worst tensor entry over the largest principal moment.
+
+    The pendulum's J_k error is over the axes whose run could be reduced (``pendulum_axes``);
+    its tensor needs all of them.
+    """
+    body = virtual.body
+    axes = np.array([a.direction for a in result.axes])
+    J_true = np.einsum("ij,jk,ik->i", axes, body.tensor, axes)
+    scale = np.linalg.eigvalsh(body.tensor).max()
+    estimates = {
+        "ls": (np.array([a.J for a in result.axes]), result.entries),
+        "node": (np.array([a.J_node for a in result.axes]), result.node_entries),
+    }
+    pend = result.pendulum
+    row: dict = {"pendulum_axes": 0 if pend is None else len(pend.runs)}
+    if pend is not None:
+        # The pendulum runs that could be reduced, matched to their axes.
+        where = [(a.stage, a.phi_deg) for a in result.axes]
+        index = [where.index((r.stage, r.node_deg)) for r in pend.runs]
+        J_true_pend = J_true[index]
+        estimates["pendulum"] = (pend.J_classic, pend.entries_classic)
+        estimates["pendulum_damped"] = (pend.J_damped, pend.entries_damped)
+    for key in METHODS:
+        if key not in estimates:
+            row[f"err_Jk_{key}"] = row[f"err_tensor_{key}"] = None
+            continue
+        J, entries = estimates[key]
+        truth = J_true_pend if key.startswith("pendulum") else J_true
+        row[f"err_Jk_{key}"] = float(np.max(np.abs(J / truth - 1.0)))
+        row[f"err_tensor_{key}"] = (
+            None if entries is None else float(np.max(np.abs(entries - body.inertia)) / scale)
+        )
+    row["com_error_mm"] = (
+        None if result.com is None else float(np.hypot(*(result.com - body.com[:2])) * 1e3)
+    )
+    return row
+
+
+def _drop_failing_pendulum_runs(root: Path) -> str:
+    """Remove the pendulum logs that the baseline cannot reduce; return their reasons.
+
+    Heavy Coulomb friction stops a torsion pendulum within a few periods, and identify reduces
+    the pendulum logs in the same step as the RSP ones (one failing run would fail both): the
+    benchmark leaves such runs out, says why, and compares the pendulum on the axes left.
+    """
+    exp = open_experiment(root)
+    device = exp.device
+    if device.pendulum is None:
+        return ""
+    reasons = []
+    for stage in exp.stages():
+        st = device.stages[stage - 1]
+        for k, node_deg in enumerate(st.nodes_deg, 1):
+            path = exp.pendulum_path(stage, k)
+            if not path.is_file():
+                continue
+            try:
+                log = read_log(path, device.encoder, "pendulum")
+                estimate_pendulum(log, device.pendulum.stiffness, stage, node_deg, str(path))
+            except InputError as error:
+                reasons.append(str(error).replace(str(root), "EXP"))
+                path.unlink()
+    return "; ".join(reasons)
+
+
+def run_case(case: Case) -> dict:
+    """One virtual experiment end to end; its errors and timings as one flat, JSON-ready row.
+
+    The default experiment (plant/defaults/) in a temporary folder, with the Coulomb and
+    viscous friction times ``case.friction_factor``, counts_per_rev = 2**encoder_bits, the
+    virtual seed, and the release angle moved by U(-1, 1) deg drawn from the seed. The
+    protocol is the default one unless its reverse pass would need more than TORQUE_MARGIN of
+    the motor's limit (see :func:`_fit_protocol`). Then, through the pipeline: braking,
+    program, closed-loop reverse (per stage), the torsion-pendulum runs, identification.
+
+    Parameters
+    ----------
+    case : Case
+        What to run.
+
+    Returns
+    -------
+    dict
+        ``case`` (its name), the inputs, ``code`` (:func:`code_fingerprint`),
+        ``release_angle_deg``; per stage N the protocol used (``launch_speed_N``,
+        ``braking_torque_N``, ``turns_past_last_node_N``, ``short_protocol_N``); relative
+        errors against the truth, ``err_Jk_<method>`` (worst over the axes of J_k / J_k true
+        - 1) and ``err_tensor_<method>`` (worst tensor entry over the largest principal
+        moment) for the methods of :data:`METHODS`, ``com_error_mm``, ``axes``,
+        ``pendulum_axes`` and ``pendulum_failures`` (the runs left out and why);
+        ``physical_duration`` (s, braking and reverse passes); wall-clock times in s
+        (``time_*``: smoothing, program and closed loop per stage, pendulum runs,
+        identification, processing = programs + identification, the whole case) and their
+        ratios to the physical duration (``ratio_*``); ``warnings`` of the identification;
+        ``error``: None, or the one-line reason an InputError stopped the case (the row then
+        holds only the inputs and ``time_case``).
+    """
+    start = time.perf_counter()
+    row: dict = {"case": case.name, **asdict(case), "code": code_fingerprint()}
+    # One BLAS thread: a multithreaded BLAS sums in an order that depends on its thread count,
+    # which would change the last digits from one scheduler to another (a sweep runs one case
+    # per core anyway).
+    with threadpool_limits(limits=1), tempfile.TemporaryDirectory(prefix="rsp-bench-") as tmp:
+        root = Path(tmp) / case.name
+        try:
+            row.update(_run_experiment(root, case))
+            row["error"] = None
+        except InputError as error:
+            row["error"] = str(error).replace(str(root), "EXP")
+    row["time_case"] = time.perf_counter() - start
+    if row["error"] is None:
+        row["ratio_processing"] = row["time_processing"] / row["physical_duration"]
+        row["ratio_case"] = row["time_case"] / row["physical_duration"]
+    return row
+
+
+def _run_experiment(root: Path, case: Case) -> dict:
+    """:func:`run_case` in the experiment folder ``root``: the row without its bookkeeping."""
+    create_default_experiment(root)
+    _configure(root, case)
+    exp = open_experiment(root)
+    row: dict = {"release_angle_deg": exp.load_virtual().run.release_angle_deg}
+    stages = exp.stages()
+    for stage in stages:
+        row.update(_fit_protocol(root, stage))
+    physical = 0.0
+    for stage in stages:
+        t0 = time.perf_counter()
+        program(root, stage)
+        row[f"time_program_{stage}"] = time.perf_counter() - t0
+    for stage in stages:
+        t0 = time.perf_counter()
+        reverse = simulate(root, stage, "reverse")[0]
+        row[f"time_closed_loop_{stage}"] = time.perf_counter() - t0
+        physical += row[f"braking_duration_{stage}"] + reverse.duration
+    row["physical_duration"] = physical
+    t0 = time.perf_counter()
+    if open_experiment(root).device.pendulum is not None:
+        simulate(root, part="pendulum")
+    row["time_pendulum_runs"] = time.perf_counter() - t0
+    row["pendulum_failures"] = _drop_failing_pendulum_runs(root) or None
+    # identify reports each stage as soon as its two logs are smoothed and balanced: the
+    # time between reports is that stage's smoothing (the rest is the fits).
+    marks: list[float] = []
+    t0 = time.perf_counter()
+    result = identify(root, progress=lambda _text: marks.append(time.perf_counter()))
+    row["time_identify"] = time.perf_counter() - t0
+    previous = t0
+    for stage, mark in zip(stages, marks, strict=False):  # then comes the pendulum's report
+        row[f"time_smoothing_{stage}"] = mark - previous
+        previous = mark
+    row["time_processing"] = row["time_identify"] + sum(
+        row[f"time_program_{stage}"] for stage in stages
+    )
+    row["axes"] = len(result.axes)
+    row.update(_relative_errors(result, exp.load_virtual()))
+    row["warnings"] = "; ".join(result.warnings)
+    return row
+
+
+def is_timing(key: str) -> bool:
+    """Whether a row key is a wall-clock measurement (differs run to run; all else is exact)."""
+    return key.startswith(("time_", "ratio_"))
+
+
+# --- the sweep ---------------------------------------------------------------------------
+
+PACKAGES = ("plant", "ocp", "estimation", "rsp_inertia")
+"""The project's packages: where a crash's innermost frame of interest lies."""
+
+
+def code_fingerprint() -> str:
+    """A hash of the source that computes a case (plant, ocp, estimation, the pipeline, this
+    module, the default experiment): a cached result is reused only under the same code."""
+    digest = hashlib.sha256()
+    files = []
+    for package in ("plant", "ocp", "estimation"):
+        folder = Path(importlib.import_module(package).__file__).parent
+        files += sorted(folder.rglob("*.py")) + sorted(folder.rglob("*.toml"))
+    files += [Path(importlib.import_module(m).__file__) for m in ("rsp_inertia.pipeline", __name__)]
+    for path in files:
+        digest.update(f"{path.parent.name}/{path.name}\n".encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def _run_guarded(case: Case) -> dict:
+    """:func:`run_case`, with a crash (a bug, not bad input) turned into a row flagged ``bug``.
+
+    One crashing case must not lose a sweep's other results or its report; the row says what
+    crashed and where, and is never cached, so the case runs again once the bug is fixed.
+    """
+    try:
+        return run_case(case)
+    except Exception as error:  # noqa: BLE001 - reported in its row, never cached
+        frames = [
+            f
+            for f in traceback.extract_tb(error.__traceback__)
+            if Path(f.filename).parent.name in PACKAGES
+        ]
+        where = ""
+        if frames:
+            path = Path(frames[-1].filename)
+            where = f" at {path.parent.name}/{path.name}:{frames[-1].lineno} ({frames[-1].name})"
+        return {
+            "case": case.name,
+            **asdict(case),
+            "error": f"bug: {type(error).__name__}: {' '.join(str(error).split())}{where}",
+            "bug": True,
+        }
+
+
+def run_sweep(
+    cases: Iterable[Case],
+    out_dir: str | os.PathLike,
+    scheduler: str | None = None,
+    jobs: int = -1,
+    progress: bool = True,
+) -> list[dict]:
+    """Run every case not yet in ``out_dir/cases/``; return all rows, sorted by case.
+
+    Parameters
+    ----------
+    cases : iterable of Case
+        The grid; duplicates are run once.
+    out_dir : path
+        Results folder; one JSON file per case goes to ``out_dir/cases/<case.name>.json``,
+        written atomically as soon as the case finishes. A case whose file exists, made by
+        the same code (:func:`code_fingerprint`), is not run again, so an interrupted sweep
+        resumes where it stopped; a change of the code runs it again. A case that crashes (a
+        bug, not an InputError) gets a row flagged ``bug`` and no file.
+    scheduler : str, optional
+        Address of a Dask scheduler (``tcp://host:8786``): the cases run on its workers
+        through ``client.map`` (needs the ``cluster`` extra, and rsp-inertia installed on
+        the workers). By default they run on local processes (joblib, loky).
+    jobs : int
+        Local processes (joblib's n_jobs: -1 = one per core, 1 = in this process).
+    progress : bool
+        Show a progress bar over the completed cases (on stderr).
+
+    Returns
+    -------
+    list of dict
+        One :func:`run_case` row per case, in the order of the sorted cases: the same inputs
+        give the same rows (timings aside) whatever the scheduler.
+    """
+    from tqdm import tqdm
+
+    cases = sorted(set(cases))
+    case_dir = Path(out_dir) / "cases"
+    case_dir.mkdir(parents=True, exist_ok=True)
+    code = code_fingerprint()
+    rows: dict[str, dict] = {}
+    todo = []
+    for case in cases:
+        path = case_dir / f"{case.name}.json"
+        cached = json.loads(path.read_text()) if path.is_file() else None
+        if cached is not None and cached.get("code") == code:
+            rows[case.name] = cached
+        else:
+            todo.append(case)
+    run = _on_cluster(todo, scheduler) if scheduler else _on_processes(todo, jobs)
+    with tqdm(
+        total=len(cases), initial=len(cases) - len(todo), disable=not progress,
+        desc="bench", unit="case",
+    ) as bar:
+        for row in run:
+            if not row.get("bug"):
+                write_atomic(case_dir / f"{row['case']}.json", json.dumps(row, indent=2) + "\n")
+            rows[row["case"]] = row
+            bar.set_postfix_str(row["case"] + (" (failed)" if row["error"] else ""))
+            bar.update()
+    return [rows[case.name] for case in cases]
+
+
+def _on_processes(cases: Sequence[Case], jobs: int) -> Iterator[dict]:
+    """Rows of ``cases`` as they complete, on local processes (checked before any runs)."""
+    from joblib import Parallel, delayed
+
+    if jobs == 0:
+        raise InputError("--jobs: must not be 0 (-1 = one process per core)")
+    if not cases:
+        return iter(())
+    parallel = Parallel(n_jobs=jobs, return_as="generator_unordered")
+    return parallel(delayed(_run_guarded)(case) for case in cases)
+
+
+def _on_cluster(cases: Sequence[Case], address: str) -> Iterator[dict]:
+    """Rows of ``cases`` as they complete, on the Dask cluster at ``address``.
+
+    Importing dask and connecting happen here, before any case runs, so that a missing extra
+    or a wrong address is one line of error.
+    """
+    try:
+        from dask.distributed import Client, as_completed
+    except ImportError:
+        raise InputError(
+            "--scheduler: dask.distributed is not installed: pip install 'rsp-inertia[cluster]'"
+        ) from None
+    if not cases:
+        return iter(())
+    try:
+        client = Client(address, timeout="20s")
+    except (OSError, TimeoutError, ValueError) as error:
+        reason = " ".join(str(error).split()) or type(error).__name__
+        raise InputError(f"--scheduler {address}: cannot connect: {reason}") from None
+
+    def rows() -> Iterator[dict]:
+        with client:
+            futures = client.map(_run_guarded, cases, key=[f"rsp-bench-{c.name}" for c in cases])
+            for future in as_completed(futures):
+                yield future.result()
+
+    return rows()
+
+
+# --- the report --------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class BenchReport:
+    """What a benchmark run wrote."""
+
+    rows: list[dict]
+    """One :func:`run_case` row per case, sorted by case."""
+    table: str
+    """The accuracy table (Markdown), as in accuracy.md."""
+    paths: tuple[Path, ...]
+    """accuracy.md, accuracy.png, speed.md."""
+
+    @property
+    def crashed(self) -> list[str]:
+        """Names of the cases that crashed (bugs; their rows are flagged ``bug``)."""
+        return [row["case"] for row in self.rows if row.get("bug")]
+
+
+def _fmt(value: float | None, spec: str = ".1e") -> str:
+    return "-" if value is None else format(value, spec)
+
+
+def _groups(rows: list[dict]) -> dict[tuple[float, int], list[dict]]:
+    groups: dict[tuple[float, int], list[dict]] = {}
+    for row in rows:
+        groups.setdefault((row["friction_factor"], row["encoder_bits"]), []).append(row)
+    return groups
+
+
+def _stat(rows: list[dict], key: str) -> tuple[float | None, float | None]:
+    """Mean and worst of ``key`` over the rows that have it."""
+    values = [row[key] for row in rows if row.get(key) is not None]
+    if not values:
+        return None, None
+    return float(np.mean(values)), float(np.max(values))
+
+
+def _partial_pendulum(row: dict) -> bool:
+    """Whether the row's pendulum errors cover fewer axes than the RSP ones."""
+    return row["error"] is None and row["pendulum_axes"] < row["axes"]
+
+
+def accuracy_table(rows: list[dict]) -> str:
+    """Markdown: one row per friction x bits, mean / worst over seeds of each method's error.
+
+    A pendulum cell marked * is over fewer axes than six: some of its runs could not be
+    reduced (see the per-case notes of accuracy.md).
+    """
+    head = ["friction x", "encoder bits", "cases ok"]
+    head += [f"{name} J_k" for name in METHODS.values()]
+    head += ["RSP LS tensor (worst)", "com mm (worst)"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for (factor, bits), group in _groups(rows).items():
+        ok = [row for row in group if row["error"] is None]
+        cells = [f"{factor:g}", f"{bits}", f"{len(ok)}/{len(group)}"]
+        partial = any(_partial_pendulum(row) for row in ok)
+        for key in METHODS:
+            mean, worst = _stat(ok, f"err_Jk_{key}")
+            mark = "*" if partial and key.startswith("pendulum") else ""
+            cells.append(f"{_fmt(mean)} / {_fmt(worst)}{mark}")
+        cells.append(_fmt(_stat(ok, "err_tensor_ls")[1]))
+        cells.append(_fmt(_stat(ok, "com_error_mm")[1]))
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def _case_table(rows: list[dict]) -> str:
+    """Markdown: every case, its protocol and errors; then the notes (failures, short runs)."""
+    head = ["case", "launch speeds rad/s", "braking torques N m", "turns past last node"]
+    head += [f"{name} J_k" for name in METHODS.values()]
+    head += [f"{name} tensor" for name in METHODS.values()]
+    head += ["com mm", "pendulum axes"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    notes = []
+    for row in rows:
+        if row["error"] is not None:
+            lines.append(f"| {row['case']} | failed |" + " |" * (len(head) - 2))
+            notes.append(f"- {row['case']}: failed: {row['error']}")
+            continue
+        stages = sorted(int(k.rsplit("_", 1)[1]) for k in row if k.startswith("launch_speed_"))
+        cells = [
+            row["case"],
+            ", ".join(f"{row[f'launch_speed_{s}']:g}" for s in stages),
+            ", ".join(f"{row[f'braking_torque_{s}']:g}" for s in stages),
+            ", ".join(f"{row[f'turns_past_last_node_{s}']:.2f}" for s in stages),
+        ]
+        cells += [_fmt(row[f"err_Jk_{k}"]) for k in METHODS]
+        cells += [_fmt(row[f"err_tensor_{k}"]) for k in METHODS]
+        cells += [_fmt(row["com_error_mm"]), f"{row['pendulum_axes']}/{row['axes']}"]
+        lines.append("| " + " | ".join(cells) + " |")
+        short = [s for s in stages if row[f"short_protocol_{s}"]]
+        if short:
+            notes.append(
+                f"- {row['case']}: stage(s) {', '.join(map(str, short))}: fewer than "
+                f"{MIN_TURNS_PAST_LAST_NODE:g} braking turns past the last node within the "
+                "torque margin; the longest braking found was used"
+            )
+        if row["pendulum_failures"]:
+            notes.append(f"- {row['case']}: pendulum runs left out: {row['pendulum_failures']}")
+    if notes:
+        lines += ["", "Notes:", "", *notes]
+    return "\n".join(lines)
+
+
+def _speed_table(rows: list[dict]) -> str:
+    ok = [row for row in rows if row["error"] is None]
+    if not ok:
+        return "(no successful case)"
+    stages = sorted(int(k.rsplit("_", 1)[1]) for k in ok[0] if k.startswith("time_program_"))
+    columns = [("physical s", "physical_duration", ".1f")]
+    for label, key in (("smoothing", "smoothing"), ("program", "program"),
+                       ("closed loop", "closed_loop")):
+        columns += [(f"{label} {s} s", f"time_{key}_{s}", ".2f") for s in stages]
+    columns += [
+        ("pendulum runs s", "time_pendulum_runs", ".2f"),
+        ("identification s", "time_identify", ".2f"),
+        ("processing s", "time_processing", ".2f"),
+        ("whole case s", "time_case", ".1f"),
+        ("processing / physical", "ratio_processing", ".3f"),
+        ("case / physical", "ratio_case", ".3f"),
+    ]
+    lines = [
+        "| case | " + " | ".join(c[0] for c in columns) + " |",
+        "|" + "---|" * (len(columns) + 1),
+    ]
+    for row in ok:
+        lines.append(
+            f"| {row['case']} | " + " | ".join(format(row[k], f) for _, k, f in columns) + " |"
+        )
+    means = [format(float(np.mean([row[k] for row in ok])), f) for _, k, f in columns]
+    lines.append("| **mean** | " + " | ".join(means) + " |")
+    return "\n".join(lines)
+
+
+def _accuracy_figure(rows: list[dict], path: Path, command: str) -> None:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
+
+    from rsp_inertia.plots import save_figure
+
+    groups = _groups(rows)
+    factors = sorted({f for f, _ in groups})
+    bits_all = sorted({b for _, b in groups})
+    fig = Figure(figsize=(4.2 * len(bits_all) + 1.0, 4.4), layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(1, len(bits_all), sharey=True, squeeze=False)[0]
+    x = np.arange(len(factors))  # friction 0 has no place on a log axis: categories
+    for ax, bits in zip(axes, bits_all, strict=True):
+        for i, (key, name) in enumerate(METHODS.items()):
+            mean, worst = [], []
+            for factor in factors:
+                ok = [r for r in groups.get((factor, bits), []) if r["error"] is None]
+                m, w = _stat(ok, f"err_Jk_{key}")
+                mean.append(np.nan if m is None else m)
+                worst.append(np.nan if w is None else w)
+            color = f"C{i}"
+            ax.plot(x, mean, "o-", color=color, label=name)
+            ax.plot(x, worst, "v--", color=color, alpha=0.6, lw=1)
+        if not any(r["error"] is None for f in factors for r in groups.get((f, bits), [])):
+            ax.text(0.5, 0.5, "no case succeeded\n(see accuracy.md)", ha="center",
+                    va="center", transform=ax.transAxes, color="grey")
+        ax.axhline(1e-4, color="k", lw=0.8, ls=":", label="target 1e-4")
+        ax.set_yscale("log")
+        ax.set_xticks(x, [f"x{f:g}" for f in factors])
+        ax.set_xlabel("bearing friction (Coulomb and viscous) / paper's")
+        ax.set_title(f"{bits}-bit encoder")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].set_ylabel("worst relative error of J_k over the 6 axes")
+    handles, _ = axes[-1].get_legend_handles_labels()
+    handles += [
+        Line2D([], [], color="grey", marker="o", ls="-", label="mean over seeds"),
+        Line2D([], [], color="grey", marker="v", ls="--", alpha=0.6, label="worst over seeds"),
+    ]
+    axes[-1].legend(handles=handles, fontsize=7, loc="best")
+    fig.suptitle(f"RSP and torsion-pendulum accuracy over seeds\n$ {command}", fontsize=9)
+    save_figure(fig, path)
+
+
+def write_report(rows: list[dict], out_dir: str | os.PathLike, command: str) -> BenchReport:
+    """Write accuracy.md, accuracy.png and speed.md into ``out_dir`` (atomically).
+
+    Parameters
+    ----------
+    rows : list of dict
+        :func:`run_sweep`'s rows.
+    out_dir : path
+        The results folder (it must exist).
+    command : str
+        The command line that produced the rows, written into each file.
+    """
+    out = Path(out_dir)
+    table = accuracy_table(rows)
+    failed = [row for row in rows if row["error"] is not None]
+    seeds = sorted({row["seed"] for row in rows})
+    accuracy = [
+        "# Accuracy: RSP against the torsion pendulum",
+        "",
+        f"Command: `{command}`",
+        "",
+        (
+            "Each case is the default experiment (paper scenario, icosahedron stages) on the "
+            "virtual device, end to end: braking, torque program, closed-loop reverse, "
+            "torsion-pendulum runs at every node, identification. 'friction x' scales the "
+            "Coulomb (a1) and viscous (a2) coefficients of the paper's a = [1e-4, 1e-4, 1e-3]; "
+            "the quadratic a3 keeps the paper's value (at 10x it would take 95% of stage 1's "
+            "energy every turn). counts_per_rev = 2^bits. Seeds "
+            f"{', '.join(map(str, seeds))} set the noise and move the release angle by "
+            "U(-1, 1) deg. Protocol: where the default launch speed would make the reverse "
+            f"pass need more than {TORQUE_MARGIN:g} of the motor's torque limit "
+            "(b + 2 D(Omega), with the virtual device's true friction), the launch speed is "
+            "lowered to fit; where the braking then covers fewer than "
+            f"{MIN_TURNS_PAST_LAST_NODE:g} turns past the last node, the braking torque is "
+            "halved (up to 7 times) and the longest braking kept (per-case table)."
+        ),
+        "",
+        (
+            "Cells: mean / worst over the seeds of the worst relative J_k error over the six "
+            "axes; tensor: worst entry error over the largest principal moment; com: "
+            "centre-of-mass error. Pendulum cells marked * are over fewer axes: the runs that "
+            "heavy Coulomb friction stops within 3 oscillations are left out. Target "
+            "(issue 5): RSP at or under 1e-4 at friction x1 and x10."
+        ),
+        "",
+        table,
+        "",
+        "Chart: accuracy.png. Timings: speed.md.",
+        "",
+        "## Per case",
+        "",
+        _case_table(rows),
+    ]
+    if failed:
+        accuracy += ["", f"{len(failed)} of {len(rows)} case(s) failed; the notes say why."]
+    speed = [
+        "# Speed: processing time against the experiment's physical duration",
+        "",
+        f"Command: `{command}`",
+        "",
+        (
+            f"Wall-clock seconds on this machine ({os.cpu_count()} cores, shared by the cases "
+            "that run in parallel and by whatever else runs). Per stage: smoothing "
+            "(identification's UKF + RTS of the braking and reverse logs, and their balances), "
+            "program generation (smoothing, mirror, nominal fit, OCP, LQR), closed loop (the "
+            "virtual device running the program sample by sample, after regenerating the "
+            "braking's end state). Identification: the whole identify step (smoothing "
+            "included, then least squares, node formula and pendulum reduction). Processing = "
+            "programs + identification: what a rig's computer does. Physical: the braking and "
+            "reverse passes of all stages (pendulum runs not counted). Whole case: everything, "
+            "the virtual device's simulation included (the demo's work)."
+        ),
+        "",
+        _speed_table(rows),
+    ]
+    paths = (out / "accuracy.md", out / "accuracy.png", out / "speed.md")
+    write_atomic(paths[0], "\n".join(accuracy) + "\n")
+    _accuracy_figure(rows, paths[1], command)
+    write_atomic(paths[2], "\n".join(speed) + "\n")
+    return BenchReport(rows=rows, table=table, paths=paths)
+
+
+def bench(
+    seeds: int = 2,
+    quick: bool = False,
+    scheduler: str | None = None,
+    jobs: int = -1,
+    out: str | os.PathLike = Path("benchmarks/results"),
+    command: str = "rsp-inertia bench",
+    progress: bool = True,
+) -> BenchReport:
+    """``rsp-inertia bench``: the default sweep (or the quick one) and its report in ``out``.
+
+    Parameters
+    ----------
+    seeds : int
+        Seeds per friction x bits (ignored with ``quick``, which runs one).
+    quick : bool
+        Friction {1, 10} x 16 bits x 1 seed instead of the default grid.
+    scheduler, jobs, progress
+        As for :func:`run_sweep`.
+    out : path
+        Results folder: cases/ (one JSON per case, reused), accuracy.md, accuracy.png,
+        speed.md.
+    command : str
+        The command line to record in the report.
+    """
+    cases = default_cases(seeds, quick)
+    rows = run_sweep(cases, out, scheduler=scheduler, jobs=jobs, progress=progress)
+    return write_report(rows, out, command)
