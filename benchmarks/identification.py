@@ -15,9 +15,9 @@ from __future__ import annotations
 import argparse
 import re
 import sys
-import tomllib
 import tempfile
 import time
+import tomllib
 from pathlib import Path
 
 import numpy as np

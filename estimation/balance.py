@@ -23,14 +23,14 @@ from plant.config import Device, Stage
 from plant.errors import InputError
 
 __all__ = [
-    "MIN_SPEED_FRACTION",
     "EDGE_MARGIN",
+    "MIN_SPEED_FRACTION",
     "POSITION_SPACING_BANDWIDTHS",
-    "StageBalance",
-    "usable_range",
-    "stage_balance",
     "NodeEstimate",
+    "StageBalance",
     "node_formula",
+    "stage_balance",
+    "usable_range",
 ]
 
 MIN_SPEED_FRACTION = 0.2

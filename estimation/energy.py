@@ -27,12 +27,12 @@ from plant.errors import InputError
 from plant.logs import Log
 
 __all__ = [
-    "PassEstimate",
-    "estimate_pass",
-    "torque_noise",
     "AngleSample",
-    "sample_at",
+    "PassEstimate",
     "check_braking_monotone",
+    "estimate_pass",
+    "sample_at",
+    "torque_noise",
 ]
 
 

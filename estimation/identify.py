@@ -38,8 +38,8 @@ from plant.logs import read_log
 __all__ = [
     "MAX_CONDITION",
     "AxisResult",
-    "PendulumResult",
     "Identification",
+    "PendulumResult",
     "identify",
     "identify_pendulum",
 ]

@@ -31,8 +31,8 @@ __all__ = [
     "PendulumEstimate",
     "crossing_period",
     "damped_fit",
-    "pendulum_inertia",
     "estimate_pendulum",
+    "pendulum_inertia",
 ]
 
 

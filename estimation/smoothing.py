@@ -43,7 +43,7 @@ from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 from plant.errors import InputError
 from plant.logs import Log
 
-__all__ = ["BLOCK", "BANDWIDTH_FACTOR", "Smoothed", "hermite", "jerk_density", "smooth_log"]
+__all__ = ["BANDWIDTH_FACTOR", "BLOCK", "Smoothed", "hermite", "jerk_density", "smooth_log"]
 
 BLOCK = 10
 """Encoder samples per filter step."""

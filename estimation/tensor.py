@@ -29,11 +29,11 @@ from plant.geometry import design_matrix, tensor_from_entries
 
 __all__ = [
     "TensorFit",
-    "fit_tensor",
     "axis_values",
-    "tensor_from_axes",
-    "principal",
+    "fit_tensor",
     "physical_warnings",
+    "principal",
+    "tensor_from_axes",
 ]
 
 

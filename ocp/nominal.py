@@ -73,7 +73,7 @@ def fit_nominal(device: Device, stage: int, log: Log, sm: Smoothed) -> ModelPara
         zero_angle=device.spring.zero_angle,
     )
     moving = np.nonzero(sm.omega > _MIN_SPEED_FRACTION * sm.omega.max())[0]
-    stride = max(int(round(_WINDOW / (sm.t[1] - sm.t[0]))), 1)
+    stride = max(round(_WINDOW / (sm.t[1] - sm.t[0])), 1)
     rows = np.arange(moving[0], moving[-1] + 1) if moving.size else moving
     if rows.size < _MIN_WINDOWS * stride:
         raise InputError(

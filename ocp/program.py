@@ -32,7 +32,7 @@ from plant.config import Device
 from plant.errors import InputError
 from plant.model import MODEL, ModelParameters, motor_torque, static_torque
 
-__all__ = ["W_PHI", "RHO", "GRID_STEP", "OcpSolution", "required_torque", "solve_program_ocp"]
+__all__ = ["GRID_STEP", "RHO", "W_PHI", "OcpSolution", "required_torque", "solve_program_ocp"]
 
 W_PHI = 2.0
 """1/s: weight of the angle error against the speed error (an angle error of 1 rad costs
@@ -113,7 +113,7 @@ def solve_program_ocp(
     # acceleration carries the encoder's noise (0.1 N m peaks on a 12-bit encoder), which is
     # not torque the motor must deliver; the OCP's smoothness term ignores it as well.
     dt = mirror.t[1] - mirror.t[0]
-    width = max(int(round(FEASIBILITY_WINDOW / dt)), 1)
+    width = max(round(FEASIBILITY_WINDOW / dt), 1)
     average = uniform_filter1d(needed, width, mode="nearest")  # ends held, not zero-padded
     peak = float(np.max(np.abs(average)))
     if peak > motor.torque_limit:
@@ -123,7 +123,7 @@ def solve_program_ocp(
             f"{mirror.t[k]:.2f} s of the reverse, the motor has {motor.torque_limit:g} N m "
             "(device.toml motor.torque_limit): lower launch_speed or braking_torque"
         )
-    m = max(int(round(GRID_STEP / dt)), 1)
+    m = max(round(GRID_STEP / dt), 1)
     idx = np.arange(0, mirror.t.size, m)
     N = idx.size - 1
     h = m * dt

@@ -31,7 +31,7 @@ import numpy as np
 from estimation.smoothing import Smoothed, hermite
 from plant.errors import InputError
 
-__all__ = ["REST_WINDOW", "REST_COUNTS", "Mirror", "RestFit", "rest_fit", "rest_point", "mirror", "braking_states_at"]
+__all__ = ["REST_COUNTS", "REST_WINDOW", "Mirror", "RestFit", "braking_states_at", "mirror", "rest_fit", "rest_point"]
 
 REST_WINDOW = 0.05
 """s of the braking's end over which the deceleration to rest is fitted."""
@@ -91,7 +91,7 @@ class RestFit:
 def rest_fit(sm: Smoothed, source: str, quantum: float) -> RestFit:
     """The deceleration to rest fitted over the braking's end (module docstring)."""
     dt = sm.t[1] - sm.t[0]
-    n = max(int(round(REST_WINDOW / dt)), 3)
+    n = max(round(REST_WINDOW / dt), 3)
     moved = sm.phi[-1] - sm.phi  # distance still to go at each sample
     enough = np.nonzero(moved >= REST_COUNTS * quantum)[0]
     if enough.size:
@@ -155,7 +155,7 @@ def mirror(
     fit = rest_fit(sm, source, quantum)
     T, phi7 = fit.rest_time, fit.phi7
     dt = 1.0 / sample_rate
-    n = int(math.floor(T / dt + 1e-9)) + 1
+    n = math.floor(T / dt + 1e-9) + 1
     t = np.arange(n) * dt
     phi, omega, eps = braking_states_at(sm, T - t, (T, phi7))
     # Over the last window the fitted deceleration replaces the smoother (module docstring).

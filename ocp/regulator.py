@@ -31,7 +31,7 @@ from threadpoolctl import threadpool_limits
 from plant.config import Device
 from plant.model import MODEL, ModelParameters, reduced_inertia
 
-__all__ = ["MAX_BANDWIDTH", "GAIN_STEP", "bandwidth", "lqr_gains"]
+__all__ = ["GAIN_STEP", "MAX_BANDWIDTH", "bandwidth", "lqr_gains"]
 
 MAX_BANDWIDTH = 45.0
 """rad/s: ceiling on the regulator's bandwidth. Measured on the default stage 1 with the
@@ -80,7 +80,7 @@ def lqr_gains(
     k_phi, k_omega : arrays like ``t``, N m/rad and N m s/rad.
     """
     dt = device.encoder.dt
-    step = max(int(round(GAIN_STEP / dt)), 1)
+    step = max(round(GAIN_STEP / dt), 1)
     idx = np.unique(np.append(np.arange(0, t.size, step), t.size - 1))
     M = reduced_inertia(phi[idx], nominal)
     w = bandwidth(device, float(np.max(M)))

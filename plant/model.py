@@ -34,22 +34,22 @@ import casadi as ca
 import numpy as np
 
 __all__ = [
-    "PARAMETER_NAMES",
-    "ModelParameters",
-    "GimbalModel",
     "MODEL",
-    "inertia_harmonics",
-    "reduced_inertia",
-    "reduced_inertia_slope",
-    "potential",
-    "static_torque",
-    "dissipation",
+    "PARAMETER_NAMES",
+    "GimbalModel",
+    "ModelParameters",
     "acceleration",
+    "dissipation",
+    "dissipation_regressor",
+    "energy_regressor",
+    "inertia_harmonics",
     "mechanical_energy",
     "motor_torque",
+    "potential",
+    "reduced_inertia",
+    "reduced_inertia_slope",
+    "static_torque",
     "torque_regressor",
-    "energy_regressor",
-    "dissipation_regressor",
 ]
 
 PARAMETER_NAMES = ("M0", "Mc2", "Ms2", "Ms1", "Mc1", "c", "phi0", "Gs", "Gc", "a1", "a2", "a3")

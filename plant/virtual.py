@@ -39,20 +39,20 @@ from plant.model import (
 )
 
 __all__ = [
-    "SUBSTEPS",
     "MAX_BRAKING_TIME",
-    "true_parameters",
+    "SUBSTEPS",
     "PassTruth",
     "SimulatedPass",
-    "simulate_braking",
-    "run_program",
-    "ideal_program",
-    "simulate_ideal_reverse",
-    "pendulum_parameters",
-    "simulate_pendulum",
-    "free_motion",
     "SpeedObserver",
     "encoder_reading",
+    "free_motion",
+    "ideal_program",
+    "pendulum_parameters",
+    "run_program",
+    "simulate_braking",
+    "simulate_ideal_reverse",
+    "simulate_pendulum",
+    "true_parameters",
 ]
 
 SUBSTEPS = 8
@@ -281,9 +281,10 @@ def _advance(x: np.ndarray, u: float, h: float, p: np.ndarray, coulomb: float) -
         nxt = _step(x, u, direction, p, remaining)
         if nxt[1] * direction > 0.0:
             return nxt
-        h_stop = brentq(
-            lambda s: _step(x, u, direction, p, s)[1] * direction, 0.0, remaining, xtol=1e-15
-        )
+        def speed_along(h, x=x, direction=direction):
+            return _step(x, u, direction, p, h)[1] * direction
+
+        h_stop = brentq(speed_along, 0.0, remaining, xtol=1e-15)
         x = _step(x, u, direction, p, h_stop)
         x[1] = 0.0
         remaining -= h_stop
@@ -384,7 +385,7 @@ def ideal_program(device: Device, stage: int, virtual: Virtual, braking: Simulat
     p = params.vector
     dt = device.encoder.dt
     T = braking.truth.end_time
-    n = int(math.floor(T / dt + 1e-9)) + 1
+    n = math.floor(T / dt + 1e-9) + 1
     u_b = -st.braking_torque
     # Braking states at times T - k dt, k = 0..n-1, by backward integration.
     back = np.empty((n, 2))
@@ -488,7 +489,7 @@ def simulate_pendulum(device: Device, stage: int, virtual: Virtual, node: int) -
     """
     params = pendulum_parameters(device, stage, virtual, node)
     dt = device.encoder.dt
-    n = int(round(device.pendulum.duration / dt)) + 1
+    n = round(device.pendulum.duration / dt) + 1
     x0 = np.array([params.zero_angle + math.radians(device.pendulum.amplitude_deg), 0.0])
     traj = _free_motion(x0, params.vector, n, dt, virtual.friction.coulomb)
     t = np.arange(n) * dt
@@ -519,7 +520,7 @@ def free_motion(
     if not damped:
         params = dataclasses.replace(params, coulomb=0.0, viscous=0.0, quadratic=0.0)
     dt = device.encoder.dt
-    n = int(round(duration / dt)) + 1
+    n = round(duration / dt) + 1
     x0 = np.array([math.radians(virtual.run.release_angle_deg), device.stages[stage - 1].launch_speed])
     coulomb = virtual.friction.coulomb if damped else 0.0
     traj = _free_motion(x0, params.vector, n, dt, coulomb)

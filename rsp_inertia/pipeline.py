@@ -18,10 +18,10 @@ import numpy as np
 
 from estimation.identify import ENTRY_NAMES, Identification
 from estimation.identify import identify as identify_experiment
+from ocp.make import ProgramResult, make_program
 from plant.errors import InputError
 from plant.experiment import Experiment, open_experiment
 from plant.geometry import tensor_from_entries
-from ocp.make import ProgramResult, make_program
 from plant.logs import read_log, read_program, write_atomic, write_log, write_program
 from plant.virtual import (
     SimulatedPass,
@@ -35,11 +35,11 @@ __all__ = [
     "DEFAULT_EXPERIMENT",
     "PassSummary",
     "create_default_experiment",
-    "simulate",
-    "program",
-    "identify",
-    "format_identification",
     "demo",
+    "format_identification",
+    "identify",
+    "program",
+    "simulate",
 ]
 
 DEFAULT_EXPERIMENT = Path("demo-experiment")

@@ -14,7 +14,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-__all__ = ["save_figure", "plot_tracking"]
+__all__ = ["plot_tracking", "save_figure"]
 
 
 def save_figure(fig: Figure, path: str | os.PathLike) -> None:
