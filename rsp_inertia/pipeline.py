@@ -304,6 +304,7 @@ def demo_figures(exp: Experiment, result: Identification) -> list[Path]:
     Fig. 4 shows what a rig sees: the program's reference speed against the smoothed speed
     of the reverse log. Fig. 3 and the error chart use the virtual device's truth.
     """
+    # Imported here: only the demo draws, and matplotlib costs the other commands a second.
     from estimation.smoothing import smooth_log
     from plant.virtual import free_motion
     from rsp_inertia.design import plot_cone_conditioning
