@@ -21,6 +21,7 @@ import numpy as np
 from estimation.energy import PassEstimate, sample_at
 from plant.config import Device, Stage
 from plant.errors import InputError
+from plant.model import potential, spring_parameters
 
 __all__ = [
     "EDGE_MARGIN",
@@ -47,9 +48,8 @@ Measured on the default experiment (speed noise alone): spacing 3/w_c leaves J_k
 
 
 def _spring_potential(phi: np.ndarray, device: Device) -> np.ndarray:
-    """Spring part of Pi (METHOD.md §3); gravity is estimated, not known."""
-    c, phi0 = device.spring.stiffness, device.spring.zero_angle
-    return c / 2 * (phi - phi0) ** 2
+    """Spring part of Pi (METHOD.md §3, plant.model); gravity is estimated, not known."""
+    return potential(phi, spring_parameters(device.spring.stiffness, device.spring.zero_angle))
 
 
 MIN_TURNS = 2.0

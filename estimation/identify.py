@@ -37,6 +37,8 @@ from plant.logs import read_log
 
 __all__ = [
     "MAX_CONDITION",
+    "axial_moment",
+    "axial_std",
     "AxisResult",
     "Identification",
     "PendulumResult",
@@ -213,6 +215,16 @@ class Identification:
         }
 
 
+def axial_moment(M, stage) -> np.ndarray | float:
+    """J_e = (M - M_tare) / (1 + lam^2) about a stage's axis (METHOD.md §2)."""
+    return (np.asarray(M) - stage.tare_inertia) / (1.0 + stage.gear_ratio**2)
+
+
+def axial_std(M_std, stage) -> np.ndarray | float:
+    """Standard deviation of :func:`axial_moment` (the tare is exact)."""
+    return np.asarray(M_std) / (1.0 + stage.gear_ratio**2)
+
+
 def identify(
     exp: Experiment, progress: Callable[[str], None] | None = None
 ) -> Identification:
@@ -268,11 +280,10 @@ def identify(
     J_node, J_node_std, J_plain, J_plain_std = [], [], [], []
     for n in nodes:
         st = device.stages[n.stage - 1]
-        scale = 1.0 + st.gear_ratio**2
-        J_node.append((n.M - st.tare_inertia) / scale)
-        J_node_std.append(n.M_std / scale)
-        J_plain.append((n.M_plain - st.tare_inertia) / scale)
-        J_plain_std.append(n.M_plain_std / scale)
+        J_node.append(axial_moment(n.M, st))
+        J_node_std.append(axial_std(n.M_std, st))
+        J_plain.append(axial_moment(n.M_plain, st))
+        J_plain_std.append(axial_std(n.M_plain_std, st))
     node_entries, node_cov, _ = tensor_from_axes(
         np.array(J_node), np.array(J_node_std), directions
     )
@@ -348,12 +359,11 @@ def identify_pendulum(
             estimate_pendulum(log, device.pendulum.stiffness, stage, st.nodes_deg[k - 1], str(path))
         )
         directions.append(axis_direction(st.nodes[k - 1], st.gear_ratio))
-    scale = np.array([1 + device.stages[r.stage - 1].gear_ratio ** 2 for r in runs])
-    tare = np.array([device.stages[r.stage - 1].tare_inertia for r in runs])
-    J_classic = (np.array([r.M_classic for r in runs]) - tare) / scale
-    J_classic_std = np.array([r.M_classic_std for r in runs]) / scale
-    J_damped = (np.array([r.M_damped for r in runs]) - tare) / scale
-    J_damped_std = np.array([r.M_damped_std for r in runs]) / scale
+    stages = [device.stages[r.stage - 1] for r in runs]
+    J_classic = np.array([axial_moment(r.M_classic, st) for r, st in zip(runs, stages)])
+    J_classic_std = np.array([axial_std(r.M_classic_std, st) for r, st in zip(runs, stages)])
+    J_damped = np.array([axial_moment(r.M_damped, st) for r, st in zip(runs, stages)])
+    J_damped_std = np.array([axial_std(r.M_damped_std, st) for r, st in zip(runs, stages)])
     entries_classic = entries_damped = None
     if len(found) == sum(len(st.nodes) for st in device.stages):
         directions = np.array(directions)

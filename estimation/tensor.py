@@ -25,7 +25,7 @@ import scipy.linalg
 from scipy.optimize import brentq
 
 from estimation.balance import StageBalance
-from plant.geometry import design_matrix, tensor_from_entries
+from plant.geometry import axis_direction, design_matrix, tensor_from_entries
 
 __all__ = [
     "TensorFit",
@@ -61,8 +61,7 @@ def _design_rows(bal: StageBalance) -> np.ndarray:
     """Rows v(phi) of the unnormalised axes w = (lam sin phi, lam cos phi, 1) at the balance
     angles: v . J = w^T J w = (1 + lam^2) J_e (METHOD.md §1-2)."""
     lam = bal.gear_ratio
-    w = np.column_stack([lam * np.sin(bal.phi), lam * np.cos(bal.phi), np.ones_like(bal.phi)])
-    return design_matrix(w)
+    return design_matrix(axis_direction(bal.phi, lam) * np.sqrt(1.0 + lam * lam))
 
 
 def _rows(bal: StageBalance) -> np.ndarray:

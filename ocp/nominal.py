@@ -32,6 +32,7 @@ from plant.model import (
     dissipation_regressor,
     energy_regressor,
     mechanical_energy,
+    spring_parameters,
 )
 
 __all__ = ["UNKNOWN", "fit_nominal"]
@@ -67,11 +68,7 @@ def fit_nominal(device: Device, stage: int, log: Log, sm: Smoothed) -> ModelPara
     the Jacobians of the model's own E and D (plant.model); the integral is a trapezoid sum
     over the samples, the motor work the Stieltjes sum of the log.
     """
-    spring = ModelParameters(
-        inertia_harmonics=np.zeros(5),
-        stiffness=device.spring.stiffness,
-        zero_angle=device.spring.zero_angle,
-    )
+    spring = spring_parameters(device.spring.stiffness, device.spring.zero_angle)
     moving = np.nonzero(sm.omega > _MIN_SPEED_FRACTION * sm.omega.max())[0]
     stride = max(round(_WINDOW / (sm.t[1] - sm.t[0])), 1)
     rows = np.arange(moving[0], moving[-1] + 1) if moving.size else moving

@@ -48,6 +48,7 @@ __all__ = [
     "potential",
     "reduced_inertia",
     "reduced_inertia_slope",
+    "spring_parameters",
     "static_torque",
     "torque_regressor",
 ]
@@ -133,6 +134,12 @@ class ModelParameters:
         vector.flags.writeable = False
         object.__setattr__(self, "vector", vector)
 
+
+
+def spring_parameters(stiffness: float, zero_angle: float) -> ModelParameters:
+    """A model with only the spring (c, phi0) non-zero: its potential is the spring's part of
+    Pi, its inverse dynamics and energy the spring's terms (used where the rest is unknown)."""
+    return ModelParameters(inertia_harmonics=np.zeros(5), stiffness=stiffness, zero_angle=zero_angle)
 
 
 class GimbalModel:
