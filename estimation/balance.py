@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from estimation.energy import PassEstimate, sample_at
+from estimation.energy import PassEstimate, sample_at, speed_error_covariance, work_covariance
 from plant.config import Device, Stage
 from plant.errors import InputError
 from plant.model import potential, spring_parameters
@@ -87,12 +87,14 @@ class StageBalance:
     """rad, the angles, ascending."""
     speed_sq: np.ndarray
     """S = Omega^2 + Omega'^2, rad^2/s^2."""
-    speed_sq_var: np.ndarray
-    """var(S), from the smoothers."""
+    speed_sq_cov: np.ndarray
+    """(n, n) covariance of S from the smoothers' speed errors: to first order
+    dS = 2 Omega dOmega + 2 Omega' dOmega', the passes independent, each pass's errors
+    correlated as the smoother's derived autocovariance says (estimation.smoothing)."""
     work: np.ndarray
     """W(phi) = A(release->phi) + A'(phi7->phi) minus 2 Pi_spring(phi), J."""
     work_cov: np.ndarray
-    """(n, n) covariance of ``work`` from the torque logs' noise (random walks), J^2."""
+    """(n, n) covariance of ``work`` from the torque logs' noise (estimation.energy), J^2."""
 
 
 def stage_balance(
@@ -108,17 +110,17 @@ def stage_balance(
     b = sample_at(braking, phi)
     r = sample_at(reverse, phi)
     S = b.omega**2 + r.omega**2
-    S_var = 4 * b.omega**2 * b.omega_std**2 + 4 * r.omega**2 * r.omega_std**2
+    S_cov = 4 * np.outer(b.omega, b.omega) * speed_error_covariance(braking, b)
+    S_cov += 4 * np.outer(r.omega, r.omega) * speed_error_covariance(reverse, r)
     work = b.work + r.work - 2 * _spring_potential(phi, device)
-    cov = braking.sigma_torque**2 * np.minimum.outer(b.work_var_steps, b.work_var_steps)
-    cov += reverse.sigma_torque**2 * np.minimum.outer(r.work_var_steps, r.work_var_steps)
+    cov = work_covariance(braking, b) + work_covariance(reverse, r)
     return StageBalance(
         stage=stage,
         gear_ratio=st.gear_ratio,
         tare_inertia=st.tare_inertia,
         phi=phi,
         speed_sq=S,
-        speed_sq_var=S_var,
+        speed_sq_cov=S_cov,
         work=work,
         work_cov=cov,
     )
@@ -156,9 +158,9 @@ def node_formula(
     METHOD.md §5: M = 2 (A' - A + 2 dPi) / (Omega_a^2 + Omega'_a^2 - Omega_b^2 - Omega'_b^2),
     and the paper's plain form M = (A' - A + 2 dPi) / (Omega_a^2 - Omega_b^2). Gravity cancels
     over whole turns; dPi is the spring's. Pairs are combined by generalised least squares
-    (:func:`_combine_pairs`): speed noise from the smoothers, its variance times
+    (:func:`_combine_pairs`): speed noise from the smoothers' derived error variance times
     ``speed_noise_scale`` (the calibration that the least squares finds on its residuals,
-    estimation.tensor), and work noise from the torque logs.
+    estimation.tensor), and work noise from the torque logs (estimation.energy).
     """
     st = device.stages[stage - 1]
     lo, hi = usable_range(braking, reverse, stage)
@@ -179,16 +181,18 @@ def node_formula(
         A_rev = r.work[a_] - r.work[b_]  # reverse work b -> a (positive when driving)
         dPi = _spring_potential(passages[b_], device) - _spring_potential(passages[a_], device)
         num = A_rev - A + 2 * dPi
-        num_var = braking.sigma_torque**2 * (b.work_var_steps[b_] - b.work_var_steps[a_])
-        num_var += reverse.sigma_torque**2 * (r.work_var_steps[a_] - r.work_var_steps[b_])
+        # Work errors at the passages, differenced into the pairs' numerators.
+        step = np.diff(np.eye(passages.size), axis=0)
+        num_cov = step @ (work_covariance(braking, b) + work_covariance(reverse, r)) @ step.T
         wb2, wr2 = b.omega**2, r.omega**2
-        vb = 4 * wb2 * b.omega_std**2 * speed_noise_scale
-        vr = 4 * wr2 * r.omega_std**2 * speed_noise_scale
+        # Passages a turn apart: their speed errors are independent (R decays in ~40 / w_c).
+        vb = 4 * wb2 * np.diag(speed_error_covariance(braking, b)) * speed_noise_scale
+        vr = 4 * wr2 * np.diag(speed_error_covariance(reverse, r)) * speed_noise_scale
         den = wb2[a_] + wr2[a_] - wb2[b_] - wr2[b_]
         M = 2 * num / den
         M_plain = num / (wb2[a_] - wb2[b_])
-        M_mean, M_std = _combine_pairs(M, num_var, den, vb + vr)
-        P_mean, P_std = _combine_pairs(M_plain, num_var / 4, wb2[a_] - wb2[b_], vb)
+        M_mean, M_std = _combine_pairs(M, num_cov, den, vb + vr)
+        P_mean, P_std = _combine_pairs(M_plain, num_cov / 4, wb2[a_] - wb2[b_], vb)
         estimates.append(
             NodeEstimate(
                 stage=stage,
@@ -203,23 +207,26 @@ def node_formula(
     return estimates
 
 
-def _combine_pairs(M, num_var, den, passage_var) -> tuple[float, float]:
+def _combine_pairs(M, num_cov, den, passage_var) -> tuple[float, float]:
     """Generalised mean of the consecutive pairs' M, with its standard deviation.
 
     Pair i runs from passage i to i+1, so consecutive pairs share a passage: the speed error
     there enters pair i's denominator with a minus sign and pair i+1's with a plus sign. To
     first order dM_i = 2 dN_i / den_i - M_i dden_i / den_i with dden_i = dS_i - dS_{i+1};
-    the work errors dN_i are over disjoint stretches (independent), the passages' speed
-    errors dS_j independent, which makes the pairs' covariance tridiagonal:
+    the work errors dN_i have covariance ``num_cov`` (diagonal for sample-by-sample sums over
+    disjoint stretches, full when a constant braking torque's mean is shared), the passages'
+    speed errors dS_j are independent, which makes the speed part tridiagonal:
 
-        var_i = (2/den_i)^2 var N_i + (M_i/den_i)^2 (var S_i + var S_{i+1})
-        cov_{i,i+1} = -(M_i/den_i)(M_{i+1}/den_{i+1}) var S_{i+1}
+        cov_ij = (2/den_i)(2/den_j) cov(N_i, N_j)
+                 + (M_i/den_i)^2 (var S_i + var S_{i+1})            (i = j)
+                 - (M_i/den_i)(M_{i+1}/den_{i+1}) var S_{i+1}       (j = i + 1)
 
     ``passage_var`` holds var S_j at every passage (len(M) + 1 of them). For the plain
-    formula M = N / den, pass var N / 4 (the factor 2 above).
+    formula M = N / den, pass cov N / 4 (the factor 2 above).
     """
     g = M / den
-    cov = np.diag((2 / den) ** 2 * num_var + g**2 * (passage_var[:-1] + passage_var[1:]))
+    cov = np.outer(2 / den, 2 / den) * num_cov
+    cov += np.diag(g**2 * (passage_var[:-1] + passage_var[1:]))
     off = -g[:-1] * g[1:] * passage_var[1:-1]
     cov += np.diag(off, 1) + np.diag(off, -1)
     ones = np.ones_like(M)

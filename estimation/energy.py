@@ -14,13 +14,27 @@ gains k_phi sum (e_k^2 - e_k e_{k+1}) ~ k_phi N q^2/12 of spurious work (3e-3 J,
 kinetic energy, on the default stage 2). The smoothed angle's error is ~0.05 q and nearly
 free of the reading's sample-to-sample error, which removes the bias. Between rows the
 work is W(phi*) = W_K + u_K (phi* - phi^_K), K the last row at or before phi*.
+
+Braking pass: a constant torque. By protocol the motor holds one constant braking torque
+(or none) over the whole braking pass (METHOD.md §4); the log is that constant plus the
+channel's white noise. Then the best estimate of the applied torque is the mean of every
+row of the log, u_bar, and the work is W(phi) = u_bar (phi - phi^_0): its error
+(u_bar - u)(phi - phi^_0) has variance sigma^2 / N (phi - phi^_0)^2, N the rows, instead of
+the sample-by-sample sum's random walk sigma^2 sum dphi_k^2. On the default stage 1 this
+removes most of the braking pass's share of the torque noise, which is half of what limits
+Jz (benchmarks/results/identification.md). The assumption is checked on the log itself
+(:func:`constancy_p_value`, a chi^2 test of quarter-turn means): a braking torque that
+drifts or ripples beyond its noise falls back to the sample-by-sample sum, which is exact
+for any applied torque, and identify says so.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.stats import chi2
 
 from estimation.smoothing import Smoothed, hermite, smooth_log
 from plant.errors import InputError
@@ -29,11 +43,24 @@ from plant.logs import Log
 __all__ = [
     "AngleSample",
     "PassEstimate",
+    "CONSTANCY_CHUNK",
+    "CONSTANCY_TAIL",
     "check_braking_monotone",
+    "constancy_p_value",
     "estimate_pass",
     "sample_at",
+    "speed_error_covariance",
     "torque_noise",
+    "work_covariance",
 ]
+
+CONSTANCY_CHUNK = math.pi / 2
+"""rad of braking per chunk in the constant-torque test (a quarter turn: a drift over the
+pass and a ripple once per turn both move the chunks' means)."""
+
+CONSTANCY_TAIL = 1e-3
+"""The braking torque is taken as constant unless the chunks' chi^2 has a p-value below
+this (a false alarm once in a thousand honest logs, which only costs some accuracy)."""
 
 
 def torque_noise(log: Log) -> float:
@@ -69,6 +96,11 @@ class PassEstimate:
     """N m, std of the torque log's noise."""
     source: str
     """Name of the log for messages."""
+    torque_mean: float | None = None
+    """N m: the applied torque as the mean of the whole log when the pass is modelled with a
+    constant torque (module docstring); None when the work is the sample-by-sample sum."""
+    constancy_p: float | None = None
+    """p-value of the constant-torque test, when it was made."""
 
 
 def check_braking_monotone(log: Log, source: str) -> None:
@@ -81,25 +113,60 @@ def check_braking_monotone(log: Log, source: str) -> None:
         )
 
 
+def constancy_p_value(log: Log, phi: np.ndarray, sigma: float) -> float:
+    """p-value of "the applied torque is constant" on a log with white noise of std sigma.
+
+    The rows are grouped by angle (``phi``, the smoothed angle at each row) into chunks of
+    CONSTANCY_CHUNK; with n_j rows and mean m_j per chunk and u_bar the mean of all rows,
+    sum_j n_j (m_j - u_bar)^2 / sigma^2 is chi^2 with (chunks - 1) degrees of freedom when the
+    torque is constant. A noise-free log (sigma = 0) is constant only if every row is equal.
+    """
+    u = np.asarray(log.torque, dtype=float)
+    if sigma <= 0.0:
+        return 1.0 if np.ptp(u) == 0.0 else 0.0
+    chunk = np.floor((phi - phi.min()) / CONSTANCY_CHUNK).astype(int)
+    n = np.bincount(chunk)
+    keep = n > 0
+    means = np.bincount(chunk, weights=u)[keep] / n[keep]
+    stat = float(np.sum(n[keep] * (means - u.mean()) ** 2) / sigma**2)
+    dof = int(keep.sum()) - 1
+    return float(chi2.sf(stat, dof)) if dof > 0 else 1.0
+
+
 def estimate_pass(
-    log: Log, quantum: float, source: str, sigma_torque: float | None = None
+    log: Log,
+    quantum: float,
+    source: str,
+    sigma_torque: float | None = None,
+    constant_torque: bool = False,
 ) -> PassEstimate:
     """Smooth a pass and accumulate its motor work (METHOD.md §3, Stieltjes sum; see above).
 
     ``sigma_torque`` is the torque channel's logging noise; by default it is estimated from
-    this log (right for a braking log, see :func:`torque_noise`).
+    this log (right for a braking log, see :func:`torque_noise`). ``constant_torque``: the
+    protocol holds the applied torque constant (a braking pass); the log is tested for it and,
+    unless the test rejects it, the work is the log's mean torque times the angle.
     """
     smoothed = smooth_log(log, quantum, source)
+    sigma = torque_noise(log) if sigma_torque is None else sigma_torque
     dphi = np.diff(smoothed.phi)
-    work = np.concatenate([[0.0], np.cumsum(log.torque[:-1] * dphi)])
     steps = np.concatenate([[0.0], np.cumsum(dphi * dphi)])
+    p_value = constancy_p_value(log, smoothed.phi, sigma) if constant_torque else None
+    if p_value is not None and p_value >= CONSTANCY_TAIL:
+        mean = float(np.mean(log.torque))
+        work = mean * (smoothed.phi - smoothed.phi[0])
+    else:
+        mean = None
+        work = np.concatenate([[0.0], np.cumsum(log.torque[:-1] * dphi)])
     return PassEstimate(
         log=log,
         smoothed=smoothed,
         work=work,
         work_var_steps=steps,
-        sigma_torque=torque_noise(log) if sigma_torque is None else sigma_torque,
+        sigma_torque=sigma,
         source=source,
+        torque_mean=mean,
+        constancy_p=p_value,
     )
 
 
@@ -156,7 +223,8 @@ def sample_at(est: PassEstimate, phi: np.ndarray) -> AngleSample:
     omega_std = sm.omega_std[k] + (sm.omega_std[k + 1] - sm.omega_std[k]) * s
     # Motor work at the smoothed angle (module docstring): last row at or before time t.
     K = k
-    work = est.work[K] + est.log.torque[K] * (phi - sm.phi[K])
+    held = est.log.torque[K] if est.torque_mean is None else est.torque_mean
+    work = est.work[K] + held * (phi - sm.phi[K])
     return AngleSample(
         phi=phi,
         time=t,
@@ -165,3 +233,27 @@ def sample_at(est: PassEstimate, phi: np.ndarray) -> AngleSample:
         work=work,
         work_var_steps=est.work_var_steps[K],
     )
+
+
+def work_covariance(est: PassEstimate, a: AngleSample, b: AngleSample | None = None) -> np.ndarray:
+    """cov(W(a_i), W(b_j)) that the torque log's noise puts into the pass's motor work, J^2.
+
+    Sample-by-sample sum: a random walk, sigma^2 min(s_i, s_j) with s the sum of squared
+    angle increments from the pass's start. Constant-torque model: one shared error of the
+    mean torque, sigma^2 / N (a_i - phi^_0)(b_j - phi^_0) (module docstring).
+    """
+    b = a if b is None else b
+    sigma2 = est.sigma_torque**2
+    if est.torque_mean is not None:
+        start = est.smoothed.phi[0]
+        return sigma2 / len(est.log) * np.outer(a.phi - start, b.phi - start)
+    return sigma2 * np.minimum.outer(a.work_var_steps, b.work_var_steps)
+
+
+def speed_error_covariance(est: PassEstimate, a: AngleSample) -> np.ndarray:
+    """(n, n) covariance of the pass's smoothed speed at the angles of ``a``, rad^2/s^2.
+
+    The smoother's derived error autocovariance (estimation.smoothing) at the instants the
+    pass is at those angles.
+    """
+    return est.smoothed.speed_error_covariance(a.time, a.omega_std)

@@ -239,13 +239,19 @@ def identify(
     say = progress or (lambda _text: None)
     device = exp.device
     q = device.encoder.quantum
-    balances, passes = [], []
+    balances, passes, warnings = [], [], []
     for stage in exp.stages():
         b_path, r_path = exp.braking_path(stage), exp.reverse_path(stage)
         braking = read_log(b_path, device.encoder, "braking")
         check_braking_monotone(braking, str(b_path))
         reverse = read_log(r_path, device.encoder, "reverse")
-        b_est = estimate_pass(braking, q, str(b_path))
+        b_est = estimate_pass(braking, q, str(b_path), constant_torque=True)
+        if b_est.torque_mean is None:
+            warnings.append(
+                f"{b_path}: the braking torque is not constant within the log's noise "
+                f"(p = {b_est.constancy_p:.2g}); its work is summed row by row, with a larger "
+                "uncertainty"
+            )
         # The torque channel's logging noise shows cleanly only in the braking log (constant
         # applied torque); the reverse's own changes are largely real regulator torque.
         r_est = estimate_pass(reverse, q, str(r_path), sigma_torque=b_est.sigma_torque)
@@ -266,7 +272,6 @@ def identify(
         ]
     )
     cond = float(np.linalg.cond(design_matrix(directions)))
-    warnings = []
     if not cond < MAX_CONDITION:
         raise InputError(
             f"{exp.root / 'device.toml'}: stage: the node axes are ill-conditioned "

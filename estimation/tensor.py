@@ -9,10 +9,11 @@ entries, so that all stages share one set of unknowns). Each balance angle of st
 
 (estimation.balance), linear in the six entries, the gravity terms Gs = m g x_c,
 Gc = m g y_c shared by all stages, and one constant per stage. Weighted (generalised) least
-squares: the covariance of the equations is the torque logs' random walks (exact, from the
-logs' noise) plus the speed noise, 1/4 M^2 var(S) on the diagonal (M from a first unweighted
-pass). The speed noise's size is calibrated on the residuals (:func:`fit_tensor`), so that
-the standard deviations follow what the data show.
+squares: the covariance of the equations is the motor work's (from the torque logs' noise,
+estimation.energy) plus the speed noise's, 1/4 M_i M_j cov(S_i, S_j) (M from a first
+unweighted pass; cov(S) from the smoothers' derived error autocovariance, correlated over a
+few 1/w_c, estimation.smoothing). The speed noise's size is calibrated on the residuals
+(:func:`fit_tensor`), so that the standard deviations follow what the data show.
 """
 
 from __future__ import annotations
@@ -70,12 +71,18 @@ def _rows(bal: StageBalance) -> np.ndarray:
     return np.column_stack([0.5 * bal.speed_sq[:, None] * v, 2 * np.sin(bal.phi), 2 * np.cos(bal.phi)])
 
 
+_JITTER = 1e-12
+"""Relative ridge on the covariance before its Cholesky factor: the speed errors have no
+low-frequency content, so with a noise-free torque log the covariance is singular to
+rounding; 1e-12 of its mean variance is far below any noise and keeps it definite."""
+
+
 def _whitened(A: np.ndarray, y: np.ndarray, covs: list[np.ndarray]):
     """A and y multiplied by the inverse Cholesky factor of the block-diagonal covariance."""
     Aw, yw, start = [], [], 0
     for cov in covs:
         n = cov.shape[0]
-        L = np.linalg.cholesky(cov)
+        L = np.linalg.cholesky(cov + _JITTER * np.trace(cov) / n * np.eye(n))
         Aw.append(scipy.linalg.solve_triangular(L, A[start : start + n], lower=True))
         yw.append(scipy.linalg.solve_triangular(L, y[start : start + n], lower=True))
         start += n
@@ -85,11 +92,11 @@ def _whitened(A: np.ndarray, y: np.ndarray, covs: list[np.ndarray]):
 def fit_tensor(balances: list[StageBalance]) -> TensorFit:
     """Generalised least squares for the tensor and the gravity terms (module docstring).
 
-    The covariance of the equations has two parts: the torque logs' random walks, known
-    from the logs' own noise, and the speed noise, whose size the smoothers only estimate
-    (their standard deviations run ~1.5x the actual errors). The speed part is therefore
-    scaled by the factor s that makes the residuals' chi^2 per degree of freedom 1 (a root
-    found in log s). If even s -> 0 leaves chi^2/dof above 1 (something the noise model does
+    The covariance of the equations has two parts: the motor work's, known from the torque
+    logs' own noise, and the speed noise's, derived for quantization noise alone (a real
+    encoder adds its own line errors). The speed part is therefore scaled by the factor s
+    that makes the residuals' chi^2 per degree of freedom 1 (a root found in log s; s ~ 1
+    on the virtual device). If even s -> 0 leaves chi^2/dof above 1 (something the noise model does
     not contain), the whole covariance of the estimate is scaled by the remaining chi^2/dof.
     """
     n_stages = len(balances)
@@ -106,11 +113,11 @@ def fit_tensor(balances: list[StageBalance]) -> TensorFit:
     speed_var = []
     for bal in balances:
         M = _design_rows(bal) @ x0[:6] + bal.tare_inertia
-        speed_var.append(0.25 * M**2 * bal.speed_sq_var)
+        speed_var.append(0.25 * np.outer(M, M) * bal.speed_sq_cov)
     dof = max(len(y) - A.shape[1], 1)
 
     def solve(scale: float):
-        covs = [bal.work_cov + np.diag(scale * v) for bal, v in zip(balances, speed_var)]
+        covs = [bal.work_cov + scale * v for bal, v in zip(balances, speed_var)]
         Aw, yw = _whitened(A, y, covs)
         x, *_ = np.linalg.lstsq(Aw, yw, rcond=None)
         r = yw - Aw @ x

@@ -45,6 +45,7 @@ def exact_pass(sim: vd.SimulatedPass, params, direction: float) -> PassEstimate:
         omega_std=np.full(n, 1e-6),  # any small constant: it only weights the equations
         jerk_density=0.0,
         bandwidth=100.0,  # sets the spacing of the balance angles (1 / w_c at top speed)
+        noise_density=12e-12 / 100.0**3,  # speed error variance r w_c^3 / 12 = (1e-6)^2
     )
     log = Log(t=truth.t, phi=truth.phi, torque=truth.torque)
     return PassEstimate(

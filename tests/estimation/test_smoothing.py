@@ -22,7 +22,14 @@ import math
 import numpy as np
 import pytest
 
-from estimation.smoothing import BANDWIDTH_FACTOR, smooth_log
+from scipy.integrate import trapezoid
+
+from estimation.smoothing import (
+    BANDWIDTH_FACTOR,
+    _speed_kernel,
+    smooth_log,
+    speed_error_autocovariance,
+)
 from plant.logs import Log
 from tests.estimation.conftest import STAGES
 
@@ -130,3 +137,37 @@ def test_a_long_log_is_smoothed_at_every_row(default_device):
     # And the speed is right: the same Wiener bound as on the virtual device's passes.
     rms = np.sqrt(np.mean((sm.omega - top * (1 - t / duration)) ** 2))
     assert rms <= 2 * math.sqrt(reading_noise_density(default_device) * sm.bandwidth**3 / 6)
+
+
+def test_speed_error_kernel_has_the_derived_variance_and_no_mean():
+    # g(0) = 1/12 in closed form (module docstring); the speed error is the derivative of the
+    # angle's error, so its spectrum vanishes at w = 0: int_0^inf g(s) ds = f(0) / 2 = 0.
+    s, g = _speed_kernel()
+    assert g[0] == pytest.approx(1 / 12, rel=1e-6)
+    assert abs(trapezoid(g, s)) < 1e-6 * g[0] * s[-1]
+    r, w_c = 2.0e-12, 300.0
+    assert speed_error_autocovariance(0.0, w_c, r) == pytest.approx(r * w_c**3 / 12, rel=1e-6)
+
+
+@pytest.mark.parametrize("stage", STAGES)
+def test_speed_error_autocovariance_matches_the_virtual_device(
+    stage, default_device, default_brakings, smoothed
+):
+    sm = smoothed[stage]
+    err = speed_error(sm, default_brakings[stage])[300:-300]  # steady state, away from the ends
+    derived = speed_error_autocovariance(0.0, sm.bandwidth, sm.noise_density)
+    # Shape. The error is correlated over ~10-40 rows (R changes sign at w_c tau ~ 2.5,
+    # w_c ~ 70-240 rad/s), so n rows hold at least n/40 independent values and a sample
+    # correlation scatters by at most 1/sqrt(n/40) ~ 0.05 for n > 10^4: 0.12 is 2.4 of those.
+    assert len(err) > 10_000
+    dt = default_device.encoder.dt
+    for lag in (3, 5, 10, 15, 20, 30, 50):
+        measured = np.mean(err[:-lag] * err[lag:]) / np.var(err)
+        model = speed_error_autocovariance(lag * dt, sm.bandwidth, sm.noise_density) / derived
+        assert measured == pytest.approx(model, abs=0.12), lag
+    # Level. Measured: 0.75-1.05 of r w_c^3 / 12 on stage 1, 0.55-0.7 on stage 2 at 5-50
+    # counts per sample (the block filter's Hermite interpolation smooths a little more when
+    # w_c T_block approaches 1, and the quantization is not exactly white), 1.2-1.7 below
+    # 4 counts per sample. The least squares calibrates the level on its residuals
+    # (estimation.tensor), so the derived value need only be right within a factor 2.
+    assert 0.5 * derived < np.var(err) < 2 * derived
