@@ -77,6 +77,7 @@ def run_case(factor: float, seed: int) -> dict:
     axes = np.array([a.direction for a in result.axes])
     J_true = np.einsum("ij,jk,ik->i", axes, J, axes)
     J_ls = np.array([a.J for a in result.axes])
+    J_ls_std = np.array([a.J_std for a in result.axes])
     J_node = np.array([a.J_node for a in result.axes])
     pend = result.pendulum
     com_err = float(np.hypot(*(result.com - truth.body.com[:2])))
@@ -84,6 +85,8 @@ def run_case(factor: float, seed: int) -> dict:
         "friction x": factor,
         "seed": seed,
         "J_k LS": float(np.max(np.abs(J_ls / J_true - 1))),
+        "J_k LS std": float(np.max(J_ls_std / J_true)),
+        "J_k LS max z": float(np.max(np.abs(J_ls - J_true) / J_ls_std)),
         "J_k node": float(np.max(np.abs(J_node / J_true - 1))),
         "tensor LS": float(np.max(np.abs(result.entries - truth.body.inertia)) / scale),
         "tensor node": float(np.max(np.abs(result.node_entries - truth.body.inertia)) / scale),
@@ -126,12 +129,13 @@ def main(argv: list[str] | None = None) -> int:
         for k in keys:
             v = r[k]
             cells.append(f"{v:g}" if k in ("friction x", "seed") else
-                         (f"{v:.2f}" if "[s]" in k else f"{v:.2e}"))
+                         (f"{v:.2f}" if "[s]" in k or "z" in k else f"{v:.2e}"))
         lines.append("| " + " | ".join(cells) + " |")
     for factor in (1.0, 30.0):
         sel = [r for r in rows if r["friction x"] == factor]
         worst = {k: max(r[k] for r in sel) for k in ("J_k LS", "tensor LS", "com [mm]",
-                                                     "J_k pendulum", "J_k pendulum damped")}
+                                                     "J_k pendulum", "J_k pendulum damped",
+                                                     "J_k LS std", "J_k LS max z")}
         lines.append("")
         lines.append(f"Worst over seeds, friction x{factor:g}: " + ", ".join(
             f"{k} {v:.2e}" for k, v in worst.items()))

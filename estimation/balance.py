@@ -93,8 +93,16 @@ class StageBalance:
     correlated as the smoother's derived autocovariance says (estimation.smoothing)."""
     work: np.ndarray
     """W(phi) = A(release->phi) + A'(phi7->phi) minus 2 Pi_spring(phi), J."""
-    work_cov: np.ndarray
-    """(n, n) covariance of ``work`` from the torque logs' noise (estimation.energy), J^2."""
+    braking_work_cov: np.ndarray
+    """(n, n) covariance of the braking pass's share of ``work`` (its torque log's noise,
+    estimation.energy), J^2."""
+    reverse_work_cov: np.ndarray
+    """(n, n) the same for the reverse pass, J^2."""
+
+    @property
+    def work_cov(self) -> np.ndarray:
+        """(n, n) covariance of ``work``: both passes' torque logs (independent noise), J^2."""
+        return self.braking_work_cov + self.reverse_work_cov
 
 
 def stage_balance(
@@ -113,7 +121,6 @@ def stage_balance(
     S_cov = 4 * np.outer(b.omega, b.omega) * speed_error_covariance(braking, b)
     S_cov += 4 * np.outer(r.omega, r.omega) * speed_error_covariance(reverse, r)
     work = b.work + r.work - 2 * _spring_potential(phi, device)
-    cov = work_covariance(braking, b) + work_covariance(reverse, r)
     return StageBalance(
         stage=stage,
         gear_ratio=st.gear_ratio,
@@ -122,7 +129,8 @@ def stage_balance(
         speed_sq=S,
         speed_sq_cov=S_cov,
         work=work,
-        work_cov=cov,
+        braking_work_cov=work_covariance(braking, b),
+        reverse_work_cov=work_covariance(reverse, r),
     )
 
 

@@ -153,7 +153,11 @@ class Identification:
     n_equations: int
     """Least squares: balance angles used."""
     speed_noise_scale: float
-    """Least squares: factor on the smoothers' speed variances fitted to the residuals."""
+    """Least squares: factor on the derived speed-error covariance fitted to the residuals."""
+    std_budget: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
+    """Uncertainty budget of the least squares: for each noise source (estimation.tensor
+    NOISE_SOURCES), the standard deviations it alone gives to ``axes`` J ("axes") and to the
+    entries ("tensor"); the variances of the sources add up to the totals."""
     warnings: list[str] = field(default_factory=list)
     """Physical-sense and design warnings."""
     pendulum: PendulumResult | None = None
@@ -209,6 +213,13 @@ class Identification:
                 "equations": self.n_equations,
                 "chi2_dof": self.chi2_dof,
                 "speed_noise_scale": self.speed_noise_scale,
+                "std_budget": {
+                    source: {
+                        "axes_J_std": [float(v) for v in part["axes"]],
+                        "tensor_std": dict(zip(ENTRY_NAMES, map(float, part["tensor"]))),
+                    }
+                    for source, part in self.std_budget.items()
+                },
             },
             "warnings": list(self.warnings),
             "pendulum": None if self.pendulum is None else self.pendulum.to_json(),
@@ -282,6 +293,13 @@ def identify(
         warnings.append(f"the axis design is poorly conditioned: cond(V) = {cond:.3g}")
 
     J_ls, J_ls_std = axis_values(fit.entries, fit.entries_cov, directions)
+    std_budget = {
+        source: {
+            "axes": axis_values(fit.entries, part[:6, :6], directions)[1],
+            "tensor": np.sqrt(np.diag(part[:6, :6])),
+        }
+        for source, part in fit.cov_parts.items()
+    }
     J_node, J_node_std, J_plain, J_plain_std = [], [], [], []
     for n in nodes:
         st = device.stages[n.stage - 1]
@@ -329,6 +347,7 @@ def identify(
         chi2_dof=fit.chi2_dof,
         n_equations=fit.n_equations,
         speed_noise_scale=fit.speed_noise_scale,
+        std_budget=std_budget,
         warnings=warnings,
         pendulum=pendulum,
     )

@@ -29,6 +29,7 @@ from estimation.balance import StageBalance
 from plant.geometry import axis_direction, design_matrix, tensor_from_entries
 
 __all__ = [
+    "NOISE_SOURCES",
     "TensorFit",
     "axis_values",
     "fit_tensor",
@@ -56,6 +57,9 @@ class TensorFit:
     """Factor applied to the smoothers' speed variances so that chi^2/dof = 1."""
     n_equations: int
     """Balance angles used, all stages."""
+    cov_parts: dict[str, np.ndarray]
+    """Covariance of [entries, gravity] split by noise source (:data:`NOISE_SOURCES`); the
+    parts sum to the whole: the uncertainty budget."""
 
 
 def _design_rows(bal: StageBalance) -> np.ndarray:
@@ -71,22 +75,50 @@ def _rows(bal: StageBalance) -> np.ndarray:
     return np.column_stack([0.5 * bal.speed_sq[:, None] * v, 2 * np.sin(bal.phi), 2 * np.cos(bal.phi)])
 
 
+NOISE_SOURCES = ("braking torque log", "reverse torque log", "encoder (speed)")
+"""The independent noise sources of the balance equations, for the uncertainty budget."""
+
 _JITTER = 1e-12
 """Relative ridge on the covariance before its Cholesky factor: the speed errors have no
 low-frequency content, so with a noise-free torque log the covariance is singular to
 rounding; 1e-12 of its mean variance is far below any noise and keeps it definite."""
 
 
-def _whitened(A: np.ndarray, y: np.ndarray, covs: list[np.ndarray]):
+def _factors(covs: list[np.ndarray]) -> list[np.ndarray]:
+    """Lower Cholesky factors of the diagonal blocks of the covariance (with the ridge)."""
+    return [
+        np.linalg.cholesky(cov + _JITTER * np.trace(cov) / len(cov) * np.eye(len(cov)))
+        for cov in covs
+    ]
+
+
+def _whitened(A: np.ndarray, y: np.ndarray, factors: list[np.ndarray]):
     """A and y multiplied by the inverse Cholesky factor of the block-diagonal covariance."""
     Aw, yw, start = [], [], 0
-    for cov in covs:
-        n = cov.shape[0]
-        L = np.linalg.cholesky(cov + _JITTER * np.trace(cov) / n * np.eye(n))
+    for L in factors:
+        n = L.shape[0]
         Aw.append(scipy.linalg.solve_triangular(L, A[start : start + n], lower=True))
         yw.append(scipy.linalg.solve_triangular(L, y[start : start + n], lower=True))
         start += n
     return np.vstack(Aw), np.concatenate(yw)
+
+
+def _budget(Aw, factors, parts, cov_x) -> np.ndarray:
+    """cov_x Aw^T (L^-1 C_part L^-T) Aw cov_x: the share of one noise source in cov_x.
+
+    The estimate is x = cov_x Aw^T L^-1 y, so a source of covariance C_part in y reaches x as
+    above; with C = sum of the parts, the shares sum to cov_x = (Aw^T Aw)^-1 (before the
+    chi^2 inflation, applied by the caller to both).
+    """
+    inner, start = np.zeros((Aw.shape[1], Aw.shape[1])), 0
+    for L, part in zip(factors, parts):
+        n = L.shape[0]
+        B = Aw[start : start + n]
+        W = scipy.linalg.solve_triangular(L, part, lower=True)
+        W = scipy.linalg.solve_triangular(L, W.T, lower=True)
+        inner += B.T @ W @ B
+        start += n
+    return cov_x @ inner @ cov_x
 
 
 def fit_tensor(balances: list[StageBalance]) -> TensorFit:
@@ -117,11 +149,11 @@ def fit_tensor(balances: list[StageBalance]) -> TensorFit:
     dof = max(len(y) - A.shape[1], 1)
 
     def solve(scale: float):
-        covs = [bal.work_cov + scale * v for bal, v in zip(balances, speed_var)]
-        Aw, yw = _whitened(A, y, covs)
+        factors = _factors([bal.work_cov + scale * v for bal, v in zip(balances, speed_var)])
+        Aw, yw = _whitened(A, y, factors)
         x, *_ = np.linalg.lstsq(Aw, yw, rcond=None)
         r = yw - Aw @ x
-        return x, Aw, float(r @ r / dof)
+        return x, Aw, float(r @ r / dof), factors
 
     lo, hi = 1e-4, 1e4
     if solve(hi)[2] >= 1.0:
@@ -132,8 +164,19 @@ def fit_tensor(balances: list[StageBalance]) -> TensorFit:
         scale = math.exp(
             brentq(lambda ls: math.log(solve(math.exp(ls))[2]), math.log(lo), math.log(hi), xtol=1e-3)
         )
-    x, Aw, chi2_dof = solve(scale)
-    cov_x = np.linalg.pinv(Aw.T @ Aw) * max(chi2_dof, 1.0)
+    x, Aw, chi2_dof, factors = solve(scale)
+    cov_x = np.linalg.pinv(Aw.T @ Aw)
+    sources = {
+        NOISE_SOURCES[0]: [bal.braking_work_cov for bal in balances],
+        NOISE_SOURCES[1]: [bal.reverse_work_cov for bal in balances],
+        NOISE_SOURCES[2]: [scale * v for v in speed_var],
+    }
+    inflation = max(chi2_dof, 1.0)
+    cov_parts = {
+        name: _budget(Aw, factors, parts, cov_x)[:8, :8] * inflation
+        for name, parts in sources.items()
+    }
+    cov_x = cov_x * inflation
     return TensorFit(
         entries=x[:6],
         entries_cov=cov_x[:6, :6],
@@ -142,6 +185,7 @@ def fit_tensor(balances: list[StageBalance]) -> TensorFit:
         chi2_dof=chi2_dof,
         speed_noise_scale=scale,
         n_equations=len(y),
+        cov_parts=cov_parts,
     )
 
 

@@ -273,6 +273,16 @@ def format_identification(result: Identification, truth: np.ndarray | None = Non
             f"  stage {a.stage} node {a.phi_deg:6.1f} deg: J = {a.J:.8f} +- {a.J_std:.1e}"
             f"  node formula {a.J_node:.8f} +- {a.J_node_std:.1e}  plain {a.J_plain:.8f}"
         )
+    if result.std_budget:
+        worst = int(np.argmax([a.J_std / a.J for a in result.axes]))
+        a = result.axes[worst]
+        shares = ", ".join(
+            f"{source} {part['axes'][worst] / a.J:.1e}" for source, part in result.std_budget.items()
+        )
+        lines.append(
+            f"uncertainty budget of the least sure axis (stage {a.stage} node {a.phi_deg:g} deg, "
+            f"relative std {a.J_std / a.J:.1e}): {shares}"
+        )
     if result.pendulum is not None:
         pend = result.pendulum
         lines.append("torsion-pendulum baseline (classic / damped fit):")

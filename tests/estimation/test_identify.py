@@ -151,3 +151,16 @@ def test_a_drifting_braking_torque_is_named_in_a_warning(ideal, tmp_path):
     assert not any("not constant" in w for w in result.warnings)
     # Row sums carry the braking log's noise as a random walk: a larger uncertainty.
     assert drifted.axes[0].J_std > result.axes[0].J_std
+
+
+def test_uncertainty_budget_adds_up_to_the_reported_std(ideal):
+    # The sources are independent, so their variances add up to the total (estimation.tensor).
+    _, result, _ = ideal
+    assert set(result.std_budget) == {"braking torque log", "reverse torque log", "encoder (speed)"}
+    total_axes = sum(part["axes"] ** 2 for part in result.std_budget.values())
+    np.testing.assert_allclose(np.sqrt(total_axes), [a.J_std for a in result.axes], rtol=1e-6)
+    total_entries = sum(part["tensor"] ** 2 for part in result.std_budget.values())
+    np.testing.assert_allclose(np.sqrt(total_entries), result.entries_std, rtol=1e-6)
+    # Every source counts on the default experiment: none is below a tenth of the total.
+    for part in result.std_budget.values():
+        assert np.all(part["axes"] > 0.1 * np.array([a.J_std for a in result.axes]))
