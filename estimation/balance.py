@@ -9,6 +9,22 @@ W(phi) = A(release -> phi) + A'(phi7 -> phi) the motor work of both passes up to
 so that 1/2 M(phi) S(phi) + 2 Pi(phi) - W(phi) is the same constant C at every angle: one
 equation per angle, differences of which are every pair's balance. Friction does not appear:
 it does the same work on both passes at the same angle and speed.
+
+Tracking mismatch. A closed-loop reverse runs at |Omega'| = |Omega| + delta, delta a few 1e-4
+of the speed, and friction then does slightly different work on the two passes. With
+F = friction's work (negative) and D(|Omega|) the dissipative torque of METHOD.md §3, the
+braking pass's F_b(phi) from the release and the reverse's F_r(phi) from phi7 sum to
+
+    F_b(phi) + F_r(phi) = const - int_phi^phi7 [D(|Omega'|) - D(|Omega|)] dphi
+                        = const' + int_lo^phi D'(|Omega|) delta dphi + O(delta^2),
+
+so the balance becomes 1/2 M S + 2 Pi - W - C = int_lo^phi D'(|Omega|) delta dphi. D itself
+stays unknown (the method must not need it); its slope is expanded to first order,
+D'(Omega) = d1 + d2 Omega (exact for the paper's D = a1 + a2 Omega + a3 Omega^2: d1 = a2,
+d2 = 2 a3), and d1, d2 join the unknowns of each stage with the regressors
+R1 = int_lo^phi delta dphi and R2 = int_lo^phi |Omega| delta dphi from the measured speeds.
+On the default closed loop this term is ~1e-4 of stage 1's kinetic energy, 3-5 times the
+noise floor; on an ideal reverse delta ~ 1e-6 rad/s and the terms vanish.
 """
 
 from __future__ import annotations
@@ -17,6 +33,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.integrate import cumulative_trapezoid
 
 from estimation.energy import PassEstimate, sample_at, speed_error_covariance, work_covariance
 from plant.config import Device, Stage
@@ -91,6 +108,9 @@ class StageBalance:
     """(n, n) covariance of S from the smoothers' speed errors: to first order
     dS = 2 Omega dOmega + 2 Omega' dOmega', the passes independent, each pass's errors
     correlated as the smoother's derived autocovariance says (estimation.smoothing)."""
+    mismatch: np.ndarray
+    """(n, 2) the tracking mismatch's friction regressors [R1, R2] (module docstring):
+    int_lo^phi delta dphi (rad^2/s) and int_lo^phi |Omega| delta dphi (rad^3/s^2)."""
     work: np.ndarray
     """W(phi) = A(release->phi) + A'(phi7->phi) minus 2 Pi_spring(phi), J."""
     braking_work_cov: np.ndarray
@@ -121,6 +141,13 @@ def stage_balance(
     S_cov = 4 * np.outer(b.omega, b.omega) * speed_error_covariance(braking, b)
     S_cov += 4 * np.outer(r.omega, r.omega) * speed_error_covariance(reverse, r)
     work = b.work + r.work - 2 * _spring_potential(phi, device)
+    delta = np.abs(r.omega) - np.abs(b.omega)
+    mismatch = np.column_stack(
+        [
+            cumulative_trapezoid(delta, phi, initial=0.0),
+            cumulative_trapezoid(np.abs(b.omega) * delta, phi, initial=0.0),
+        ]
+    )
     return StageBalance(
         stage=stage,
         gear_ratio=st.gear_ratio,
@@ -128,6 +155,7 @@ def stage_balance(
         phi=phi,
         speed_sq=S,
         speed_sq_cov=S_cov,
+        mismatch=mismatch,
         work=work,
         braking_work_cov=work_covariance(braking, b),
         reverse_work_cov=work_covariance(reverse, r),

@@ -154,6 +154,12 @@ class Identification:
     """Least squares: balance angles used."""
     speed_noise_scale: float
     """Least squares: factor on the derived speed-error covariance fitted to the residuals."""
+    friction_slope: np.ndarray | None = None
+    """(stages, 2) [d1, d2] of the friction torque's slope D'(Omega) = d1 + d2 Omega that the
+    least squares fits where the reverse's tracking mismatch needs it (estimation.balance);
+    NaN rows for stages that did not need it."""
+    friction_slope_std: np.ndarray | None = None
+    """(stages, 2)."""
     std_budget: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
     """Uncertainty budget of the least squares: for each noise source (estimation.tensor
     NOISE_SOURCES), the standard deviations it alone gives to ``axes`` J ("axes") and to the
@@ -213,6 +219,23 @@ class Identification:
                 "equations": self.n_equations,
                 "chi2_dof": self.chi2_dof,
                 "speed_noise_scale": self.speed_noise_scale,
+                "tracking_mismatch": [
+                    {
+                        "stage": k + 1,
+                        "fitted": bool(np.all(np.isfinite(slope))),
+                        "friction_slope": [float(v) for v in slope]
+                        if np.all(np.isfinite(slope))
+                        else None,
+                        "friction_slope_std": [float(v) for v in std]
+                        if np.all(np.isfinite(std))
+                        else None,
+                    }
+                    for k, (slope, std) in enumerate(
+                        zip(self.friction_slope, self.friction_slope_std)
+                    )
+                ]
+                if self.friction_slope is not None
+                else [],
                 "std_budget": {
                     source: {
                         "axes_J_std": [float(v) for v in part["axes"]],
@@ -347,6 +370,8 @@ def identify(
         chi2_dof=fit.chi2_dof,
         n_equations=fit.n_equations,
         speed_noise_scale=fit.speed_noise_scale,
+        friction_slope=fit.friction_slope,
+        friction_slope_std=fit.friction_slope_std,
         std_budget=std_budget,
         warnings=warnings,
         pendulum=pendulum,

@@ -8,7 +8,9 @@ entries, so that all stages share one set of unknowns). Each balance angle of st
     1/2 S v(phi) . J + 2 Gs sin phi + 2 Gc cos phi - C_s = W(phi) - 1/2 S M_tare
 
 (estimation.balance), linear in the six entries, the gravity terms Gs = m g x_c,
-Gc = m g y_c shared by all stages, and one constant per stage. Weighted (generalised) least
+Gc = m g y_c shared by all stages, one constant per stage, and per stage the two slopes
+d1, d2 of the friction torque that the closed loop's tracking mismatch leaves in the balance
+(the right-hand side gains - d1 R1 - d2 R2, estimation.balance). Weighted (generalised) least
 squares: the covariance of the equations is the motor work's (from the torque logs' noise,
 estimation.energy) plus the speed noise's, 1/4 M_i M_j cov(S_i, S_j) (M from a first
 unweighted pass; cov(S) from the smoothers' derived error autocovariance, correlated over a
@@ -24,11 +26,13 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 from scipy.optimize import brentq
+from scipy.stats import chi2
 
 from estimation.balance import StageBalance
 from plant.geometry import axis_direction, design_matrix, tensor_from_entries
 
 __all__ = [
+    "MISMATCH_TAIL",
     "NOISE_SOURCES",
     "TensorFit",
     "axis_values",
@@ -57,6 +61,13 @@ class TensorFit:
     """Factor applied to the smoothers' speed variances so that chi^2/dof = 1."""
     n_equations: int
     """Balance angles used, all stages."""
+    friction_slope: np.ndarray
+    """(stages, 2) [d1, d2] of D'(Omega) = d1 + d2 Omega per stage (N m s, N m s^2), from the
+    tracking mismatch; NaN for a stage whose reverse tracks well enough not to need them."""
+    friction_slope_std: np.ndarray
+    """(stages, 2)."""
+    mismatch_terms: list[bool]
+    """Per stage: whether the tracking-mismatch friction terms were needed (NaN slopes if not)."""
     cov_parts: dict[str, np.ndarray]
     """Covariance of [entries, gravity] split by noise source (:data:`NOISE_SOURCES`); the
     parts sum to the whole: the uncertainty budget."""
@@ -121,31 +132,16 @@ def _budget(Aw, factors, parts, cov_x) -> np.ndarray:
     return cov_x @ inner @ cov_x
 
 
-def fit_tensor(balances: list[StageBalance]) -> TensorFit:
-    """Generalised least squares for the tensor and the gravity terms (module docstring).
+MISMATCH_TAIL = 0.01
+"""A stage's tracking-mismatch friction slopes are fitted when dropping them would raise the
+residual chi^2 beyond its 99th percentile (2 degrees of freedom)."""
 
-    The covariance of the equations has two parts: the motor work's, known from the torque
-    logs' own noise, and the speed noise's, derived for quantization noise alone (a real
-    encoder adds its own line errors). The speed part is therefore scaled by the factor s
-    that makes the residuals' chi^2 per degree of freedom 1 (a root found in log s; s ~ 1
-    on the virtual device). If even s -> 0 leaves chi^2/dof above 1 (something the noise model does
-    not contain), the whole covariance of the estimate is scaled by the remaining chi^2/dof.
+
+def _calibrated_fit(A, y, balances, speed_var):
+    """Weighted fit with the speed noise's scale s calibrated to chi^2/dof = 1 (fit_tensor).
+
+    Returns the estimate, the whitened design, chi^2/dof, the covariance factors and s.
     """
-    n_stages = len(balances)
-    blocks, rhs = [], []
-    for s, bal in enumerate(balances):
-        const = np.zeros((len(bal.phi), n_stages))
-        const[:, s] = -1.0
-        blocks.append(np.hstack([_rows(bal), const]))
-        rhs.append(bal.work - 0.5 * bal.speed_sq * bal.tare_inertia)
-    A = np.vstack(blocks)
-    y = np.concatenate(rhs)
-    # First pass, unweighted: the reduced inertia at each angle for the speed-noise weights.
-    x0, *_ = np.linalg.lstsq(A, y, rcond=None)
-    speed_var = []
-    for bal in balances:
-        M = _design_rows(bal) @ x0[:6] + bal.tare_inertia
-        speed_var.append(0.25 * np.outer(M, M) * bal.speed_sq_cov)
     dof = max(len(y) - A.shape[1], 1)
 
     def solve(scale: float):
@@ -164,7 +160,59 @@ def fit_tensor(balances: list[StageBalance]) -> TensorFit:
         scale = math.exp(
             brentq(lambda ls: math.log(solve(math.exp(ls))[2]), math.log(lo), math.log(hi), xtol=1e-3)
         )
-    x, Aw, chi2_dof, factors = solve(scale)
+    return (*solve(scale), scale)
+
+
+def fit_tensor(balances: list[StageBalance]) -> TensorFit:
+    """Generalised least squares for the tensor and the gravity terms (module docstring).
+
+    The covariance of the equations has two parts: the motor work's, known from the torque
+    logs' own noise, and the speed noise's, derived for quantization noise alone (a real
+    encoder adds its own line errors). The speed part is therefore scaled by the factor s
+    that makes the residuals' chi^2 per degree of freedom 1 (a root found in log s; s ~ 1
+    on the virtual device). If even s -> 0 leaves chi^2/dof above 1 (something the noise model does
+    not contain), the whole covariance of the estimate is scaled by the remaining chi^2/dof.
+    """
+    n_stages = len(balances)
+    blocks, rhs = [], []
+    for s, bal in enumerate(balances):
+        const = np.zeros((len(bal.phi), n_stages))
+        const[:, s] = -1.0
+        slopes = np.zeros((len(bal.phi), 2 * n_stages))
+        slopes[:, 2 * s : 2 * s + 2] = -bal.mismatch
+        blocks.append(np.hstack([_rows(bal), const, slopes]))
+        rhs.append(bal.work - 0.5 * bal.speed_sq * bal.tare_inertia)
+    A = np.vstack(blocks)
+    y = np.concatenate(rhs)
+    # First pass, unweighted: the reduced inertia at each angle for the speed-noise weights.
+    x0, *_ = np.linalg.lstsq(A, y, rcond=None)
+    speed_var = []
+    for bal in balances:
+        M = _design_rows(bal) @ x0[:6] + bal.tare_inertia
+        speed_var.append(0.25 * np.outer(M, M) * bal.speed_sq_cov)
+    n_fixed = 8 + n_stages
+
+    def slope_columns(stage: int) -> list[int]:
+        return [n_fixed + 2 * stage, n_fixed + 2 * stage + 1]
+
+    # The friction slopes of a stage stay only where the data ask for them: dropping them must
+    # raise chi^2 by more than chance would (2 degrees of freedom, tail MISMATCH_TAIL), with
+    # the full model's weights. On an ideal reverse they only fit noise and are dropped.
+    x, Aw, chi2_dof, factors, scale = _calibrated_fit(A, y, balances, speed_var)
+    chi2_full = chi2_dof * max(len(y) - A.shape[1], 1)
+    keep = list(range(n_fixed))
+    mismatch_terms = []
+    for s in range(n_stages):
+        others = [c for c in range(A.shape[1]) if c not in slope_columns(s)]
+        _, yw = _whitened(A, y, factors)
+        xr, *_ = np.linalg.lstsq(Aw[:, others], yw, rcond=None)
+        chi2_reduced = float(np.sum((yw - Aw[:, others] @ xr) ** 2))
+        needed = bool(chi2.sf(chi2_reduced - chi2_full, 2) < MISMATCH_TAIL)
+        mismatch_terms.append(needed)
+        if needed:
+            keep += slope_columns(s)
+    A = A[:, keep]
+    x, Aw, chi2_dof, factors, scale = _calibrated_fit(A, y, balances, speed_var)
     cov_x = np.linalg.pinv(Aw.T @ Aw)
     sources = {
         NOISE_SOURCES[0]: [bal.braking_work_cov for bal in balances],
@@ -177,6 +225,11 @@ def fit_tensor(balances: list[StageBalance]) -> TensorFit:
         for name, parts in sources.items()
     }
     cov_x = cov_x * inflation
+    slope = np.full(2 * n_stages, np.nan)
+    slope_std = np.full(2 * n_stages, np.nan)
+    kept = np.array(keep[n_fixed:], dtype=int) - n_fixed
+    slope[kept] = x[n_fixed:]
+    slope_std[kept] = np.sqrt(np.diag(cov_x)[n_fixed:])
     return TensorFit(
         entries=x[:6],
         entries_cov=cov_x[:6, :6],
@@ -185,6 +238,9 @@ def fit_tensor(balances: list[StageBalance]) -> TensorFit:
         chi2_dof=chi2_dof,
         speed_noise_scale=scale,
         n_equations=len(y),
+        friction_slope=slope.reshape(n_stages, 2),
+        friction_slope_std=slope_std.reshape(n_stages, 2),
+        mismatch_terms=mismatch_terms,
         cov_parts=cov_parts,
     )
 
