@@ -24,7 +24,8 @@ D'(Omega) = d1 + d2 Omega (exact for the paper's D = a1 + a2 Omega + a3 Omega^2:
 d2 = 2 a3), and d1, d2 join the unknowns of each stage with the regressors
 R1 = int_lo^phi delta dphi and R2 = int_lo^phi |Omega| delta dphi from the measured speeds.
 On the default closed loop this term is ~1e-4 of stage 1's kinetic energy, 3-5 times the
-noise floor; on an ideal reverse delta ~ 1e-6 rad/s and the terms vanish.
+noise floor (measured against the simulator's true friction work, tests/ocp); on an ideal
+reverse delta is only speed noise and the slopes come out undetermined, at little cost.
 """
 
 from __future__ import annotations
