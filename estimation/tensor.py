@@ -191,7 +191,7 @@ def fit_tensor(balances: list[StageBalance]) -> TensorFit:
 
     # Always fitted: the speed noise's calibrated scale also absorbs whatever else the
     # closed-loop reverse adds, which would hide the asymmetry from a significance test
-    # (measured: a closed-loop case with a 5 sigma error that a chi^2 test at 1% kept out).
+    # (measured: a closed-loop case with a 4.7-sigma error that a chi^2 test at 1% kept out).
     # On an ideal reverse the slopes only fit noise; their cost is in the stds. Only a stage
     # whose mismatch is exactly zero (exact data) leaves its slopes out.
     keep = list(range(n_fixed))
