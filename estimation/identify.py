@@ -152,8 +152,9 @@ class Identification:
     """Least squares: residual chi^2 per degree of freedom."""
     n_equations: int
     """Least squares: balance angles used."""
-    speed_noise_scale: float
-    """Least squares: factor on the derived speed-error covariance fitted to the residuals."""
+    speed_noise_scale: list[float]
+    """Least squares: per stage, the factor on the derived speed-error covariance fitted to
+    the residuals."""
     friction_slope: np.ndarray | None = None
     """(stages, 2) [d1, d2] of the friction torque's slope D'(Omega) = d1 + d2 Omega that the
     least squares fits where the reverse's tracking mismatch needs it (estimation.balance);
@@ -218,7 +219,7 @@ class Identification:
             "least_squares": {
                 "equations": self.n_equations,
                 "chi2_dof": self.chi2_dof,
-                "speed_noise_scale": self.speed_noise_scale,
+                "speed_noise_scale": [float(v) for v in self.speed_noise_scale],
                 "tracking_mismatch": [
                     {
                         "stage": k + 1,
@@ -295,8 +296,8 @@ def identify(
     fit = fit_tensor(balances)
     nodes = [
         node
-        for stage, b_est, r_est in passes
-        for node in node_formula(device, stage, b_est, r_est, fit.speed_noise_scale)
+        for k, (stage, b_est, r_est) in enumerate(passes)
+        for node in node_formula(device, stage, b_est, r_est, fit.speed_noise_scale[k])
     ]
 
     directions = np.array(
