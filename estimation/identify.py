@@ -157,8 +157,8 @@ class Identification:
     the residuals."""
     friction_slope: np.ndarray | None = None
     """(stages, 2) [d1, d2] of the friction torque's slope D'(Omega) = d1 + d2 Omega that the
-    least squares fits where the reverse's tracking mismatch needs it (estimation.balance);
-    NaN rows for stages that did not need it."""
+    least squares fits from the reverse's tracking mismatch (estimation.balance); NaN rows
+    only for a stage whose passes match exactly (exact data)."""
     friction_slope_std: np.ndarray | None = None
     """(stages, 2)."""
     std_budget: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
