@@ -32,6 +32,7 @@ from estimation.tensor import axis_values, fit_tensor
 from plant.experiment import open_experiment
 from plant.logs import write_atomic
 from plant.virtual import simulate_braking, simulate_ideal_reverse
+from tables import markdown_table
 from rsp_inertia.pipeline import create_default_experiment, simulate
 
 RESULTS = Path(__file__).parent / "results"
@@ -142,6 +143,13 @@ def run_case(factor: float, seed: int) -> dict:
     }
 
 
+def _column_format(key: str) -> str:
+    """Format spec of a result column: counts plain, times and z-scores to 0.01, errors 3 digits."""
+    if key in ("friction x", "seed"):
+        return "g"
+    return ".2f" if "[s]" in key or "z" in key else ".2e"
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=3)
@@ -169,16 +177,8 @@ def main(argv: list[str] | None = None) -> int:
         "budget, largest over the axes); 'std, exact speeds': the same least squares fed the "
         "simulator's true speeds, i.e. what the torque logs' noise alone allows.",
         "",
-        "| " + " | ".join(keys) + " |",
-        "|" + "---|" * len(keys),
     ]
-    for r in rows:
-        cells = []
-        for k in keys:
-            v = r[k]
-            cells.append(f"{v:g}" if k in ("friction x", "seed") else
-                         (f"{v:.2f}" if "[s]" in k or "z" in k else f"{v:.2e}"))
-        lines.append("| " + " | ".join(cells) + " |")
+    lines += markdown_table(rows, keys, _column_format)
     for factor in (1.0, 30.0):
         sel = [r for r in rows if r["friction x"] == factor]
         worst = {k: max(r[k] for r in sel) for k in ("J_k LS", "tensor LS", "com [mm]",

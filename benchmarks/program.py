@@ -29,6 +29,7 @@ from plant.logs import write_atomic, write_log, write_program
 from plant.virtual import run_program, simulate_braking
 from rsp_inertia.pipeline import create_default_experiment
 from rsp_inertia.plots import plot_tracking
+from tables import markdown_table
 
 RESULTS = Path(__file__).parent / "results"
 CASES = [(1.0, 1.0), (1.3, 1.5), (1.3, 0.5), (0.7, 1.5), (0.7, 0.5)]
@@ -125,18 +126,10 @@ def main() -> int:
         "both). Identification from the closed-loop reverse logs. Targets (issue 4): program "
         "< 2 s per stage; mismatch < 1e-3; J_k within 1e-4, also with the model errors.",
         "",
-        "| " + " | ".join(keys) + " |",
-        "|" + "---|" * len(keys),
     ]
-    for r in rows:
-        lines.append(
-            "| "
-            + " | ".join(
-                f"{r[k]:g}" if k.endswith(" x") else (f"{r[k]:.2f}" if "[s]" in k else f"{r[k]:.2e}")
-                for k in keys
-            )
-            + " |"
-        )
+    lines += markdown_table(
+        rows, keys, lambda k: "g" if k.endswith(" x") else (".2f" if "[s]" in k else ".2e")
+    )
     lines += ["", "Figures: tracking_stage1.png, tracking_stage2.png (nominal model)."]
     write_atomic(RESULTS / "program.md", "\n".join(lines) + "\n")
     print("\n".join(lines))

@@ -223,13 +223,9 @@ class Identification:
                 "tracking_mismatch": [
                     {
                         "stage": k + 1,
-                        "fitted": bool(np.all(np.isfinite(slope))),
-                        "friction_slope": [float(v) for v in slope]
-                        if np.all(np.isfinite(slope))
-                        else None,
-                        "friction_slope_std": [float(v) for v in std]
-                        if np.all(np.isfinite(std))
-                        else None,
+                        "fitted": _finite_list(slope) is not None,
+                        "friction_slope": _finite_list(slope),
+                        "friction_slope_std": _finite_list(std),
                     }
                     for k, (slope, std) in enumerate(
                         zip(self.friction_slope, self.friction_slope_std)
@@ -248,6 +244,12 @@ class Identification:
             "warnings": list(self.warnings),
             "pendulum": None if self.pendulum is None else self.pendulum.to_json(),
         }
+
+
+def _finite_list(values) -> list[float] | None:
+    """Plain floats for JSON, or None when the values are not estimated (NaN)."""
+    values = np.asarray(values, dtype=float)
+    return [float(v) for v in values] if np.all(np.isfinite(values)) else None
 
 
 def axial_moment(M, stage) -> np.ndarray | float:
