@@ -39,6 +39,7 @@ from scipy.integrate import cumulative_trapezoid
 from estimation.energy import PassEstimate, sample_at, speed_error_covariance, work_covariance
 from plant.config import Device, Stage
 from plant.errors import InputError
+from plant.logs import Log
 from plant.model import potential, spring_parameters
 
 __all__ = [
@@ -47,6 +48,8 @@ __all__ = [
     "POSITION_SPACING_BANDWIDTHS",
     "NodeEstimate",
     "StageBalance",
+    "friction_shape",
+    "mirror_log",
     "node_formula",
     "stage_balance",
     "usable_range",
@@ -93,16 +96,23 @@ def usable_range(braking: PassEstimate, reverse: PassEstimate, stage: int) -> tu
 
 @dataclass(frozen=True)
 class StageBalance:
-    """One stage's balance equations at common angles (module docstring)."""
+    """One run's balance equations at common angles (module docstring).
+
+    A run is one stage in one direction of rotation. A backward run (phi decreasing during
+    its braking) is balanced in the mirrored coordinate phi_m = -phi, in which it is a forward
+    run (:func:`mirror_log`): motor work, speeds and the cumulative regressors are the same
+    numbers in either coordinate, while ``phi`` holds the body's true angles for M(phi) and
+    the potential.
+    """
 
     stage: int
     """Stage number, from 1."""
     gear_ratio: float
     """lambda."""
     tare_inertia: float
-    """M_tare, kg m^2."""
+    """M_tare, kg m^2 (device.toml's)."""
     phi: np.ndarray
-    """rad, the angles, ascending."""
+    """rad, the body's angles of the balance, in the order of the braking's motion."""
     speed_sq: np.ndarray
     """S = Omega^2 + Omega'^2, rad^2/s^2."""
     speed_sq_cov: np.ndarray
@@ -119,17 +129,68 @@ class StageBalance:
     estimation.energy), J^2."""
     reverse_work_cov: np.ndarray
     """(n, n) the same for the reverse pass, J^2."""
+    direction: int = 1
+    """+1 for a forward run, -1 for a backward one (phi decreasing during the braking)."""
+    spring: np.ndarray | None = None
+    """2 Pi_spring(phi), J: ``work + spring`` is the logged motor work of both passes."""
+    friction_shape: np.ndarray | None = None
+    """(n, 3) [int dphi, int |Omega| dphi, int Omega^2 dphi] from the first angle along the
+    motion (rad, rad^2/s, rad^3/s^2), braking speeds: the work that a dissipative torque
+    e1 + e2 |Omega| + e3 Omega^2 does over the balance range (:func:`friction_shape`)."""
 
     @property
     def work_cov(self) -> np.ndarray:
         """(n, n) covariance of ``work``: both passes' torque logs (independent noise), J^2."""
         return self.braking_work_cov + self.reverse_work_cov
 
+    @property
+    def motor_work(self) -> np.ndarray:
+        """W(phi), J: the logged motor work of both passes, spring potential not taken off."""
+        return self.work if self.spring is None else self.work + self.spring
+
+
+def mirror_log(log: Log, quantum: float) -> Log:
+    """A backward run's log in the mirrored coordinate phi_m = -phi, torque u_m = -u.
+
+    The motor work sum u dphi is unchanged, so every balance reads the same. The encoder
+    reading y = floor(phi / q) q of the mirrored angle -phi is -y - q (for -phi off the grid),
+    so the mirrored log keeps the floor convention that the smoother assumes
+    (estimation.smoothing: true angle in [y, y + q)).
+    """
+    return Log(t=log.t, phi=-np.asarray(log.phi) - quantum, torque=-np.asarray(log.torque))
+
+
+def friction_shape(phi: np.ndarray, omega: np.ndarray) -> np.ndarray:
+    """Work of a dissipative torque e1 + e2 |Omega| + e3 Omega^2 from phi[0], per coefficient.
+
+    Columns int dphi, int |Omega| dphi, int Omega^2 dphi (trapezoid rule along ``phi``,
+    ascending). With METHOD.md §3's dissipation D = a1 + a2 |Omega| + a3 Omega^2, a friction
+    that differs between the directions of rotation, D_backward - D_forward =
+    e1 + e2 |Omega| + e3 Omega^2, leaves exactly this shape in a run's balance (the reverse
+    pass runs in the other direction): + e . shape in a forward run, - e . shape in a
+    backward one.
+    """
+    w = np.abs(omega)
+    return np.column_stack(
+        [
+            phi - phi[0],
+            cumulative_trapezoid(w, phi, initial=0.0),
+            cumulative_trapezoid(w * w, phi, initial=0.0),
+        ]
+    )
+
 
 def stage_balance(
-    device: Device, stage: int, braking: PassEstimate, reverse: PassEstimate
+    device: Device,
+    stage: int,
+    braking: PassEstimate,
+    reverse: PassEstimate,
+    direction: int = 1,
 ) -> StageBalance:
-    """The balance equations of stage ``stage`` at evenly spaced common angles."""
+    """The balance equations of one run of stage ``stage`` at evenly spaced common angles.
+
+    ``direction`` -1: the passes are a backward run's, mirrored by :func:`mirror_log`.
+    """
     st: Stage = device.stages[stage - 1]
     lo, hi = usable_range(braking, reverse, stage)
     bandwidth = min(braking.smoothed.bandwidth, reverse.smoothed.bandwidth)
@@ -141,7 +202,8 @@ def stage_balance(
     S = b.omega**2 + r.omega**2
     S_cov = 4 * np.outer(b.omega, b.omega) * speed_error_covariance(braking, b)
     S_cov += 4 * np.outer(r.omega, r.omega) * speed_error_covariance(reverse, r)
-    work = b.work + r.work - 2 * _spring_potential(phi, device)
+    spring = 2 * _spring_potential(direction * phi, device)
+    work = b.work + r.work - spring
     delta = np.abs(r.omega) - np.abs(b.omega)
     mismatch = np.column_stack(
         [
@@ -153,13 +215,16 @@ def stage_balance(
         stage=stage,
         gear_ratio=st.gear_ratio,
         tare_inertia=st.tare_inertia,
-        phi=phi,
+        phi=direction * phi,
         speed_sq=S,
         speed_sq_cov=S_cov,
         mismatch=mismatch,
         work=work,
         braking_work_cov=work_covariance(braking, b),
         reverse_work_cov=work_covariance(reverse, r),
+        direction=direction,
+        spring=spring,
+        friction_shape=friction_shape(phi, b.omega),
     )
 
 
@@ -189,6 +254,8 @@ def node_formula(
     braking: PassEstimate,
     reverse: PassEstimate,
     speed_noise_scale: float = 1.0,
+    direction: int = 1,
+    work_scale: float = 1.0,
 ) -> list[NodeEstimate]:
     """M at each node of the stage from every one-turn pair (phi_a, phi_a + 2 pi).
 
@@ -198,11 +265,14 @@ def node_formula(
     (:func:`_combine_pairs`): speed noise from the smoothers' derived error variance times
     ``speed_noise_scale`` (the calibration that the least squares finds on its residuals,
     estimation.tensor), and work noise from the torque logs (estimation.energy).
+    ``direction`` -1: a backward run's passes, mirrored by :func:`mirror_log`; its node phi
+    sits at -phi in the mirrored coordinate. ``work_scale``: h = 1 / torque gain, the factor
+    that makes the logged motor work physical (a calibration's, estimation.calibration).
     """
     st = device.stages[stage - 1]
     lo, hi = usable_range(braking, reverse, stage)
     estimates = []
-    for node_deg, node in zip(st.nodes_deg, st.nodes):
+    for node_deg, node in zip(st.nodes_deg, direction * st.nodes):
         first = node + 2 * math.pi * math.ceil((lo - node) / (2 * math.pi))
         passages = np.arange(first, hi, 2 * math.pi)
         if passages.size < 2:
@@ -216,11 +286,13 @@ def node_formula(
         a_, b_ = slice(None, -1), slice(1, None)
         A = b.work[b_] - b.work[a_]  # braking work a -> b (negative)
         A_rev = r.work[a_] - r.work[b_]  # reverse work b -> a (positive when driving)
-        dPi = _spring_potential(passages[b_], device) - _spring_potential(passages[a_], device)
-        num = A_rev - A + 2 * dPi
+        true_angle = direction * passages
+        dPi = _spring_potential(true_angle[b_], device) - _spring_potential(true_angle[a_], device)
+        num = work_scale * (A_rev - A) + 2 * dPi
         # Work errors at the passages, differenced into the pairs' numerators.
         step = np.diff(np.eye(passages.size), axis=0)
         num_cov = step @ (work_covariance(braking, b) + work_covariance(reverse, r)) @ step.T
+        num_cov = num_cov * work_scale**2
         wb2, wr2 = b.omega**2, r.omega**2
         # Passages a turn apart: their speed errors are independent (R decays in ~40 / w_c).
         vb = 4 * wb2 * np.diag(speed_error_covariance(braking, b)) * speed_noise_scale

@@ -20,9 +20,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from estimation.balance import node_formula, stage_balance
-from estimation.energy import check_braking_monotone, estimate_pass
+from estimation.balance import NodeEstimate, node_formula, stage_balance
+from estimation.calibration import known_terms
+from estimation.gls import ModelTest, model_warnings
 from estimation.pendulum import PendulumEstimate, estimate_pendulum
+from estimation.runs import run_balances
 from estimation.tensor import (
     axis_values,
     fit_tensor,
@@ -169,6 +171,17 @@ class Identification:
     """Physical-sense and design warnings."""
     pendulum: PendulumResult | None = None
     """The torsion-pendulum baseline, when its logs are present."""
+    runs: list[str] = field(default_factory=list)
+    """Label of each run ("stage 1 forward", ...), the order of the per-run lists."""
+    friction_asymmetry: np.ndarray | None = None
+    """(stages, 3) D_backward - D_forward = e1 + e2 |Omega| + e3 Omega^2 per stage run in
+    both directions (N m, N m s, N m s^2); NaN rows for the others."""
+    friction_asymmetry_std: np.ndarray | None = None
+    """(stages, 3)."""
+    model_tests: list[ModelTest] = field(default_factory=list)
+    """The balance model's chi^2 tests (estimation.gls): closure per run, stage consistency."""
+    calibration: dict | None = None
+    """What the identification took from calibration.toml (None: device.toml's tares)."""
 
     @property
     def entries_std(self) -> np.ndarray:
@@ -220,19 +233,34 @@ class Identification:
                 "equations": self.n_equations,
                 "chi2_dof": self.chi2_dof,
                 "speed_noise_scale": [float(v) for v in self.speed_noise_scale],
+                "runs": list(self.runs),
                 "tracking_mismatch": [
                     {
-                        "stage": k + 1,
+                        "run": label,
                         "fitted": _finite_list(slope) is not None,
                         "friction_slope": _finite_list(slope),
                         "friction_slope_std": _finite_list(std),
                     }
-                    for k, (slope, std) in enumerate(
-                        zip(self.friction_slope, self.friction_slope_std)
+                    for label, slope, std in zip(
+                        self.runs, self.friction_slope, self.friction_slope_std
                     )
                 ]
                 if self.friction_slope is not None
                 else [],
+                "friction_asymmetry": [
+                    {
+                        "stage": k + 1,
+                        "coefficients": _finite_list(e),
+                        "coefficients_std": _finite_list(std),
+                    }
+                    for k, (e, std) in enumerate(
+                        zip(self.friction_asymmetry, self.friction_asymmetry_std)
+                    )
+                    if np.all(np.isfinite(e))
+                ]
+                if self.friction_asymmetry is not None
+                else [],
+                "model_tests": [test.to_json() for test in self.model_tests],
                 "std_budget": {
                     source: {
                         "axes_J_std": [float(v) for v in part["axes"]],
@@ -241,6 +269,7 @@ class Identification:
                     for source, part in self.std_budget.items()
                 },
             },
+            "calibration": self.calibration,
             "warnings": list(self.warnings),
             "pendulum": None if self.pendulum is None else self.pendulum.to_json(),
         }
@@ -252,14 +281,44 @@ def _finite_list(values) -> list[float] | None:
     return [float(v) for v in values] if np.all(np.isfinite(values)) else None
 
 
-def axial_moment(M, stage) -> np.ndarray | float:
-    """J_e = (M - M_tare) / (1 + lam^2) about a stage's axis (METHOD.md §2)."""
-    return (np.asarray(M) - stage.tare_inertia) / (1.0 + stage.gear_ratio**2)
+def axial_moment(M, stage, empty=None) -> np.ndarray | float:
+    """J_e = (M - M_tare) / (1 + lam^2) about a stage's axis (METHOD.md §2).
+
+    ``empty``: the empty system's reduced inertia at the node (tare and fixture, from a
+    calibration); device.toml's tare by default.
+    """
+    tare = stage.tare_inertia if empty is None else empty
+    return (np.asarray(M) - tare) / (1.0 + stage.gear_ratio**2)
 
 
 def axial_std(M_std, stage) -> np.ndarray | float:
     """Standard deviation of :func:`axial_moment` (the tare is exact)."""
     return np.asarray(M_std) / (1.0 + stage.gear_ratio**2)
+
+
+def _combine_directions(found: list[NodeEstimate]) -> NodeEstimate:
+    """One node's estimate from its runs: one run as it is; forward and backward averaged.
+
+    The two directions' node formulas carry a friction asymmetry's work with opposite signs
+    (estimation.balance friction_shape), so their plain mean cancels it to first order; the
+    runs' noise is independent.
+    """
+    if len(found) == 1:
+        return found[0]
+    first = found[0]
+    mean = lambda attr: float(np.mean([getattr(n, attr) for n in found]))  # noqa: E731
+    root = lambda attr: float(  # noqa: E731
+        math.sqrt(sum(getattr(n, attr) ** 2 for n in found)) / len(found)
+    )
+    return NodeEstimate(
+        stage=first.stage,
+        node_deg=first.node_deg,
+        M=mean("M"),
+        M_std=root("M_std"),
+        M_plain=mean("M_plain"),
+        M_plain_std=root("M_plain_std"),
+        pairs=sum(n.pairs for n in found),
+    )
 
 
 def identify(
@@ -275,32 +334,17 @@ def identify(
     """
     say = progress or (lambda _text: None)
     device = exp.device
-    q = device.encoder.quantum
-    balances, passes, warnings = [], [], []
-    for stage in exp.stages():
-        b_path, r_path = exp.braking_path(stage), exp.reverse_path(stage)
-        braking = read_log(b_path, device.encoder, "braking")
-        check_braking_monotone(braking, str(b_path))
-        reverse = read_log(r_path, device.encoder, "reverse")
-        b_est = estimate_pass(braking, q, str(b_path), constant_torque=True)
-        if b_est.torque_mean is None:
-            warnings.append(
-                f"{b_path}: the braking torque is not constant within the log's noise "
-                f"(p = {b_est.constancy_p:.2g}); its work is summed row by row, with a larger "
-                "uncertainty"
-            )
-        # The torque channel's logging noise shows cleanly only in the braking log (constant
-        # applied torque); the reverse's own changes are largely real regulator torque.
-        r_est = estimate_pass(reverse, q, str(r_path), sigma_torque=b_est.sigma_torque)
-        balances.append(stage_balance(device, stage, b_est, r_est))
-        passes.append((stage, b_est, r_est))
-        say(f"stage {stage}: {len(braking)} + {len(reverse)} rows smoothed and balanced")
-    fit = fit_tensor(balances)
-    nodes = [
-        node
-        for k, (stage, b_est, r_est) in enumerate(passes)
-        for node in node_formula(device, stage, b_est, r_est, fit.speed_noise_scale[k])
-    ]
+    known, warnings = known_terms(exp)
+    balances, nodes = run_balances(exp, warnings, say)
+    fit = fit_tensor(balances, known)
+    by_node = {}
+    for k, (stage, sign, b_est, r_est) in enumerate(nodes):
+        for n in node_formula(
+            device, stage, b_est, r_est, fit.speed_noise_scale[k], sign, known.work_scale
+        ):
+            by_node.setdefault((n.stage, n.node_deg), []).append(n)
+    nodes = [_combine_directions(found) for found in by_node.values()]
+    warnings += model_warnings(fit.tests, fit.speed_noise_scale, fit.runs)
 
     directions = np.array(
         [
@@ -329,9 +373,10 @@ def identify(
     J_node, J_node_std, J_plain, J_plain_std = [], [], [], []
     for n in nodes:
         st = device.stages[n.stage - 1]
-        J_node.append(axial_moment(n.M, st))
+        empty = known.empty_inertia(n.stage, math.radians(n.node_deg))
+        J_node.append(axial_moment(n.M, st, empty))
         J_node_std.append(axial_std(n.M_std, st))
-        J_plain.append(axial_moment(n.M_plain, st))
+        J_plain.append(axial_moment(n.M_plain, st, empty))
         J_plain_std.append(axial_std(n.M_plain_std, st))
     node_entries, node_cov, _ = tensor_from_axes(
         np.array(J_node), np.array(J_node_std), directions
@@ -378,6 +423,11 @@ def identify(
         std_budget=std_budget,
         warnings=warnings,
         pendulum=pendulum,
+        runs=fit.runs,
+        friction_asymmetry=fit.friction_asymmetry,
+        friction_asymmetry_std=fit.friction_asymmetry_std,
+        model_tests=fit.tests,
+        calibration=known.summary(),
     )
 
 

@@ -1,44 +1,57 @@
-"""The inertia tensor from the stages' balances: least squares, axis solve, physical checks.
+"""The inertia tensor from the runs' balances: least squares, axis solve, physical checks.
 
 Least squares over many turns (METHOD.md §5). With w(phi) = (lam sin phi, lam cos phi, 1),
 (1 + lam^2) J_e(phi) = w^T J w = v(phi) . [Jx Jy Jz Jxy Jyz Jxz], v the design-matrix row of
 the unnormalised w (METHOD.md §2: the harmonic form of M per stage written in the tensor's
-entries, so that all stages share one set of unknowns). Each balance angle of stage s gives
+entries, so that all stages share one set of unknowns). Each balance angle of a run (one
+stage, one direction of rotation) gives
 
-    1/2 S v(phi) . J + 2 Gs sin phi + 2 Gc cos phi - C_s = W(phi) - 1/2 S M_tare
+    1/2 S v(phi) . J + 2 Gs sin phi + 2 Gc cos phi - C_run - d . R - dir e_s . Q
+        = h W(phi) - 2 Pi_spring - 1/2 S M_empty(phi) - 2 Pi_fixture(phi)
 
 (estimation.balance), linear in the six entries, the gravity terms Gs = m g x_c,
-Gc = m g y_c shared by all stages, one constant per stage, and per stage the two slopes
-d1, d2 of the friction torque that the closed loop's tracking mismatch leaves in the balance
-(the right-hand side gains - d1 R1 - d2 R2, estimation.balance). Weighted (generalised) least
-squares: the covariance of the equations is the motor work's (from the torque logs' noise,
-estimation.energy) plus the speed noise's, 1/4 M_i M_j cov(S_i, S_j) (M from a first
-unweighted pass; cov(S) from the smoothers' derived error autocovariance, correlated over a
-few 1/w_c, estimation.smoothing). The speed noise's size is calibrated on the residuals
-(:func:`fit_tensor`), so that the standard deviations follow what the data show.
+Gc = m g y_c shared by all runs, one constant per run, per run the two slopes d of the
+friction torque that the closed loop's tracking mismatch leaves in the balance (regressors R),
+and, for a stage run in both directions, its friction asymmetry e_s (regressors Q, sign
+dir = +1 forward, -1 backward: the first-order effect of a friction that differs between the
+directions of rotation cancels between the runs). The right-hand side holds what the rig's
+calibration knows (:class:`KnownTerms`): the torque gain's h = 1 / gain on the logged motor
+work W, the empty system's reduced inertia M_empty (tare and fixture) and the fixture's
+gravity; without a calibration, device.toml's tare as exact. Weights, the speed-noise scale,
+the model tests and the uncertainty budget: estimation.gls.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
-from scipy.optimize import brentq
 
 from estimation.balance import StageBalance
+from estimation.gls import NOISE_SOURCES, Block, ModelTest, solve_blocks
 from plant.geometry import axis_direction, design_matrix, tensor_from_entries
+from plant.model import inertia_basis
 
 __all__ = [
+    "ENTRY_KEYS",
     "NOISE_SOURCES",
+    "KnownTerms",
     "TensorFit",
+    "balance_rhs",
+    "both_directions",
+    "gravity_rows",
+    "run_columns",
+    "run_label",
     "axis_values",
     "fit_tensor",
     "physical_warnings",
     "principal",
     "tensor_from_axes",
 ]
+
+
+ENTRY_KEYS = ("Jx", "Jy", "Jz", "Jxy", "Jyz", "Jxz")
+"""Names of the tensor entries, in the order of every 6-vector."""
 
 
 @dataclass(frozen=True)
@@ -56,21 +69,30 @@ class TensorFit:
     chi2_dof: float
     """Residual chi^2 per degree of freedom of the weighted fit (1 when the noise model fits)."""
     speed_noise_scale: list[float]
-    """Per stage, the factor on the derived speed-error covariance that makes the stage's own
-    fit reach chi^2/dof = 1."""
+    """Per run, the factor on the derived speed-error covariance that makes the run's own
+    fit reach chi^2/dof = 1 (estimation.gls)."""
     n_equations: int
-    """Balance angles used, all stages."""
+    """Balance angles used, all runs."""
     friction_slope: np.ndarray
-    """(stages, 2) [d1, d2] of D'(Omega) = d1 + d2 Omega per stage (N m s, N m s^2), from the
-    tracking mismatch; NaN for a stage with exactly no mismatch (exact data)."""
+    """(runs, 2) [d1, d2] of D'(Omega) = d1 + d2 Omega per run (N m s, N m s^2), from the
+    tracking mismatch; NaN for a run with exactly no mismatch (exact data)."""
     friction_slope_std: np.ndarray
-    """(stages, 2)."""
+    """(runs, 2)."""
     mismatch_terms: list[bool]
-    """Per stage: whether the tracking-mismatch friction terms were fitted (NaN slopes if not:
+    """Per run: whether the tracking-mismatch friction terms were fitted (NaN slopes if not:
     only when the mismatch is exactly zero)."""
     cov_parts: dict[str, np.ndarray]
-    """Covariance of [entries, gravity] split by noise source (:data:`NOISE_SOURCES`); the
-    parts sum to the whole: the uncertainty budget."""
+    """Covariance of [entries, gravity] split by noise source (estimation.gls NOISE_SOURCES
+    and CALIBRATION_SOURCE); the parts sum to the whole: the uncertainty budget."""
+    friction_asymmetry: np.ndarray | None = None
+    """(stages, 3) e = [e1, e2, e3] of D_backward - D_forward = e1 + e2 |Omega| + e3 Omega^2
+    (N m, N m s, N m s^2) for stages run in both directions; NaN rows for the others."""
+    friction_asymmetry_std: np.ndarray | None = None
+    """(stages, 3)."""
+    tests: list[ModelTest] | None = None
+    """The balance model's tests (estimation.gls): closure per run, stage consistency."""
+    runs: list[str] | None = None
+    """Label of each run, in the order of the balances."""
 
 
 def _design_rows(bal: StageBalance) -> np.ndarray:
@@ -80,176 +102,186 @@ def _design_rows(bal: StageBalance) -> np.ndarray:
     return design_matrix(axis_direction(bal.phi, lam) * np.sqrt(1.0 + lam * lam))
 
 
-def _rows(bal: StageBalance) -> np.ndarray:
-    """The 8 shared columns of a stage's equations (six entries, Gs, Gc)."""
-    v = _design_rows(bal)
-    return np.column_stack([0.5 * bal.speed_sq[:, None] * v, 2 * np.sin(bal.phi), 2 * np.cos(bal.phi)])
 
+@dataclass(frozen=True)
+class KnownTerms:
+    """What the balances take as known about the rig (METHOD.md §2-3).
 
-NOISE_SOURCES = ("braking torque log", "reverse torque log", "encoder (speed)")
-"""The independent noise sources of the balance equations, for the uncertainty budget."""
-
-_JITTER = 1e-12
-"""Relative ridge on the covariance before its Cholesky factor: the speed errors have no
-low-frequency content, so with a noise-free torque log the covariance is singular to
-rounding; 1e-12 of its mean variance is far below any noise and keeps it definite."""
-
-
-def _factors(covs: list[np.ndarray]) -> list[np.ndarray]:
-    """Lower Cholesky factors of the diagonal blocks of the covariance (with the ridge)."""
-    return [
-        np.linalg.cholesky(cov + _JITTER * np.trace(cov) / len(cov) * np.eye(len(cov)))
-        for cov in covs
-    ]
-
-
-def _whitened(A: np.ndarray, y: np.ndarray, factors: list[np.ndarray]):
-    """A and y multiplied by the inverse Cholesky factor of the block-diagonal covariance."""
-    Aw, yw, start = [], [], 0
-    for L in factors:
-        n = L.shape[0]
-        Aw.append(scipy.linalg.solve_triangular(L, A[start : start + n], lower=True))
-        yw.append(scipy.linalg.solve_triangular(L, y[start : start + n], lower=True))
-        start += n
-    return np.vstack(Aw), np.concatenate(yw)
-
-
-def _budget(Aw, factors, parts, cov_x) -> np.ndarray:
-    """cov_x Aw^T (L^-1 C_part L^-T) Aw cov_x: the share of one noise source in cov_x.
-
-    The estimate is x = cov_x Aw^T L^-1 y, so a source of covariance C_part in y reaches x as
-    above; with C = sum of the parts, the shares sum to cov_x = (Aw^T Aw)^-1 (before the
-    chi^2 inflation, applied by the caller to both).
+    From ``calibration.toml`` (estimation.calibration), or device.toml's tares alone: the
+    empty system's reduced inertia per stage (tare and fixture), the fixture's gravity terms,
+    and the factor h = 1 / torque gain that turns the logged motor work into the physical
+    one; with the covariance of theta = [h, harmonics of stage 1..n, Gs_f, Gc_f].
     """
-    inner, start = np.zeros((Aw.shape[1], Aw.shape[1])), 0
-    for L, part in zip(factors, parts):
-        n = L.shape[0]
-        B = Aw[start : start + n]
-        W = scipy.linalg.solve_triangular(L, part, lower=True)
-        W = scipy.linalg.solve_triangular(L, W.T, lower=True)
-        inner += B.T @ W @ B
-        start += n
-    return cov_x @ inner @ cov_x
+
+    work_scale: float
+    """h = 1 / torque gain."""
+    inertia: np.ndarray
+    """(stages, 5) harmonics [M0, Mc2, Ms2, Ms1, Mc1] of the empty system, kg m^2."""
+    gravity: np.ndarray
+    """(2,) the fixture's [m g x_c, m g y_c], N m."""
+    cov: np.ndarray
+    """Covariance of theta (class docstring); zero when nothing was calibrated."""
+    calibrated: bool = False
+    """Whether these come from a calibration (else: device.toml's tares, taken as exact)."""
+
+    @classmethod
+    def from_tares(cls, tares) -> KnownTerms:
+        """device.toml's tares as exact: M_empty = M_tare, no fixture terms, gain 1."""
+        tares = np.asarray(tares, dtype=float)
+        inertia = np.zeros((len(tares), 5))
+        inertia[:, 0] = tares
+        size = 1 + inertia.size + 2
+        return cls(1.0, inertia, np.zeros(2), np.zeros((size, size)))
+
+    def empty_inertia(self, stage: int, phi) -> np.ndarray | float:
+        """M_empty(phi) of stage ``stage`` (from 1), kg m^2."""
+        value = inertia_basis(np.atleast_1d(phi)) @ self.inertia[stage - 1]
+        return float(value[0]) if np.ndim(phi) == 0 else value
+
+    def summary(self) -> dict | None:
+        """result.json's ``calibration``: what was applied (None when nothing was)."""
+        if not self.calibrated:
+            return None
+        std = np.sqrt(np.diag(self.cov))
+        n = len(self.inertia)
+        return {
+            "torque_gain": 1.0 / self.work_scale,
+            "torque_gain_std": float(std[0] / self.work_scale**2),
+            "empty_inertia": [[float(v) for v in row] for row in self.inertia],
+            "empty_inertia_std": [
+                [float(v) for v in std[1 + 5 * s : 6 + 5 * s]] for s in range(n)
+            ],
+            "fixture_gravity": [float(v) for v in self.gravity],
+            "fixture_gravity_std": [float(v) for v in std[-2:]],
+        }
+
+    def jacobian(self, bal: StageBalance) -> np.ndarray:
+        """(n, p) d rhs / d theta of one run's equations (:func:`balance_rhs`)."""
+        n_stages = len(self.inertia)
+        B = np.zeros((len(bal.phi), 1 + 5 * n_stages + 2))
+        B[:, 0] = bal.motor_work
+        s = bal.stage - 1
+        B[:, 1 + 5 * s : 6 + 5 * s] = -0.5 * bal.speed_sq[:, None] * inertia_basis(bal.phi)
+        B[:, -2:] = -gravity_rows(bal.phi)
+        return B
 
 
-def _solve(A, y, balances, speed_var, scales):
-    """Weighted fit with the speed part of stage k's covariance scaled by ``scales[k]``.
+def gravity_rows(phi: np.ndarray) -> np.ndarray:
+    """(n, 2) 2 dPi/d[Gs, Gc] = 2 [sin phi, cos phi]: the gravity potential's share of the
+    balance (METHOD.md §3: Pi = Gs sin phi + Gc cos phi, twice for the two passes)."""
+    return np.column_stack([2 * np.sin(phi), 2 * np.cos(phi)])
 
-    Returns the estimate, the whitened design, chi^2/dof and the covariance factors.
+
+def balance_rhs(bal: StageBalance, known: KnownTerms) -> np.ndarray:
+    """The known side of one run's equations: h W - 2 Pi_spring - 1/2 S M_empty - 2 Pi_f.
+
+    W the logged motor work of both passes, M_empty(phi) the empty system's reduced inertia
+    and Pi_f the fixture's gravity potential (METHOD.md §5, with the rig's terms of
+    :class:`KnownTerms`).
     """
-    dof = max(len(y) - A.shape[1], 1)
-    factors = _factors([bal.work_cov + s * v for bal, v, s in zip(balances, speed_var, scales)])
-    Aw, yw = _whitened(A, y, factors)
-    x, *_ = np.linalg.lstsq(Aw, yw, rcond=None)
-    r = yw - Aw @ x
-    return x, Aw, float(r @ r / dof), factors
+    M_empty = inertia_basis(bal.phi) @ known.inertia[bal.stage - 1]
+    rhs = bal.work - 0.5 * bal.speed_sq * M_empty - gravity_rows(bal.phi) @ known.gravity
+    if known.work_scale != 1.0:
+        rhs = rhs + (known.work_scale - 1.0) * bal.motor_work
+    return rhs
 
 
-def _calibrated_scale(A, y, bal, speed_var) -> float:
-    """The speed noise's scale s that makes one stage's own fit reach chi^2/dof = 1.
+def run_label(bal: StageBalance) -> str:
+    """"stage N forward" or "stage N backward"."""
+    return f"stage {bal.stage} {'forward' if bal.direction > 0 else 'backward'}"
 
-    A root in log s on [1e-4, 1e4] (Brent); the bound where chi^2/dof stays on one side.
+
+def run_columns(
+    bal: StageBalance, key: str, both_directions: bool, group: str | None = None
+) -> dict[str, np.ndarray]:
+    """The columns every run has whatever the question: its constant, the tracking mismatch's
+    friction slopes (estimation.balance; left out when the mismatch is exactly zero, exact
+    data), and the friction asymmetry of a stage run in both directions (shared by the runs of
+    ``group``, by default the stage).
     """
-    lo, hi = 1e-4, 1e4
-
-    def chi2_dof(scale: float) -> float:
-        return _solve(A, y, [bal], [speed_var], [scale])[2]
-
-    if chi2_dof(hi) >= 1.0:
-        return hi
-    if chi2_dof(lo) <= 1.0:
-        return lo
-    return math.exp(
-        brentq(lambda ls: math.log(chi2_dof(math.exp(ls))), math.log(lo), math.log(hi), xtol=1e-3)
-    )
+    group = str(bal.stage) if group is None else group
+    n = len(bal.phi)
+    cols = {f"C[{key}]": -np.ones(n)}
+    if np.any(bal.mismatch != 0.0):
+        cols[f"d1[{key}]"] = -bal.mismatch[:, 0]
+        cols[f"d2[{key}]"] = -bal.mismatch[:, 1]
+    if both_directions:
+        for k in range(3):
+            cols[f"e{k + 1}[{group}]"] = -bal.direction * bal.friction_shape[:, k]
+    return cols
 
 
-def fit_tensor(balances: list[StageBalance]) -> TensorFit:
+def both_directions(balances: list[StageBalance]) -> set[int]:
+    """Stages with runs in both directions."""
+    seen: dict[int, set[int]] = {}
+    for bal in balances:
+        seen.setdefault(bal.stage, set()).add(bal.direction)
+    return {stage for stage, dirs in seen.items() if len(dirs) == 2}
+
+
+def fit_tensor(balances: list[StageBalance], known: KnownTerms | None = None) -> TensorFit:
     """Generalised least squares for the tensor and the gravity terms (module docstring).
 
-    The covariance of the equations has two parts: the motor work's, known from the torque
-    logs' own noise, and the speed noise's, derived for quantization noise alone (a real
-    encoder adds its own line errors, a closed loop its regulator's jitter). The speed part of
-    each stage is therefore scaled by the factor s_k that makes that stage's own fit reach a
-    residual chi^2 per degree of freedom of 1 (a root found in log s_k; s_k ~ 1 on the
-    virtual device's ideal reverse). If even s -> 0 leaves chi^2/dof above 1 (something the noise model does
-    not contain), the whole covariance of the estimate is scaled by the remaining chi^2/dof.
+    Unknowns: the six entries and the gravity terms (shared by every run), one constant and
+    the tracking mismatch's two friction slopes per run, and the friction asymmetry
+    e = [e1, e2, e3] per stage run in both directions. Solved, weighted and checked by
+    :func:`estimation.gls.solve_blocks`.
     """
-    n_stages = len(balances)
-    blocks, rhs = [], []
-    for s, bal in enumerate(balances):
-        const = np.zeros((len(bal.phi), n_stages))
-        const[:, s] = -1.0
-        slopes = np.zeros((len(bal.phi), 2 * n_stages))
-        slopes[:, 2 * s : 2 * s + 2] = -bal.mismatch
-        blocks.append(np.hstack([_rows(bal), const, slopes]))
-        rhs.append(bal.work - 0.5 * bal.speed_sq * bal.tare_inertia)
-    A = np.vstack(blocks)
-    y = np.concatenate(rhs)
-    # First pass, unweighted: the reduced inertia at each angle for the speed-noise weights.
-    x0, *_ = np.linalg.lstsq(A, y, rcond=None)
-    speed_var = []
-    for bal in balances:
-        M = _design_rows(bal) @ x0[:6] + bal.tare_inertia
-        speed_var.append(0.25 * np.outer(M, M) * bal.speed_sq_cov)
-    n_fixed = 8 + n_stages
-
-    def slope_columns(stage: int) -> list[int]:
-        return [n_fixed + 2 * stage, n_fixed + 2 * stage + 1]
-
-    # Always fitted: the speed noise's calibrated scale also absorbs whatever else the
-    # closed-loop reverse adds, which would hide the asymmetry from a significance test
-    # (measured: a closed-loop case with a 4.7-sigma error that a chi^2 test at 1% kept out).
-    # On an ideal reverse the slopes only fit noise; their cost is in the stds. Only a stage
-    # whose mismatch is exactly zero (exact data) leaves its slopes out.
-    keep = list(range(n_fixed))
-    mismatch_terms = []
-    for s, bal in enumerate(balances):
-        needed = bool(np.any(bal.mismatch != 0.0))
-        mismatch_terms.append(needed)
-        if needed:
-            keep += slope_columns(s)
-    A = A[:, keep]
-    # The speed noise's scale, stage by stage on each stage's own equations and unknowns: a
-    # closed-loop reverse adds speed error of its own (regulator jitter, measured ~30 x the
-    # quantization model's chi^2 on stage 2 and ~1.3 x on stage 1), which one shared scale
-    # would spread over every stage.
-    rows = np.cumsum([0] + [len(bal.phi) for bal in balances])
-    scales = []
-    for s, bal in enumerate(balances):
-        mine = slice(rows[s], rows[s + 1])
-        used = np.nonzero(np.any(A[mine] != 0.0, axis=0))[0]
-        scales.append(_calibrated_scale(A[mine][:, used], y[mine], bal, speed_var[s]))
-    x, Aw, chi2_dof, factors = _solve(A, y, balances, speed_var, scales)
-    cov_x = np.linalg.pinv(Aw.T @ Aw)
-    sources = {
-        NOISE_SOURCES[0]: [bal.braking_work_cov for bal in balances],
-        NOISE_SOURCES[1]: [bal.reverse_work_cov for bal in balances],
-        NOISE_SOURCES[2]: [s * v for s, v in zip(scales, speed_var)],
-    }
-    inflation = max(chi2_dof, 1.0)
-    cov_parts = {
-        name: _budget(Aw, factors, parts, cov_x)[:8, :8] * inflation
-        for name, parts in sources.items()
-    }
-    cov_x = cov_x * inflation
-    slope = np.full(2 * n_stages, np.nan)
-    slope_std = np.full(2 * n_stages, np.nan)
-    kept = np.array(keep[n_fixed:], dtype=int) - n_fixed
-    slope[kept] = x[n_fixed:]
-    slope_std[kept] = np.sqrt(np.diag(cov_x)[n_fixed:])
+    if known is None:
+        tares = {bal.stage: bal.tare_inertia for bal in balances}
+        known = KnownTerms.from_tares([tares.get(s, 0.0) for s in range(1, max(tares) + 1)])
+    both = both_directions(balances)
+    blocks = []
+    for k, bal in enumerate(balances):
+        v = _design_rows(bal)
+        half_s = 0.5 * bal.speed_sq
+        cols = {name: half_s * v[:, i] for i, name in enumerate(ENTRY_KEYS)}
+        cols["Gs"], cols["Gc"] = gravity_rows(bal.phi).T
+        cols.update(run_columns(bal, str(k), bal.stage in both))
+        blocks.append(
+            Block(
+                balance=bal,
+                label=run_label(bal),
+                columns=cols,
+                rhs=balance_rhs(bal, known),
+                inertia_columns={name: v[:, i] for i, name in enumerate(ENTRY_KEYS)},
+                inertia_known=inertia_basis(bal.phi) @ known.inertia[bal.stage - 1],
+                work_scale=known.work_scale,
+                known_jacobian=known.jacobian(bal) if known.calibrated else None,
+                groups={name: run_label(bal) for name in ENTRY_KEYS},
+                joint_only=frozenset(name for name in cols if name.startswith("e")),
+            )
+        )
+    fit = solve_blocks(blocks, known.cov if known.calibrated else None)
+    shared = [fit.index(name) for name in (*ENTRY_KEYS, "Gs", "Gc")]
+    n_runs, stages = len(balances), sorted({bal.stage for bal in balances})
+    slope = np.full((n_runs, 2), np.nan)
+    slope_std = np.full((n_runs, 2), np.nan)
+    for k in range(n_runs):
+        for j in range(2):
+            slope[k, j], slope_std[k, j] = fit.value(f"d{j + 1}[{k}]")
+    asym = np.full((max(stages), 3), np.nan)
+    asym_std = np.full((max(stages), 3), np.nan)
+    for s in both:
+        for j in range(3):
+            asym[s - 1, j], asym_std[s - 1, j] = fit.value(f"e{j + 1}[{s}]")
+    sub = np.ix_(shared, shared)
     return TensorFit(
-        entries=x[:6],
-        entries_cov=cov_x[:6, :6],
-        gravity=x[6:8],
-        gravity_cov=cov_x[6:8, 6:8],
-        chi2_dof=chi2_dof,
-        speed_noise_scale=scales,
-        n_equations=len(y),
-        friction_slope=slope.reshape(n_stages, 2),
-        friction_slope_std=slope_std.reshape(n_stages, 2),
-        mismatch_terms=mismatch_terms,
-        cov_parts=cov_parts,
+        entries=fit.x[shared[:6]],
+        entries_cov=fit.cov[sub][:6, :6],
+        gravity=fit.x[shared[6:]],
+        gravity_cov=fit.cov[sub][6:, 6:],
+        chi2_dof=fit.chi2_dof,
+        speed_noise_scale=fit.scales,
+        n_equations=fit.n_equations,
+        friction_slope=slope,
+        friction_slope_std=slope_std,
+        mismatch_terms=[bool(np.any(bal.mismatch != 0.0)) for bal in balances],
+        cov_parts={name: part[sub] for name, part in fit.cov_parts.items()},
+        friction_asymmetry=asym,
+        friction_asymmetry_std=asym_std,
+        tests=fit.tests,
+        runs=[run_label(bal) for bal in balances],
     )
 
 

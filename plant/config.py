@@ -2,8 +2,9 @@
 
 ``device.toml`` describes the gimbal: its spring, motor, encoder, the stages (one gear ratio
 each, with the nodes where the tensor is sampled) and, optionally, the body's mass.
-``virtual.toml`` exists only for a virtual device: the true body, the friction law and the
-settings of the simulated runs. Both files are contracts of INTERFACES.md (sections
+``virtual.toml`` exists only for a virtual device: the true body (absent for an empty-fixture
+run) and fixture, the friction law in each direction of motion, the rig's imperfections and
+the settings of the simulated runs. Both files are contracts of INTERFACES.md (sections
 "device.toml" and "virtual.toml"); this module is the one place that reads them.
 
 Bad input raises :class:`plant.errors.InputError` with one line that names the file, the
@@ -27,6 +28,7 @@ from plant.errors import InputError
 
 __all__ = [
     "DEFAULT_GRAVITY",
+    "DIRECTIONS",
     "REQUIRED_AXES",
     "Body",
     "ControllerSettings",
@@ -35,6 +37,7 @@ __all__ = [
     "Friction",
     "Motor",
     "Pendulum",
+    "Rig",
     "RunSettings",
     "Spring",
     "Stage",
@@ -49,6 +52,10 @@ DEFAULT_GRAVITY = 9.80665
 
 REQUIRED_AXES = 6
 """Distinct axes needed over all stages: the tensor has six entries (METHOD.md §5)."""
+
+DIRECTIONS = ("forward", "backward")
+"""Directions of a stage's run: forward, phi increases during the braking pass and decreases
+during its reverse pass; backward, the other way round."""
 
 _INERTIA_NAMES = ("Jx", "Jy", "Jz", "Jxy", "Jyz", "Jxz")
 
@@ -74,6 +81,9 @@ class Motor:
     """Largest torque magnitude, N m, > 0: |u| <= torque_limit."""
     torque_rate_limit: float
     """Largest torque rate magnitude, N m/s, > 0: |du/dt| <= torque_rate_limit."""
+    torque_gain_std: float | None = None
+    """Relative standard deviation of the logged torque's scale (torque constant), >= 0, as the
+    user knows it; None (not stated) makes identify warn unless a calibration.toml fixes it."""
 
 
 @dataclass(frozen=True)
@@ -110,6 +120,12 @@ class Stage:
     """Speed Omega at the release of the braking pass, rad/s, > 0."""
     braking_torque: float
     """Motor torque against the motion during the braking pass, N m, >= 0."""
+    directions: tuple[str, ...] = ("forward",)
+    """Directions the stage is run in, each from DIRECTIONS, distinct, at least one: forward
+    (phi increases while braking), backward (phi decreases while braking), or both."""
+    tare_inertia_std: float | None = None
+    """Standard deviation of ``tare_inertia``, kg m^2, >= 0, as the user knows it; None (not
+    stated) makes identify warn unless a calibration.toml replaces the tare."""
 
     @property
     def nodes(self) -> np.ndarray:
@@ -186,7 +202,7 @@ def load_device(path: str | os.PathLike) -> Device:
     -------
     Device
         The gimbal, with defaults filled in: gravity 9.80665 m/s^2, no spring,
-        tare inertia 0, no body.
+        tare inertia 0, stages run forward only, no body.
 
     Raises
     ------
@@ -220,10 +236,11 @@ def _device(doc: dict[str, Any]) -> Device:
         zero_angle=_get(table, "spring", "zero_angle", float, default=0.0),
     )
 
-    table = _table(doc, "motor", {"torque_limit", "torque_rate_limit"})
+    table = _table(doc, "motor", {"torque_limit", "torque_rate_limit", "torque_gain_std"})
     motor = Motor(
         torque_limit=_get(table, "motor", "torque_limit", float, bound="> 0"),
         torque_rate_limit=_get(table, "motor", "torque_rate_limit", float, bound="> 0"),
+        torque_gain_std=_get(table, "motor", "torque_gain_std", float, default=None, bound=">= 0"),
     )
 
     table = _table(doc, "encoder", {"counts_per_rev", "sample_rate"})
@@ -276,7 +293,15 @@ def _stage(table: dict[str, Any], where: str) -> Stage:
     _known(
         table,
         where,
-        {"gear_ratio", "tare_inertia", "nodes_deg", "launch_speed", "braking_torque"},
+        {
+            "gear_ratio",
+            "tare_inertia",
+            "nodes_deg",
+            "launch_speed",
+            "braking_torque",
+            "directions",
+            "tare_inertia_std",
+        },
     )
     gear_ratio = _get(table, where, "gear_ratio", float, bound=">= 0")
     tare_inertia = _get(table, where, "tare_inertia", float, default=0.0, bound=">= 0")
@@ -298,7 +323,30 @@ def _stage(table: dict[str, Any], where: str) -> Stage:
         nodes_deg=nodes,
         launch_speed=_get(table, where, "launch_speed", float, bound="> 0"),
         braking_torque=_get(table, where, "braking_torque", float, bound=">= 0"),
+        directions=_directions(table, where),
+        tare_inertia_std=_get(table, where, "tare_inertia_std", float, default=None, bound=">= 0"),
     )
+
+
+def _directions(table: dict[str, Any], where: str) -> tuple[str, ...]:
+    """``stage[k].directions``: a non-empty array of distinct names from DIRECTIONS."""
+    key = f"{where}.directions"
+    if "directions" not in table:
+        return ("forward",)
+    values = table["directions"]
+    if not isinstance(values, list):
+        raise _ContentError(key, f"must be an array of strings, got {_describe(values)}")
+    if not values:
+        raise _ContentError(key, "must name at least one direction")
+    allowed = ", ".join(repr(name) for name in DIRECTIONS)
+    for k, value in enumerate(values, 1):
+        name = _convert(value, str, f"{key}[{k}]")
+        if name not in DIRECTIONS:
+            raise _ContentError(f"{key}[{k}]", f"must be one of {allowed}, got {name!r}")
+    if len(set(values)) < len(values):
+        duplicate = next(name for name in values if values.count(name) > 1)
+        raise _ContentError(key, f"duplicate direction {duplicate!r}")
+    return tuple(values)
 
 
 # --- virtual.toml ------------------------------------------------------------------------
@@ -306,7 +354,8 @@ def _stage(table: dict[str, Any], where: str) -> Stage:
 
 @dataclass(frozen=True)
 class TrueBody:
-    """The body a virtual device carries: the truth that identification should recover."""
+    """A rigid part a virtual device carries on its shaft: the body under test (the truth that
+    identification should recover) or the fixture that holds it."""
 
     mass: float
     """Mass, kg, > 0."""
@@ -342,6 +391,9 @@ class Friction:
     """a2, N m s, >= 0."""
     quadratic: float
     """a3, N m s^2, >= 0."""
+    backward_scale: float = 1.0
+    """Factor on a1, a2 and a3 while the body moves backward (Omega < 0), >= 0; 1 = the same
+    friction in both directions."""
 
 
 @dataclass(frozen=True)
@@ -365,17 +417,72 @@ class ControllerSettings:
 
 
 @dataclass(frozen=True)
+class Rig:
+    """Imperfections of the virtual rig: what the real one does differently from its file."""
+
+    torque_gain: float = 1.0
+    """Logged torque over the torque physically applied, dimensionless, > 0 (1 = exact)."""
+    tare_inertia: tuple[float, ...] | None = None
+    """True M_tare of each stage, kg m^2, >= 0, one per [[stage]] of device.toml (which only
+    approximates them); None: device.toml's values are exact."""
+
+    def true_tare(self, device: Device, stage: int, source: str = "virtual.toml") -> float:
+        """The true M_tare of stage ``stage`` (1-based), kg m^2 (METHOD.md §2).
+
+        Raises
+        ------
+        InputError
+            ``tare_inertia`` does not have one entry per stage of ``device``; the message
+            names ``source`` (the virtual.toml file) and the key.
+        """
+        if self.tare_inertia is None:
+            return device.stages[stage - 1].tare_inertia
+        if len(self.tare_inertia) != len(device.stages):
+            raise InputError(
+                f"{source}: rig.tare_inertia: must have one entry per [[stage]] of device.toml "
+                f"({len(device.stages)}), got {len(self.tare_inertia)}"
+            )
+        return self.tare_inertia[stage - 1]
+
+
+@dataclass(frozen=True)
 class Virtual:
     """The virtual device as described by ``virtual.toml``."""
 
-    body: TrueBody
-    """The true body."""
+    body: TrueBody | None
+    """The true body; None for an empty-fixture run (no ``[body]``)."""
     friction: Friction
-    """The true friction law."""
+    """The true friction law; forward motion always uses its coefficients."""
     run: RunSettings
     """Run settings; defaults when the file has no ``[run]``."""
     controller: ControllerSettings
     """Controller settings; defaults when the file has no ``[controller]``."""
+    fixture: TrueBody | None = None
+    """The mounting plate, rigidly on the shaft with the body; None when the file has none."""
+    rig: Rig = Rig()
+    """The rig's imperfections; an exact rig when the file has no ``[rig]``."""
+    friction_backward: Friction | None = None
+    """Explicit friction for backward motion (Omega < 0), from ``[friction_backward]``; None:
+    ``friction`` scaled by its ``backward_scale``."""
+
+    def friction_for(self, direction: float) -> Friction:
+        """The friction coefficients while the body moves in ``direction`` (sign of Omega).
+
+        Forward (+1) motion uses ``[friction]``; backward (-1) motion ``[friction_backward]``
+        if given, else ``[friction]``'s coefficients times its ``backward_scale``.
+        """
+        if direction > 0:
+            return self.friction
+        if self.friction_backward is not None:
+            return self.friction_backward
+        scale = self.friction.backward_scale
+        if scale == 1.0:
+            return self.friction
+        return Friction(
+            coulomb=self.friction.coulomb * scale,
+            viscous=self.friction.viscous * scale,
+            quadratic=self.friction.quadratic * scale,
+        )
 
 
 def load_virtual(path: str | os.PathLike) -> Virtual:
@@ -389,15 +496,20 @@ def load_virtual(path: str | os.PathLike) -> Virtual:
     Returns
     -------
     Virtual
-        The true body, the friction law and the run and controller settings, with
-        defaults for the optional ``[run]`` and ``[controller]`` tables and their keys.
+        The true body and fixture, the friction law, the rig's imperfections and the run and
+        controller settings, with defaults for the optional tables (``[body]``,
+        ``[fixture]``, ``[rig]``, ``[friction_backward]``, ``[run]``, ``[controller]``) and
+        their keys.
 
     Raises
     ------
     InputError
         The file is missing or is not TOML; a key is missing, unknown, of the wrong type
-        or out of range; or the inertia is not that of a physical body (a diagonal entry
-        <= 0, not positive definite, or principal moments breaking the triangle inequality).
+        or out of range; an inertia is not that of a physical body (a diagonal entry
+        <= 0, not positive definite, or principal moments breaking the triangle inequality);
+        or both ``friction.backward_scale`` and ``[friction_backward]`` are given.
+        (``rig.tare_inertia``'s length is checked against the device by
+        :meth:`Rig.true_tare`.)
 
     Examples
     --------
@@ -413,20 +525,45 @@ def load_virtual(path: str | os.PathLike) -> Virtual:
 
 
 def _virtual(doc: dict[str, Any]) -> Virtual:
-    _known(doc, "", {"body", "friction", "run", "controller"})
-
-    table = _table(doc, "body", {"mass", "inertia", "com"})
-    body = TrueBody(
-        mass=_get(table, "body", "mass", float, bound="> 0"),
-        inertia=_inertia(table),
-        com=_numbers(table, "body", "com", names=("x", "y", "z")),
+    _known(
+        doc,
+        "",
+        {"body", "fixture", "friction", "friction_backward", "rig", "run", "controller"},
     )
+    body = _true_body(doc, "body")
+    fixture = _true_body(doc, "fixture")
 
-    table = _table(doc, "friction", {"coulomb", "viscous", "quadratic"})
+    table = _table(doc, "friction", {"coulomb", "viscous", "quadratic", "backward_scale"})
     friction = Friction(
         coulomb=_get(table, "friction", "coulomb", float, bound=">= 0"),
         viscous=_get(table, "friction", "viscous", float, bound=">= 0"),
         quadratic=_get(table, "friction", "quadratic", float, bound=">= 0"),
+        backward_scale=_get(table, "friction", "backward_scale", float, default=1.0, bound=">= 0"),
+    )
+    table = _table(doc, "friction_backward", {"coulomb", "viscous", "quadratic"}, required=False)
+    friction_backward = None
+    if table is not None:
+        if friction.backward_scale != 1.0:
+            raise _ContentError(
+                "friction_backward",
+                "give either friction.backward_scale or [friction_backward], not both",
+            )
+        friction_backward = Friction(
+            coulomb=_get(table, "friction_backward", "coulomb", float, bound=">= 0"),
+            viscous=_get(table, "friction_backward", "viscous", float, bound=">= 0"),
+            quadratic=_get(table, "friction_backward", "quadratic", float, bound=">= 0"),
+        )
+
+    table = _table(doc, "rig", {"torque_gain", "tare_inertia"}, required=False) or {}
+    tare = None
+    if "tare_inertia" in table:
+        tare = _numbers(table, "rig", "tare_inertia")
+        for k, value in enumerate(tare, 1):
+            if not value >= 0.0:
+                raise _ContentError(f"rig.tare_inertia[{k}]", f"must be >= 0, got {value!r}")
+    rig = Rig(
+        torque_gain=_get(table, "rig", "torque_gain", float, default=1.0, bound="> 0"),
+        tare_inertia=tare,
     )
 
     table = _table(doc, "run", {"release_angle_deg", "torque_noise", "seed"}, required=False)
@@ -453,15 +590,28 @@ def _virtual(doc: dict[str, Any]) -> Virtual:
             bound="> 0",
         ),
     )
-    return Virtual(body, friction, run, controller)
+    return Virtual(body, friction, run, controller, fixture, rig, friction_backward)
 
 
-def _inertia(table: dict[str, Any]) -> tuple[float, ...]:
-    """``body.inertia``, checked to be the tensor of a physical body (METHOD.md §2)."""
-    inertia = _numbers(table, "body", "inertia", names=_INERTIA_NAMES)
+def _true_body(doc: dict[str, Any], name: str) -> TrueBody | None:
+    """The optional table ``[name]`` (``body`` or ``fixture``) with mass, inertia and com."""
+    table = _table(doc, name, {"mass", "inertia", "com"}, required=False)
+    if table is None:
+        return None
+    return TrueBody(
+        mass=_get(table, name, "mass", float, bound="> 0"),
+        inertia=_inertia(table, name),
+        com=_numbers(table, name, "com", names=("x", "y", "z")),
+    )
+
+
+def _inertia(table: dict[str, Any], where: str) -> tuple[float, ...]:
+    """``where.inertia``, checked to be the tensor of a physical body (METHOD.md §2)."""
+    key = f"{where}.inertia"
+    inertia = _numbers(table, where, "inertia", names=_INERTIA_NAMES)
     for name, value in zip(_INERTIA_NAMES[:3], inertia[:3], strict=True):
         if not value > 0.0:
-            raise _ContentError("body.inertia", f"{name} must be > 0, got {value!r}")
+            raise _ContentError(key, f"{name} must be > 0, got {value!r}")
     jx, jy, jz, jxy, jyz, jxz = inertia
     moments = np.linalg.eigvalsh([[jx, jxy, jxz], [jxy, jy, jyz], [jxz, jyz, jz]])
     # Ascending order: only the smallest can be <= 0 and only the largest can exceed the
@@ -474,7 +624,7 @@ def _inertia(table: dict[str, Any]) -> tuple[float, ...]:
             else "the largest exceeds the sum of the other two (triangle inequality)"
         )
         raise _ContentError(
-            "body.inertia",
+            key,
             f"not a physical inertia tensor: principal moments [{listed}] kg m^2, {fault}",
         )
     return inertia

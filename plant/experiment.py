@@ -4,9 +4,12 @@ One folder is one experiment::
 
     EXP/device.toml          the gimbal (required)
     EXP/virtual.toml         only for a virtual device
-    EXP/stageN/braking.csv   encoder log of the braking pass of stage N (1-based)
+    EXP/stageN/braking.csv   encoder log of the (forward) braking pass of stage N (1-based)
     EXP/stageN/program.csv   torque program of the reverse pass
     EXP/stageN/reverse.csv   log of the reverse pass
+    EXP/stageN/braking_backward.csv, program_backward.csv, reverse_backward.csv
+                             the same for the backward run, when the stage's ``directions``
+                             include "backward" (phi decreases while braking)
     EXP/stageN/pendulum_kK.csv  torsion-pendulum baseline run at node K (optional)
     EXP/result.json          written by ``identify``
 """
@@ -17,7 +20,7 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from plant.config import Device, Virtual, load_device, load_virtual
+from plant.config import DIRECTIONS, Device, Virtual, load_device, load_virtual
 from plant.errors import InputError
 
 __all__ = ["Experiment", "open_experiment"]
@@ -42,17 +45,24 @@ class Experiment:
         self.check_stage(stage)
         return self.root / f"stage{stage}"
 
-    def braking_path(self, stage: int) -> Path:
-        """``stageN/braking.csv``."""
-        return self.stage_dir(stage) / "braking.csv"
+    def _pass_path(self, stage: int, name: str, direction: str) -> Path:
+        """``stageN/name.csv`` for a forward run, ``stageN/name_backward.csv`` backward."""
+        if direction not in DIRECTIONS:
+            raise ValueError(f"direction must be one of {DIRECTIONS}, got {direction!r}")
+        suffix = "" if direction == "forward" else f"_{direction}"
+        return self.stage_dir(stage) / f"{name}{suffix}.csv"
 
-    def program_path(self, stage: int) -> Path:
-        """``stageN/program.csv``."""
-        return self.stage_dir(stage) / "program.csv"
+    def braking_path(self, stage: int, direction: str = "forward") -> Path:
+        """``stageN/braking.csv``, or ``stageN/braking_backward.csv`` for ``"backward"``."""
+        return self._pass_path(stage, "braking", direction)
 
-    def reverse_path(self, stage: int) -> Path:
-        """``stageN/reverse.csv``."""
-        return self.stage_dir(stage) / "reverse.csv"
+    def program_path(self, stage: int, direction: str = "forward") -> Path:
+        """``stageN/program.csv``, or ``stageN/program_backward.csv`` for ``"backward"``."""
+        return self._pass_path(stage, "program", direction)
+
+    def reverse_path(self, stage: int, direction: str = "forward") -> Path:
+        """``stageN/reverse.csv``, or ``stageN/reverse_backward.csv`` for ``"backward"``."""
+        return self._pass_path(stage, "reverse", direction)
 
     def pendulum_path(self, stage: int, node: int) -> Path:
         """``stageN/pendulum_kK.csv``: torsion-pendulum run at node K (1-based) of stage N."""
@@ -69,13 +79,18 @@ class Experiment:
         return self.root / "virtual.toml"
 
     def load_virtual(self) -> Virtual:
-        """The virtual device's truth; an error if this is not a virtual experiment."""
+        """The virtual device's truth; an error if this is not a virtual experiment.
+
+        Also checks virtual.toml against device.toml (``rig.tare_inertia``: one per stage).
+        """
         if not self.virtual_path.is_file():
             raise InputError(
                 f"{self.virtual_path}: not found: only a virtual device (with virtual.toml) "
                 "can be simulated"
             )
-        return load_virtual(self.virtual_path)
+        virtual = load_virtual(self.virtual_path)
+        virtual.rig.true_tare(self.device, 1, source=str(self.virtual_path))
+        return virtual
 
     def check_stage(self, stage: int) -> None:
         """Raise InputError unless 1 <= stage <= n_stages."""

@@ -19,6 +19,7 @@ from typing import Protocol
 
 import numpy as np
 
+from plant.config import DIRECTIONS
 from plant.errors import InputError
 
 LOG_COLUMNS = ("t", "phi", "torque")
@@ -244,22 +245,32 @@ def _check_grid(path: str | os.PathLike, phi: np.ndarray, encoder: EncoderLike) 
         )
 
 
-def _check_direction(path: str | os.PathLike, phi: np.ndarray, kind: str) -> None:
-    """Braking runs forward from the release to rest; the reverse pass runs back."""
+def _check_direction(path: str | os.PathLike, phi: np.ndarray, kind: str, direction: str) -> None:
+    """A forward braking runs up from the release to rest and its reverse pass back down; a
+    backward run is the other way round."""
+    if kind not in ("braking", "reverse"):
+        return
     last_line = len(phi) + 1
-    if kind == "braking" and not phi[-1] > phi[0]:
-        raise InputError(
-            f"{path}, line {last_line}: a braking log must end at a larger phi than it starts, "
-            f"but phi goes from {float(phi[0])!r} to {float(phi[-1])!r} rad"
-        )
-    if kind == "reverse" and not phi[-1] < phi[0]:
-        raise InputError(
-            f"{path}, line {last_line}: a reverse log must end at a smaller phi than it starts, "
-            f"but phi goes from {float(phi[0])!r} to {float(phi[-1])!r} rad"
-        )
+    increases = (kind == "braking") == (direction == "forward")
+    if (phi[-1] > phi[0]) if increases else (phi[-1] < phi[0]):
+        return
+    run = "a braking" if kind == "braking" else "a reverse"
+    if direction == "backward":
+        run = f"a backward {kind}"
+    end = "larger" if increases else "smaller"
+    why = ""
+    if direction == "backward":
+        moves = "increases" if increases else "decreases"
+        why = f" (phi {moves} during a backward {kind})"
+    raise InputError(
+        f"{path}, line {last_line}: {run} log must end at a {end} phi than it starts{why}, "
+        f"but phi goes from {float(phi[0])!r} to {float(phi[-1])!r} rad"
+    )
 
 
-def read_log(path: str | os.PathLike, encoder: EncoderLike, kind: str) -> Log:
+def read_log(
+    path: str | os.PathLike, encoder: EncoderLike, kind: str, direction: str = "forward"
+) -> Log:
     """Read and check braking.csv or reverse.csv.
 
     Parameters
@@ -269,8 +280,13 @@ def read_log(path: str | os.PathLike, encoder: EncoderLike, kind: str) -> Log:
     encoder : encoder-like
         Anything with ``quantum`` (rad, 2 pi / counts_per_rev) and ``sample_rate`` (Hz), such
         as ``plant.config.Encoder``.
-    kind : {"braking", "reverse"}
-        Which pass: braking must end at a larger phi than it starts, reverse at a smaller one.
+    kind : {"braking", "reverse", "pendulum"}
+        Which pass: a forward braking must end at a larger phi than it starts, its reverse at
+        a smaller one; a pendulum run may go either way.
+    direction : {"forward", "backward"}
+        The direction of the stage's run (``plant.config.DIRECTIONS``): a backward braking
+        must end at a smaller phi than it starts, its reverse at a larger one. Pendulum runs
+        ignore it.
 
     Returns
     -------
@@ -286,11 +302,13 @@ def read_log(path: str | os.PathLike, encoder: EncoderLike, kind: str) -> Log:
     """
     if kind not in LOG_KINDS:
         raise ValueError(f"kind must be one of {LOG_KINDS}, got {kind!r}")
+    if direction not in DIRECTIONS:
+        raise ValueError(f"direction must be one of {DIRECTIONS}, got {direction!r}")
     values = _read_table(path, LOG_COLUMNS)
     t, phi, torque = values.T
     _check_time(path, t, encoder)
     _check_grid(path, phi, encoder)
-    _check_direction(path, phi, kind)
+    _check_direction(path, phi, kind, direction)
     return Log(t=t, phi=phi, torque=torque)
 
 

@@ -42,6 +42,7 @@ __all__ = [
     "dissipation",
     "dissipation_regressor",
     "energy_regressor",
+    "inertia_basis",
     "inertia_harmonics",
     "mechanical_energy",
     "motor_torque",
@@ -202,6 +203,10 @@ class GimbalModel:
         self.functions = {
             "reduced_inertia": ca.Function("reduced_inertia", [phi, self.p], [self.M]),
             "reduced_inertia_slope": ca.Function("reduced_inertia_slope", [phi, self.p], [self.dM]),
+            # M is linear in its harmonic coefficients p[0:5]: dM/dp[0:5] is their basis.
+            "inertia_basis": ca.Function(
+                "inertia_basis", [phi, self.p], [ca.jacobian(self.M, self.p)[:, :5]]
+            ),
             "potential": ca.Function("potential", [phi, self.p], [self.Pi]),
             "static_torque": ca.Function("static_torque", [phi, self.p], [self.S]),
             "dissipation": ca.Function(
@@ -263,6 +268,18 @@ def _p(params: ModelParameters | np.ndarray) -> np.ndarray:
 def reduced_inertia(phi, params: ModelParameters | np.ndarray):
     """M(phi), kg m^2 (METHOD.md §2), element-wise over ``phi`` (rad)."""
     return _evaluate("reduced_inertia", (phi,), _p(params))
+
+
+def inertia_basis(phi) -> np.ndarray:
+    """dM/d[M0, Mc2, Ms2, Ms1, Mc1] at each angle, shape phi.shape + (5,) (METHOD.md §2).
+
+    M(phi) = inertia_basis(phi) @ harmonics: the functions 1, cos 2phi, sin 2phi, sin phi,
+    cos phi of the harmonic form, taken from the model's own M.
+    """
+    phi = np.asarray(phi, dtype=float)
+    row = phi.reshape(1, -1)
+    out = np.asarray(MODEL.functions["inertia_basis"](row, np.zeros(len(PARAMETER_NAMES))))
+    return out.reshape(phi.shape + (5,))
 
 
 def reduced_inertia_slope(phi, params: ModelParameters | np.ndarray):

@@ -11,6 +11,15 @@ What leaves the device is what a rig produces: encoder readings floor(phi/q) q a
 rate and the logged torque with its noise. The true states are returned beside the log for
 tests and benchmarks, never written where ``identify`` or ``program`` could read them.
 
+A stage runs forward (phi increases while braking) or backward (the mirror: released at
+-release_angle_deg with speed -launch_speed, phi decreases while braking and increases on the
+reverse pass); one sign s = +1 / -1 carries the direction through every pass. The rig may be
+imperfect (``virtual.toml``): a fixture on the shaft with the body, a true tare other than
+device.toml's, friction that differs backward (Omega < 0) from forward, and a torque gain:
+the log records the drive's command, the body receives command / torque_gain. The true model
+of each direction of motion comes from one place, :func:`true_parameters`; every integration
+picks the parameter vector of the current direction from the pair (forward, backward).
+
 Integrator accuracy: ``SUBSTEPS`` RK4 steps per sample. With no dissipation and no torque the
 mechanical energy is conserved to better than 1e-9 relative over 10 s (tests/plant).
 """
@@ -25,11 +34,12 @@ import casadi as ca
 import numpy as np
 from scipy.optimize import brentq
 
-from plant.config import Device, Virtual
+from plant.config import DIRECTIONS, Device, Stage, Virtual
 from plant.errors import InputError
 from plant.logs import Log, Program
 from plant.model import (
     MODEL,
+    PARAMETER_NAMES,
     ModelParameters,
     acceleration,
     inertia_harmonics,
@@ -68,6 +78,14 @@ _BLOCK = 1000
 _STREAM_BRAKING = 0
 _STREAM_REVERSE = 1
 _STREAM_PENDULUM = 2
+_STREAM_BRAKING_BACKWARD = 3
+_STREAM_REVERSE_BACKWARD = 4
+
+_COULOMB = PARAMETER_NAMES.index("a1")
+"""Index of a1 in the parameter vector: the static friction at rest."""
+
+_Pair = tuple[np.ndarray, np.ndarray]
+"""(p_forward, p_backward): parameter vectors for Omega > 0 and Omega < 0."""
 
 
 def _build_step() -> ca.Function:
@@ -94,25 +112,81 @@ def _step(x: np.ndarray, u: float, direction: float, p: np.ndarray, h: float) ->
     return np.asarray(_STEP(x, u, direction, p, h)).ravel()
 
 
-def true_parameters(device: Device, stage: int, virtual: Virtual) -> ModelParameters:
-    """The true model of stage ``stage`` (1-based): device.toml's gimbal, virtual.toml's body.
+def true_parameters(
+    device: Device, stage: int, virtual: Virtual, direction: float = 1
+) -> ModelParameters:
+    """The true model of stage ``stage`` (1-based) while the body moves in ``direction``.
 
-    The tare M_tare of device.toml is taken as exact; gravity terms Gs = m g x_c, Gc = m g y_c
-    (METHOD.md §3).
+    device.toml's gimbal with virtual.toml's moving system. The moving system is the body and
+    the fixture (either may be absent): their tensors, both about O in the body frame, add
+    (METHOD.md §2), and so do their gravity terms Gs = sum m g x_c, Gc = sum m g y_c
+    (METHOD.md §3). The tare is the rig's true one (``[rig] tare_inertia``, else device.toml's,
+    :meth:`plant.config.Rig.true_tare`); the friction that of the direction of motion
+    (:meth:`plant.config.Virtual.friction_for`).
+
+    Parameters
+    ----------
+    device, stage, virtual
+        The gimbal, the stage number (from 1) and the virtual device's truth.
+    direction : {+1, -1}
+        The sign of Omega: +1 forward motion, -1 backward motion.
+
+    Returns
+    -------
+    ModelParameters
+        The parameters of :mod:`plant.model`, the same in both directions but for friction.
+
+    Raises
+    ------
+    InputError
+        ``[rig] tare_inertia`` does not have one entry per stage of the device.
     """
+    if direction not in (1, -1):
+        raise ValueError(f"direction must be +1 or -1 (the sign of Omega), got {direction!r}")
     st = device.stages[stage - 1]
-    body = virtual.body
+    parts = [part for part in (virtual.body, virtual.fixture) if part is not None]
     g = device.gravity
+    inertia = sum((part.inertia for part in parts), np.zeros(6))
+    tare = virtual.rig.true_tare(device, stage)
+    friction = virtual.friction_for(direction)
     return ModelParameters(
-        inertia_harmonics=inertia_harmonics(body.inertia, st.gear_ratio, st.tare_inertia),
+        inertia_harmonics=inertia_harmonics(inertia, st.gear_ratio, tare),
         stiffness=device.spring.stiffness,
         zero_angle=device.spring.zero_angle,
-        gravity_sin=body.mass * g * body.com[0],
-        gravity_cos=body.mass * g * body.com[1],
-        coulomb=virtual.friction.coulomb,
-        viscous=virtual.friction.viscous,
-        quadratic=virtual.friction.quadratic,
+        gravity_sin=sum(part.mass * g * part.com[0] for part in parts),
+        gravity_cos=sum(part.mass * g * part.com[1] for part in parts),
+        coulomb=friction.coulomb,
+        viscous=friction.viscous,
+        quadratic=friction.quadratic,
     )
+
+
+def _true_pair(device: Device, stage: int, virtual: Virtual) -> _Pair:
+    """(p_forward, p_backward) of :func:`true_parameters`."""
+    forward = true_parameters(device, stage, virtual, 1).vector
+    return forward, true_parameters(device, stage, virtual, -1).vector
+
+
+def _pick(pair: _Pair, direction: float) -> np.ndarray:
+    """The parameter vector of the direction of motion ``direction`` (+1 or -1)."""
+    return pair[0] if direction > 0 else pair[1]
+
+
+def _sign(direction: str) -> float:
+    """s = +1.0 for a forward run, -1.0 for a backward one (METHOD.md §4 mirrored)."""
+    if direction not in DIRECTIONS:
+        raise ValueError(f"direction must be one of {DIRECTIONS}, got {direction!r}")
+    return 1.0 if direction == "forward" else -1.0
+
+
+def _braking_torque(stage: Stage, virtual: Virtual, s: float) -> tuple[float, float]:
+    """The braking pass's motor torque, N m: (the logged command, the torque applied).
+
+    The command is the constant braking torque against the motion, -s braking_torque; the
+    drive applies command / torque_gain (``[rig]``).
+    """
+    command = -s * stage.braking_torque
+    return command, command / virtual.rig.torque_gain
 
 
 def encoder_reading(phi: np.ndarray, quantum: float) -> np.ndarray:
@@ -131,7 +205,8 @@ class PassTruth:
     omega: np.ndarray
     """rad/s, true speed at t."""
     torque: np.ndarray
-    """N m, torque applied over [t_k, t_k+1) (the log adds noise to it)."""
+    """N m, torque physically applied over [t_k, t_k+1); the log records the drive's command,
+    torque_gain times it, plus noise."""
     end_time: float
     """s: braking, the exact instant the speed reaches zero; reverse, the end of the program."""
     end_phi: float
@@ -160,30 +235,47 @@ def _make_log(t, phi_true, torque, quantum, noise, rng) -> Log:
     return Log(t=np.asarray(t), phi=encoder_reading(phi_true, quantum), torque=np.asarray(logged))
 
 
-def simulate_braking(device: Device, stage: int, virtual: Virtual) -> SimulatedPass:
+def simulate_braking(
+    device: Device, stage: int, virtual: Virtual, direction: str = "forward"
+) -> SimulatedPass:
     """The braking pass of METHOD.md §4 for stage ``stage`` (1-based).
 
-    Release at ``release_angle_deg`` with the stage's launch speed; the motor applies the
-    constant ``braking_torque`` against the motion; the pass ends at the first instant the
-    speed reaches zero (an event located inside its sample by Brent's method on the step
-    length). The log holds every sample up to that instant.
+    Forward: release at ``release_angle_deg`` with the stage's launch speed. Backward, the
+    mirror: release at -``release_angle_deg`` with -launch speed. The drive's command is the
+    constant ``braking_torque`` against the motion (-braking_torque forward, +braking_torque
+    backward), which the log records; the body receives command / torque_gain. The pass ends
+    at the first instant the speed reaches zero (an event located inside its sample by
+    Brent's method on the step length). The log holds every sample up to that instant.
+
+    Parameters
+    ----------
+    device, stage, virtual
+        The gimbal, the stage number (from 1) and the virtual device's truth.
+    direction : {"forward", "backward"}
+        The direction of the run (``plant.config.DIRECTIONS``); each has its own noise stream.
+
+    Returns
+    -------
+    SimulatedPass
+        The log and the true states; ``truth.torque`` is the physical torque.
 
     Raises
     ------
     InputError
         If the body does not stop within ``MAX_BRAKING_TIME``.
     """
+    s = _sign(direction)
     st = device.stages[stage - 1]
-    p = true_parameters(device, stage, virtual).vector
+    p = true_parameters(device, stage, virtual, s).vector
     dt = device.encoder.dt
-    u = -st.braking_torque
-    x = np.array([math.radians(virtual.run.release_angle_deg), st.launch_speed])
+    command, u = _braking_torque(st, virtual, s)
+    x = np.array([s * math.radians(virtual.run.release_angle_deg), s * st.launch_speed])
     states = [x[None, :]]
     max_samples = int(MAX_BRAKING_TIME / dt)
     n = 1
     while True:
-        block = np.asarray(_STEP_BLOCK(x, u, 1.0, p, dt)).T  # (_BLOCK, 2)
-        stopped = np.nonzero(block[:, 1] <= 0.0)[0]
+        block = np.asarray(_STEP_BLOCK(x, u, s, p, dt)).T  # (_BLOCK, 2)
+        stopped = np.nonzero(block[:, 1] * s <= 0.0)[0]
         if stopped.size:
             k = stopped[0]
             states.append(block[:k])
@@ -194,20 +286,21 @@ def simulate_braking(device: Device, stage: int, virtual: Virtual) -> SimulatedP
         n += _BLOCK
         x = block[-1]
         if n > max_samples:
+            run = "braking pass" if s > 0 else "backward braking pass"
             raise InputError(
-                f"stage {stage}: the braking pass does not stop within {MAX_BRAKING_TIME:g} s; "
+                f"stage {stage}: the {run} does not stop within {MAX_BRAKING_TIME:g} s; "
                 "raise braking_torque or lower launch_speed in device.toml"
             )
     # Event: the speed reaches zero h* after the last sample, 0 < h* <= dt.
-    h_stop = brentq(lambda h: _step(x, u, 1.0, p, h)[1], 0.0, dt, xtol=1e-15, rtol=1e-15)
-    end = _step(x, u, 1.0, p, h_stop)
+    h_stop = brentq(lambda h: _step(x, u, s, p, h)[1] * s, 0.0, dt, xtol=1e-15, rtol=1e-15)
+    end = _step(x, u, s, p, h_stop)
     traj = np.concatenate(states)
     t = np.arange(n) * dt
     if h_stop >= dt * (1 - 1e-12):  # the stop falls on a sample: it belongs to the log
         traj = np.vstack([traj, [end[0], 0.0]])
         t = np.arange(n + 1) * dt
     torque = np.full(len(t), u)
-    rng = _rng(virtual, stage, _STREAM_BRAKING)
+    rng = _rng(virtual, stage, _STREAM_BRAKING if s > 0 else _STREAM_BRAKING_BACKWARD)
     truth = PassTruth(
         t=t,
         phi=traj[:, 0],
@@ -217,7 +310,8 @@ def simulate_braking(device: Device, stage: int, virtual: Virtual) -> SimulatedP
         end_phi=float(end[0]),
         end_omega=0.0,
     )
-    log = _make_log(t, traj[:, 0], torque, device.encoder.quantum, virtual.run.torque_noise, rng)
+    logged = np.full(len(t), command)
+    log = _make_log(t, traj[:, 0], logged, device.encoder.quantum, virtual.run.torque_noise, rng)
     return SimulatedPass(log=log, truth=truth)
 
 
@@ -259,29 +353,32 @@ class SpeedObserver:
         return self.omega
 
 
-def _advance(x: np.ndarray, u: float, h: float, p: np.ndarray, coulomb: float) -> np.ndarray:
-    """Advance the true state over h with torque u held, with stops and static friction.
+def _advance(x: np.ndarray, u: float, h: float, pair: _Pair) -> np.ndarray:
+    """Advance the true state over h with the physical torque u held, with stops and static
+    friction.
 
-    Between stops the direction of motion is fixed; a zero crossing of the speed inside the
-    interval is located (Brent), the body is set at rest there, and static friction decides
-    (METHOD.md §4): it stays while |u - static torque| <= a1, else it breaks away in the
-    direction of the net torque.
+    Between stops the direction of motion is fixed, and so is the parameter vector (``pair``:
+    forward, backward); a zero crossing of the speed inside the interval is located (Brent),
+    the body is set at rest there, and static friction decides (METHOD.md §4): it stays while
+    |u - static torque| <= a1, a1 that of the direction the net torque would move it, else it
+    breaks away in that direction.
     """
     remaining = h
     for _ in range(8):  # at most a few stops per sample
         if remaining <= 0.0:
             return x
         if x[1] == 0.0:
-            net = u - static_torque(x[0], p)
-            if abs(net) <= coulomb:
-                return x
+            net = u - static_torque(x[0], pair[0])
             direction = math.copysign(1.0, net)
+            if abs(net) <= _pick(pair, direction)[_COULOMB]:
+                return x
         else:
             direction = math.copysign(1.0, x[1])
+        p = _pick(pair, direction)
         nxt = _step(x, u, direction, p, remaining)
         if nxt[1] * direction > 0.0:
             return nxt
-        def speed_along(h, x=x, direction=direction):
+        def speed_along(h, x=x, direction=direction, p=p):
             return _step(x, u, direction, p, h)[1] * direction
 
         h_stop = brentq(speed_along, 0.0, remaining, xtol=1e-15)
@@ -299,6 +396,7 @@ def run_program(
     start: tuple[float, float],
     *,
     ideal: bool = False,
+    direction: str = "forward",
 ) -> SimulatedPass:
     """Execute ``program`` in closed loop on the virtual device (INTERFACES.md, program.csv).
 
@@ -308,35 +406,52 @@ def run_program(
         u = clip(torque_ff - k_phi (phi - phi_ref) - k_omega (omega - omega_ref), +-torque_limit)
 
     limits the change from the previous sample to torque_rate_limit dt, and holds u over the
-    sample. Before the program the motor holds the body at rest, so the rate limiter starts
-    from the static torque at the start angle.
+    sample. u is the drive's command: the log records it (plus noise), the body receives
+    u / torque_gain (``[rig]``). Before the program the motor holds the body at rest, so the
+    rate limiter starts from the command that held it there (torque_gain times the static
+    torque at the start angle).
 
     Parameters
     ----------
+    device, stage, virtual
+        The gimbal, the stage number (from 1) and the virtual device's truth.
+    program : Program
+        The torque program.
     start : (phi, Omega)
         True state at the start of the program (rad, rad/s), e.g. the braking's rest.
     ideal : bool
-        An ideal drive for the ideal reverse: no torque or rate limit, and feedback on the
-        true state instead of the encoder and the speed observer. The log is still the
-        encoder's.
+        An ideal drive for the ideal reverse: no torque or rate limit, feedback on the true
+        state instead of the encoder and the speed observer, and u applied physically exactly
+        (the log records the command torque_gain u). The log is still the encoder's.
+    direction : {"forward", "backward"}
+        The direction of the stage's run whose reverse pass this is; it only selects the
+        pass's noise stream (the motion follows the program, in whichever direction).
+
+    Returns
+    -------
+    SimulatedPass
+        The log and the true states; ``truth.torque`` is the physical torque.
     """
-    p = true_parameters(device, stage, virtual).vector
+    s = _sign(direction)
+    pair = _true_pair(device, stage, virtual)
+    gain = virtual.rig.torque_gain
     enc = device.encoder
     dt = enc.dt
     q = enc.quantum
     n = len(program.t)
     u_max = math.inf if ideal else device.motor.torque_limit
     du_max = math.inf if ideal else device.motor.torque_rate_limit * dt
-    coulomb = virtual.friction.coulomb
 
     x = np.array(start, dtype=float)
-    u_prev = float(static_torque(x[0], p))
+    held = float(static_torque(x[0], pair[0]))
+    u_prev = held if ideal else held * gain
     observer = SpeedObserver(
         float(encoder_reading(x[0], q)), x[1], virtual.controller.speed_observer_bandwidth, dt
     )
     phi_true = np.empty(n)
     omega_true = np.empty(n)
     applied = np.empty(n)
+    commands = np.empty(n)
     ff, kp, kw = program.torque_ff, program.k_phi, program.k_omega
     ref_phi, ref_omega = program.phi_ref, program.omega_ref
     for k in range(n):
@@ -348,9 +463,11 @@ def run_program(
         u = ff[k] - kp[k] * (y - ref_phi[k]) - kw[k] * (omega_hat - ref_omega[k])
         u = min(max(u, -u_max), u_max)
         u = min(max(u, u_prev - du_max), u_prev + du_max)
-        applied[k] = u
+        physical = u if ideal else u / gain
+        applied[k] = physical
+        commands[k] = u * gain if ideal else u
         u_prev = u
-        x = _advance(x, u, dt, p, coulomb)
+        x = _advance(x, physical, dt, pair)
     truth = PassTruth(
         t=np.asarray(program.t, dtype=float),
         phi=phi_true,
@@ -360,8 +477,8 @@ def run_program(
         end_phi=float(x[0]),
         end_omega=float(x[1]),
     )
-    rng = _rng(virtual, stage, _STREAM_REVERSE)
-    log = _make_log(truth.t, phi_true, applied, q, virtual.run.torque_noise, rng)
+    rng = _rng(virtual, stage, _STREAM_REVERSE if s > 0 else _STREAM_REVERSE_BACKWARD)
+    log = _make_log(truth.t, phi_true, commands, q, virtual.run.torque_noise, rng)
     return SimulatedPass(log=log, truth=truth)
 
 
@@ -370,37 +487,57 @@ IDEAL_BANDWIDTH = 5.0
 zero-order-hold residue; the feedforward is the exact inverse dynamics)."""
 
 
-def ideal_program(device: Device, stage: int, virtual: Virtual, braking: SimulatedPass) -> Program:
+def ideal_program(
+    device: Device,
+    stage: int,
+    virtual: Virtual,
+    braking: SimulatedPass,
+    direction: str = "forward",
+) -> Program:
     """The exact mirror of a simulated braking pass, as a program (METHOD.md §4).
 
     The reference is the braking trajectory run backwards from its true rest point:
     x_ref(t') = (phi(T - t'), -Omega(T - t')), obtained by integrating the braking's own
-    dynamics with a negative step from (phi7, 0), so no interpolation enters. The
-    feedforward is the true model's inverse dynamics along it (:func:`plant.model.motor_torque`),
-    averaged over each sample for the zero-order hold; the gains put both closed-loop poles
-    at -IDEAL_BANDWIDTH with the true M(phi_ref).
+    dynamics (its physical torque, the friction of its direction of motion s) with a negative
+    step from (phi7, 0), so no interpolation enters. The feedforward is the true model's
+    inverse dynamics along it (:func:`plant.model.motor_torque`, with the friction of the
+    reverse's direction -s), averaged over each sample for the zero-order hold: a physical
+    torque, which the ideal drive of :func:`run_program` applies exactly. The gains put both
+    closed-loop poles at -IDEAL_BANDWIDTH with the true M(phi_ref).
+
+    Parameters
+    ----------
+    device, stage, virtual
+        The gimbal, the stage number (from 1) and the virtual device's truth.
+    braking : SimulatedPass
+        The braking pass of ``direction`` (:func:`simulate_braking`).
+    direction : {"forward", "backward"}
+        The direction of the braking: a backward braking's mirror moves phi up.
     """
+    s = _sign(direction)
+    if not braking.truth.omega[0] * s > 0.0:
+        raise ValueError(f"the braking pass does not run {direction}")
     st = device.stages[stage - 1]
-    params = true_parameters(device, stage, virtual)
-    p = params.vector
+    p = true_parameters(device, stage, virtual, s).vector
+    p_reverse = true_parameters(device, stage, virtual, -s).vector
     dt = device.encoder.dt
     T = braking.truth.end_time
     n = math.floor(T / dt + 1e-9) + 1
-    u_b = -st.braking_torque
+    _, u_b = _braking_torque(st, virtual, s)
     # Braking states at times T - k dt, k = 0..n-1, by backward integration.
     back = np.empty((n, 2))
     back[0] = (braking.truth.end_phi, 0.0)
     x = back[0]
     for start in range(1, n, _BLOCK):
         count = min(_BLOCK, n - start)
-        block = np.asarray(_STEP_BLOCK(x, u_b, 1.0, p, -dt)).T[:count]
+        block = np.asarray(_STEP_BLOCK(x, u_b, s, p, -dt)).T[:count]
         back[start : start + count] = block
         x = block[-1]
     phi_ref = back[:, 0]
     omega_ref = -back[:, 1]
     # The braking's acceleration at the mirrored states is the reverse's acceleration.
-    eps_ref = acceleration(back[:, 0], back[:, 1], u_b, p, direction=np.ones(n))
-    u_needed = motor_torque(phi_ref, omega_ref, eps_ref, p, direction=-np.ones(n))
+    eps_ref = acceleration(back[:, 0], back[:, 1], u_b, p, direction=s * np.ones(n))
+    u_needed = motor_torque(phi_ref, omega_ref, eps_ref, p_reverse, direction=-s * np.ones(n))
     torque_ff = np.empty(n)
     torque_ff[:-1] = (u_needed[:-1] + u_needed[1:]) / 2
     torque_ff[-1] = u_needed[-1]
@@ -417,42 +554,57 @@ def ideal_program(device: Device, stage: int, virtual: Virtual, braking: Simulat
 
 
 def simulate_ideal_reverse(
-    device: Device, stage: int, virtual: Virtual, braking: SimulatedPass
+    device: Device,
+    stage: int,
+    virtual: Virtual,
+    braking: SimulatedPass,
+    direction: str = "forward",
 ) -> SimulatedPass:
     """The ideal reverse pass: the exact mirror driven by an ideal drive.
 
-    Ideal actuator (no torque or rate limit) and ideal sensing (feedback on the true state);
-    the feedforward is the true inverse dynamics. The speed matches the braking's at the same
-    angle to about 1e-6 rad/s, so identification can be tested apart from the
-    optimal-control work (issue 3). The log is the encoder's, as always.
-
-    Identification can be tested on it apart from the optimal-control work (issue 3).
+    Ideal actuator (no torque or rate limit, the physical torque applied exactly whatever
+    the torque gain; the log records the command, torque_gain times it) and ideal sensing
+    (feedback on the true state); the feedforward is the true inverse dynamics
+    (:func:`ideal_program`). The speed matches the braking's at the same angle to about
+    1e-6 rad/s, so identification can be tested apart from the optimal-control work. The
+    log is the encoder's, as always. ``direction`` is the braking's (a backward braking's
+    mirror moves phi up) and selects the pass's noise stream.
     """
-    program = ideal_program(device, stage, virtual, braking)
+    program = ideal_program(device, stage, virtual, braking, direction)
     return run_program(
-        device, stage, virtual, program, (braking.truth.end_phi, 0.0), ideal=True
+        device,
+        stage,
+        virtual,
+        program,
+        (braking.truth.end_phi, 0.0),
+        ideal=True,
+        direction=direction,
     )
 
 
-def pendulum_parameters(device: Device, stage: int, virtual: Virtual, node: int) -> ModelParameters:
+def pendulum_parameters(
+    device: Device, stage: int, virtual: Virtual, node: int, direction: float = 1
+) -> ModelParameters:
     """The true model during the pendulum run at node ``node`` (0-based) of a stage.
 
     The torsion element of device.toml's ``[pendulum]`` is attached and zeroed at the node;
-    everything else (body, gravity, friction) is the stage's.
+    everything else (body, fixture, gravity, the friction of ``direction``, the sign of
+    Omega) is the stage's (:func:`true_parameters`).
     """
     if device.pendulum is None:
         raise InputError("device.toml: pendulum: missing [pendulum] table (its stiffness)")
     return dataclasses.replace(
-        true_parameters(device, stage, virtual),
+        true_parameters(device, stage, virtual, direction),
         stiffness=device.pendulum.stiffness,
         zero_angle=float(device.stages[stage - 1].nodes[node]),
     )
 
 
-def _free_motion(x0: np.ndarray, p: np.ndarray, n: int, dt: float, coulomb: float) -> np.ndarray:
+def _free_motion(x0: np.ndarray, pair: _Pair, n: int, dt: float) -> np.ndarray:
     """True states at n samples of a motion with the motor off (u = 0), stops included.
 
-    Between stops whole blocks are integrated at once; the sample holding a stop goes
+    Between stops whole blocks are integrated at once, with the parameter vector of the
+    direction of motion (``pair``: forward, backward); the sample holding a stop goes
     through :func:`_advance` (event and static friction).
     """
     x = np.array(x0, dtype=float)
@@ -461,12 +613,12 @@ def _free_motion(x0: np.ndarray, p: np.ndarray, n: int, dt: float, coulomb: floa
     k = 1
     while k < n:
         if x[1] == 0.0:  # at rest: static friction decides, sample by sample
-            x = _advance(x, 0.0, dt, p, coulomb)
+            x = _advance(x, 0.0, dt, pair)
             traj[k] = x
             k += 1
             continue
         direction = math.copysign(1.0, x[1])
-        block = np.asarray(_STEP_BLOCK(x, 0.0, direction, p, dt)).T
+        block = np.asarray(_STEP_BLOCK(x, 0.0, direction, _pick(pair, direction), dt)).T
         count = min(_BLOCK, n - k)
         turned = np.nonzero(block[:count, 1] * direction <= 0.0)[0]
         good = turned[0] if turned.size else count
@@ -474,7 +626,7 @@ def _free_motion(x0: np.ndarray, p: np.ndarray, n: int, dt: float, coulomb: floa
         k += good
         x = block[good - 1] if good > 0 else x
         if turned.size and k < n:
-            x = _advance(x, 0.0, dt, p, coulomb)
+            x = _advance(x, 0.0, dt, pair)
             traj[k] = x
             k += 1
     return traj
@@ -488,10 +640,11 @@ def simulate_pendulum(device: Device, stage: int, virtual: Virtual, node: int) -
     The logged torque is the motor's: zero, plus the log's noise.
     """
     params = pendulum_parameters(device, stage, virtual, node)
+    pair = (params.vector, pendulum_parameters(device, stage, virtual, node, -1).vector)
     dt = device.encoder.dt
     n = round(device.pendulum.duration / dt) + 1
     x0 = np.array([params.zero_angle + math.radians(device.pendulum.amplitude_deg), 0.0])
-    traj = _free_motion(x0, params.vector, n, dt, virtual.friction.coulomb)
+    traj = _free_motion(x0, pair, n, dt)
     t = np.arange(n) * dt
     torque = np.zeros(n)
     truth = PassTruth(
@@ -516,12 +669,15 @@ def free_motion(
     ``damped`` keeps the friction (free damped motion); otherwise friction is removed too
     (free undamped motion: energy is conserved). Returns true (t, phi, Omega).
     """
-    params = true_parameters(device, stage, virtual)
+    pair = _true_pair(device, stage, virtual)
     if not damped:
-        params = dataclasses.replace(params, coulomb=0.0, viscous=0.0, quadratic=0.0)
+        params = dataclasses.replace(
+            true_parameters(device, stage, virtual), coulomb=0.0, viscous=0.0, quadratic=0.0
+        )
+        pair = (params.vector, params.vector)
     dt = device.encoder.dt
     n = round(duration / dt) + 1
-    x0 = np.array([math.radians(virtual.run.release_angle_deg), device.stages[stage - 1].launch_speed])
-    coulomb = virtual.friction.coulomb if damped else 0.0
-    traj = _free_motion(x0, params.vector, n, dt, coulomb)
+    launch = device.stages[stage - 1].launch_speed
+    x0 = np.array([math.radians(virtual.run.release_angle_deg), launch])
+    traj = _free_motion(x0, pair, n, dt)
     return np.arange(n) * dt, traj[:, 0], traj[:, 1]

@@ -19,6 +19,7 @@ import numpy as np
 from estimation.identify import ENTRY_NAMES, Identification
 from estimation.identify import identify as identify_experiment
 from ocp.make import ProgramResult, make_program
+from plant.config import DIRECTIONS
 from plant.errors import InputError
 from plant.experiment import Experiment, open_experiment
 from plant.geometry import tensor_from_entries
@@ -66,10 +67,13 @@ class PassSummary:
     """Turns covered by the pass (encoder angle span / 2 pi)."""
     turns_past_last_node: float | None
     """Braking only: turns after the first passage of the stage's last node."""
+    direction: str = "forward"
+    """Direction of the stage's run, 'forward' or 'backward' (pendulum runs: 'forward')."""
 
     def __str__(self) -> str:
+        part = self.part if self.direction == "forward" else f"{self.part} {self.direction}"
         text = (
-            f"stage {self.stage}: {self.part}: {self.duration:.2f} s, {self.rows} rows, "
+            f"stage {self.stage}: {part}: {self.duration:.2f} s, {self.rows} rows, "
             f"{self.turns:.2f} turns"
         )
         if self.turns_past_last_node is not None:
@@ -95,14 +99,24 @@ def create_default_experiment(root: str | Path) -> Path:
 
 
 def _turns_past_last_node(phi: np.ndarray, nodes: np.ndarray) -> float:
-    """Turns from the first passage of the last node (in order of passage) to the end."""
+    """Turns from the first passage of the last node (in order of passage) to the end.
+
+    Measured along the motion, so phi may increase (forward) or decrease (backward);
+    negative if the pass ends before it reaches every node.
+    """
     first = phi[0]
-    passages = first + np.mod(nodes - first, 2 * math.pi)  # first passage of each node
-    return float((phi[-1] - passages.max()) / (2 * math.pi))
+    s = 1.0 if phi[-1] >= first else -1.0
+    ahead = np.mod(s * (nodes - first), 2 * math.pi)  # to each node's first passage
+    return float(s * (phi[-1] - (first + s * ahead.max())) / (2 * math.pi))
 
 
 def _summary(
-    exp: Experiment, stage: int, part: str, path: Path, sim: SimulatedPass
+    exp: Experiment,
+    stage: int,
+    part: str,
+    path: Path,
+    sim: SimulatedPass,
+    direction: str = "forward",
 ) -> PassSummary:
     log = sim.log
     past = None
@@ -116,21 +130,24 @@ def _summary(
         duration=sim.truth.end_time,
         turns=float(abs(log.phi[-1] - log.phi[0]) / (2 * math.pi)),
         turns_past_last_node=past,
+        direction=direction,
     )
 
 
-def _braking_truth(exp: Experiment, stage: int, virtual) -> SimulatedPass:
-    """Re-run the (deterministic) braking pass and check it is the one on disk.
+def _braking_truth(
+    exp: Experiment, stage: int, virtual, direction: str = "forward"
+) -> SimulatedPass:
+    """Re-run the (deterministic) braking pass of ``direction`` and check it is the one on disk.
 
     The reverse pass starts where the braking stopped; the simulator regenerates that state
-    rather than storing truth next to the logs, and refuses a braking.csv it did not write
+    rather than storing truth next to the logs, and refuses a braking log it did not write
     with these settings.
     """
-    braking = simulate_braking(exp.device, stage, virtual)
-    path = exp.braking_path(stage)
+    braking = simulate_braking(exp.device, stage, virtual, direction)
+    path = exp.braking_path(stage, direction)
     if not path.is_file():
         raise InputError(f"{path}: not found: simulate the braking first (--part braking)")
-    on_disk = read_log(path, exp.device.encoder, "braking")
+    on_disk = read_log(path, exp.device.encoder, "braking", direction)
     same = len(on_disk) == len(braking.log) and all(
         np.array_equal(getattr(on_disk, c), getattr(braking.log, c)) for c in ("t", "phi", "torque")
     )
@@ -148,6 +165,7 @@ def simulate(
     part: str = "braking",
     *,
     ideal: bool = False,
+    direction: str | None = None,
     progress: Callable[[PassSummary], None] | None = None,
 ) -> list[PassSummary]:
     """``rsp-inertia simulate``: the virtual device writes the logs of one part.
@@ -162,16 +180,42 @@ def simulate(
         The braking pass writes stageN/braking.csv. The reverse pass runs stageN/program.csv
         in closed loop and writes stageN/reverse.csv; with ``ideal`` it runs the exact mirror
         of the braking on an ideal drive instead (no program needed). The pendulum part
-        writes stageN/pendulum_kK.csv, one torsion-pendulum run per node K.
+        writes stageN/pendulum_kK.csv, one torsion-pendulum run per node K. A backward run
+        uses stageN/braking_backward.csv, program_backward.csv and reverse_backward.csv.
+    direction : {'forward', 'backward'}, optional
+        Braking and reverse: only this direction, on the stages whose ``directions`` in
+        device.toml include it; every direction of each stage by default. Pendulum runs
+        ignore it.
     progress : callable, optional
-        Called with each stage's summary as soon as it is written.
+        Called with each pass's summary as soon as it is written.
+
+    Raises
+    ------
+    InputError
+        Bad ``part`` or ``direction``, or no selected stage runs ``direction``; and whatever
+        the files' readers and the simulator raise.
     """
     if part not in PARTS:
         raise InputError(f"--part: must be one of {', '.join(PARTS)}, got {part!r}")
+    if direction is not None and direction not in DIRECTIONS:
+        raise InputError(
+            f"--direction: must be one of {', '.join(DIRECTIONS)}, got {direction!r}"
+        )
     exp = open_experiment(root)
     virtual = exp.load_virtual()
+    stages = exp.stages(stage)
+    if direction is not None and part != "pendulum":
+        runs = [st for st in stages if direction in exp.device.stages[st - 1].directions]
+        if not runs:
+            fault = (
+                f"stage: no stage's directions include {direction!r}"
+                if stage is None
+                else f"stage[{stage}].directions: does not include {direction!r}"
+            )
+            raise InputError(f"{exp.root / 'device.toml'}: {fault}")
+        stages = runs
     summaries = []
-    for st in exp.stages(stage):
+    for st in stages:
         exp.stage_dir(st).mkdir(exist_ok=True)
         if part == "pendulum":
             for k in range(len(exp.device.stages[st - 1].nodes)):
@@ -183,26 +227,28 @@ def simulate(
                     progress(summary)
                 summaries.append(summary)
             continue
-        if part == "braking":
-            sim = simulate_braking(exp.device, st, virtual)
-            path = exp.braking_path(st)
-            label = "braking"
-        else:
-            braking = _braking_truth(exp, st, virtual)
-            if ideal:
-                sim = simulate_ideal_reverse(exp.device, st, virtual, braking)
-                label = "ideal reverse"
+        directions = exp.device.stages[st - 1].directions if direction is None else (direction,)
+        for d in directions:
+            if part == "braking":
+                sim = simulate_braking(exp.device, st, virtual, d)
+                path = exp.braking_path(st, d)
+                label = "braking"
             else:
-                program = read_program(exp.program_path(st), exp.device.encoder)
-                start = (braking.truth.end_phi, 0.0)
-                sim = run_program(exp.device, st, virtual, program, start)
-                label = "reverse"
-            path = exp.reverse_path(st)
-        write_log(path, sim.log)
-        summary = _summary(exp, st, label, path, sim)
-        if progress is not None:
-            progress(summary)
-        summaries.append(summary)
+                braking = _braking_truth(exp, st, virtual, d)
+                if ideal:
+                    sim = simulate_ideal_reverse(exp.device, st, virtual, braking, d)
+                    label = "ideal reverse"
+                else:
+                    program = read_program(exp.program_path(st, d), exp.device.encoder)
+                    start = (braking.truth.end_phi, 0.0)
+                    sim = run_program(exp.device, st, virtual, program, start, direction=d)
+                    label = "reverse"
+                path = exp.reverse_path(st, d)
+            write_log(path, sim.log)
+            summary = _summary(exp, st, label, path, sim, d)
+            if progress is not None:
+                progress(summary)
+            summaries.append(summary)
     return summaries
 
 

@@ -7,6 +7,8 @@ import pytest
 
 from plant.config import (
     ControllerSettings,
+    Friction,
+    Rig,
     RunSettings,
     TrueBody,
     load_device,
@@ -338,3 +340,170 @@ def test_missing_file_is_one_line_naming_it(tmp_path, load):
     with pytest.raises(InputError) as error:
         load(path)
     assert_one_line(error, str(path), "not found")
+
+
+# --- directions of a stage; the rig's imperfections in virtual.toml -------------------------
+
+STAGE_1_END = "braking_torque = 0.005       # N m against the motion, braking pass\n"
+
+
+def test_stage_directions_default_to_forward_and_may_list_both(tmp_path):
+    device = load_device(write(tmp_path, "device.toml", DEVICE_TOML))
+    assert [st.directions for st in device.stages] == [("forward",), ("forward",)]
+    both = edited(DEVICE_TOML, STAGE_1_END, STAGE_1_END + 'directions = ["forward", "backward"]\n')
+    device = load_device(write(tmp_path, "device.toml", both))
+    assert device.stages[0].directions == ("forward", "backward")
+    back = edited(DEVICE_TOML, STAGE_1_END, STAGE_1_END + 'directions = ["backward"]\n')
+    assert load_device(write(tmp_path, "device.toml", back)).stages[0].directions == ("backward",)
+
+
+@pytest.mark.parametrize(
+    "value, key, fault",
+    [
+        pytest.param('["sideways"]', "stage[1].directions[1]", "must be one of", id="unknown"),
+        pytest.param('["forward", 1]', "stage[1].directions[2]", "must be a string", id="number"),
+        pytest.param("[]", "stage[1].directions", "at least one", id="empty"),
+        pytest.param('"forward"', "stage[1].directions", "must be an array", id="not an array"),
+        pytest.param(
+            '["backward", "backward"]',
+            "stage[1].directions",
+            "duplicate direction 'backward'",
+            id="duplicate",
+        ),
+    ],
+)
+def test_bad_stage_directions_are_one_line(tmp_path, value, key, fault):
+    text = edited(DEVICE_TOML, STAGE_1_END, STAGE_1_END + f"directions = {value}\n")
+    path = write(tmp_path, "device.toml", text)
+    with pytest.raises(InputError) as error:
+        load_device(path)
+    assert_one_line(error, f"{path}: {key}", fault)
+
+
+FIXTURE = """
+[fixture]
+mass = 0.5
+inertia = [0.004, 0.005, 0.008, 0.0002, 0.0001, -0.0003]
+com = [0.01, 0.0, 0.0]
+"""
+
+RIG = """
+[rig]
+torque_gain = 1.02
+tare_inertia = [0.004, 0.085]
+"""
+
+
+def test_the_rigs_imperfections_load(tmp_path):
+    text = edited(
+        VIRTUAL_TOML, "quadratic = 1.0e-3\n", "quadratic = 1.0e-3\nbackward_scale = 1.2\n"
+    )
+    virtual = load_virtual(write(tmp_path, "virtual.toml", text + FIXTURE + RIG))
+    assert virtual.fixture.mass == 0.5
+    np.testing.assert_array_equal(virtual.fixture.com, [0.01, 0.0, 0.0])
+    assert virtual.rig == Rig(torque_gain=1.02, tare_inertia=(0.004, 0.085))
+    assert virtual.friction.backward_scale == 1.2
+    assert virtual.friction_for(1) is virtual.friction
+    backward = virtual.friction_for(-1)
+    assert (backward.coulomb, backward.viscous, backward.quadratic) == (
+        1e-4 * 1.2,
+        1e-4 * 1.2,
+        1e-3 * 1.2,
+    )
+
+
+def test_the_new_tables_default_to_an_exact_symmetric_rig(tmp_path):
+    virtual = load_virtual(write(tmp_path, "virtual.toml", VIRTUAL_TOML))
+    assert virtual.fixture is None and virtual.friction_backward is None
+    assert virtual.rig == Rig() and virtual.rig.torque_gain == 1.0
+    assert virtual.friction.backward_scale == 1.0
+    assert virtual.friction_for(-1) == virtual.friction_for(1) == virtual.friction
+
+
+def test_friction_backward_table_sets_the_backward_coefficients(tmp_path):
+    table = "\n[friction_backward]\ncoulomb = 2.0e-4\nviscous = 3.0e-4\nquadratic = 4.0e-3\n"
+    virtual = load_virtual(write(tmp_path, "virtual.toml", VIRTUAL_TOML + table))
+    assert virtual.friction_for(-1) == Friction(coulomb=2e-4, viscous=3e-4, quadratic=4e-3)
+    assert virtual.friction_for(1) == virtual.friction
+
+
+def test_an_empty_fixture_run_has_no_body(tmp_path):
+    text = VIRTUAL_TOML.partition("[friction]")
+    virtual = load_virtual(write(tmp_path, "virtual.toml", text[1] + text[2] + FIXTURE))
+    assert virtual.body is None and virtual.fixture is not None
+
+
+BACKWARD_TABLE = "\n[friction_backward]\ncoulomb = 2.0e-4\nviscous = 3.0e-4\nquadratic = 4.0e-3\n"
+
+RIG_FAULTS = [
+    pytest.param(
+        RIG.replace("torque_gain", "torque_gian"), "rig.torque_gian", "unknown key", id="typo"
+    ),
+    pytest.param(RIG.replace("1.02", "0.0"), "rig.torque_gain", "must be > 0", id="zero gain"),
+    pytest.param(
+        RIG.replace("0.004, 0.085", "0.004, -0.085"),
+        "rig.tare_inertia[2]",
+        "must be >= 0, got -0.085",
+        id="negative tare",
+    ),
+    pytest.param(
+        RIG.replace("[0.004, 0.085]", "0.004"),
+        "rig.tare_inertia",
+        "must be an array",
+        id="tare not a list",
+    ),
+    pytest.param(
+        FIXTURE.replace("0.004, 0.005, 0.008", "0.001, 0.001, 0.008"),
+        "fixture.inertia",
+        "not a physical inertia tensor",
+        id="unphysical fixture",
+    ),
+    pytest.param(
+        FIXTURE.replace("mass = 0.5\n", ""), "fixture.mass", "missing", id="fixture without mass"
+    ),
+    pytest.param(
+        BACKWARD_TABLE.replace("viscous = 3.0e-4\n", ""),
+        "friction_backward.viscous",
+        "missing",
+        id="incomplete backward friction",
+    ),
+    pytest.param(
+        BACKWARD_TABLE.replace("coulomb", "coulomd"),
+        "friction_backward.coulomd",
+        "unknown key",
+        id="unknown backward friction key",
+    ),
+    pytest.param("\n[rigg]\ntorque_gain = 1.0\n", "rigg", "unknown table", id="unknown table"),
+]
+
+
+@pytest.mark.parametrize("added, key, fault", RIG_FAULTS)
+def test_bad_rig_tables_are_one_line_naming_file_and_key(tmp_path, added, key, fault):
+    path = write(tmp_path, "virtual.toml", VIRTUAL_TOML + added)
+    with pytest.raises(InputError) as error:
+        load_virtual(path)
+    assert_one_line(error, f"{path}: {key}", fault)
+
+
+@pytest.mark.parametrize("scale, fault", [("2.0", "not both"), ("-1.0", "must be >= 0")])
+def test_backward_scale_is_checked(tmp_path, scale, fault):
+    text = edited(
+        VIRTUAL_TOML, "quadratic = 1.0e-3\n", f"quadratic = 1.0e-3\nbackward_scale = {scale}\n"
+    )
+    path = write(tmp_path, "virtual.toml", text + (BACKWARD_TABLE if fault == "not both" else ""))
+    with pytest.raises(InputError) as error:
+        load_virtual(path)
+    key = "friction_backward" if fault == "not both" else "friction.backward_scale"
+    assert_one_line(error, f"{path}: {key}", fault)
+
+
+def test_a_tare_list_of_the_wrong_length_names_the_virtual_file(tmp_path):
+    device = load_device(write(tmp_path, "device.toml", DEVICE_TOML))
+    path = write(tmp_path, "virtual.toml", VIRTUAL_TOML + RIG.replace("0.085]", "0.085, 0.1]"))
+    rig = load_virtual(path).rig  # the length is checked where the device is known
+    with pytest.raises(InputError) as error:
+        rig.true_tare(device, 1, source=str(path))
+    assert_one_line(error, f"{path}: rig.tare_inertia", "one entry per [[stage]]", "(2), got 3")
+    good = load_virtual(write(tmp_path, "virtual.toml", VIRTUAL_TOML + RIG)).rig
+    assert (good.true_tare(device, 1), good.true_tare(device, 2)) == (0.004, 0.085)
+    assert Rig().true_tare(device, 2) == device.stages[1].tare_inertia

@@ -367,3 +367,47 @@ def test_tolerated_variants_read_like_the_plain_file(tmp_path):
         log = read_log(tmp_path / name, ENCODER, "braking")
         for field in ("t", "phi", "torque"):
             np.testing.assert_array_equal(getattr(log, field), getattr(expected, field), name)
+
+
+# ---------------------------------------------------------------------------------------------
+# Backward runs: the braking moves phi down, its reverse up
+
+
+@pytest.mark.parametrize("kind", ["braking", "reverse"])
+def test_backward_logs_run_the_other_way(tmp_path, kind):
+    mirror = "reverse" if kind == "braking" else "braking"
+    path = tmp_path / f"{kind}_backward.csv"
+    path.write_text(text(LOG_HEADER, log_rows(kind=mirror)))
+    log = read_log(path, ENCODER, kind, "backward")
+    assert len(log) == 6
+    with pytest.raises(InputError) as error:
+        read_log(path, ENCODER, kind)  # forward, the default: the wrong way
+    assert_one_line(error, path, 7, kind)
+
+
+def test_a_backward_braking_log_that_moves_forward_is_refused(tmp_path):
+    path = tmp_path / "braking_backward.csv"
+    path.write_text(text(LOG_HEADER, log_rows()))
+    with pytest.raises(InputError) as error:
+        read_log(path, ENCODER, "braking", "backward")
+    assert_one_line(
+        error,
+        path,
+        7,
+        "a backward braking log must end at a smaller phi than it starts "
+        "(phi decreases during a backward braking), but phi goes from 0.0 to ",
+    )
+    path = tmp_path / "reverse_backward.csv"
+    path.write_text(text(LOG_HEADER, log_rows(kind="reverse")))
+    with pytest.raises(InputError) as error:
+        read_log(path, ENCODER, "reverse", "backward")
+    assert_one_line(error, path, 7, "a backward reverse log must end at a larger phi", "increases")
+
+
+def test_pendulum_logs_ignore_the_direction_and_bad_directions_are_refused(tmp_path):
+    path = tmp_path / "pendulum_k1.csv"
+    path.write_text(text(LOG_HEADER, log_rows(kind="reverse")))
+    for direction in ("forward", "backward"):
+        assert len(read_log(path, ENCODER, "pendulum", direction)) == 6
+    with pytest.raises(ValueError, match="direction must be one of"):
+        read_log(path, ENCODER, "braking", "up")

@@ -271,7 +271,7 @@ def test_static_friction_holds_a_body_at_rest(stage1, fraction):
         params = dataclasses.replace(params, gravity_sin=0.0, gravity_cos=0.0)
     u = static_torque(phi, params) + fraction * a1
     x = np.array([phi, 0.0])
-    after = vd._advance(x.copy(), u, dt, params.vector, a1)
+    after = vd._advance(x.copy(), u, dt, (params.vector, params.vector))
     np.testing.assert_array_equal(after, x)
 
 
@@ -280,7 +280,7 @@ def test_static_friction_breaks_away_in_the_direction_of_the_net_torque(stage1, 
     params, a1, dt = stage1
     phi = 0.7
     u = static_torque(phi, params) + sign * 1.01 * a1
-    after = vd._advance(np.array([phi, 0.0]), u, dt, params.vector, a1)
+    after = vd._advance(np.array([phi, 0.0]), u, dt, (params.vector, params.vector))
     assert np.sign(after[1]) == sign and np.sign(after[0] - phi) == sign
     # Once moving, kinetic friction a1 opposes the motion: the net torque is 0.01 a1, and the
     # speed after one sample is that over M times dt (the angle moves by 1e-11 rad, gravity
@@ -299,7 +299,7 @@ def test_a_slow_body_stops_and_stays_at_rest(stage1):
     stop_time = Omega / abs(acceleration(phi, Omega, u, params))
     speeds, angles = [], []
     for _ in range(round(2 * stop_time / dt)):
-        x = vd._advance(x, u, dt, params.vector, a1)
+        x = vd._advance(x, u, dt, (params.vector, params.vector))
         speeds.append(x[1])
         angles.append(x[0])
     speeds, angles = np.array(speeds), np.array(angles)

@@ -1,0 +1,478 @@
+"""Calibration of the rig: the empty fixture (tare) and a reference body (torque gain).
+
+Like every mass-properties instrument, the gimbal is calibrated with runs of its own:
+
+- an **empty** experiment, the fixture without a body: its balances give, per stage, the
+  empty system's reduced inertia M_empty(phi) in harmonic form (METHOD.md §2: the tare
+  M_tare(lambda) and an unbalanced mounting plate's own harmonics, five coefficients), and
+  the fixture's gravity terms Gs_f = m_f g x_f, Gc_f = m_f g y_f (METHOD.md §3);
+- a **reference** experiment, the fixture with a body whose tensor, mass and centre of mass
+  are known (``reference.toml``): the same balances with the known body's M_ref(phi) and
+  gravity added fix the scale of the logged torque, h = 1 / torque gain (logged torque =
+  gain x applied: every inertia and gravity term from the logged work scales with it).
+
+One generalised least squares over every run of both experiments (estimation.gls), per
+balance angle of a run of stage s:
+
+    1/2 S M_s(phi) . [basis] + 2 Pi_f(phi) - h W(phi) - C_run - (slopes, asymmetry)
+        = - 2 Pi_spring(phi) - [reference runs: 1/2 S M_ref(phi) + 2 Pi_ref(phi)]
+
+with the harmonics of M_empty of stage s, the fixture's gravity and h as unknowns (h = 1,
+exact, without a reference). The estimates and their covariance are the calibration
+(:class:`KnownTerms`), written to ``EXP/calibration.toml`` and applied by identify: there
+the loaded run's right-hand side is h W - 2 Pi_spring - 1/2 S M_empty - 2 Pi_f, and the
+calibration's covariance reaches the tensor as its own budget line.
+
+The reference body's data are taken as exact (a reference mass is certified far beyond the
+method's noise); friction may differ between the calibration runs and the loaded ones (it
+cancels within each run).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import tomllib
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from estimation.gls import BalanceFit, Block, ModelTest, model_warnings, solve_blocks
+from estimation.runs import run_balances
+from estimation.tensor import (
+    KnownTerms,
+    both_directions,
+    gravity_rows,
+    run_columns,
+    run_label,
+)
+from plant.config import Device, TrueBody
+from plant.errors import InputError
+from plant.experiment import Experiment
+from plant.model import inertia_basis, inertia_harmonics
+
+__all__ = [
+    "CALIBRATION_FILE",
+    "REFERENCE_FILE",
+    "Calibration",
+    "calibrate",
+    "check_same_stages",
+    "known_terms",
+    "load_calibration",
+    "load_reference",
+]
+
+CALIBRATION_FILE = "calibration.toml"
+"""Written into the experiment folder by ``rsp-inertia calibrate``, read by identify."""
+
+REFERENCE_FILE = "reference.toml"
+"""The reference body's known data, in the reference experiment's folder."""
+
+HARMONIC_NAMES = ("M0", "Mc2", "Ms2", "Ms1", "Mc1")
+
+
+def _param_names(n_stages: int) -> list[str]:
+    """Names of theta = [h, harmonics of stage 1..n, Gs_f, Gc_f] (KnownTerms)."""
+    names = ["h"]
+    for s in range(1, n_stages + 1):
+        names += [f"{h}[{s}]" for h in HARMONIC_NAMES]
+    return names + ["Gs", "Gc"]
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """What ``rsp-inertia calibrate`` finds, as written to calibration.toml."""
+
+    device_name: str
+    """[device] name of the experiment it was made for."""
+    counts_per_rev: int
+    """The encoder's, to recognise the device."""
+    gear_ratios: tuple[float, ...]
+    """Per stage."""
+    nodes_deg: tuple[tuple[float, ...], ...]
+    """Per stage."""
+    known: KnownTerms
+    """The calibrated terms and their covariance."""
+    reference: bool
+    """Whether a reference experiment fixed the torque gain (else gain 1, exact)."""
+    inputs: dict[str, str] = field(default_factory=dict)
+    """Input file -> sha256 of its bytes."""
+    chi2_dof: float = math.nan
+    """Residual chi^2 per degree of freedom of the calibration fit."""
+    tests: list[ModelTest] = field(default_factory=list)
+    """The calibration fit's model tests (estimation.gls)."""
+    warnings: list[str] = field(default_factory=list)
+    """What the calibration's own checks found."""
+
+    def to_toml(self) -> str:
+        """The calibration.toml text (deterministic: the same inputs give the same bytes)."""
+        k = self.known
+        std = np.sqrt(np.diag(k.cov))
+        gain = 1.0 / k.work_scale
+        lines = [
+            "# Rig calibration written by rsp-inertia calibrate; identify applies it.",
+            "# theta = [h = 1/torque_gain, empty-system harmonics per stage, fixture gravity].",
+            "",
+            "[calibration]",
+            f"device = {_toml_str(self.device_name)}",
+            f"counts_per_rev = {self.counts_per_rev}",
+            f"reference = {'true' if self.reference else 'false'}",
+            f"torque_gain = {gain!r}                # logged torque / applied torque",
+            f"torque_gain_std = {float(std[0] * gain * gain)!r}",
+            f"chi2_dof = {self.chi2_dof!r}",
+            "",
+            "[fixture]",
+            f"gravity = {_toml_list(k.gravity)}     # [m g x_c, m g y_c] of the fixture, N m",
+            f"gravity_std = {_toml_list(std[-2:])}",
+        ]
+        for s, (lam, nodes) in enumerate(zip(self.gear_ratios, self.nodes_deg)):
+            lines += [
+                "",
+                "[[stage]]",
+                f"gear_ratio = {lam!r}",
+                f"nodes_deg = {_toml_list(nodes)}",
+                f"empty_inertia = {_toml_list(k.inertia[s])}   # [M0, Mc2, Ms2, Ms1, Mc1], kg m^2",
+                f"empty_inertia_std = {_toml_list(std[1 + 5 * s : 6 + 5 * s])}",
+            ]
+        names = _param_names(len(self.gear_ratios))
+        lines += ["", "[covariance]", f"parameters = [{', '.join(map(_toml_str, names))}]"]
+        lines.append("matrix = [")
+        lines += [f"  {_toml_list(row)}," for row in k.cov]
+        lines += ["]", "", "[inputs]                     # sha256 of every file used"]
+        lines += [f"{_toml_str(path)} = {_toml_str(digest)}" for path, digest in self.inputs.items()]
+        return "\n".join(lines) + "\n"
+
+    def __str__(self) -> str:
+        k = self.known
+        std = np.sqrt(np.diag(k.cov))
+        gain = 1.0 / k.work_scale
+        out = []
+        if self.reference:
+            out.append(f"torque gain {gain:.6f} +- {std[0] * gain * gain:.1e} (logged / applied)")
+        else:
+            out.append("torque gain 1 (no reference experiment: taken as exact)")
+        for s in range(len(self.gear_ratios)):
+            M = k.inertia[s]
+            Ms = std[1 + 5 * s : 6 + 5 * s]
+            out.append(
+                f"stage {s + 1}: empty M0 = {M[0]:.8f} +- {Ms[0]:.1e} kg m^2, harmonics "
+                + ", ".join(
+                    f"{name} {v:+.2e} +- {e:.0e}"
+                    for name, v, e in zip(HARMONIC_NAMES[1:], M[1:], Ms[1:])
+                )
+            )
+        out.append(
+            f"fixture gravity: m g x_c = {k.gravity[0]:+.3e} +- {std[-2]:.0e} N m, "
+            f"m g y_c = {k.gravity[1]:+.3e} +- {std[-1]:.0e} N m"
+        )
+        out += [f"warning: {w}" for w in self.warnings]
+        return "\n".join(out)
+
+
+def _toml_str(text: str) -> str:
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def _toml_list(values) -> str:
+    return "[" + ", ".join(repr(float(v)) for v in values) + "]"
+
+
+def load_reference(path: str | Path) -> TrueBody:
+    """Read ``reference.toml``: ``[body]`` with ``mass``, ``inertia``, ``com`` (as virtual.toml).
+
+    Raises
+    ------
+    InputError
+        Missing file or keys, unknown keys, non-numbers, a mass <= 0, an inertia that is not
+        a physical tensor (positive definite, triangle inequality).
+    """
+    try:
+        with open(path, "rb") as file:
+            doc = tomllib.load(file)
+    except FileNotFoundError:
+        raise InputError(f"{path}: file not found (the reference body's data)") from None
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as error:
+        raise InputError(f"{path}: cannot read as TOML: {' '.join(str(error).split())}") from None
+    for key in doc:
+        if key != "body":
+            raise InputError(f"{path}: {key}: unknown table (reference.toml has only [body])")
+    body = doc.get("body")
+    if not isinstance(body, dict):
+        raise InputError(f"{path}: body: missing required table [body]")
+    for key in body:
+        if key not in ("mass", "inertia", "com"):
+            raise InputError(f"{path}: body.{key}: unknown key")
+
+    def numbers(key: str, size: int) -> np.ndarray:
+        if key not in body:
+            raise InputError(f"{path}: body.{key}: missing required key")
+        values = body[key]
+        if not isinstance(values, list) or len(values) != size:
+            raise InputError(f"{path}: body.{key}: must be an array of {size} numbers")
+        for k, v in enumerate(values, 1):
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise InputError(f"{path}: body.{key}[{k}]: must be a finite number, got {v!r}")
+        return np.array(values, dtype=float)
+
+    mass = numbers("mass", 1)[0] if isinstance(body.get("mass"), list) else body.get("mass")
+    if mass is None:
+        raise InputError(f"{path}: body.mass: missing required key")
+    if isinstance(mass, bool) or not isinstance(mass, (int, float)) or not mass > 0:
+        raise InputError(f"{path}: body.mass: must be a number > 0, got {mass!r}")
+    inertia = numbers("inertia", 6)
+    com = numbers("com", 3)
+    jx, jy, jz, jxy, jyz, jxz = inertia
+    moments = np.linalg.eigvalsh([[jx, jxy, jxz], [jxy, jy, jyz], [jxz, jyz, jz]])
+    if moments[0] <= 0.0 or moments[2] > moments[0] + moments[1] + 1e-12 * moments.sum():
+        raise InputError(
+            f"{path}: body.inertia: not a physical inertia tensor: principal moments "
+            f"[{', '.join(f'{m:.6g}' for m in moments)}] kg m^2"
+        )
+    return TrueBody(mass=float(mass), inertia=inertia, com=com)
+
+
+def check_same_stages(exp: Experiment, other: Experiment, role: str) -> None:
+    """Raise InputError unless ``other`` has ``exp``'s stages (gear ratios and nodes)."""
+    mine, theirs = exp.device.stages, other.device.stages
+    where = other.root / "device.toml"
+    if len(theirs) != len(mine):
+        raise InputError(
+            f"{where}: the {role} experiment has {len(theirs)} stage(s), {exp.root} has "
+            f"{len(mine)}: calibration runs need the same stages"
+        )
+    for k, (a, b) in enumerate(zip(mine, theirs), 1):
+        if not math.isclose(a.gear_ratio, b.gear_ratio, rel_tol=1e-9, abs_tol=1e-12):
+            raise InputError(
+                f"{where}: stage[{k}].gear_ratio = {b.gear_ratio!r} differs from "
+                f"{exp.root / 'device.toml'}'s {a.gear_ratio!r}"
+            )
+        if tuple(a.nodes_deg) != tuple(b.nodes_deg):
+            raise InputError(
+                f"{where}: stage[{k}].nodes_deg = {list(b.nodes_deg)} differs from "
+                f"{exp.root / 'device.toml'}'s {list(a.nodes_deg)}"
+            )
+    if other.device.encoder.counts_per_rev != exp.device.encoder.counts_per_rev:
+        raise InputError(
+            f"{where}: encoder.counts_per_rev differs from {exp.root / 'device.toml'}'s: "
+            "calibration runs must be made on the same device"
+        )
+
+
+def _blocks(device: Device, balances, role: str, reference: TrueBody | None, has_gain: bool):
+    """The calibration equations of one experiment's runs (module docstring)."""
+    both = both_directions(balances)
+    blocks = []
+    for k, bal in enumerate(balances):
+        s = bal.stage
+        basis = inertia_basis(bal.phi)
+        half_s = 0.5 * bal.speed_sq
+        cols = {f"{h}[{s}]": half_s * basis[:, j] for j, h in enumerate(HARMONIC_NAMES)}
+        cols["Gs"], cols["Gc"] = gravity_rows(bal.phi).T
+        cols.update(run_columns(bal, f"{role}{k}", s in both, group=f"{role} {s}"))
+        if has_gain:
+            cols["h"] = -bal.motor_work
+            rhs = -bal.spring
+        else:
+            rhs = bal.work.copy()
+        known_M = np.zeros(len(bal.phi))
+        if reference is not None:
+            st = device.stages[s - 1]
+            known_M = basis @ inertia_harmonics(reference.inertia, st.gear_ratio, 0.0)
+            weight = reference.mass * device.gravity
+            rhs = rhs - half_s * known_M - gravity_rows(bal.phi) @ (weight * reference.com[:2])
+        blocks.append(
+            Block(
+                balance=bal,
+                label=f"{role} {run_label(bal)}",
+                columns=cols,
+                rhs=rhs,
+                inertia_columns={f"{h}[{s}]": basis[:, j] for j, h in enumerate(HARMONIC_NAMES)},
+                inertia_known=known_M,
+                joint_only=frozenset(name for name in cols if name.startswith("e")),
+            )
+        )
+    return blocks
+
+
+def fit_calibration(
+    device: Device,
+    empty: list,
+    reference: list | None = None,
+    reference_body: TrueBody | None = None,
+) -> tuple[KnownTerms, BalanceFit]:
+    """The calibrated terms from the empty runs' and the reference runs' balances.
+
+    Parameters
+    ----------
+    device : Device
+        The loaded experiment's device (its stages and gravity).
+    empty, reference : list of StageBalance
+        The runs of the empty experiment and of the reference experiment (optional).
+    reference_body : TrueBody
+        The reference body (with ``reference``).
+    """
+    has_gain = reference is not None
+    blocks = _blocks(device, empty, "empty", None, has_gain)
+    if has_gain:
+        blocks += _blocks(device, reference, "reference", reference_body, has_gain)
+    fit = solve_blocks(blocks)
+    n_stages = len(device.stages)
+    names = _param_names(n_stages)
+    missing = [n for n in names[1:] if n not in fit.names]
+    if missing:
+        raise InputError(f"the calibration runs leave {', '.join(missing)} undetermined")
+    index = [fit.index(n) if n in fit.names else None for n in names]
+    theta = np.array([1.0 if i is None else fit.x[i] for i in index])
+    cov = np.zeros((len(names), len(names)))
+    live = [j for j, i in enumerate(index) if i is not None]
+    cov[np.ix_(live, live)] = fit.cov[np.ix_([index[j] for j in live], [index[j] for j in live])]
+    known = KnownTerms(
+        work_scale=float(theta[0]),
+        inertia=theta[1:-2].reshape(n_stages, 5),
+        gravity=theta[-2:],
+        cov=cov,
+        calibrated=True,
+    )
+    return known, fit
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def calibrate(
+    exp: Experiment,
+    empty: Experiment,
+    reference: Experiment | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> Calibration:
+    """Calibrate ``exp``'s rig from the empty-fixture and reference experiments.
+
+    Raises
+    ------
+    InputError
+        A calibration folder whose stages differ from ``exp``'s, a missing or unphysical
+        reference.toml, bad logs.
+    """
+    check_same_stages(exp, empty, "empty")
+    body = None
+    if reference is not None:
+        check_same_stages(exp, reference, "reference")
+        body = load_reference(reference.root / REFERENCE_FILE)
+    warnings: list[str] = []
+    empty_bal, _ = run_balances(empty, warnings, progress)
+    ref_bal = None
+    if reference is not None:
+        ref_bal, _ = run_balances(reference, warnings, progress)
+    known, fit = fit_calibration(exp.device, empty_bal, ref_bal, body)
+    warnings += model_warnings(fit.tests, fit.scales, fit.labels)
+    inputs = {}
+    for folder in [empty] + ([reference] if reference is not None else []):
+        files = [folder.root / "device.toml"]
+        if folder is reference:
+            files.append(folder.root / REFERENCE_FILE)
+        for stage, st in enumerate(folder.device.stages, 1):
+            for direction in st.directions:
+                files += [folder.braking_path(stage, direction), folder.reverse_path(stage, direction)]
+        inputs.update({str(path): _sha256(path) for path in files})
+    device = exp.device
+    return Calibration(
+        device_name=device.name,
+        counts_per_rev=device.encoder.counts_per_rev,
+        gear_ratios=tuple(st.gear_ratio for st in device.stages),
+        nodes_deg=tuple(tuple(st.nodes_deg) for st in device.stages),
+        known=known,
+        reference=reference is not None,
+        inputs=inputs,
+        chi2_dof=fit.chi2_dof,
+        tests=fit.tests,
+        warnings=warnings,
+    )
+
+
+def load_calibration(exp: Experiment) -> KnownTerms | None:
+    """``EXP/calibration.toml`` as KnownTerms, checked to be made for this device; None if absent.
+
+    Raises
+    ------
+    InputError
+        A malformed file, or one made for another device (name, encoder or stages differ).
+    """
+    path = exp.root / CALIBRATION_FILE
+    if not path.is_file():
+        return None
+    try:
+        with open(path, "rb") as file:
+            doc = tomllib.load(file)
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as error:
+        raise InputError(f"{path}: cannot read as TOML: {' '.join(str(error).split())}") from None
+    device = exp.device
+    try:
+        head = doc["calibration"]
+        stages = doc["stage"]
+        gain = float(head["torque_gain"])
+        if head["device"] != device.name:
+            raise InputError(
+                f"{path}: made for device {head['device']!r}, not {device.name!r} "
+                "(run rsp-inertia calibrate for this device)"
+            )
+        if int(head["counts_per_rev"]) != device.encoder.counts_per_rev:
+            raise InputError(f"{path}: made for another device (encoder counts_per_rev differ)")
+        if len(stages) != len(device.stages):
+            raise InputError(
+                f"{path}: made for another device: {len(stages)} stage(s), device.toml has "
+                f"{len(device.stages)}"
+            )
+        for k, (entry, st) in enumerate(zip(stages, device.stages), 1):
+            if not math.isclose(float(entry["gear_ratio"]), st.gear_ratio, rel_tol=1e-9) or (
+                tuple(float(v) for v in entry["nodes_deg"]) != tuple(st.nodes_deg)
+            ):
+                raise InputError(
+                    f"{path}: stage[{k}]: made for another device (gear ratio or nodes differ "
+                    "from device.toml's)"
+                )
+        inertia = np.array([[float(v) for v in entry["empty_inertia"]] for entry in stages])
+        gravity = np.array([float(v) for v in doc["fixture"]["gravity"]])
+        cov = np.array(doc["covariance"]["matrix"], dtype=float)
+    except InputError:
+        raise
+    except (KeyError, TypeError, ValueError) as error:
+        raise InputError(f"{path}: malformed calibration file ({error!r})") from None
+    size = 1 + inertia.size + 2
+    if inertia.shape != (len(device.stages), 5) or gravity.shape != (2,) or cov.shape != (
+        size,
+        size,
+    ):
+        raise InputError(f"{path}: malformed calibration file (array sizes)")
+    if not gain > 0 or not np.all(np.isfinite(cov)):
+        raise InputError(f"{path}: malformed calibration file (torque_gain or covariance)")
+    return KnownTerms(1.0 / gain, inertia, gravity, cov, calibrated=True)
+
+
+def known_terms(exp: Experiment) -> tuple[KnownTerms, list[str]]:
+    """The rig's known terms for identify: calibration.toml, else device.toml's tares.
+
+    Without a calibration the tares are taken as exact and the torque gain as 1, unless
+    device.toml states their uncertainty; the warnings say when neither is the case.
+    """
+    calibrated = load_calibration(exp)
+    if calibrated is not None:
+        return calibrated, []
+    device = exp.device
+    known = KnownTerms.from_tares([st.tare_inertia for st in device.stages])
+    tare_std = [st.tare_inertia_std for st in device.stages]
+    gain_std = device.motor.torque_gain_std
+    if all(v is not None for v in tare_std) and gain_std is not None:
+        cov = np.zeros_like(known.cov)
+        cov[0, 0] = gain_std**2  # h = 1/gain ~ 1 - (gain - 1): the same std to first order
+        for s, v in enumerate(tare_std):
+            cov[1 + 5 * s, 1 + 5 * s] = v**2
+        stated = any(v > 0 for v in tare_std) or gain_std > 0
+        return KnownTerms(1.0, known.inertia, known.gravity, cov, calibrated=stated), []
+    return known, [
+        f"{exp.root / CALIBRATION_FILE}: not found, and device.toml states no tare_inertia_std "
+        "and torque_gain_std: the tares of device.toml and a torque gain of 1 are taken as "
+        "exact, and their errors are not in the stds (calibrate with rsp-inertia calibrate)"
+    ]

@@ -1,0 +1,70 @@
+"""The runs of an experiment: which (stage, direction) pairs it has, and their passes read.
+
+A run is one stage in one direction of rotation (device.toml ``[[stage]] directions``): its
+braking log and its reverse log. A backward run is mirrored into the forward coordinate
+(estimation.balance mirror_log), so everything downstream treats it as a forward run.
+"""
+
+from __future__ import annotations
+
+from estimation.balance import StageBalance, mirror_log, stage_balance
+from estimation.energy import PassEstimate, check_braking_monotone, estimate_pass
+from plant.config import Device
+from plant.experiment import Experiment
+from plant.logs import read_log
+
+__all__ = ["read_run", "run_balances", "runs"]
+
+
+def runs(device: Device) -> list[tuple[int, str]]:
+    """(stage, direction) of every run of the device, stage by stage."""
+    return [
+        (stage, direction)
+        for stage, st in enumerate(device.stages, 1)
+        for direction in st.directions
+    ]
+
+
+def read_run(
+    exp: Experiment, stage: int, direction: str, warnings: list[str]
+) -> tuple[PassEstimate, PassEstimate]:
+    """Both passes of one run, read, checked and estimated (a backward run mirrored)."""
+    device = exp.device
+    q = device.encoder.quantum
+    b_path = exp.braking_path(stage, direction)
+    r_path = exp.reverse_path(stage, direction)
+    braking = read_log(b_path, device.encoder, "braking", direction)
+    reverse = read_log(r_path, device.encoder, "reverse", direction)
+    if direction == "backward":
+        braking, reverse = mirror_log(braking, q), mirror_log(reverse, q)
+    check_braking_monotone(braking, str(b_path))
+    b_est = estimate_pass(braking, q, str(b_path), constant_torque=True)
+    if b_est.torque_mean is None:
+        warnings.append(
+            f"{b_path}: the braking torque is not constant within the log's noise "
+            f"(p = {b_est.constancy_p:.2g}); its work is summed row by row, with a larger "
+            "uncertainty"
+        )
+    # The torque channel's logging noise shows cleanly only in the braking log (constant
+    # applied torque); the reverse's own changes are largely real regulator torque.
+    r_est = estimate_pass(reverse, q, str(r_path), sigma_torque=b_est.sigma_torque)
+    return b_est, r_est
+
+
+def run_balances(
+    exp: Experiment, warnings: list[str], progress=None
+) -> tuple[list[StageBalance], list[tuple[int, int, PassEstimate, PassEstimate]]]:
+    """Every run's balance equations (estimation.balance), and its passes for the node formula
+    as (stage, sign, braking, reverse), sign +1 forward and -1 backward."""
+    balances, passes = [], []
+    for stage, direction in runs(exp.device):
+        b_est, r_est = read_run(exp, stage, direction, warnings)
+        sign = 1 if direction == "forward" else -1
+        balances.append(stage_balance(exp.device, stage, b_est, r_est, sign))
+        passes.append((stage, sign, b_est, r_est))
+        if progress is not None:
+            progress(
+                f"{exp.root}: stage {stage} {direction}: {len(b_est.log)} + {len(r_est.log)} "
+                "rows smoothed and balanced"
+            )
+    return balances, passes
