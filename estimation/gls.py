@@ -333,6 +333,7 @@ def solve_blocks(blocks: list[Block], known_cov: np.ndarray | None = None) -> Ba
         name: _budget(Aw, factors, parts, cov_x) * inflation for name, parts in sources.items()
     }
     cov = cov_x * inflation
+    nuisance = None
     if known_cov is not None and any(b.known_jacobian is not None for b in blocks):
         p = known_cov.shape[0]
         B = np.vstack(
@@ -344,10 +345,16 @@ def solve_blocks(blocks: list[Block], known_cov: np.ndarray | None = None) -> Ba
         gain = cov_x @ Aw.T @ _whiten(B, factors)  # dx / dtheta
         cov_parts[CALIBRATION_SOURCE] = gain @ known_cov @ gain.T
         cov = cov + cov_parts[CALIBRATION_SOURCE]
+        # For the tests, the calibrated terms are unknowns with their calibration as prior:
+        # their errors are common to all runs and would otherwise pass for a disagreement.
+        lam, U = np.linalg.eigh(known_cov)
+        live = lam > lam.max() * 1e-12 if lam.max() > 0 else np.zeros(len(lam), bool)
+        if live.any():
+            nuisance = (B @ (U[:, live] * np.sqrt(lam[live])), int(live.sum()))
 
     tests = []
     for split, kind in ((False, "consistency"), (True, "early/late")):
-        found = _consistency(blocks, names, A, y, factors, split)
+        found = _consistency(blocks, names, A, y, factors, split, nuisance)
         if found is not None:
             tests.append(((kind, found[0]), found[1], found[2]))
     level = TEST_ALPHA / max(len(tests), 1)
@@ -370,11 +377,14 @@ def solve_blocks(blocks: list[Block], known_cov: np.ndarray | None = None) -> Ba
     )
 
 
-def _consistency(blocks, names, A, y, factors, split) -> tuple[str, float, int] | None:
+def _consistency(
+    blocks, names, A, y, factors, split, nuisance=None
+) -> tuple[str, float, int] | None:
     """The chi^2 drop when the grouped unknowns are freed per group, or None if no groups.
 
     ``split``: each block's balance angles are also cut in two halves (early turns, late
-    turns), each half a group of its own.
+    turns), each half a group of its own. ``nuisance``: (B, p), columns of p standardised
+    calibration errors (prior N(0, 1) each) that both fits take as unknowns.
     """
     grouped = {name for block in blocks for name in block.groups}
     labels = list(dict.fromkeys(g for block in blocks for g in block.groups.values()))
@@ -397,6 +407,13 @@ def _consistency(blocks, names, A, y, factors, split) -> tuple[str, float, int] 
     A_free = np.vstack(
         [np.column_stack([cols.get(k, np.zeros(n)) for k in free_names]) for cols, n in parts]
     )
+    if nuisance is not None:
+        B, p = nuisance
+        A, A_free = np.hstack([A, B]), np.hstack([A_free, B])
+        prior = [np.hstack([np.zeros((p, M.shape[1] - p)), np.eye(p)]) for M in (A, A_free)]
+        A, A_free = np.vstack([A, prior[0]]), np.vstack([A_free, prior[1]])
+        y = np.concatenate([y, np.zeros(p)])
+        factors = list(factors) + [np.eye(p)]
     joint, rank_joint, _ = _chi2(A, y, factors)
     free, rank_free, _ = _chi2(A_free, y, factors)
     dof = rank_free - rank_joint

@@ -7,11 +7,13 @@ smoother), the mirror (ocp.reference), the nominal model (ocp.nominal), the OCP
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
+from estimation.balance import mirror_log
 from estimation.energy import check_braking_monotone
 from estimation.smoothing import smooth_log
 from ocp.nominal import fit_nominal
@@ -47,6 +49,7 @@ def make_program(
     braking: Log,
     source: str = "braking.csv",
     nominal: ModelParameters | None = None,
+    direction: str = "forward",
 ) -> ProgramResult:
     """The torque program that drives stage ``stage`` back along the mirror of its braking.
 
@@ -54,7 +57,31 @@ def make_program(
     ----------
     nominal : ModelParameters, optional
         Use this nominal model instead of fitting one (tests of robustness perturb it).
+    direction : {"forward", "backward"}
+        A backward braking (phi decreasing) is solved in the mirrored coordinate -phi, where it
+        is a forward one (estimation.balance mirror_log; the spring's zero angle mirrored
+        with it), and its program mirrored back: phi_ref, omega_ref and the feedforward
+        change sign, the gains stay.
     """
+    if direction == "backward":
+        spring = dataclasses.replace(device.spring, zero_angle=-device.spring.zero_angle)
+        result = make_program(
+            dataclasses.replace(device, spring=spring),
+            stage,
+            mirror_log(braking, device.encoder.quantum),
+            source,
+            nominal,
+        )
+        prog = result.program
+        program = Program(
+            t=prog.t,
+            phi_ref=-prog.phi_ref,
+            omega_ref=-prog.omega_ref,
+            torque_ff=-prog.torque_ff,
+            k_phi=prog.k_phi,
+            k_omega=prog.k_omega,
+        )
+        return dataclasses.replace(result, program=program)
     start = time.perf_counter()
     check_braking_monotone(braking, source)
     sm = smooth_log(braking, device.encoder.quantum, source)

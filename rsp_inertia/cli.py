@@ -29,6 +29,7 @@ def _cmd_simulate(args: argparse.Namespace) -> None:
         args.stage,
         args.part,
         ideal=args.ideal,
+        direction=args.direction,
         progress=lambda summary: print(summary, flush=True),
     )
 
@@ -37,6 +38,16 @@ def _cmd_program(args: argparse.Namespace) -> None:
     from rsp_inertia.pipeline import program
 
     program(args.exp, args.stage, progress=lambda text: print(text, flush=True))
+
+
+def _cmd_calibrate(args: argparse.Namespace) -> None:
+    from rsp_inertia.pipeline import calibrate
+
+    result = calibrate(
+        args.exp, args.empty, args.reference, progress=lambda text: print(text, flush=True)
+    )
+    print(result)
+    print(f"calibration -> {args.exp / 'calibration.toml'}")
 
 
 def _cmd_identify(args: argparse.Namespace) -> None:
@@ -109,12 +120,33 @@ def _parser() -> argparse.ArgumentParser:
         "--ideal", action="store_true",
         help="with --part reverse: the exact mirror on an ideal drive (no program needed)",
     )
+    p.add_argument(
+        "--direction", choices=("forward", "backward"), default=None,
+        help="only the runs in this direction (default: every direction of each stage)",
+    )
     p.set_defaults(run=_cmd_simulate)
 
     p = sub.add_parser("program", help="stageN/braking.csv -> stageN/program.csv")
     p.add_argument("exp", type=Path, metavar="EXP", help="experiment folder")
     p.add_argument("--stage", type=int, help="one stage (from 1); default: all")
     p.set_defaults(run=_cmd_program)
+
+    p = sub.add_parser(
+        "calibrate",
+        help="empty-fixture and reference-body runs -> EXP/calibration.toml (tare, fixture, "
+        "torque gain)",
+    )
+    p.add_argument("exp", type=Path, metavar="EXP", help="experiment folder to calibrate")
+    p.add_argument(
+        "--empty", type=Path, required=True, metavar="EMPTY",
+        help="experiment folder of the empty fixture (same stages as EXP)",
+    )
+    p.add_argument(
+        "--reference", type=Path, default=None, metavar="REF",
+        help="experiment folder of the reference body, with REF/reference.toml (same stages); "
+        "without it the torque gain is taken as 1",
+    )
+    p.set_defaults(run=_cmd_calibrate)
 
     p = sub.add_parser("identify", help="all stages' logs -> EXP/result.json")
     p.add_argument("exp", type=Path, metavar="EXP", help="experiment folder")

@@ -16,6 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
+from estimation.calibration import CALIBRATION_FILE, Calibration
+from estimation.calibration import calibrate as calibrate_rig
 from estimation.identify import ENTRY_NAMES, Identification
 from estimation.identify import identify as identify_experiment
 from ocp.make import ProgramResult, make_program
@@ -35,6 +37,7 @@ from plant.virtual import (
 __all__ = [
     "DEFAULT_EXPERIMENT",
     "PassSummary",
+    "calibrate",
     "create_default_experiment",
     "demo",
     "format_identification",
@@ -265,20 +268,46 @@ def program(
     exp = open_experiment(root)
     results = []
     for st in exp.stages(stage):
-        path = exp.braking_path(st)
-        braking = read_log(path, exp.device.encoder, "braking")
-        result = make_program(exp.device, st, braking, str(path))
-        write_program(exp.program_path(st), result.program)
-        if progress is not None:
-            prog = result.program
-            progress(
-                f"stage {st}: program: {len(prog.t)} rows over {prog.t[-1]:.2f} s, peak torque "
-                f"{abs(prog.torque_ff).max():.3f} N m, k_phi {prog.k_phi.mean():.3g} N m/rad, "
-                f"k_omega {prog.k_omega.mean():.3g} N m s/rad, OCP {result.ocp.iterations} "
-                f"iterations; {result.seconds:.2f} s -> {exp.program_path(st)}"
-            )
-        results.append(result)
+        for direction in exp.device.stages[st - 1].directions:
+            path = exp.braking_path(st, direction)
+            braking = read_log(path, exp.device.encoder, "braking", direction)
+            result = make_program(exp.device, st, braking, str(path), direction=direction)
+            out = exp.program_path(st, direction)
+            write_program(out, result.program)
+            if progress is not None:
+                prog = result.program
+                label = "" if direction == "forward" else f" {direction}"
+                progress(
+                    f"stage {st}{label}: program: {len(prog.t)} rows over {prog.t[-1]:.2f} s, "
+                    f"peak torque {abs(prog.torque_ff).max():.3f} N m, k_phi "
+                    f"{prog.k_phi.mean():.3g} N m/rad, k_omega {prog.k_omega.mean():.3g} "
+                    f"N m s/rad, OCP {result.ocp.iterations} iterations; {result.seconds:.2f} s "
+                    f"-> {out}"
+                )
+            results.append(result)
     return results
+
+
+def calibrate(
+    root: str | Path,
+    empty: str | Path,
+    reference: str | Path | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> Calibration:
+    """``rsp-inertia calibrate``: EMPTY's and REF's logs -> EXP/calibration.toml (atomically).
+
+    Nothing is written when an input is bad (stages that differ from EXP's, a missing or
+    unphysical reference.toml, bad logs).
+    """
+    exp = open_experiment(root)
+    result = calibrate_rig(
+        exp,
+        open_experiment(empty),
+        None if reference is None else open_experiment(reference),
+        progress,
+    )
+    write_atomic(exp.root / CALIBRATION_FILE, result.to_toml())
+    return result
 
 
 def identify(
@@ -328,6 +357,24 @@ def format_identification(result: Identification, truth: np.ndarray | None = Non
         lines.append(
             f"uncertainty budget of the least sure axis (stage {a.stage} node {a.phi_deg:g} deg, "
             f"relative std {a.J_std / a.J:.1e}): {shares}"
+        )
+    if result.friction_asymmetry is not None:
+        for k, (e, std) in enumerate(
+            zip(result.friction_asymmetry, result.friction_asymmetry_std), 1
+        ):
+            if np.all(np.isfinite(e)):
+                lines.append(
+                    f"stage {k}: friction asymmetry D_backward - D_forward = "
+                    f"{e[0]:+.2e} +- {std[0]:.0e} N m {e[1]:+.2e} +- {std[1]:.0e} |W| "
+                    f"{e[2]:+.2e} +- {std[2]:.0e} W^2"
+                )
+    if result.calibration is not None:
+        cal = result.calibration
+        lines.append(
+            f"calibration applied: torque gain {cal['torque_gain']:.6f} +- "
+            f"{cal['torque_gain_std']:.1e}, empty-system M0 per stage "
+            + ", ".join(f"{row[0]:.6f}" for row in cal["empty_inertia"])
+            + " kg m^2"
         )
     if result.pendulum is not None:
         pend = result.pendulum
