@@ -1,0 +1,212 @@
+"""Rig imperfections: direction-dependent friction, calibration of tare, fixture and torque gain.
+
+Each case runs the virtual device with the imperfection switched on (ideal reverse, so that
+only the imperfection and the sensors' noise are in play) and compares identify with the
+virtual body. Bounds: 3 reported std (a promise: an error of 3 std or more must come with a
+warning) and the accuracy targets of the systematics benchmark.
+"""
+
+import dataclasses
+import re
+import shutil
+
+import numpy as np
+import pytest
+
+from estimation.balance import mirror_log, stage_balance
+from estimation.energy import estimate_pass
+from estimation.tensor import axis_values, fit_tensor
+from plant import virtual as vd
+from plant.experiment import open_experiment
+from plant.geometry import axis_direction, tensor_from_entries
+from rsp_inertia.cli import main
+from rsp_inertia.pipeline import create_default_experiment, identify, simulate
+
+ASYMMETRY = 1.02
+"""Friction 2% larger turning backward (all three coefficients)."""
+
+
+def _fit(device, virtual, directions):
+    """fit_tensor on the ideal-reverse runs of both stages in the given directions."""
+    q = device.encoder.quantum
+    balances = []
+    for stage in (1, 2):
+        for direction in directions:
+            braking = vd.simulate_braking(device, stage, virtual, direction=direction)
+            reverse = vd.simulate_ideal_reverse(device, stage, virtual, braking, direction)
+            b, r, sign = braking.log, reverse.log, 1
+            if direction == "backward":
+                b, r, sign = mirror_log(b, q), mirror_log(r, q), -1
+            b_est = estimate_pass(b, q, "braking", constant_torque=True)
+            r_est = estimate_pass(r, q, "reverse", sigma_torque=b_est.sigma_torque)
+            balances.append(stage_balance(device, stage, b_est, r_est, sign))
+    fit = fit_tensor(balances)
+    axes = np.array(
+        [
+            axis_direction(np.radians(node), st.gear_ratio)
+            for st in device.stages
+            for node in st.nodes_deg
+        ]
+    )
+    J, J_std = axis_values(fit.entries, fit.entries_cov, axes)
+    tensor = tensor_from_entries(virtual.body.inertia)
+    J_true = np.einsum("ij,jk,ik->i", axes, tensor, axes)
+    return fit, J, J_std, J_true
+
+
+@pytest.fixture(scope="module")
+def asymmetric(default_device, default_virtual):
+    """The default virtual device with friction 2% larger backward."""
+    friction = dataclasses.replace(default_virtual.friction, backward_scale=ASYMMETRY)
+    return dataclasses.replace(default_virtual, friction=friction)
+
+
+def test_two_directions_cancel_direction_dependent_friction(default_device, asymmetric):
+    fit, J, J_std, J_true = _fit(default_device, asymmetric, ("forward", "backward"))
+    assert np.all(np.abs(J / J_true - 1) < 1e-4)  # the benchmark's target
+    assert np.all(np.abs(J - J_true) < 3 * J_std)  # the std is a promise
+    assert not any(test.significant for test in fit.tests)
+    # The fitted asymmetry's quadratic part is 2% of the true a3 (the dominant friction term
+    # at speed), within 4 std.
+    e3, e3_std = fit.friction_asymmetry[:, 2], fit.friction_asymmetry_std[:, 2]
+    expected = (ASYMMETRY - 1) * asymmetric.friction.quadratic
+    assert np.all(np.abs(e3 - expected) < 4 * e3_std)
+
+
+def test_one_direction_under_asymmetric_friction_warns(default_device, asymmetric):
+    fit, J, J_std, J_true = _fit(default_device, asymmetric, ("forward",))
+    # The result is off by many std (the physics: one direction cannot tell the asymmetry
+    # from a different inertia) ...
+    assert np.max(np.abs(J - J_true) / J_std) > 3
+    # ... and the runs' disagreement says so.
+    assert any(test.significant for test in fit.tests)
+
+
+# --- calibrate: empty fixture, reference body, torque gain and tare errors -----------------
+
+FIXTURE = """
+[fixture]
+mass = 0.8
+inertia = [0.004, 0.0045, 0.006, 0.0002, -0.0001, 0.00015]
+com = [0.001, 0.0005, 0.0]
+
+[rig]
+torque_gain = 1.005
+tare_inertia = [0.0038257919, 0.0859342080]
+"""
+
+REFERENCE_BODY = """[body]
+mass = 3.0
+inertia = [0.03, 0.03, 0.02, 0.0, 0.0, 0.0]
+com = [0.0, 0.0, 0.0]
+"""
+
+
+def _folder(root, body: str | None, seed: int, stage2_braking: float | None = None):
+    """A default experiment on a rig with a fixture, a torque gain 0.5% off and tares 2% off."""
+    create_default_experiment(root)
+    device = (root / "device.toml").read_text()
+    device = re.sub(r"tare_inertia_std = .*\n", "", device)
+    device = re.sub(r"torque_gain_std = .*\n", "", device)
+    device = re.sub(r"\[pendulum\].*", "", device, flags=re.S)
+    if body != "default":
+        device = device.replace("[body]\nmass = 2.0", "")
+        device = re.sub(r"\nmass = 2.0 .*\n", "\n", device)
+    if stage2_braking is not None:
+        device = device.replace("braking_torque = 0.12 ", f"braking_torque = {stage2_braking} ")
+    (root / "device.toml").write_text(device)
+    virtual = (root / "virtual.toml").read_text()
+    if body != "default":
+        virtual = re.sub(r"\[body\].*?\n\n", body or "", virtual, flags=re.S)
+    virtual = virtual.replace("seed = 0", f"seed = {seed}") + FIXTURE
+    (root / "virtual.toml").write_text(virtual)
+    if body not in (None, "default"):
+        (root / "reference.toml").write_text(body)
+    simulate(root, part="braking")
+    simulate(root, part="reverse", ideal=True)
+    return root
+
+
+@pytest.fixture(scope="module")
+def rig(tmp_path_factory):
+    """(EXP, EMPTY, REF) folders of the imperfect rig (~30 s)."""
+    base = tmp_path_factory.mktemp("rig")
+    exp = _folder(base / "exp", "default", 1)
+    empty = _folder(base / "empty", None, 2, stage2_braking=0.03)
+    ref = _folder(base / "ref", REFERENCE_BODY + "\n", 3)
+    return exp, empty, ref
+
+
+def test_uncalibrated_rig_warns(rig):
+    exp, _, _ = rig
+    result = identify(exp)
+    assert any("calibration.toml: not found" in w for w in result.warnings)
+
+
+def test_calibration_makes_the_result_true(rig, capsys):
+    exp, empty, ref = rig
+    assert main(["calibrate", str(exp), "--empty", str(empty), "--reference", str(ref)]) == 0
+    assert "torque gain 1.00" in capsys.readouterr().out
+    result = identify(exp)
+    assert result.warnings == []
+    axes = np.array([a.direction for a in result.axes])
+    tensor = tensor_from_entries(open_experiment(exp).load_virtual().body.inertia)
+    J_true = np.einsum("ij,jk,ik->i", axes, tensor, axes)
+    J = np.array([a.J for a in result.axes])
+    J_std = np.array([a.J_std for a in result.axes])
+    assert np.all(np.abs(J - J_true) < 3 * J_std)
+    # The calibration's share is its own line of the budget, and here the largest.
+    budget = result.std_budget
+    assert "calibration" in budget
+    assert np.all(budget["calibration"]["axes"] > budget["encoder (speed)"]["axes"])
+
+
+def test_calibration_folder_with_other_stages_is_refused(rig, tmp_path, capsys):
+    exp, empty, ref = rig
+    other = tmp_path / "other"
+    shutil.copytree(empty, other)
+    text = (other / "device.toml").read_text()
+    (other / "device.toml").write_text(text.replace("5.2360679775", "5.0", 1))
+    before = sorted(p.name for p in exp.iterdir())
+    assert main(["calibrate", str(exp), "--empty", str(other), "--reference", str(ref)]) == 2
+    err = capsys.readouterr().err
+    assert "stage[2].gear_ratio" in err and "differs" in err and err.count("\n") == 1
+    assert sorted(p.name for p in exp.iterdir()) == before
+
+
+@pytest.mark.parametrize(
+    "body, fault",
+    [
+        ("[body]\nmass = 3.0\ncom = [0.0, 0.0, 0.0]\n", "body.inertia: missing"),
+        (
+            "[body]\nmass = 3.0\ninertia = [0.01, 0.01, 0.05, 0, 0, 0]\ncom = [0, 0, 0]\n",
+            "not a physical inertia tensor",
+        ),
+        ("[body]\nmass = -1.0\ninertia = [0.03, 0.03, 0.02, 0, 0, 0]\ncom = [0, 0, 0]\n", "mass"),
+    ],
+)
+def test_bad_reference_toml_is_refused(rig, tmp_path, capsys, body, fault):
+    exp, empty, ref = rig
+    bad = tmp_path / "ref"
+    shutil.copytree(ref, bad)
+    (bad / "reference.toml").write_text(body)
+    target = tmp_path / "exp"
+    shutil.copytree(exp, target)
+    (target / "calibration.toml").unlink(missing_ok=True)
+    assert main(["calibrate", str(target), "--empty", str(empty), "--reference", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert "reference.toml" in err and fault in err
+    assert not (target / "calibration.toml").exists()
+
+
+def test_calibration_for_another_device_is_refused(rig, tmp_path, capsys):
+    exp, empty, ref = rig
+    target = tmp_path / "exp"
+    shutil.copytree(exp, target)
+    assert main(["calibrate", str(target), "--empty", str(empty), "--reference", str(ref)]) == 0
+    text = (target / "device.toml").read_text()
+    (target / "device.toml").write_text(text.replace('name = "virtual-paper"', 'name = "rig-B"'))
+    capsys.readouterr()
+    assert main(["identify", str(target)]) == 2
+    err = capsys.readouterr().err
+    assert "calibration.toml" in err and "made for device" in err
