@@ -156,7 +156,7 @@ def _score(root: Path) -> dict:
         "z": float(np.max(np.abs(J - J_true) / s)),
         "rel_std": float(np.max(s / J_true)),
         "warns": len(r["warnings"]),
-        "warnings": [w[:160] for w in r["warnings"]],
+        "warnings": [w.replace(str(exp.root), "EXP")[:160] for w in r["warnings"]],
         "cal_share": cal_share,
         "asym": r["least_squares"].get("friction_asymmetry"),
     }

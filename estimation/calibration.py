@@ -290,7 +290,11 @@ def _blocks(device: Device, balances, role: str, reference: TrueBody | None, has
                 rhs=rhs,
                 inertia_columns={f"{h}[{s}]": basis[:, j] for j, h in enumerate(HARMONIC_NAMES)},
                 inertia_known=known_M,
-                joint_only=frozenset(name for name in cols if name.startswith("e")),
+                # h scales the logged work, a smooth function as the kinetic energy is: alone
+                # in one run it would stand in for the noisy speeds (estimation.gls).
+                joint_only=frozenset(name for name in cols if name.startswith("e") or name == "h"),
+                groups={f"{h}[{s}]": f"{role} {run_label(bal)}" for h in HARMONIC_NAMES},
+                fixed_in_tests=frozenset({"h"}),
             )
         )
     return blocks

@@ -96,6 +96,10 @@ class Block:
     """(n, p) d rhs / d theta for calibrated parameters theta, or None."""
     groups: dict[str, str] = field(default_factory=dict)
     """Unknown name -> group label (e.g. the run) for the consistency tests."""
+    fixed_in_tests: frozenset[str] = frozenset()
+    """Unknowns the consistency tests hold at the joint estimate: a scale on the whole
+    equation (the torque gain's h, with a right-hand side that is zero without the
+    reference's known terms) would let a freed fit collapse to the trivial solution."""
     joint_only: frozenset[str] = frozenset()
     """Unknowns left out of the run's own fit that sets its speed-noise scale: terms that only
     the runs together determine (a friction asymmetry's work shape, alone in one run, would
@@ -354,7 +358,17 @@ def solve_blocks(blocks: list[Block], known_cov: np.ndarray | None = None) -> Ba
 
     tests = []
     for split, kind in ((False, "consistency"), (True, "early/late")):
-        found = _consistency(blocks, names, A, y, factors, split, nuisance)
+        fixed = [j for j, n in enumerate(names) if any(n in b.fixed_in_tests for b in blocks)]
+        kept = [j for j in range(len(names)) if j not in fixed]
+        found = _consistency(
+            blocks,
+            [names[j] for j in kept],
+            A[:, kept],
+            y - A[:, fixed] @ x[fixed],
+            factors,
+            split,
+            nuisance,
+        )
         if found is not None:
             tests.append(((kind, found[0]), found[1], found[2]))
     level = TEST_ALPHA / max(len(tests), 1)
