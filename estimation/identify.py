@@ -26,6 +26,7 @@ from estimation.gls import ModelTest, model_warnings
 from estimation.pendulum import PendulumEstimate, estimate_pendulum
 from estimation.runs import run_balances
 from estimation.tensor import (
+    KnownTerms,
     axis_values,
     fit_tensor,
     physical_warnings,
@@ -403,7 +404,7 @@ def identify(
         com = fit.gravity / weight
         com_std = gravity_std / weight
     warnings += physical_warnings(fit.entries, fit.entries_cov)
-    pendulum = identify_pendulum(exp, say)
+    pendulum = identify_pendulum(exp, say, known)
     return Identification(
         entries=fit.entries,
         entries_cov=fit.entries_cov,
@@ -432,11 +433,15 @@ def identify(
 
 
 def identify_pendulum(
-    exp: Experiment, progress: Callable[[str], None] | None = None
+    exp: Experiment,
+    progress: Callable[[str], None] | None = None,
+    known: KnownTerms | None = None,
 ) -> PendulumResult | None:
     """The torsion-pendulum baseline from every ``stageN/pendulum_kK.csv`` present.
 
-    None when there is no such log. The stiffness is device.toml's ``[pendulum]`` one.
+    None when there is no such log. The stiffness is device.toml's ``[pendulum]`` one; the
+    empty system's inertia at the node is the calibration's when ``known`` has one (the same
+    tare and fixture as the RSP result), else device.toml's tare.
     """
     device = exp.device
     found = [
@@ -462,9 +467,15 @@ def identify_pendulum(
         )
         directions.append(axis_direction(st.nodes[k - 1], st.gear_ratio))
     stages = [device.stages[r.stage - 1] for r in runs]
-    J_classic = np.array([axial_moment(r.M_classic, st) for r, st in zip(runs, stages)])
+    empty = [
+        None if known is None else known.empty_inertia(r.stage, math.radians(r.node_deg))
+        for r in runs
+    ]
+    J_classic = np.array(
+        [axial_moment(r.M_classic, st, e) for r, st, e in zip(runs, stages, empty)]
+    )
     J_classic_std = np.array([axial_std(r.M_classic_std, st) for r, st in zip(runs, stages)])
-    J_damped = np.array([axial_moment(r.M_damped, st) for r, st in zip(runs, stages)])
+    J_damped = np.array([axial_moment(r.M_damped, st, e) for r, st, e in zip(runs, stages, empty)])
     J_damped_std = np.array([axial_std(r.M_damped_std, st) for r, st in zip(runs, stages)])
     entries_classic = entries_damped = None
     if len(found) == sum(len(st.nodes) for st in device.stages):

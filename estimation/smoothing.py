@@ -13,11 +13,37 @@ reading independent (true when the body moves several counts per sample; near re
 estimate is over-confident, and the energy balances avoid the last slow stretch anyway).
 
 Speed. filterpy's UKF costs ~150-200 us per predict+update in Python; 25,000 samples per pass
-would take 10 s. The filter therefore takes the readings in *blocks* of ``BLOCK`` samples:
+would take 10 s. The filter therefore takes the readings in *blocks* of B samples (T = B dt):
 the state lives at the block's mid-time and the measurement function maps it to the block's
-readings with the same kinematic model (a jerk over half a block, 5 ms, moves phi by
-j (5 ms)^3/6 ~ 4e-7 rad for j ~ 20 rad/s^3, under 0.005 of a count). Each reading enters once,
-with its own variance, so no information is lost; the filter runs BLOCK times fewer steps.
+readings with the state's quadratic Taylor form. Each reading enters once, with its own
+variance, so no information is lost; the filter runs B times fewer steps.
+
+Block length, derived. The block model costs accuracy in two ways, both growing steeply with
+w_c T (w_c the bandwidth below), so B is the largest length up to ``BLOCK`` with
+w_c T <= ``BLOCK_BANDWIDTH`` = 2 (:func:`block_length`):
+
+- Bias. The true reading adds j tau^3/6 to the Taylor form (j the jerk, tau the offset from
+  the block's mid-time). For a constant jerk the steady-state smoother's error is the same
+  e at every block (the problem is shift-invariant), the minimiser of the per-block cost
+  |r - H e|^2 / sigma^2 + (w + (I - F) e)^T Q^-1 (w + (I - F) e), with r_i = j tau_i^3/6 the
+  readings' residuals, H the Taylor rows, sigma^2 = q^2/12 and w = j (T^3/6, T^2/2, T) the
+  true motion's step that the model calls process noise. r is odd in tau, so only the speed
+  is biased: Omega^ - Omega = kappa j (:func:`block_speed_bias`). For a speed harmonic of
+  relative amplitude a at nu <= 2 Omega_max = w_c / BANDWIDTH_FACTOR, j = a nu^2 Omega, so
+  the relative speed bias is at most a kappa (w_c / BANDWIDTH_FACTOR)^2. At w_c = 390 rad/s
+  (a 3-turn, 2 s braking against a spring, 20 rad/s) kappa = 6.9e-7 s^2 with B = 10
+  (w_c T = 3.9; the simulator's passes show 7.1e-7 to 7.4e-7), a speed bias of 1e-4 rad/s
+  that follows the jerk over the whole pass and put J_k off by 5-8 of its std; with B = 5
+  (w_c T = 1.95) kappa = 3.3e-9 s^2 and the bias factor kappa (w_c / 10)^2 is 5e-6.
+- Aliasing. The block states sample the smoother's output at 1/T; the speed error's spectral
+  density r w^2 H(w)^2 (below) peaks at 0.76 w_c and must have died out by the block rate's
+  Nyquist frequency pi/T. At w_c T = 2, pi/T = 1.57 w_c, where the density is 2.4 % of its
+  peak (12 % at w_c T = 2.4, 98 % at 3.9). Measured on the same pass, the speed error averaged
+  over 80 ms scatters 2.0 times the derived R's prediction with B = 10 and 1.0 times with
+  B <= 6; J_k's share of the encoder noise, over 40 noise draws, reaches 1.5 times its
+  derived std with B = 6 (w_c T = 2.3) and 1.2-1.3 times with B = 5 or 4.
+
+The default experiment's stage 1 (w_c = 240 rad/s) gets B = 8, its stage 2 (70 rad/s) B = 10.
 
 Process noise, justified. The RTS smoother of this model is, in steady state, the two-sided
 Wiener filter 1 / (1 + (w/w_c)^6) with w_c = (q_j / r)^(1/6), r = (q^2/12) dt the spectral
@@ -63,7 +89,10 @@ from plant.logs import Log
 __all__ = [
     "BANDWIDTH_FACTOR",
     "BLOCK",
+    "BLOCK_BANDWIDTH",
     "Smoothed",
+    "block_length",
+    "block_speed_bias",
     "hermite",
     "jerk_density",
     "smooth_log",
@@ -71,7 +100,10 @@ __all__ = [
 ]
 
 BLOCK = 10
-"""Encoder samples per filter step."""
+"""Largest number of encoder samples per filter step."""
+
+BLOCK_BANDWIDTH = 2.0
+"""Largest w_c T of a block (module docstring: block length)."""
 
 BANDWIDTH_FACTOR = 10.0
 """Smoother bandwidth over the highest speed harmonic 2 Omega_max (bias (1/10)^6 = 1e-6)."""
@@ -157,6 +189,39 @@ def jerk_density(log: Log, quantum: float) -> tuple[float, float]:
     return r * bandwidth**6, bandwidth
 
 
+def block_length(bandwidth: float, dt: float) -> int:
+    """Samples per filter step: the largest B <= BLOCK with w_c B dt <= BLOCK_BANDWIDTH, at least 1.
+
+    Module docstring (block length): the block model's speed bias and the aliasing of the
+    speed error both stay negligible up to w_c T = 2.
+    """
+    fit = math.floor(BLOCK_BANDWIDTH / (bandwidth * dt) * (1 + 1e-12))
+    return max(1, min(BLOCK, fit))
+
+
+def block_speed_bias(block: int, bandwidth: float, dt: float) -> float:
+    """kappa, s^2: the steady-state speed bias per unit jerk of the block smoother.
+
+    Module docstring (block length). In units of dt and with sigma = 1 (the bias does not
+    depend on sigma: q_j = sigma^2 dt w_c^6 scales the whole cost), the minimiser is
+
+        e = (H^T H + G^T Q^-1 G)^-1 (H^T r - G^T Q^-1 w),    G = I - F,
+
+    and the step term vanishes: w = (j / q_j) x (Q's last column), so Q^-1 w is along eps, and
+    G's last row is zero. What is left is the readings' cubic residual r seen through the
+    smoother: kappa = e_Omega / j, times dt^2 to bring it to seconds. A one-sample block has
+    r = 0 and no bias (the per-sample smoother is exact for polynomials up to degree 5).
+    """
+    T = float(block)
+    tau = np.arange(block) - (block - 1) / 2
+    H = np.column_stack([np.ones(block), tau, tau**2 / 2])
+    G = np.eye(3) - _transition(T)
+    Q = _process_noise(T, (bandwidth * dt) ** 6)
+    A = H.T @ H + G.T @ np.linalg.solve(Q, G)
+    e = np.linalg.solve(A, H.T @ (tau**3 / 6))
+    return float(e[1] * dt * dt)
+
+
 _KERNEL_SPAN = 40.0
 """g(s) is taken as 0 beyond s = w_c tau = 40, where |g| / g(0) < 1e-6."""
 
@@ -216,14 +281,15 @@ def smooth_log(log: Log, quantum: float, source: str = "log") -> Smoothed:
     if n < 4 * BLOCK:
         raise InputError(f"{source}: {n} rows are too few to smooth (at least {4 * BLOCK})")
     dt = float(log.t[1] - log.t[0])
-    T = BLOCK * dt
     q_j, bandwidth = jerk_density(log, quantum)
+    block = block_length(bandwidth, dt)
+    T = block * dt
     z_all = log.phi + quantum / 2
-    n_blocks = math.ceil(n / BLOCK)
-    # State k lives at the mid-time of block k's full span (BLOCK samples).
-    centres = log.t[0] + (np.arange(n_blocks) * BLOCK + (BLOCK - 1) / 2) * dt
-    offsets = (np.arange(BLOCK) - (BLOCK - 1) / 2) * dt
-    basis = np.column_stack([np.ones(BLOCK), offsets, offsets**2 / 2])  # readings = basis @ x
+    n_blocks = math.ceil(n / block)
+    # State k lives at the mid-time of block k's full span (``block`` samples).
+    centres = log.t[0] + (np.arange(n_blocks) * block + (block - 1) / 2) * dt
+    offsets = (np.arange(block) - (block - 1) / 2) * dt
+    basis = np.column_stack([np.ones(block), offsets, offsets**2 / 2])  # readings = basis @ x
     variance = quantum * quantum / 12.0
 
     F = _transition(T)
@@ -237,14 +303,14 @@ def smooth_log(log: Log, quantum: float, source: str = "log") -> Smoothed:
 
     points = MerweScaledSigmaPoints(3, alpha=0.5, beta=2.0, kappa=0.0, sqrt_method=_sqrt)
     ukf = UnscentedKalmanFilter(
-        dim_x=3, dim_z=BLOCK, dt=T, hx=make_hx(BLOCK), fx=fx, points=points
+        dim_x=3, dim_z=block, dt=T, hx=make_hx(block), fx=fx, points=points
     )
     ukf.Q = _process_noise(T, q_j)
     # Start from a least-squares fit of the first blocks' kinematics with its own covariance
     # (readings' variance times (H^T H)^-1), widened for the model's error over those blocks.
     # A fixed wide P0 spans 13 orders of magnitude on a 20-bit encoder (q^2 ~ 4e-11 against
     # 100 rad^2/s^4) and rounding then breaks its positive definiteness.
-    m = min(3 * BLOCK, n)
+    m = min(3 * block, n)
     tau = log.t[:m] - centres[0]
     H = np.column_stack([np.ones(m), tau, tau**2 / 2])
     x0, *_ = np.linalg.lstsq(H, z_all[:m], rcond=None)
@@ -253,14 +319,14 @@ def smooth_log(log: Log, quantum: float, source: str = "log") -> Smoothed:
 
     means = np.empty((n_blocks, 3))
     covs = np.empty((n_blocks, 3, 3))
-    full_R = np.eye(BLOCK) * variance
-    full_hx = make_hx(BLOCK)
+    full_R = np.eye(block) * variance
+    full_hx = make_hx(block)
     for k in range(n_blocks):
-        z = z_all[k * BLOCK : (k + 1) * BLOCK]
+        z = z_all[k * block : (k + 1) * block]
         rows = len(z)
         if k > 0:
             ukf.predict()
-        if rows == BLOCK:
+        if rows == block:
             ukf.update(z, R=full_R, hx=full_hx)
         else:  # the last, shorter block (filterpy accepts a measurement of another size)
             ukf.update(z, R=np.eye(rows) * variance, hx=make_hx(rows))
