@@ -475,8 +475,9 @@ def known_terms(exp: Experiment) -> tuple[KnownTerms, list[str]]:
             cov[1 + 5 * s, 1 + 5 * s] = v**2
         stated = any(v > 0 for v in tare_std) or gain_std > 0
         return KnownTerms(1.0, known.inertia, known.gravity, cov, calibrated=stated), []
-    return known, [
+    warning = (
         f"{exp.root / CALIBRATION_FILE}: not found, and device.toml states no tare_inertia_std "
         "and torque_gain_std: the tares of device.toml and a torque gain of 1 are taken as "
         "exact, and their errors are not in the stds (calibrate with rsp-inertia calibrate)"
-    ]
+    )
+    return known, [warning]

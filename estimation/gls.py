@@ -44,11 +44,11 @@ from estimation.balance import StageBalance
 
 __all__ = [
     "CALIBRATION_SOURCE",
-    "TEST_ALPHA",
     "NOISE_SOURCES",
     "SCALE_CAP",
-    "Block",
+    "TEST_ALPHA",
     "BalanceFit",
+    "Block",
     "ModelTest",
     "model_warnings",
     "solve_blocks",

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from estimation.balance import NodeEstimate, node_formula, stage_balance
+from estimation.balance import NodeEstimate, node_formula
 from estimation.calibration import known_terms
 from estimation.gls import ModelTest, model_warnings
 from estimation.pendulum import PendulumEstimate, estimate_pendulum
@@ -40,11 +40,11 @@ from plant.logs import read_log
 
 __all__ = [
     "MAX_CONDITION",
-    "axial_moment",
-    "axial_std",
     "AxisResult",
     "Identification",
     "PendulumResult",
+    "axial_moment",
+    "axial_std",
     "identify",
     "identify_pendulum",
 ]
@@ -180,7 +180,8 @@ class Identification:
     friction_asymmetry_std: np.ndarray | None = None
     """(stages, 3)."""
     model_tests: list[ModelTest] = field(default_factory=list)
-    """The balance model's chi^2 tests (estimation.gls): closure per run, stage consistency."""
+    """The balance model's chi^2 tests (estimation.gls): runs against each other, early
+    against late turns."""
     calibration: dict | None = None
     """What the identification took from calibration.toml (None: device.toml's tares)."""
 
@@ -307,17 +308,20 @@ def _combine_directions(found: list[NodeEstimate]) -> NodeEstimate:
     if len(found) == 1:
         return found[0]
     first = found[0]
-    mean = lambda attr: float(np.mean([getattr(n, attr) for n in found]))  # noqa: E731
-    root = lambda attr: float(  # noqa: E731
-        math.sqrt(sum(getattr(n, attr) ** 2 for n in found)) / len(found)
-    )
+
+    def mean(attr: str) -> float:
+        return float(np.mean([getattr(n, attr) for n in found]))
+
+    def std_of_mean(attr: str) -> float:
+        return float(math.sqrt(sum(getattr(n, attr) ** 2 for n in found)) / len(found))
+
     return NodeEstimate(
         stage=first.stage,
         node_deg=first.node_deg,
         M=mean("M"),
-        M_std=root("M_std"),
+        M_std=std_of_mean("M_std"),
         M_plain=mean("M_plain"),
-        M_plain_std=root("M_plain_std"),
+        M_plain_std=std_of_mean("M_plain_std"),
         pairs=sum(n.pairs for n in found),
     )
 

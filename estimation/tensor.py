@@ -37,15 +37,15 @@ __all__ = [
     "NOISE_SOURCES",
     "KnownTerms",
     "TensorFit",
+    "axis_values",
     "balance_rhs",
     "both_directions",
-    "gravity_rows",
-    "run_columns",
-    "run_label",
-    "axis_values",
     "fit_tensor",
+    "gravity_rows",
     "physical_warnings",
     "principal",
+    "run_columns",
+    "run_label",
     "tensor_from_axes",
 ]
 
@@ -90,7 +90,8 @@ class TensorFit:
     friction_asymmetry_std: np.ndarray | None = None
     """(stages, 3)."""
     tests: list[ModelTest] | None = None
-    """The balance model's tests (estimation.gls): closure per run, stage consistency."""
+    """The balance model's tests (estimation.gls): runs against each other, early against
+    late turns."""
     runs: list[str] | None = None
     """Label of each run, in the order of the balances."""
 

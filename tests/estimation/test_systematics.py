@@ -21,6 +21,7 @@ from plant.experiment import open_experiment
 from plant.geometry import axis_direction, tensor_from_entries
 from rsp_inertia.cli import main
 from rsp_inertia.pipeline import create_default_experiment, identify, simulate
+from tests.estimation.test_uncertainty import honest_band
 
 ASYMMETRY = 1.02
 """Friction 2% larger turning backward (all three coefficients)."""
@@ -108,7 +109,7 @@ def _folder(root, body: str | None, seed: int, stage2_braking: float | None = No
     device = (root / "device.toml").read_text()
     device = re.sub(r"tare_inertia_std = .*\n", "", device)
     device = re.sub(r"torque_gain_std = .*\n", "", device)
-    device = re.sub(r"\[pendulum\].*", "", device, flags=re.S)
+    device = re.sub(r"\[pendulum\].*", "", device, flags=re.DOTALL)
     if body != "default":
         device = device.replace("[body]\nmass = 2.0", "")
         device = re.sub(r"\nmass = 2.0 .*\n", "\n", device)
@@ -117,7 +118,7 @@ def _folder(root, body: str | None, seed: int, stage2_braking: float | None = No
     (root / "device.toml").write_text(device)
     virtual = (root / "virtual.toml").read_text()
     if body != "default":
-        virtual = re.sub(r"\[body\].*?\n\n", body or "", virtual, flags=re.S)
+        virtual = re.sub(r"\[body\].*?\n\n", body or "", virtual, flags=re.DOTALL)
     virtual = virtual.replace("seed = 0", f"seed = {seed}") + FIXTURE
     (root / "virtual.toml").write_text(virtual)
     if body not in (None, "default"):
@@ -210,3 +211,56 @@ def test_calibration_for_another_device_is_refused(rig, tmp_path, capsys):
     assert main(["identify", str(target)]) == 2
     err = capsys.readouterr().err
     assert "calibration.toml" in err and "made for device" in err
+
+
+# --- Monte Carlo of the stds under rig imperfections (slow) --------------------------------
+
+N_MONTE_CARLO = 8
+
+
+def _realisations(virtual, n: int, entropy: int):
+    """n copies of ``virtual`` with their own noise seed and a release moved within 0.5 deg."""
+    rng = np.random.default_rng(entropy)
+    return [
+        dataclasses.replace(
+            virtual,
+            run=dataclasses.replace(
+                virtual.run,
+                seed=int(rng.integers(1, 2**31)),
+                release_angle_deg=virtual.run.release_angle_deg + float(rng.uniform(-0.5, 0.5)),
+            ),
+        )
+        for _ in range(n)
+    ]
+
+
+@pytest.mark.slow
+def test_two_direction_stds_match_the_scatter(default_device, asymmetric):
+    squares = []
+    for virtual in _realisations(asymmetric, N_MONTE_CARLO, entropy=9):
+        _, J, J_std, J_true = _fit(default_device, virtual, ("forward", "backward"))
+        squares.append(((J - J_true) / J_std) ** 2)
+    mean_sq = float(np.mean(squares))
+    # The six axial moments of one realisation are correlated (one tensor); the least
+    # favourable case leaves one independent square per realisation (tests/estimation/
+    # test_uncertainty.py honest_band).
+    lo, hi = honest_band(N_MONTE_CARLO)
+    assert lo < mean_sq < hi, mean_sq
+
+
+@pytest.mark.slow
+def test_calibrated_stds_match_the_scatter(tmp_path):
+    squares = []
+    for k in range(N_MONTE_CARLO):
+        exp = _folder(tmp_path / f"exp{k}", "default", 10 + 3 * k)
+        empty = _folder(tmp_path / f"empty{k}", None, 11 + 3 * k, stage2_braking=0.03)
+        ref = _folder(tmp_path / f"ref{k}", REFERENCE_BODY + "\n", 12 + 3 * k)
+        assert main(["calibrate", str(exp), "--empty", str(empty), "--reference", str(ref)]) == 0
+        result = identify(exp)
+        axes = np.array([a.direction for a in result.axes])
+        tensor = tensor_from_entries(open_experiment(exp).load_virtual().body.inertia)
+        J_true = np.einsum("ij,jk,ik->i", axes, tensor, axes)
+        J = np.array([a.J for a in result.axes])
+        squares.append(((J - J_true) / np.array([a.J_std for a in result.axes])) ** 2)
+    lo, hi = honest_band(N_MONTE_CARLO)
+    assert lo < float(np.mean(squares)) < hi, float(np.mean(squares))
