@@ -256,13 +256,12 @@ def _budget(Aw, factors, parts, cov_x) -> np.ndarray:
     return cov_x @ inner @ cov_x
 
 
-def _matrix(blocks: list[Block], names: list[str], key: str = "columns") -> np.ndarray:
+def _matrix(blocks: list[Block], names: list[str]) -> np.ndarray:
     """Stack the blocks' named columns into a matrix with the columns ``names``."""
     rows = []
     for block in blocks:
-        cols = getattr(block, key)
         n = len(block.rhs)
-        rows.append(np.column_stack([cols.get(name, np.zeros(n)) for name in names]))
+        rows.append(np.column_stack([block.columns.get(name, np.zeros(n)) for name in names]))
     return np.vstack(rows)
 
 
@@ -297,22 +296,8 @@ def solve_blocks(blocks: list[Block], known_cov: np.ndarray | None = None) -> Ba
         )
     work_cov = [b + r for b, r in work_parts]
 
-    # Each run's own fit sets its speed-noise scale.
-    scales = []
-    for k, block in enumerate(blocks):
-        mine = slice(rows[k], rows[k + 1])
-        own = [j for j in _used(A[mine]) if names[j] not in block.joint_only]
-        Ak = A[mine][:, own]
-        scales.append(_calibrated_scale(Ak, y[mine], work_cov[k], speed_var[k]))
-
-    factors = _factors([w + s * v for w, v, s in zip(work_cov, speed_var, scales)])
-    Aw, yw = _whiten(A, factors), _whiten(y, factors)
-    x, cov_x = _weighted_solution(Aw, yw)
-    joint = [j for j, name in enumerate(names) if any(name in b.joint_only for b in blocks)]
-    if joint:
-        # The joint-only terms, now known, are taken off each run's own fit, whose speed-noise
-        # scale they would otherwise inflate; then the joint fit again with those scales.
-        y_own = y - A[:, joint] @ x[joint]
+    def run_scales(y_own: np.ndarray) -> list[float]:
+        """Each run's own fit (its own unknowns, joint-only ones left out) sets its scale."""
         scales = []
         for k, block in enumerate(blocks):
             mine = slice(rows[k], rows[k + 1])
@@ -320,9 +305,21 @@ def solve_blocks(blocks: list[Block], known_cov: np.ndarray | None = None) -> Ba
             scales.append(
                 _calibrated_scale(A[mine][:, own], y_own[mine], work_cov[k], speed_var[k])
             )
+        return scales
+
+    def joint_fit(scales: list[float]):
         factors = _factors([w + s * v for w, v, s in zip(work_cov, speed_var, scales)])
         Aw, yw = _whiten(A, factors), _whiten(y, factors)
-        x, cov_x = _weighted_solution(Aw, yw)
+        return factors, Aw, yw, *_weighted_solution(Aw, yw)
+
+    scales = run_scales(y)
+    factors, Aw, yw, x, cov_x = joint_fit(scales)
+    joint = [j for j, name in enumerate(names) if any(name in b.joint_only for b in blocks)]
+    if joint:
+        # The joint-only terms, now known, are taken off each run's own fit, whose speed-noise
+        # scale they would otherwise inflate; then the joint fit again with those scales.
+        scales = run_scales(y - A[:, joint] @ x[joint])
+        factors, Aw, yw, x, cov_x = joint_fit(scales)
     r = yw - Aw @ x
     dof = max(len(y) - A.shape[1], 1)
     chi2_dof = float(r @ r / dof)
