@@ -33,8 +33,9 @@ w_c T <= ``BLOCK_BANDWIDTH`` = 2 (:func:`block_length`):
   the relative speed bias is at most a kappa (w_c / BANDWIDTH_FACTOR)^2. At w_c = 390 rad/s
   (a 3-turn, 2 s braking against a spring, 20 rad/s) kappa = 6.9e-7 s^2 with B = 10
   (w_c T = 3.9; the simulator's passes show 7.1e-7 to 7.4e-7), a speed bias of 1e-4 rad/s
-  that follows the jerk over the whole pass and put J_k off by 5-8 of its std; with B = 5
-  (w_c T = 1.95) kappa = 3.3e-9 s^2 and the bias factor kappa (w_c / 10)^2 is 5e-6.
+  that follows the jerk over the whole pass; with the aliasing below it put J_k off by 6-18
+  of its std over eight realisations. With B = 5 (w_c T = 1.95) kappa = 3.3e-9 s^2 and the
+  bias factor kappa (w_c / 10)^2 is 5e-6.
 - Aliasing. The block states sample the smoother's output at 1/T; the speed error's spectral
   density r w^2 H(w)^2 (below) peaks at 0.76 w_c and must have died out by the block rate's
   Nyquist frequency pi/T. At w_c T = 2, pi/T = 1.57 w_c, where the density is 2.4 % of its
