@@ -28,6 +28,10 @@ Scenarios and targets:
    torque_gain_std lines are removed in these folders (a rig's tare is not exact), and
    EMPTY's stage-2 braking torque is 0.03 N m so its (light) braking covers enough turns.
 
+5. spring -- a torsion spring c = 0.02 N m/rad, each stage launched so that its braking
+   winds the spring over 3.1 turns in 2.0 s and ends at the turning point (the protocol of
+   tests/estimation/test_spring_short.py): target |err|/std <= 3 on every axis.
+
 Writes ``--out`` (default benchmarks/results/systematics.md) with the command that made it.
 
     .venv/bin/python benchmarks/systematics.py [--seeds 5] [--jobs 2]
@@ -69,7 +73,13 @@ inertia = [0.03, 0.03, 0.02, 0.0, 0.0, 0.0]
 com = [0.0, 0.0, 0.0]
 """
 
-SCENARIOS = ("clean", "asym-1dir", "asym-2dir", "calib")
+SCENARIOS = ("clean", "asym-1dir", "asym-2dir", "calib", "spring")
+
+SPRING = 0.02
+"""N m/rad, scenario 5's torsion spring."""
+
+SPRING_PROTOCOL = ((19.56, 0.0131), (19.74, 7.716))
+"""Per stage (launch_speed rad/s, braking_torque N m): 3.1 turns in 2.0 s against the spring."""
 
 
 # --- folder builders -------------------------------------------------------------------
@@ -186,6 +196,19 @@ def run_case(scenario: str, seed: int) -> list[dict]:
                 (exp / "calibration.toml").unlink()
                 identify(exp)
                 rows.append({"scenario": "calib-none", **_score(exp)})
+            elif scenario == "spring":
+                root = _default_folder(tmp / "exp", seed)
+                d = (root / "device.toml").read_text()
+                d = _replace(d, "stiffness = 0.0 ", f"stiffness = {SPRING!r} ")
+                for (speed, torque), old in zip(
+                    SPRING_PROTOCOL, (("12.0 ", "0.005 "), ("3.5 ", "0.12 "))
+                ):
+                    d = _replace(d, f"launch_speed = {old[0]}", f"launch_speed = {speed!r} ")
+                    d = _replace(d, f"braking_torque = {old[1]}", f"braking_torque = {torque!r} ")
+                (root / "device.toml").write_text(d)
+                _simulate(root)
+                identify(root)
+                rows = [{"scenario": scenario, **_score(root)}]
             else:
                 root = _default_folder(
                     tmp / "exp", seed,
@@ -207,7 +230,7 @@ def run_case(scenario: str, seed: int) -> list[dict]:
 
 def _summary(rows: list[dict]) -> list[dict]:
     out = []
-    for name in (*SCENARIOS[:3], "calib", "calib-none"):
+    for name in (*SCENARIOS[:3], "calib", "calib-none", "spring"):
         ok = [r for r in rows if r["scenario"] == name and "error" not in r]
         n = len([r for r in rows if r["scenario"] == name])
         if not n:

@@ -21,6 +21,7 @@ friction), well inside what the regulator has to absorb anyway.
 from __future__ import annotations
 
 import numpy as np
+from scipy.optimize import lsq_linear
 
 from estimation.smoothing import Smoothed
 from plant.config import Device
@@ -91,10 +92,16 @@ def fit_nominal(device: Device, stage: int, log: Log, sm: Smoothed) -> ModelPara
     spring_energy = mechanical_energy(phi, omega, spring)
     y = work[b] - work[a] - (spring_energy[b] - spring_energy[a])
     cols = [PARAMETER_NAMES.index(name) for name in UNKNOWN]
-    x, *_ = np.linalg.lstsq(A[:, cols], y, rcond=None)
-    values = dict(zip(UNKNOWN, x))
-    # Friction cannot be negative; a tiny negative estimate is noise.
-    friction = {k: max(values[k], 0.0) for k in ("a2", "a3")}
+    # Friction and the mean inertia cannot be negative: bounded least squares keeps the fit
+    # physical where the speed noise of a coarse encoder would tip an unbounded one over
+    # (seen: M0 < 0 on 12-bit encoders), instead of clipping its estimates afterwards.
+    # Columns scaled to unit norm, as their units differ by orders of magnitude.
+    lower = np.array([0.0 if name in ("M0", "a2", "a3") else -np.inf for name in UNKNOWN])
+    norms = np.linalg.norm(A[:, cols], axis=0)
+    norms[norms == 0.0] = 1.0
+    fit = lsq_linear(A[:, cols] / norms, y, bounds=(lower * norms, np.inf), method="bvls")
+    values = dict(zip(UNKNOWN, fit.x / norms))
+    friction = {k: values[k] for k in ("a2", "a3")}
     if values["M0"] <= 0:
         raise InputError(
             f"stage {stage}: braking.csv: the fitted reduced inertia is not positive "
