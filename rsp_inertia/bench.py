@@ -236,6 +236,8 @@ def _fit_protocol(root: Path, stage: int) -> dict:
 def _relative_errors(result, virtual) -> dict:
     """Worst J_k error over the axes and worst tensor entry over the largest principal moment.
 
+    Also ``z_Jk_ls``, the least squares' worst |J_k error| / reported std.
+
     The pendulum's J_k error is over the axes whose run could be reduced (``pendulum_axes``);
     its tensor needs all of them.
     """
@@ -269,6 +271,9 @@ def _relative_errors(result, virtual) -> dict:
     row["com_error_mm"] = (
         None if result.com is None else float(np.hypot(*(result.com - body.com[:2])) * 1e3)
     )
+    # The promise of the reported std: the worst |error| / std of the least-squares J_k.
+    J_std = np.array([a.J_std for a in result.axes])
+    row["z_Jk_ls"] = float(np.max(np.abs(estimates["ls"][0] - J_true) / J_std))
     return row
 
 
@@ -623,7 +628,7 @@ def _case_table(rows: list[dict]) -> str:
     head = ["case", "launch speeds rad/s", "braking torques N m", "turns past last node"]
     head += [f"{name} J_k" for name in METHODS.values()]
     head += [f"{name} tensor" for name in METHODS.values()]
-    head += ["com mm", "pendulum axes"]
+    head += ["com mm", "pendulum axes", "RSP LS worst |err|/std", "warnings"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     notes = []
     for row in rows:
@@ -641,6 +646,9 @@ def _case_table(rows: list[dict]) -> str:
         cells += [_fmt(row[f"err_Jk_{k}"]) for k in METHODS]
         cells += [_fmt(row[f"err_tensor_{k}"]) for k in METHODS]
         cells += [_fmt(row["com_error_mm"]), f"{row['pendulum_axes']}/{row['axes']}"]
+        z = row.get("z_Jk_ls")  # absent from the rows of older sweeps
+        warned = len(row["warnings"].split("; ")) if row["warnings"] else 0
+        cells += ["" if z is None else f"{z:.1f}", str(warned)]
         lines.append("| " + " | ".join(cells) + " |")
         short = [s for s in stages if row[f"short_protocol_{s}"]]
         if short:
@@ -651,6 +659,8 @@ def _case_table(rows: list[dict]) -> str:
             )
         if row["pendulum_failures"]:
             notes.append(f"- {row['case']}: pendulum runs left out: {row['pendulum_failures']}")
+        if row["warnings"]:
+            notes.append(f"- {row['case']}: warnings: {row['warnings'][:300]}")
     if notes:
         lines += ["", "Notes:", "", *notes]
     return "\n".join(lines)
