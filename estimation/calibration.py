@@ -48,7 +48,7 @@ from estimation.tensor import (
     run_columns,
     run_label,
 )
-from plant.config import Device, TrueBody
+from plant.config import Device, TrueBody, load_reference
 from plant.errors import InputError
 from plant.experiment import Experiment
 from plant.model import inertia_basis, inertia_harmonics
@@ -61,7 +61,6 @@ __all__ = [
     "check_same_stages",
     "known_terms",
     "load_calibration",
-    "load_reference",
 ]
 
 CALIBRATION_FILE = "calibration.toml"
@@ -177,60 +176,6 @@ def _toml_str(text: str) -> str:
 
 def _toml_list(values) -> str:
     return "[" + ", ".join(repr(float(v)) for v in values) + "]"
-
-
-def load_reference(path: str | Path) -> TrueBody:
-    """Read ``reference.toml``: ``[body]`` with ``mass``, ``inertia``, ``com`` (as virtual.toml).
-
-    Raises
-    ------
-    InputError
-        Missing file or keys, unknown keys, non-numbers, a mass <= 0, an inertia that is not
-        a physical tensor (positive definite, triangle inequality).
-    """
-    try:
-        with open(path, "rb") as file:
-            doc = tomllib.load(file)
-    except FileNotFoundError:
-        raise InputError(f"{path}: file not found (the reference body's data)") from None
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as error:
-        raise InputError(f"{path}: cannot read as TOML: {' '.join(str(error).split())}") from None
-    for key in doc:
-        if key != "body":
-            raise InputError(f"{path}: {key}: unknown table (reference.toml has only [body])")
-    body = doc.get("body")
-    if not isinstance(body, dict):
-        raise InputError(f"{path}: body: missing required table [body]")
-    for key in body:
-        if key not in ("mass", "inertia", "com"):
-            raise InputError(f"{path}: body.{key}: unknown key")
-
-    def numbers(key: str, size: int) -> np.ndarray:
-        if key not in body:
-            raise InputError(f"{path}: body.{key}: missing required key")
-        values = body[key]
-        if not isinstance(values, list) or len(values) != size:
-            raise InputError(f"{path}: body.{key}: must be an array of {size} numbers")
-        for k, v in enumerate(values, 1):
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise InputError(f"{path}: body.{key}[{k}]: must be a finite number, got {v!r}")
-        return np.array(values, dtype=float)
-
-    mass = numbers("mass", 1)[0] if isinstance(body.get("mass"), list) else body.get("mass")
-    if mass is None:
-        raise InputError(f"{path}: body.mass: missing required key")
-    if isinstance(mass, bool) or not isinstance(mass, (int, float)) or not mass > 0:
-        raise InputError(f"{path}: body.mass: must be a number > 0, got {mass!r}")
-    inertia = numbers("inertia", 6)
-    com = numbers("com", 3)
-    jx, jy, jz, jxy, jyz, jxz = inertia
-    moments = np.linalg.eigvalsh([[jx, jxy, jxz], [jxy, jy, jyz], [jxz, jyz, jz]])
-    if moments[0] <= 0.0 or moments[2] > moments[0] + moments[1] + 1e-12 * moments.sum():
-        raise InputError(
-            f"{path}: body.inertia: not a physical inertia tensor: principal moments "
-            f"[{', '.join(f'{m:.6g}' for m in moments)}] kg m^2"
-        )
-    return TrueBody(mass=float(mass), inertia=inertia, com=com)
 
 
 def check_same_stages(exp: Experiment, other: Experiment, role: str) -> None:

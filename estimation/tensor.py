@@ -123,7 +123,8 @@ class KnownTerms:
     cov: np.ndarray
     """Covariance of theta (class docstring); zero when nothing was calibrated."""
     calibrated: bool = False
-    """Whether these come from a calibration (else: device.toml's tares, taken as exact)."""
+    """Whether theta carries an uncertainty to propagate: a calibration, or the stds that
+    device.toml states for its tares and torque constant (else they are taken as exact)."""
 
     @classmethod
     def from_tares(cls, tares) -> KnownTerms:

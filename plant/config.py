@@ -44,6 +44,7 @@ __all__ = [
     "TrueBody",
     "Virtual",
     "load_device",
+    "load_reference",
     "load_virtual",
 ]
 
@@ -593,9 +594,30 @@ def _virtual(doc: dict[str, Any]) -> Virtual:
     return Virtual(body, friction, run, controller, fixture, rig, friction_backward)
 
 
-def _true_body(doc: dict[str, Any], name: str) -> TrueBody | None:
+def load_reference(path: str | os.PathLike) -> TrueBody:
+    """Read a calibration's ``reference.toml``: the reference body's ``[body]`` table.
+
+    The same keys as virtual.toml's ``[body]``: ``mass`` (kg), ``inertia = [Jx, Jy, Jz, Jxy,
+    Jyz, Jxz]`` (kg m^2, body frame about O) and ``com = [x, y, z]`` (m).
+
+    Raises
+    ------
+    InputError
+        The file is missing or is not TOML; a key is missing, unknown or out of range; the
+        inertia is not that of a physical body.
+    """
+    doc = _read(path)
+    try:
+        _known(doc, "", {"body"})
+        body = _true_body(doc, "body", required=True)
+    except _ContentError as error:
+        raise InputError(f"{path}: {error}") from None
+    return body
+
+
+def _true_body(doc: dict[str, Any], name: str, required: bool = False) -> TrueBody | None:
     """The optional table ``[name]`` (``body`` or ``fixture``) with mass, inertia and com."""
-    table = _table(doc, name, {"mass", "inertia", "com"}, required=False)
+    table = _table(doc, name, {"mass", "inertia", "com"}, required=required)
     if table is None:
         return None
     return TrueBody(
