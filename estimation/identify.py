@@ -238,6 +238,8 @@ class Identification:
                 "runs": list(self.runs),
                 "tracking_mismatch": [
                     {
+                        "stage": int(label.split()[1]),
+                        "direction": label.split()[2],
                         "run": label,
                         "fitted": _finite_list(slope) is not None,
                         "friction_slope": _finite_list(slope),
