@@ -15,8 +15,8 @@ right-hand side, and this module solves them the same way:
   own M harmonics and constant take up much of it), so the scale alone proves nothing: the
   runs are checked against each other;
 - **consistency tests**: unknowns declared per group (the tensor, per run) are fitted once
-  shared and once free per group (each run its own tensor; and each run's early and late
-  turns their own), with the same weights. The chi^2 drop is chi^2-distributed with as many
+  shared and once free per group (each run its own tensor; each run's early and late
+  turns their own; each turn its own), with the same weights. The chi^2 drop is chi^2-distributed with as many
   degrees of freedom as the freed unknowns add to the rank when the model is right. A
   systematic error rarely biases every run, and fast and slow turns, alike: friction that
   differs between the directions of rotation (its work grows with speed), a wrong spring or
@@ -111,7 +111,7 @@ class ModelTest:
     """A chi^2 test of the balance model (module docstring)."""
 
     kind: str
-    """"consistency" (between runs) or "early/late" (between each run's halves)."""
+    """"consistency" (between runs), "early/late" (between each run's halves) or "per turn"."""
     label: str
     """What was tested, e.g. "stage 1 forward"."""
     statistic: float
@@ -354,7 +354,7 @@ def solve_blocks(blocks: list[Block], known_cov: np.ndarray | None = None) -> Ba
             nuisance = (B @ (U[:, live] * np.sqrt(lam[live])), int(live.sum()))
 
     tests = []
-    for split, kind in ((False, "consistency"), (True, "early/late")):
+    for split, kind in ((None, "consistency"), ("halves", "early/late"), ("turns", "per turn")):
         fixed = [j for j, n in enumerate(names) if any(n in b.fixed_in_tests for b in blocks)]
         kept = [j for j in range(len(names)) if j not in fixed]
         found = _consistency(
@@ -393,21 +393,18 @@ def _consistency(
 ) -> tuple[str, float, int] | None:
     """The chi^2 drop when the grouped unknowns are freed per group, or None if no groups.
 
-    ``split``: each block's balance angles are also cut in two halves (early turns, late
-    turns), each half a group of its own. ``nuisance``: (B, p), columns of p standardised
-    calibration errors (prior N(0, 1) each) that both fits take as unknowns.
+    ``split``: None, or each block's balance angles are also cut into parts, each a group of
+    its own: "halves" (early turns, late turns) or "turns" (every whole turn travelled; a
+    last part shorter than a turn joins the one before). ``nuisance``: (B, p), columns of p
+    standardised calibration errors (prior N(0, 1) each) that both fits take as unknowns.
     """
     grouped = {name for block in blocks for name in block.groups}
     labels = list(dict.fromkeys(g for block in blocks for g in block.groups.values()))
-    if not grouped or (len(labels) < 2 and not split):
+    if not grouped or (len(labels) < 2 and split is None):
         return None
     free_names, parts = [n for n in names if n not in grouped], []
     for block in blocks:
-        n = len(block.rhs)
-        halves = [(slice(0, n // 2), " early"), (slice(n // 2, n), " late")] if split else [
-            (slice(0, n), "")
-        ]
-        for rows, half in halves:
+        for rows, half in _parts(block, split):
             cols = {k: v[rows] for k, v in block.columns.items() if k not in grouped}
             for name in sorted(grouped & block.columns.keys()):
                 key = f"{name}@{block.groups[name]}{half}"
@@ -430,8 +427,27 @@ def _consistency(
     dof = rank_free - rank_joint
     if dof <= 0:
         return None
-    what = "the early and late turns of each run" if split else "the runs " + ", ".join(labels)
+    what = {
+        None: "the runs " + ", ".join(labels),
+        "halves": "the early and late turns of each run",
+        "turns": "the turns of each run",
+    }[split]
     return what, joint - free, dof
+
+
+def _parts(block: Block, split: str | None) -> list[tuple[slice, str]]:
+    """Row ranges of a block for :func:`_consistency`, with their group suffixes."""
+    n = len(block.rhs)
+    if split is None:
+        return [(slice(0, n), "")]
+    if split == "halves":
+        return [(slice(0, n // 2), " early"), (slice(n // 2, n), " late")]
+    turn = np.floor(block.balance.friction_shape[:, 0] / (2 * math.pi)).astype(int)
+    turns = max(int(turn[-1]), 1)  # a last partial turn joins the one before
+    turn = np.minimum(turn, turns - 1)
+    starts = np.searchsorted(turn, np.arange(turns))
+    ends = np.append(starts[1:], n)
+    return [(slice(a, b), f" turn {k + 1}") for k, (a, b) in enumerate(zip(starts, ends))]
 
 
 def model_warnings(tests: list[ModelTest], scales: list[float], labels: list[str]) -> list[str]:
