@@ -145,8 +145,6 @@ class StageBalance:
     """(n, 3) [int dphi, int |Omega| dphi, int Omega^2 dphi] from the first angle along the
     motion (rad, rad^2/s, rad^3/s^2), braking speeds: the work that a dissipative torque
     e1 + e2 |Omega| + e3 Omega^2 does over the balance range (:func:`friction_shape`)."""
-    nodes: np.ndarray | None = None
-    """rad, the stage's nodes (body angles)."""
 
     @property
     def work_cov(self) -> np.ndarray:
@@ -235,7 +233,6 @@ def stage_balance(
         direction=direction,
         spring=spring,
         friction_shape=friction_shape(phi, b.omega),
-        nodes=st.nodes,
     )
 
 

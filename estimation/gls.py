@@ -24,9 +24,6 @@ right-hand side, and this module solves them the same way:
   in the angle, the shape of friction work) is no test here: the kinetic energy along the
   braking is itself such a smooth function, so it would stand in for the noisy measured
   speeds and reject every run;
-- **per-node test**: terms the model takes as zero (``Block.test_columns``: M off its
-  harmonic form near each node, estimation.tensor node_columns) are fitted together and
-  their chi^2 drop tested the same way;
 - **known terms**: the right-hand side may depend on calibrated parameters theta (their
   covariance known); their share of the estimate's covariance is K B cov(theta) B^T K^T,
   K the GLS gain and B = d rhs / d theta;
@@ -103,9 +100,6 @@ class Block:
     """Unknowns the consistency tests hold at the joint estimate: a scale on the whole
     equation (the torque gain's h, with a right-hand side that is zero without the
     reference's known terms) would let a freed fit collapse to the trivial solution."""
-    test_columns: dict[str, np.ndarray] = field(default_factory=dict)
-    """Columns of terms the model takes as zero, tested together (not fitted) by the per-node
-    test."""
     joint_only: frozenset[str] = frozenset()
     """Unknowns left out of the run's own fit that sets its speed-noise scale: terms that only
     the runs together determine (a friction asymmetry's work shape, alone in one run, would
@@ -117,8 +111,7 @@ class ModelTest:
     """A chi^2 test of the balance model (module docstring)."""
 
     kind: str
-    """"consistency" (between runs), "early/late" (between each run's halves), "per turn", or
-    "per node" (M near each node against its harmonic form)."""
+    """"consistency" (between runs), "early/late" (between each run's halves) or "per turn"."""
     label: str
     """What was tested, e.g. "stage 1 forward"."""
     statistic: float
@@ -375,18 +368,6 @@ def solve_blocks(blocks: list[Block], known_cov: np.ndarray | None = None) -> Ba
         )
         if found is not None:
             tests.append(((kind, found[0]), found[1], found[2]))
-    if any(block.test_columns for block in blocks):
-        # Extra terms per run that the model says are zero (e.g. M at each node off its
-        # harmonic form): their joint chi^2 drop.
-        Z = []
-        for k, block in enumerate(blocks):
-            for col in block.test_columns.values():
-                z = np.zeros(len(y))
-                z[rows[k] : rows[k + 1]] = col
-                Z.append(z)
-        found = _chi2_drop(A, np.hstack([A, np.column_stack(Z)]), y, factors, nuisance)
-        if found is not None:
-            tests.append((("per node", "the reduced inertia at each node"), *found))
     level = TEST_ALPHA / max(len(tests), 1)
     model_tests = []
     for (kind, label), stat, dof_ in tests:
@@ -434,34 +415,24 @@ def _consistency(
     A_free = np.vstack(
         [np.column_stack([cols.get(k, np.zeros(n)) for k in free_names]) for cols, n in parts]
     )
-    found = _chi2_drop(A, A_free, y, factors, nuisance)
-    if found is None:
+    if nuisance is not None:
+        B, p = nuisance
+        A, A_free = np.hstack([A, B]), np.hstack([A_free, B])
+        prior = [np.hstack([np.zeros((p, M.shape[1] - p)), np.eye(p)]) for M in (A, A_free)]
+        A, A_free = np.vstack([A, prior[0]]), np.vstack([A_free, prior[1]])
+        y = np.concatenate([y, np.zeros(p)])
+        factors = list(factors) + [np.eye(p)]
+    joint, rank_joint, _ = _chi2(A, y, factors)
+    free, rank_free, _ = _chi2(A_free, y, factors)
+    dof = rank_free - rank_joint
+    if dof <= 0:
         return None
     what = {
         None: "the runs " + ", ".join(labels),
         "halves": "the early and late turns of each run",
         "turns": "the turns of each run",
     }[split]
-    return what, *found
-
-
-def _chi2_drop(A, A_more, y, factors, nuisance=None) -> tuple[float, int] | None:
-    """chi^2(A) - chi^2(A_more) and the rank it adds, with the same weights; None if no rank.
-
-    ``nuisance``: (B, p), columns of p standardised calibration errors (prior N(0, 1) each)
-    that both fits take as unknowns.
-    """
-    if nuisance is not None:
-        B, p = nuisance
-        A, A_more = np.hstack([A, B]), np.hstack([A_more, B])
-        prior = [np.hstack([np.zeros((p, M.shape[1] - p)), np.eye(p)]) for M in (A, A_more)]
-        A, A_more = np.vstack([A, prior[0]]), np.vstack([A_more, prior[1]])
-        y = np.concatenate([y, np.zeros(p)])
-        factors = list(factors) + [np.eye(p)]
-    base, rank_base, _ = _chi2(A, y, factors)
-    more, rank_more, _ = _chi2(A_more, y, factors)
-    dof = rank_more - rank_base
-    return None if dof <= 0 else (base - more, dof)
+    return what, joint - free, dof
 
 
 def _parts(block: Block, split: str | None) -> list[tuple[slice, str]]:

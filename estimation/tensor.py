@@ -23,7 +23,6 @@ the model tests and the uncertainty budget: estimation.gls.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -214,27 +213,6 @@ def run_columns(
     return cols
 
 
-NODE_WINDOW = math.radians(15.0)
-"""Half-width of the angle window around each node in which the per-node test lets M(phi)
-leave its harmonic form."""
-
-
-def node_columns(bal: StageBalance) -> dict[str, np.ndarray]:
-    """The per-node test's columns of one run: 1/2 S in a window around each node, 0 elsewhere.
-
-    A coefficient is a change of M(phi) near that node alone, which the harmonic form of
-    METHOD.md §2 (a rigid body on the shaft) excludes: a loose part, backlash in the gear
-    psi = lambda phi, a fixture that shifts.
-    """
-    cols = {}
-    for k, node in enumerate(bal.nodes):
-        offset = np.angle(np.exp(1j * (bal.phi - node)))  # in (-pi, pi]
-        inside = np.abs(offset) <= NODE_WINDOW
-        if inside.any():
-            cols[f"node{k + 1}"] = np.where(inside, 0.5 * bal.speed_sq, 0.0)
-    return cols
-
-
 def both_directions(balances: list[StageBalance]) -> set[int]:
     """Stages with runs in both directions."""
     seen: dict[int, set[int]] = {}
@@ -273,7 +251,6 @@ def fit_tensor(balances: list[StageBalance], known: KnownTerms | None = None) ->
                 work_scale=known.work_scale,
                 known_jacobian=known.jacobian(bal) if known.calibrated else None,
                 groups={name: run_label(bal) for name in ENTRY_KEYS},
-                test_columns={} if bal.nodes is None else node_columns(bal),
                 joint_only=frozenset(name for name in cols if name.startswith("e")),
             )
         )
