@@ -23,7 +23,11 @@ right-hand side, and this module solves them the same way:
   gear ratio, a torque gain that differs between runs. A smooth regressor per run (a drift
   in the angle, the shape of friction work) is no test here: the kinetic energy along the
   braking is itself such a smooth function, so it would stand in for the noisy measured
-  speeds and reject every run;
+  speeds and reject every run. Nor is a per-node term (M let off its harmonic form within
+  15 deg of each node): it found a local 4e-5 change of M at one node (chi^2 = 90 for 6)
+  and kept quiet on the ideal reverse, but a closed-loop reverse leaves structure locked to
+  the angle there (chi^2 = 23-36 for 6 on 6 of 24 clean sweep cases whose errors were
+  1-1.4 std), so it would raise false alarms;
 - **known terms**: the right-hand side may depend on calibrated parameters theta (their
   covariance known); their share of the estimate's covariance is K B cov(theta) B^T K^T,
   K the GLS gain and B = d rhs / d theta;
