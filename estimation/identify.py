@@ -29,6 +29,7 @@ from estimation.tensor import (
     KnownTerms,
     axis_values,
     fit_tensor,
+    format_run,
     physical_warnings,
     principal,
     tensor_from_axes,
@@ -172,8 +173,8 @@ class Identification:
     """Physical-sense and design warnings."""
     pendulum: PendulumResult | None = None
     """The torsion-pendulum baseline, when its logs are present."""
-    runs: list[str] = field(default_factory=list)
-    """Label of each run ("stage 1 forward", ...), the order of the per-run lists."""
+    runs: list[tuple[int, str]] = field(default_factory=list)
+    """(stage, direction) of each run, the order of the per-run lists."""
     friction_asymmetry: np.ndarray | None = None
     """(stages, 3) D_backward - D_forward = e1 + e2 |Omega| + e3 Omega^2 per stage run in
     both directions (N m, N m s, N m s^2); NaN rows for the others."""
@@ -235,17 +236,17 @@ class Identification:
                 "equations": self.n_equations,
                 "chi2_dof": self.chi2_dof,
                 "speed_noise_scale": [float(v) for v in self.speed_noise_scale],
-                "runs": list(self.runs),
+                "runs": [format_run(key) for key in self.runs],
                 "tracking_mismatch": [
                     {
-                        "stage": int(label.split()[1]),
-                        "direction": label.split()[2],
-                        "run": label,
+                        "stage": stage,
+                        "direction": direction,
+                        "run": format_run((stage, direction)),
                         "fitted": _finite_list(slope) is not None,
                         "friction_slope": _finite_list(slope),
                         "friction_slope_std": _finite_list(std),
                     }
-                    for label, slope, std in zip(
+                    for (stage, direction), slope, std in zip(
                         self.runs, self.friction_slope, self.friction_slope_std
                     )
                 ]
@@ -351,7 +352,8 @@ def identify(
         ):
             by_node.setdefault((n.stage, n.node_deg), []).append(n)
     nodes = [_combine_directions(found) for found in by_node.values()]
-    warnings += model_warnings(fit.tests, fit.speed_noise_scale, fit.runs)
+    labels = [format_run(key) for key in fit.runs]
+    warnings += model_warnings(fit.tests, fit.speed_noise_scale, labels)
 
     directions = np.array(
         [

@@ -41,10 +41,12 @@ __all__ = [
     "balance_rhs",
     "both_directions",
     "fit_tensor",
+    "format_run",
     "gravity_rows",
     "physical_warnings",
     "principal",
     "run_columns",
+    "run_key",
     "run_label",
     "tensor_from_axes",
 ]
@@ -92,8 +94,8 @@ class TensorFit:
     tests: list[ModelTest] | None = None
     """The balance model's tests (estimation.gls): runs against each other, early against
     late turns."""
-    runs: list[str] | None = None
-    """Label of each run, in the order of the balances."""
+    runs: list[tuple[int, str]] | None = None
+    """(stage, direction) of each run, in the order of the balances."""
 
 
 def _design_rows(bal: StageBalance) -> np.ndarray:
@@ -188,9 +190,20 @@ def balance_rhs(bal: StageBalance, known: KnownTerms) -> np.ndarray:
     return rhs
 
 
+def run_key(bal: StageBalance) -> tuple[int, str]:
+    """(stage, "forward" or "backward") of a run."""
+    return bal.stage, "forward" if bal.direction > 0 else "backward"
+
+
+def format_run(key: tuple[int, str]) -> str:
+    """"stage N forward" or "stage N backward" from (stage, direction)."""
+    stage, direction = key
+    return f"stage {stage} {direction}"
+
+
 def run_label(bal: StageBalance) -> str:
     """"stage N forward" or "stage N backward"."""
-    return f"stage {bal.stage} {'forward' if bal.direction > 0 else 'backward'}"
+    return format_run(run_key(bal))
 
 
 def run_columns(
@@ -283,7 +296,7 @@ def fit_tensor(balances: list[StageBalance], known: KnownTerms | None = None) ->
         friction_asymmetry=asym,
         friction_asymmetry_std=asym_std,
         tests=fit.tests,
-        runs=[run_label(bal) for bal in balances],
+        runs=[run_key(bal) for bal in balances],
     )
 
 
