@@ -48,12 +48,14 @@ from estimation.balance import StageBalance
 
 __all__ = [
     "CALIBRATION_SOURCE",
+    "JITTER",
     "NOISE_SOURCES",
     "SCALE_CAP",
     "TEST_ALPHA",
     "BalanceFit",
     "Block",
     "ModelTest",
+    "information",
     "model_warnings",
     "solve_blocks",
 ]
@@ -71,7 +73,7 @@ TEST_ALPHA = 0.01
 """Family-wise false-alarm probability of the model tests of one fit (Bonferroni over the
 tests): a clean rig's identification warns in about 1 run in 100."""
 
-_JITTER = 1e-12
+JITTER = 1e-12
 """Relative ridge on the covariance before its Cholesky factor: the speed errors have no
 low-frequency content, so with a noise-free torque log the covariance is singular to
 rounding; 1e-12 of its mean variance is far below any noise and keeps it definite."""
@@ -177,7 +179,7 @@ class BalanceFit:
 def _factors(covs: list[np.ndarray]) -> list[np.ndarray]:
     """Lower Cholesky factors of the diagonal blocks of the covariance (with the ridge)."""
     return [
-        np.linalg.cholesky(cov + _JITTER * np.trace(cov) / len(cov) * np.eye(len(cov)))
+        np.linalg.cholesky(cov + JITTER * np.trace(cov) / len(cov) * np.eye(len(cov)))
         for cov in covs
     ]
 
@@ -198,6 +200,15 @@ def _chi2(A: np.ndarray, y: np.ndarray, factors: list[np.ndarray]) -> tuple[floa
     x, _, rank, _ = np.linalg.lstsq(Aw, yw, rcond=None)
     r = yw - Aw @ x
     return float(r @ r), int(rank), x
+
+
+def information(A: np.ndarray, cov: np.ndarray) -> np.ndarray:
+    """A^T C^-1 A: the Fisher information of equations A x = y + noise of covariance C.
+
+    Whitened with the same factor (and the same jitter) as the least squares itself.
+    """
+    Aw = _whiten(A, _factors([cov]))
+    return Aw.T @ Aw
 
 
 def _used(A: np.ndarray) -> np.ndarray:
@@ -269,7 +280,9 @@ def _matrix(blocks: list[Block], names: list[str]) -> np.ndarray:
     return np.vstack(rows)
 
 
-def solve_blocks(blocks: list[Block], known_cov: np.ndarray | None = None) -> BalanceFit:
+def solve_blocks(
+    blocks: list[Block], known_cov: np.ndarray | None = None, predict: bool = False
+) -> BalanceFit:
     """Generalised least squares over the blocks, with the model tests (module docstring).
 
     Raises nothing on a misfit: whatever the noise model leaves in the joint fit's chi^2/dof
@@ -282,6 +295,10 @@ def solve_blocks(blocks: list[Block], known_cov: np.ndarray | None = None) -> Ba
     known_cov : array, shape (p, p), optional
         Covariance of the calibrated parameters theta that the blocks' ``known_jacobian``
         refers to.
+    predict : bool
+        The blocks hold noise-free balances of a planned run (estimation.predict): the
+        covariance is the noise model's as it stands (every speed-noise scale 1, no
+        inflation by the residuals, which are zero) and no model test is made.
     """
     names = list(dict.fromkeys(name for block in blocks for name in block.columns))
     A = _matrix(blocks, names)
@@ -316,10 +333,10 @@ def solve_blocks(blocks: list[Block], known_cov: np.ndarray | None = None) -> Ba
         Aw, yw = _whiten(A, factors), _whiten(y, factors)
         return factors, Aw, yw, *_weighted_solution(Aw, yw)
 
-    scales = run_scales(y)
+    scales = [1.0] * len(blocks) if predict else run_scales(y)
     factors, Aw, yw, x, cov_x = joint_fit(scales)
     joint = [j for j, name in enumerate(names) if any(name in b.joint_only for b in blocks)]
-    if joint:
+    if joint and not predict:
         # The joint-only terms, now known, are taken off each run's own fit, whose speed-noise
         # scale they would otherwise inflate; then the joint fit again with those scales.
         scales = run_scales(y - A[:, joint] @ x[joint])
@@ -333,7 +350,7 @@ def solve_blocks(blocks: list[Block], known_cov: np.ndarray | None = None) -> Ba
         NOISE_SOURCES[2]: [s * v for s, v in zip(scales, speed_var)],
     }
     # Whatever the noise model leaves unexplained in the joint fit inflates the covariance.
-    inflation = max(chi2_dof, 1.0)
+    inflation = 1.0 if predict else max(chi2_dof, 1.0)
     cov_parts = {
         name: _budget(Aw, factors, parts, cov_x) * inflation for name, parts in sources.items()
     }
@@ -358,7 +375,11 @@ def solve_blocks(blocks: list[Block], known_cov: np.ndarray | None = None) -> Ba
             nuisance = (B @ (U[:, live] * np.sqrt(lam[live])), int(live.sum()))
 
     tests = []
-    for split, kind in ((None, "consistency"), ("halves", "early/late"), ("turns", "per turn")):
+    splits = (
+        () if predict
+        else ((None, "consistency"), ("halves", "early/late"), ("turns", "per turn"))
+    )
+    for split, kind in splits:
         fixed = [j for j, n in enumerate(names) if any(n in b.fixed_in_tests for b in blocks)]
         kept = [j for j in range(len(names)) if j not in fixed]
         found = _consistency(

@@ -96,7 +96,9 @@ __all__ = [
     "block_speed_bias",
     "hermite",
     "jerk_density",
+    "noise_density",
     "smooth_log",
+    "smoother_bandwidth",
     "speed_error_autocovariance",
 ]
 
@@ -185,9 +187,18 @@ def jerk_density(log: Log, quantum: float) -> tuple[float, float]:
     span = min(BLOCK, len(log) - 1)
     speeds = np.abs(log.phi[span:] - log.phi[:-span]) / (span * dt)
     omega_max = float(speeds.max()) if speeds.size else 0.0
-    bandwidth = max(2.0 * BANDWIDTH_FACTOR * omega_max, _MIN_BANDWIDTH)
-    r = quantum * quantum / 12.0 * dt
-    return r * bandwidth**6, bandwidth
+    bandwidth = smoother_bandwidth(omega_max)
+    return noise_density(quantum, dt) * bandwidth**6, bandwidth
+
+
+def smoother_bandwidth(omega_max: float) -> float:
+    """w_c, rad/s, for a pass whose top speed is ``omega_max`` (module docstring: process noise)."""
+    return max(2.0 * BANDWIDTH_FACTOR * omega_max, _MIN_BANDWIDTH)
+
+
+def noise_density(quantum: float, dt: float) -> float:
+    """r = (q^2/12) dt, rad^2 s: spectral density of the readings' quantization noise."""
+    return quantum * quantum / 12.0 * dt
 
 
 def block_length(bandwidth: float, dt: float) -> int:
@@ -360,5 +371,5 @@ def smooth_log(log: Log, quantum: float, source: str = "log") -> Smoothed:
         omega_std=omega_std,
         jerk_density=q_j,
         bandwidth=bandwidth,
-        noise_density=variance * dt,
+        noise_density=noise_density(quantum, dt),
     )

@@ -48,6 +48,7 @@ __all__ = [
     "run_columns",
     "run_key",
     "run_label",
+    "tensor_block",
     "tensor_from_axes",
 ]
 
@@ -234,40 +235,48 @@ def both_directions(balances: list[StageBalance]) -> set[int]:
     return {stage for stage, dirs in seen.items() if len(dirs) == 2}
 
 
-def fit_tensor(balances: list[StageBalance], known: KnownTerms | None = None) -> TensorFit:
+def tensor_block(bal: StageBalance, run: str, known: KnownTerms, asymmetry: bool) -> Block:
+    """One run's equations in the tensor's unknowns (module docstring).
+
+    ``run`` names the run's own unknowns (its constant and friction slopes); ``asymmetry``:
+    the run's stage is run in both directions, so its friction asymmetry is an unknown.
+    """
+    v = _design_rows(bal)
+    half_s = 0.5 * bal.speed_sq
+    cols = {name: half_s * v[:, i] for i, name in enumerate(ENTRY_KEYS)}
+    cols["Gs"], cols["Gc"] = gravity_rows(bal.phi).T
+    cols.update(run_columns(bal, run, asymmetry))
+    return Block(
+        balance=bal,
+        label=run_label(bal),
+        columns=cols,
+        rhs=balance_rhs(bal, known),
+        inertia_columns={name: v[:, i] for i, name in enumerate(ENTRY_KEYS)},
+        inertia_known=inertia_basis(bal.phi) @ known.inertia[bal.stage - 1],
+        work_scale=known.work_scale,
+        known_jacobian=known.jacobian(bal) if known.calibrated else None,
+        groups={name: run_label(bal) for name in ENTRY_KEYS},
+        joint_only=frozenset(name for name in cols if name.startswith("e")),
+    )
+
+
+def fit_tensor(
+    balances: list[StageBalance], known: KnownTerms | None = None, predict: bool = False
+) -> TensorFit:
     """Generalised least squares for the tensor and the gravity terms (module docstring).
 
     Unknowns: the six entries and the gravity terms (shared by every run), one constant and
     the tracking mismatch's two friction slopes per run, and the friction asymmetry
     e = [e1, e2, e3] per stage run in both directions. Solved, weighted and checked by
-    :func:`estimation.gls.solve_blocks`.
+    :func:`estimation.gls.solve_blocks`. ``predict``: noise-free balances of a planned run,
+    whose covariance is then the noise model's alone (estimation.predict).
     """
     if known is None:
         tares = {bal.stage: bal.tare_inertia for bal in balances}
         known = KnownTerms.from_tares([tares.get(s, 0.0) for s in range(1, max(tares) + 1)])
     both = both_directions(balances)
-    blocks = []
-    for k, bal in enumerate(balances):
-        v = _design_rows(bal)
-        half_s = 0.5 * bal.speed_sq
-        cols = {name: half_s * v[:, i] for i, name in enumerate(ENTRY_KEYS)}
-        cols["Gs"], cols["Gc"] = gravity_rows(bal.phi).T
-        cols.update(run_columns(bal, str(k), bal.stage in both))
-        blocks.append(
-            Block(
-                balance=bal,
-                label=run_label(bal),
-                columns=cols,
-                rhs=balance_rhs(bal, known),
-                inertia_columns={name: v[:, i] for i, name in enumerate(ENTRY_KEYS)},
-                inertia_known=inertia_basis(bal.phi) @ known.inertia[bal.stage - 1],
-                work_scale=known.work_scale,
-                known_jacobian=known.jacobian(bal) if known.calibrated else None,
-                groups={name: run_label(bal) for name in ENTRY_KEYS},
-                joint_only=frozenset(name for name in cols if name.startswith("e")),
-            )
-        )
-    fit = solve_blocks(blocks, known.cov if known.calibrated else None)
+    blocks = [tensor_block(bal, str(k), known, bal.stage in both) for k, bal in enumerate(balances)]
+    fit = solve_blocks(blocks, known.cov if known.calibrated else None, predict=predict)
     shared = [fit.index(name) for name in (*ENTRY_KEYS, "Gs", "Gc")]
     n_runs, stages = len(balances), sorted({bal.stage for bal in balances})
     slope = np.full((n_runs, 2), np.nan)

@@ -20,6 +20,8 @@ friction), well inside what the regulator has to absorb anyway.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 from scipy.optimize import lsq_linear
 
@@ -36,23 +38,133 @@ from plant.model import (
     spring_parameters,
 )
 
-__all__ = ["UNKNOWN", "fit_nominal"]
+__all__ = ["UNKNOWN", "fit_energy_windows", "fit_nominal"]
 
-UNKNOWN = ("M0", "Mc2", "Ms2", "Ms1", "Mc1", "Gs", "Gc", "a2", "a3")
-"""Parameters fitted; the spring's (c, phi0) come from device.toml, a1 is put to 0."""
+UNKNOWN = ("M0", "a2", "a3", "Mc2", "Ms2", "Gs", "Gc", "Ms1", "Mc1")
+"""Parameters fitted, most important first: a short pass fits only the first ones (the others
+stay 0: the regulator absorbs what the feedforward lacks). The spring's (c, phi0) come from
+device.toml, a1 is put to 0 (module docstring)."""
 
 _MIN_SPEED_FRACTION = 0.05
 """Samples slower than this fraction of the top speed are left out (static friction,
 over-confident smoothing near rest)."""
 
 _WINDOW = 0.25
-"""s per energy-balance window. Short windows leave the speed's noise large next to each
-window's energy change; on a stage whose friction nearly balances the inertia term (stage 1
-of the default experiment) that noise biases the fitted scale: 20 ms windows gave M 14x too
-small, 0.1 s 24% too small, 0.25 s within the 2% that a1 = 0 costs."""
+"""s per energy-balance window on a long pass. Short windows leave the speed's noise large next
+to each window's energy change; on a stage whose friction nearly balances the inertia term
+(stage 1 of the default experiment, a 23 s pass) that noise biases the fitted scale: 20 ms
+windows gave M 14x too small, 0.1 s 24% too small, 0.25 s within the 2% that a1 = 0 costs."""
 
-_MIN_WINDOWS = 20
-"""At least two windows per unknown."""
+_MIN_WINDOWS = 30
+"""Windows a pass is cut into at least: on a pass shorter than _MIN_WINDOWS x _WINDOW
+(7.5 s) the windows shorten to pass / _MIN_WINDOWS. Such a pass brakes hard, so each
+window's energy change stands far above the speed noise that made short windows fail on
+the slow default stage. Measured on a 2.0 s braking against a spring (c = 0.02 N m/rad,
+stage 1 at 14 rad/s): 10 windows (5 unknowns fitted) put M0 at half its value and the
+mirror's torque need 0.17 N m too high; 18 and 30 windows (all unknowns) M0 within 0.7%
+and the need within 3 mN m."""
+
+_SHORTEST_WINDOW = 0.02
+"""s: below this a window spans too few samples for the smoother's bandwidth (~1/w_c)."""
+
+_NON_NEGATIVE = ("M0", "a1", "a2", "a3")
+"""Parameters bounded below by 0 in the fits: the mean inertia and the friction."""
+
+_WINDOWS_PER_UNKNOWN = 2
+"""Unknowns fitted: at most one per this many windows, in the order of :data:`UNKNOWN`
+(only a pass shorter than 2 x 9 x _SHORTEST_WINDOW = 0.36 s fits fewer than all)."""
+
+
+def fit_energy_windows(
+    device: Device, log: Log, sm: Smoothed, unknowns: Sequence[str], source: str
+) -> tuple[dict[str, float], np.ndarray]:
+    """Least squares of the energy balance over consecutive windows of a smoothed pass.
+
+    Over each window [a, b] of the pass (the rows faster than _MIN_SPEED_FRACTION of the top
+    speed, cut into windows of _WINDOW s, shorter on a short pass: _MIN_WINDOWS)
+
+        E(b) - E(a) + integral_a^b D dphi = motor work from a to b
+
+    is linear in the model's parameters (:func:`fit_nominal`); the spring's (c, phi0) come
+    from device.toml, every parameter not in ``unknowns`` is 0. The motion is taken forward
+    (Omega > 0, the friction's sign). M0, a1, a2 and a3 are bounded below by 0 (bounded
+    least squares, columns scaled to unit norm).
+
+    Parameters
+    ----------
+    device : Device
+        The gimbal (its spring).
+    log, sm : Log, Smoothed
+        The pass's log (motor work: Stieltjes sum of its torque) and its smoothed states.
+    unknowns : sequence of str
+        Names of plant.model.PARAMETER_NAMES to fit, most important first: a pass with fewer
+        than _WINDOWS_PER_UNKNOWN windows per unknown fits only the first ones.
+    source : str
+        The log's name in messages (e.g. "stage 1: braking.csv").
+
+    Returns
+    -------
+    values : dict
+        Every name of ``unknowns`` with its estimate, in its SI unit (0 if not fitted).
+    covariance : numpy.ndarray, shape (len(unknowns), len(unknowns))
+        The estimates' covariance in the order of ``unknowns``: residual variance (residual
+        sum of squares over windows minus fitted unknowns) times (A^T A)^-1, A the windows'
+        regressors, as for independent windows; NaN for unknowns not fitted. It ignores the
+        bounds (an estimate held at its bound has a smaller spread than it says).
+
+    Raises
+    ------
+    InputError
+        If the pass moves for less than _WINDOWS_PER_UNKNOWN windows.
+    """
+    unknowns = tuple(unknowns)
+    spring = spring_parameters(device.spring.stiffness, device.spring.zero_angle)
+    dt = sm.t[1] - sm.t[0]
+    moving = np.nonzero(sm.omega > _MIN_SPEED_FRACTION * sm.omega.max())[0]
+    rows = np.arange(moving[0], moving[-1] + 1) if moving.size else moving
+    duration = rows.size * dt
+    window = max(min(_WINDOW, duration / _MIN_WINDOWS), _SHORTEST_WINDOW)
+    if duration < _WINDOWS_PER_UNKNOWN * window:
+        raise InputError(
+            f"{source}: the body moves for only {duration:.3f} s; a nominal model needs "
+            f"at least {_WINDOWS_PER_UNKNOWN * window:g} s of motion"
+        )
+    stride = max(round(window / dt), 1)
+    phi, omega = sm.phi[rows], sm.omega[rows]
+    # Cumulative integral of dD/dp dphi (trapezoid over the smoothed angle).
+    Dreg = dissipation_regressor(omega, spring, direction=np.ones_like(omega))
+    dphi = np.diff(phi)[:, None]
+    Dint = np.vstack([np.zeros(Dreg.shape[1]), np.cumsum((Dreg[1:] + Dreg[:-1]) / 2 * dphi, 0)])
+    Ereg = energy_regressor(phi, omega, spring)
+    work = log.motor_work()[rows]
+    ends = np.arange(0, rows.size, stride)
+    a, b = ends[:-1], ends[1:]
+    A = Ereg[b] - Ereg[a] + Dint[b] - Dint[a]
+    # The spring's energy is the model's energy with every unknown at zero.
+    spring_energy = mechanical_energy(phi, omega, spring)
+    y = work[b] - work[a] - (spring_energy[b] - spring_energy[a])
+    fitted = unknowns[: max(1, min(len(unknowns), a.size // _WINDOWS_PER_UNKNOWN))]
+    cols = [PARAMETER_NAMES.index(name) for name in fitted]
+    # Friction and the mean inertia cannot be negative: bounded least squares keeps the fit
+    # physical where the speed noise of a coarse encoder would tip an unbounded one over
+    # (seen: M0 < 0 on 12-bit encoders), instead of clipping its estimates afterwards.
+    # Columns scaled to unit norm, as their units differ by orders of magnitude.
+    lower = np.array([0.0 if name in _NON_NEGATIVE else -np.inf for name in fitted])
+    norms = np.linalg.norm(A[:, cols], axis=0)
+    norms[norms == 0.0] = 1.0
+    scaled = A[:, cols] / norms
+    fit = lsq_linear(scaled, y, bounds=(lower * norms, np.inf), method="bvls")
+    values = dict.fromkeys(unknowns, 0.0) | dict(zip(fitted, fit.x / norms))
+    # Covariance of the unbounded least squares at the solution: residual variance times
+    # (A^T A)^-1, in the scaled columns, then back to the parameters' units.
+    dof = a.size - len(fitted)
+    residual = y - scaled @ fit.x
+    variance = residual @ residual / dof if dof > 0 else np.nan
+    cov_fitted = variance * np.linalg.pinv(scaled.T @ scaled) / np.outer(norms, norms)
+    index = [unknowns.index(name) for name in fitted]
+    covariance = np.full((len(unknowns), len(unknowns)), np.nan)
+    covariance[np.ix_(index, index)] = cov_fitted
+    return values, covariance
 
 
 def fit_nominal(device: Device, stage: int, log: Log, sm: Smoothed) -> ModelParameters:
@@ -69,38 +181,7 @@ def fit_nominal(device: Device, stage: int, log: Log, sm: Smoothed) -> ModelPara
     the Jacobians of the model's own E and D (plant.model); the integral is a trapezoid sum
     over the samples, the motor work the Stieltjes sum of the log.
     """
-    spring = spring_parameters(device.spring.stiffness, device.spring.zero_angle)
-    moving = np.nonzero(sm.omega > _MIN_SPEED_FRACTION * sm.omega.max())[0]
-    stride = max(round(_WINDOW / (sm.t[1] - sm.t[0])), 1)
-    rows = np.arange(moving[0], moving[-1] + 1) if moving.size else moving
-    if rows.size < _MIN_WINDOWS * stride:
-        raise InputError(
-            f"stage {stage}: braking.csv: the body moves for only {rows.size * (sm.t[1] - sm.t[0]):.2f} s;"
-            f" fitting a model needs at least {_MIN_WINDOWS * _WINDOW:g} s of braking"
-        )
-    phi, omega = sm.phi[rows], sm.omega[rows]
-    # Cumulative integral of dD/dp dphi (trapezoid over the smoothed angle).
-    Dreg = dissipation_regressor(omega, spring, direction=np.ones_like(omega))
-    dphi = np.diff(phi)[:, None]
-    Dint = np.vstack([np.zeros(Dreg.shape[1]), np.cumsum((Dreg[1:] + Dreg[:-1]) / 2 * dphi, 0)])
-    Ereg = energy_regressor(phi, omega, spring)
-    work = log.motor_work()[rows]
-    ends = np.arange(0, rows.size, stride)
-    a, b = ends[:-1], ends[1:]
-    A = Ereg[b] - Ereg[a] + Dint[b] - Dint[a]
-    # The spring's energy is the model's energy with every unknown at zero.
-    spring_energy = mechanical_energy(phi, omega, spring)
-    y = work[b] - work[a] - (spring_energy[b] - spring_energy[a])
-    cols = [PARAMETER_NAMES.index(name) for name in UNKNOWN]
-    # Friction and the mean inertia cannot be negative: bounded least squares keeps the fit
-    # physical where the speed noise of a coarse encoder would tip an unbounded one over
-    # (seen: M0 < 0 on 12-bit encoders), instead of clipping its estimates afterwards.
-    # Columns scaled to unit norm, as their units differ by orders of magnitude.
-    lower = np.array([0.0 if name in ("M0", "a2", "a3") else -np.inf for name in UNKNOWN])
-    norms = np.linalg.norm(A[:, cols], axis=0)
-    norms[norms == 0.0] = 1.0
-    fit = lsq_linear(A[:, cols] / norms, y, bounds=(lower * norms, np.inf), method="bvls")
-    values = dict(zip(UNKNOWN, fit.x / norms))
+    values, _ = fit_energy_windows(device, log, sm, UNKNOWN, f"stage {stage}: braking.csv")
     friction = {k: values[k] for k in ("a2", "a3")}
     if values["M0"] <= 0:
         raise InputError(

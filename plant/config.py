@@ -37,6 +37,7 @@ __all__ = [
     "Friction",
     "Motor",
     "Pendulum",
+    "PlanGuess",
     "Rig",
     "RunSettings",
     "Spring",
@@ -155,6 +156,36 @@ class Pendulum:
 
 
 @dataclass(frozen=True)
+class PlanGuess:
+    """Rough knowledge of the body and the rig for ``rsp-inertia plan`` (``[plan]``).
+
+    A pilot run of a stage (stageN/pilot.csv) replaces these guesses for that stage.
+    """
+
+    inertia: tuple[float, float, float] | None = None
+    """Approximate principal moments of the body, kg m^2 (any order), >= 0."""
+    box: tuple[float, float, float] | None = None
+    """Or the body's bounding box, m: a solid block of ``[body] mass`` with these sides."""
+    friction: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """Guessed dissipation [a1 N m, a2 N m s, a3 N m s^2] (METHOD.md §3), >= 0."""
+    com_offset: float = 0.0
+    """Guessed distance of the centre of mass from the rotation axis, m, >= 0."""
+    torque_noise: float | None = None
+    """Std of the torque log's noise, N m, >= 0 (else from a pilot run)."""
+    max_duration: float | None = None
+    """Default of ``plan --max-duration``: the whole experiment's motion time, s, > 0."""
+
+    def principal_moments(self, mass: float | None) -> tuple[float, float, float] | None:
+        """The body's approximate principal moments, kg m^2 (from ``box`` with ``mass``)."""
+        if self.inertia is not None:
+            return self.inertia
+        if self.box is None or mass is None:
+            return None
+        a, b, c = self.box
+        return (mass * (b * b + c * c) / 12, mass * (a * a + c * c) / 12, mass * (a * a + b * b) / 12)
+
+
+@dataclass(frozen=True)
 class Device:
     """The gimbal as described by ``device.toml``."""
 
@@ -174,6 +205,8 @@ class Device:
     """The optional ``[body]`` table."""
     pendulum: Pendulum | None = None
     """The optional ``[pendulum]`` table (torsion-pendulum baseline)."""
+    plan: PlanGuess | None = None
+    """The optional ``[plan]`` table (guesses for experiment planning)."""
 
     @property
     def n_axes(self) -> int:
@@ -225,7 +258,9 @@ def load_device(path: str | os.PathLike) -> Device:
 
 
 def _device(doc: dict[str, Any]) -> Device:
-    _known(doc, "", {"device", "spring", "motor", "encoder", "stage", "body", "pendulum"})
+    _known(
+        doc, "", {"device", "spring", "motor", "encoder", "stage", "body", "pendulum", "plan"}
+    )
 
     table = _table(doc, "device", {"name", "gravity"})
     name = _get(table, "device", "name", str)
@@ -264,13 +299,49 @@ def _device(doc: dict[str, Any]) -> Device:
             duration=_get(table, "pendulum", "duration", float, default=30.0, bound="> 0"),
         )
 
-    device = Device(name, gravity, spring, motor, encoder, stages, body, pendulum)
+    table = _table(
+        doc,
+        "plan",
+        {"inertia", "box", "friction", "com_offset", "torque_noise", "max_duration"},
+        required=False,
+    )
+    plan = None if table is None else _plan_guess(table, body)
+
+    device = Device(name, gravity, spring, motor, encoder, stages, body, pendulum, plan)
     if device.n_axes < REQUIRED_AXES:
         raise _ContentError(
             "stage",
             f"the stages give {device.n_axes} distinct axes, {REQUIRED_AXES} are needed",
         )
     return device
+
+
+def _plan_guess(table: dict[str, Any], body: Body | None) -> PlanGuess:
+    """The ``[plan]`` table: every number >= 0, three-vectors where the contract says so."""
+
+    def triple(key: str, names: tuple[str, ...]) -> tuple[float, float, float] | None:
+        if key not in table:
+            return None
+        values = _numbers(table, "plan", key, names)
+        for k, value in enumerate(values, 1):
+            if value < 0:
+                raise _ContentError(f"plan.{key}[{k}]", f"must be >= 0, got {value!r}")
+        return values  # type: ignore[return-value]
+
+    inertia = triple("inertia", ("I1", "I2", "I3"))
+    box = triple("box", ("a", "b", "c"))
+    if inertia is not None and box is not None:
+        raise _ContentError("plan", "give either inertia or box, not both")
+    if box is not None and body is None:
+        raise _ContentError("plan.box", "needs the body's mass ([body] mass)")
+    return PlanGuess(
+        inertia=inertia,
+        box=box,
+        friction=triple("friction", ("a1", "a2", "a3")) or (0.0, 0.0, 0.0),
+        com_offset=_get(table, "plan", "com_offset", float, default=0.0, bound=">= 0"),
+        torque_noise=_get(table, "plan", "torque_noise", float, default=None, bound=">= 0"),
+        max_duration=_get(table, "plan", "max_duration", float, default=None, bound="> 0"),
+    )
 
 
 def _stages(doc: dict[str, Any]) -> list[dict[str, Any]]:

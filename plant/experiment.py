@@ -11,6 +11,8 @@ One folder is one experiment::
                              the same for the backward run, when the stage's ``directions``
                              include "backward" (phi decreases while braking)
     EXP/stageN/pendulum_kK.csv  torsion-pendulum baseline run at node K (optional)
+    EXP/stageN/pilot.csv     pilot run for planning: spin-up at a known torque, then a free
+                             coast (optional; the log format of braking.csv, forward only)
     EXP/result.json          written by ``identify``
 """
 
@@ -63,6 +65,10 @@ class Experiment:
     def reverse_path(self, stage: int, direction: str = "forward") -> Path:
         """``stageN/reverse.csv``, or ``stageN/reverse_backward.csv`` for ``"backward"``."""
         return self._pass_path(stage, "reverse", direction)
+
+    def pilot_path(self, stage: int) -> Path:
+        """``stageN/pilot.csv``: the pilot run of stage N (spin-up, then coast; forward only)."""
+        return self.stage_dir(stage) / "pilot.csv"
 
     def pendulum_path(self, stage: int, node: int) -> Path:
         """``stageN/pendulum_kK.csv``: torsion-pendulum run at node K (1-based) of stage N."""

@@ -28,7 +28,7 @@ LOG_COLUMNS = ("t", "phi", "torque")
 PROGRAM_COLUMNS = ("t", "phi_ref", "omega_ref", "torque_ff", "k_phi", "k_omega")
 """Header of program.csv."""
 
-LOG_KINDS = ("braking", "reverse", "pendulum")
+LOG_KINDS = ("braking", "reverse", "pendulum", "pilot")
 """The two passes of a stage (METHOD.md §4), and the torsion-pendulum baseline runs."""
 
 T0_TOLERANCE = 1e-9

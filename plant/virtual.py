@@ -50,18 +50,22 @@ from plant.model import (
 
 __all__ = [
     "MAX_BRAKING_TIME",
+    "PILOT_MAX_COAST",
+    "PILOT_TORQUE_FRACTION",
     "SUBSTEPS",
     "PassTruth",
     "SimulatedPass",
     "SpeedObserver",
     "encoder_reading",
     "free_motion",
+    "integrate_to_stop",
     "ideal_program",
     "pendulum_parameters",
     "run_program",
     "simulate_braking",
     "simulate_ideal_reverse",
     "simulate_pendulum",
+    "simulate_pilot",
     "true_parameters",
 ]
 
@@ -70,6 +74,19 @@ SUBSTEPS = 8
 
 MAX_BRAKING_TIME = 600.0
 """s: a braking pass that has not stopped by then is a protocol error."""
+
+PILOT_TORQUE_FRACTION = 0.5
+"""The pilot run's drive torque as a fraction of device.toml's torque_limit
+(:func:`simulate_pilot`): half the limit accelerates the body well above its friction and
+gravity torques while leaving the drive room, and takes the default stages to their launch
+speeds in 2.7 s (stage 1, where the quadratic friction reaches 0.14 N m at 12 rad/s) and
+12.5 s (stage 2)."""
+
+PILOT_MAX_COAST = 30.0
+"""s: the pilot's coast ends here if the body has not come to rest by then. Light friction on
+a large inertia coasts for many minutes (the default stage 2 loses only 8% of its speed in
+30 s, 15.6 turns); the coast's first half minute already shows the friction the planner
+needs (the default stage 1 comes to rest after 20 s)."""
 
 _BLOCK = 1000
 """Samples integrated per call while the torque and the direction of motion are constant."""
@@ -80,6 +97,7 @@ _STREAM_REVERSE = 1
 _STREAM_PENDULUM = 2
 _STREAM_BRAKING_BACKWARD = 3
 _STREAM_REVERSE_BACKWARD = 4
+_STREAM_PILOT = 5
 
 _COULOMB = PARAMETER_NAMES.index("a1")
 """Index of a1 in the parameter vector: the static friction at rest."""
@@ -88,14 +106,14 @@ _Pair = tuple[np.ndarray, np.ndarray]
 """(p_forward, p_backward): parameter vectors for Omega > 0 and Omega < 0."""
 
 
-def _build_step() -> ca.Function:
+def _build_step(substeps: int = SUBSTEPS) -> ca.Function:
     """``step(x, u, direction, p, h)``: advance x = (phi, Omega) by h with u held constant."""
     x = ca.SX.sym("x", 2)
     u, direction, h = ca.SX.sym("u"), ca.SX.sym("direction"), ca.SX.sym("h")
     f = MODEL.state_derivative()
-    dt = h / SUBSTEPS
+    dt = h / substeps
     xk = x
-    for _ in range(SUBSTEPS):
+    for _ in range(substeps):
         k1 = f(xk, u, direction, MODEL.p)
         k2 = f(xk + dt / 2 * k1, u, direction, MODEL.p)
         k3 = f(xk + dt / 2 * k2, u, direction, MODEL.p)
@@ -106,10 +124,63 @@ def _build_step() -> ca.Function:
 
 _STEP = _build_step()
 _STEP_BLOCK = _STEP.mapaccum(_BLOCK)
+_COARSE_STEP = _build_step(1)
+_COARSE_BLOCK = _COARSE_STEP.mapaccum(_BLOCK)
 
 
 def _step(x: np.ndarray, u: float, direction: float, p: np.ndarray, h: float) -> np.ndarray:
     return np.asarray(_STEP(x, u, direction, p, h)).ravel()
+
+
+def integrate_to_stop(
+    x0: np.ndarray,
+    u: float,
+    direction: float,
+    p: np.ndarray,
+    dt: float,
+    max_time: float,
+    coarse: bool = False,
+) -> tuple[np.ndarray, np.ndarray, float, float] | None:
+    """A motion under the constant torque ``u`` from ``x0`` until the speed first reaches zero.
+
+    RK4 (``SUBSTEPS`` per sample) of the model with parameter vector ``p`` and friction
+    sign ``direction`` (the sign of the speed), whole blocks of samples per call; the stop
+    is an event located inside its sample by Brent's method on the step length. Returns the
+    sample times, the states (phi, Omega) at every sample before the stop (and at the stop
+    if it falls on a sample), the stop's time and angle; None if the body still moves after
+    ``max_time`` seconds. ``coarse``: one RK4 step per sample, for planning (at 1 kHz and
+    the 2 Omega harmonic of a 15 rad/s pass, h w = 0.03: a local error ~(h w)^5 / 120 = 2e-10
+    of the state per step).
+    """
+    step_block, step = (_COARSE_BLOCK, _COARSE_STEP) if coarse else (_STEP_BLOCK, _STEP)
+    x = np.asarray(x0, dtype=float)
+    states = [x[None, :]]
+    max_samples = int(max_time / dt)
+    n = 1
+    while True:
+        block = np.asarray(step_block(x, u, direction, p, dt)).T  # (_BLOCK, 2)
+        stopped = np.nonzero(block[:, 1] * direction <= 0.0)[0]
+        if stopped.size:
+            k = stopped[0]
+            states.append(block[:k])
+            n += k
+            x = block[k - 1] if k > 0 else x
+            break
+        states.append(block)
+        n += _BLOCK
+        x = block[-1]
+        if n > max_samples:
+            return None
+    h_stop = brentq(
+        lambda h: np.asarray(step(x, u, direction, p, h)).ravel()[1] * direction, 0.0, dt, xtol=1e-15, rtol=1e-15
+    )
+    end = np.asarray(step(x, u, direction, p, h_stop)).ravel()
+    traj = np.concatenate(states)
+    t = np.arange(n) * dt
+    if h_stop >= dt * (1 - 1e-12):  # the stop falls on a sample: it belongs to the log
+        traj = np.vstack([traj, [end[0], 0.0]])
+        t = np.arange(n + 1) * dt
+    return t, traj, (n - 1) * dt + h_stop, float(end[0])
 
 
 def true_parameters(
@@ -269,36 +340,15 @@ def simulate_braking(
     p = true_parameters(device, stage, virtual, s).vector
     dt = device.encoder.dt
     command, u = _braking_torque(st, virtual, s)
-    x = np.array([s * math.radians(virtual.run.release_angle_deg), s * st.launch_speed])
-    states = [x[None, :]]
-    max_samples = int(MAX_BRAKING_TIME / dt)
-    n = 1
-    while True:
-        block = np.asarray(_STEP_BLOCK(x, u, s, p, dt)).T  # (_BLOCK, 2)
-        stopped = np.nonzero(block[:, 1] * s <= 0.0)[0]
-        if stopped.size:
-            k = stopped[0]
-            states.append(block[:k])
-            n += k
-            x = block[k - 1] if k > 0 else x
-            break
-        states.append(block)
-        n += _BLOCK
-        x = block[-1]
-        if n > max_samples:
-            run = "braking pass" if s > 0 else "backward braking pass"
-            raise InputError(
-                f"stage {stage}: the {run} does not stop within {MAX_BRAKING_TIME:g} s; "
-                "raise braking_torque or lower launch_speed in device.toml"
-            )
-    # Event: the speed reaches zero h* after the last sample, 0 < h* <= dt.
-    h_stop = brentq(lambda h: _step(x, u, s, p, h)[1] * s, 0.0, dt, xtol=1e-15, rtol=1e-15)
-    end = _step(x, u, s, p, h_stop)
-    traj = np.concatenate(states)
-    t = np.arange(n) * dt
-    if h_stop >= dt * (1 - 1e-12):  # the stop falls on a sample: it belongs to the log
-        traj = np.vstack([traj, [end[0], 0.0]])
-        t = np.arange(n + 1) * dt
+    x0 = np.array([s * math.radians(virtual.run.release_angle_deg), s * st.launch_speed])
+    stop = integrate_to_stop(x0, u, s, p, dt, MAX_BRAKING_TIME)
+    if stop is None:
+        run = "braking pass" if s > 0 else "backward braking pass"
+        raise InputError(
+            f"stage {stage}: the {run} does not stop within {MAX_BRAKING_TIME:g} s; "
+            "raise braking_torque or lower launch_speed in device.toml"
+        )
+    t, traj, end_time, end_phi = stop
     torque = np.full(len(t), u)
     rng = _rng(virtual, stage, _STREAM_BRAKING if s > 0 else _STREAM_BRAKING_BACKWARD)
     truth = PassTruth(
@@ -306,8 +356,8 @@ def simulate_braking(
         phi=traj[:, 0],
         omega=traj[:, 1],
         torque=torque,
-        end_time=(n - 1) * dt + h_stop,
-        end_phi=float(end[0]),
+        end_time=end_time,
+        end_phi=end_phi,
         end_omega=0.0,
     )
     logged = np.full(len(t), command)
@@ -681,3 +731,104 @@ def free_motion(
     x0 = np.array([math.radians(virtual.run.release_angle_deg), launch])
     traj = _free_motion(x0, pair, n, dt)
     return np.arange(n) * dt, traj[:, 0], traj[:, 1]
+
+
+def simulate_pilot(device: Device, stage: int, virtual: Virtual) -> SimulatedPass:
+    """A pilot run of stage ``stage`` (1-based): spin-up at a known torque, then a free coast.
+
+    The short run from which the planner estimates the stage's mean reduced inertia and its
+    friction before the experiment (``stageN/pilot.csv``, the log format of braking.csv;
+    estimation.pilot fits it). Protocol, forward only:
+
+    1. The body starts at rest at the release angle (``virtual.run.release_angle_deg``).
+    2. Powered part: the drive commands the constant torque PILOT_TORQUE_FRACTION x
+       ``motor.torque_limit`` (forward), held sample by sample, until the first sample at
+       which the true speed has reached the stage's ``launch_speed``.
+    3. Coast: from that sample on the command is 0 (the motor is off; the log still records
+       0 plus the channel's noise) and the body coasts until it comes to rest (the first
+       instant the speed reaches zero, an event located inside its sample as in
+       :func:`simulate_braking`) or until PILOT_MAX_COAST seconds of coast, whichever
+       comes first.
+
+    The log records the command plus ``run.torque_noise``; the body receives command /
+    ``rig.torque_gain``, like every pass. Samples at the encoder rate, t from 0; when the
+    body comes to rest the log ends at the last sample before the stop (at the stop if it
+    falls on a sample), otherwise at the last sample within PILOT_MAX_COAST of the switch-off.
+    The command steps at t = 0 and at the switch-off: the drive's torque rate limit is not
+    modelled (0.0125 s at the default 20 N m/s for the default 0.25 N m). The noise has its
+    own random stream: the run is deterministic for a given seed.
+
+    Parameters
+    ----------
+    device, stage, virtual
+        The gimbal, the stage number (from 1) and the virtual device's truth.
+
+    Returns
+    -------
+    SimulatedPass
+        The log and the true states; ``truth.torque`` is the physical torque; ``end_time``
+        is the instant of rest (or the log's last sample when the coast was cut),
+        ``end_omega`` the speed there.
+
+    Raises
+    ------
+    InputError
+        If the pilot torque cannot turn the body forward from the release angle (friction and
+        static torques hold it), or the launch speed is not reached within MAX_BRAKING_TIME.
+    """
+    st = device.stages[stage - 1]
+    pair = _true_pair(device, stage, virtual)
+    p = pair[0]
+    dt = device.encoder.dt
+    command = PILOT_TORQUE_FRACTION * device.motor.torque_limit
+    u = command / virtual.rig.torque_gain
+    # Powered part, whole blocks at once: states up to the first sample at the launch speed.
+    x = np.array([math.radians(virtual.run.release_angle_deg), 0.0])
+    states = [x[None, :]]
+    n = 1
+    while True:
+        block = np.asarray(_STEP_BLOCK(x, u, 1.0, p, dt)).T  # (_BLOCK, 2)
+        reached = np.nonzero(block[:, 1] >= st.launch_speed)[0]
+        if np.any(block[: reached[0] if reached.size else _BLOCK, 1] <= 0.0):
+            raise InputError(
+                f"stage {stage}: the pilot torque ({command:g} N m) does not turn the body "
+                "forward from the release angle: friction and static torques hold it"
+            )
+        if reached.size:
+            states.append(block[: reached[0] + 1])
+            n += reached[0] + 1
+            break
+        states.append(block)
+        n += _BLOCK
+        x = block[-1]
+        if n * dt > MAX_BRAKING_TIME:
+            raise InputError(
+                f"stage {stage}: the pilot torque ({command:g} N m) does not reach the "
+                f"launch speed {st.launch_speed:g} rad/s within {MAX_BRAKING_TIME:g} s"
+            )
+    powered = np.concatenate(states)
+    switch = len(powered) - 1  # the first sample of the coast
+    # Coast, motor off, until rest or PILOT_MAX_COAST.
+    stop = integrate_to_stop(powered[-1], 0.0, 1.0, p, dt, PILOT_MAX_COAST)
+    if stop is not None and stop[2] <= PILOT_MAX_COAST:
+        _, coast, end_time, end_phi = stop
+        end_time, end_omega = switch * dt + end_time, 0.0
+    else:  # still moving: no stop within the coast's samples, so no event to handle
+        coast = _free_motion(powered[-1], pair, math.floor(PILOT_MAX_COAST / dt + 1e-9) + 1, dt)
+        end_phi, end_omega = coast[-1]
+        end_time = (switch + len(coast) - 1) * dt
+    traj = np.concatenate([powered[:-1], coast])
+    t = np.arange(len(traj)) * dt
+    commands = np.where(np.arange(len(t)) < switch, command, 0.0)
+    truth = PassTruth(
+        t=t,
+        phi=traj[:, 0],
+        omega=traj[:, 1],
+        torque=commands / virtual.rig.torque_gain,
+        end_time=float(end_time),
+        end_phi=float(end_phi),
+        end_omega=float(end_omega),
+    )
+    rng = _rng(virtual, stage, _STREAM_PILOT)
+    log = _make_log(t, traj[:, 0], commands, device.encoder.quantum, virtual.run.torque_noise, rng)
+    return SimulatedPass(log=log, truth=truth)

@@ -40,6 +40,12 @@ def _cmd_program(args: argparse.Namespace) -> None:
     program(args.exp, args.stage, progress=lambda text: print(text, flush=True))
 
 
+def _cmd_plan(args: argparse.Namespace) -> None:
+    from rsp_inertia.planning import plan
+
+    print(plan(args.exp, args.max_duration, progress=lambda text: print(text, flush=True)))
+
+
 def _cmd_calibrate(args: argparse.Namespace) -> None:
     from rsp_inertia.pipeline import calibrate
 
@@ -112,9 +118,10 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("exp", type=Path, metavar="EXP", help="experiment folder with virtual.toml")
     p.add_argument("--stage", type=int, help="one stage (from 1); default: all")
     p.add_argument(
-        "--part", choices=("braking", "reverse", "pendulum"), default="braking",
+        "--part", choices=("braking", "reverse", "pendulum", "pilot"), default="braking",
         help="braking pass, the reverse pass running stageN/program.csv in closed loop, "
-        "or the torsion-pendulum runs (one per node)",
+        "the torsion-pendulum runs (one per node), or a pilot run (spin-up and coast, for "
+        "plan)",
     )
     p.add_argument(
         "--ideal", action="store_true",
@@ -125,6 +132,18 @@ def _parser() -> argparse.ArgumentParser:
         help="only the runs in this direction (default: every direction of each stage)",
     )
     p.set_defaults(run=_cmd_simulate)
+
+    p = sub.add_parser(
+        "plan",
+        help="choose each stage's launch_speed and braking_torque -> EXP/device.toml",
+    )
+    p.add_argument("exp", type=Path, metavar="EXP", help="experiment folder")
+    p.add_argument(
+        "--max-duration", type=float, default=None, metavar="S",
+        help="seconds of motion for the whole experiment (default: device.toml [plan] "
+        "max_duration, else 120)",
+    )
+    p.set_defaults(run=_cmd_plan)
 
     p = sub.add_parser("program", help="stageN/braking.csv -> stageN/program.csv")
     p.add_argument("exp", type=Path, metavar="EXP", help="experiment folder")

@@ -32,6 +32,7 @@ from plant.virtual import (
     simulate_braking,
     simulate_ideal_reverse,
     simulate_pendulum,
+    simulate_pilot,
 )
 
 __all__ = [
@@ -50,7 +51,7 @@ __all__ = [
 DEFAULT_EXPERIMENT = Path("demo-experiment")
 """Where ``rsp-inertia demo`` builds its experiment when no folder is given."""
 
-PARTS = ("braking", "reverse", "pendulum")
+PARTS = ("braking", "reverse", "pendulum", "pilot")
 
 
 @dataclass(frozen=True)
@@ -210,16 +211,17 @@ def simulate(
         Experiment folder with device.toml and virtual.toml.
     stage : int, optional
         One stage (from 1); all stages by default.
-    part : {'braking', 'reverse', 'pendulum'}
+    part : {'braking', 'reverse', 'pendulum', 'pilot'}
         The braking pass writes stageN/braking.csv. The reverse pass runs stageN/program.csv
         in closed loop and writes stageN/reverse.csv; with ``ideal`` it runs the exact mirror
         of the braking on an ideal drive instead (no program needed). The pendulum part
-        writes stageN/pendulum_kK.csv, one torsion-pendulum run per node K. A backward run
+        writes stageN/pendulum_kK.csv, one torsion-pendulum run per node K; the pilot part
+        stageN/pilot.csv (spin-up at a known torque, then a coast; for ``plan``). A backward run
         uses stageN/braking_backward.csv, program_backward.csv and reverse_backward.csv.
     direction : {'forward', 'backward'}, optional
         Braking and reverse: only this direction, on the stages whose ``directions`` in
-        device.toml include it; every direction of each stage by default. Pendulum runs
-        ignore it.
+        device.toml include it; every direction of each stage by default. Pendulum and pilot
+        runs ignore it.
     progress : callable, optional
         Called with each pass's summary as soon as it is written.
 
@@ -238,7 +240,7 @@ def simulate(
     exp = open_experiment(root)
     virtual = exp.load_virtual()
     stages = exp.stages(stage)
-    if direction is not None and part != "pendulum":
+    if direction is not None and part not in ("pendulum", "pilot"):
         runs = [st for st in stages if direction in exp.device.stages[st - 1].directions]
         if not runs:
             fault = (
@@ -260,6 +262,15 @@ def simulate(
                 if progress is not None:
                     progress(summary)
                 summaries.append(summary)
+            continue
+        if part == "pilot":
+            sim = simulate_pilot(exp.device, st, virtual)
+            path = exp.pilot_path(st)
+            write_log(path, sim.log)
+            summary = _summary(exp, st, "pilot", path, sim)
+            if progress is not None:
+                progress(summary)
+            summaries.append(summary)
             continue
         directions = exp.device.stages[st - 1].directions if direction is None else (direction,)
         for d in directions:

@@ -14,7 +14,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-__all__ = ["plot_tracking", "save_figure"]
+__all__ = ["plan_figure", "plot_tracking", "save_figure"]
 
 
 def save_figure(fig: Figure, path: str | os.PathLike) -> None:
@@ -120,3 +120,45 @@ def plot_errors(
     ax.set_title(title)
     fig.tight_layout()
     save_figure(fig, path)
+
+
+def plan_figure(plan, path: str | os.PathLike) -> Path:
+    """``rsp-inertia plan``'s trade-off: predicted worst std against duration and launch speed.
+
+    Left: the best predicted worst std of J_k within each total duration (the plan's front),
+    the chosen plan and device.toml's protocol before. Right: per stage, the predicted worst
+    std of the stage's own J_k against the launch speed (the best braking torque at each,
+    other stages as chosen), the chosen speed starred.
+    """
+    fig = Figure(figsize=(11, 4.5))
+    FigureCanvasAgg(fig)
+    left, right = fig.subplots(1, 2)
+    front = plan.front
+    left.step(front[:, 0], front[:, 1], where="post", label="best within the duration")
+    left.plot(plan.duration, plan.worst, "o", color="C3", label="plan")
+    if plan.current_std is not None:
+        now = sum(c.run_time for c in plan.current)
+        left.plot(now, plan.current_std, "s", color="C2", label="device.toml before")
+    left.axvline(plan.max_duration, color="0.6", ls="--", lw=1, label="budget")
+    left.set_xlabel("experiment's motion time, s")
+    left.set_ylabel("predicted worst std of J_k, kg m^2")
+    left.set_yscale("log")
+    left.legend(fontsize=8)
+    left.grid(alpha=0.3)
+    stages = sorted({row[0] for row in plan.tradeoff})
+    for stage in stages:
+        rows = [r for r in plan.tradeoff if r[0] == stage and r[2] is not None]
+        if not rows:
+            continue
+        line = right.plot([r[1] for r in rows], [r[3] for r in rows], "o-", label=f"stage {stage}")
+        chosen = plan.chosen[stage - 1]
+        own = plan.axis_std[plan.axis_stage == stage].max()
+        right.plot(chosen.launch_speed, own, "*", ms=14, color=line[0].get_color())
+    right.set_xlabel("launch speed, rad/s")
+    right.set_ylabel("predicted worst std of the stage's J_k, kg m^2")
+    right.set_yscale("log")
+    right.legend(fontsize=8)
+    right.grid(alpha=0.3)
+    fig.tight_layout()
+    save_figure(fig, path)
+    return Path(path)

@@ -1,0 +1,205 @@
+"""A stage's mean reduced inertia and friction from a pilot run, for experiment planning.
+
+A pilot run (``stageN/pilot.csv``, the log format of braking.csv; the virtual device's
+:func:`plant.virtual.simulate_pilot`) starts at rest, drives the body forward at a constant
+known torque up to the stage's launch speed, then switches the motor off and lets it coast
+to rest (or for a while). Its energy balance over windows of the pass (METHOD.md §3),
+
+    E(b) - E(a) + integral_a^b D dphi = motor work from a to b,
+
+is fitted by the same windowed least squares as the nominal model of a braking pass
+(:func:`ocp.nominal.fit_energy_windows`). What the pilot adds is a change of torque: in a
+braking pass the torque is constant, Coulomb friction a1 is a constant torque too, and
+(M, gravity, a2, a3) fit equally well at any common scale (ocp.nominal). In a pilot the
+powered part's known work sets the scale of the kinetic energy, so M0 comes out absolutely,
+and the coast, where only friction works, then separates a1, a2, a3 by how the loss changes
+with the speed. A free spin-down alone (motor off throughout) has the braking's problem in
+full: every term of the balance is proportional to the unknowns, so M and friction are only
+known relative to each other.
+
+Measured on the default experiment (tests/estimation/test_pilot.py; eight release angles
+and seeds): M0 within 0.07% on both stages; a3 within 0.7% on stage 1 and 5% on stage 2,
+whose 30 s coast loses only 8% of its speed: that speed range is too narrow to tell a1, a2
+and a3 apart well. The fit gets the friction torque D over the coast's speeds right (to
+0.3% of its top value), its split among a1, a2, a3 loosely.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from estimation.energy import torque_noise
+from estimation.smoothing import smooth_log
+from ocp.nominal import fit_energy_windows
+from plant.config import Device
+from plant.errors import InputError
+from plant.logs import Log
+from plant.model import ModelParameters
+
+__all__ = ["PILOT_UNKNOWNS", "PilotFit", "fit_pilot"]
+
+PILOT_UNKNOWNS = ("M0", "a1", "a2", "a3", "Mc2", "Ms2", "Gs", "Gc", "Ms1", "Mc1")
+"""Parameters fitted (names of plant.model.PARAMETER_NAMES), most important first: a pilot
+too short for all of them fits only the first ones (ocp.nominal.fit_energy_windows). The
+spring (c, phi0) comes from device.toml."""
+
+POWERED_SIGMAS = 6.0
+"""A row is powered when its logged torque stands out of the log's noise by this many
+standard deviations (a pure-noise log of 40,000 rows has such a row once in ~25 logs)."""
+
+MIN_POWERED_ROWS = 10
+"""Powered rows a pilot needs at least (the default pilots have 2,700 and 12,500)."""
+
+MIN_COAST_TURNS = 1.0
+"""Turns the coast must cover at least: over whole turns M(phi)'s harmonics and gravity
+exchange no net energy, so the coast's loss stands apart from them as friction."""
+
+
+@dataclass(frozen=True)
+class PilotFit:
+    """What a pilot run tells about a stage (module docstring)."""
+
+    M0: float
+    """kg m^2, the mean reduced inertia (tare included) of the stage."""
+    M0_std: float
+    """kg m^2, std of ``M0`` (least squares, :func:`fit_pilot`)."""
+    a1: float
+    """N m, Coulomb friction (>= 0)."""
+    a1_std: float
+    """N m, std of ``a1``."""
+    a2: float
+    """N m s, viscous friction (>= 0)."""
+    a2_std: float
+    """N m s, std of ``a2``."""
+    a3: float
+    """N m s^2, quadratic friction (>= 0)."""
+    a3_std: float
+    """N m s^2, std of ``a3``."""
+    torque_noise: float
+    """N m, std of the torque log's noise (estimation.energy.torque_noise: the median
+    absolute deviation of the sample-to-sample changes, which the one step at the switch-off
+    does not move)."""
+    top_speed: float
+    """rad/s, the highest smoothed speed of the pilot (about the launch speed)."""
+    coast_turns: float
+    """turns covered with the motor off, from the first unpowered row to the log's end."""
+    duration: float
+    """s, from the log's first row to its last."""
+    inertia_harmonics: tuple[float, float, float, float, float]
+    """[M0, Mc2, Ms2, Ms1, Mc1], kg m^2: M(phi) in harmonic form (plant.model), 0 if not
+    fitted."""
+    gravity_sin: float
+    """Gs = m g x_c, N m (0 if not fitted)."""
+    gravity_cos: float
+    """Gc = m g y_c, N m (0 if not fitted)."""
+    stiffness: float
+    """c, N m/rad, device.toml's spring (not fitted)."""
+    zero_angle: float
+    """phi0, rad, device.toml's spring (not fitted)."""
+
+    def model(self) -> ModelParameters:
+        """The fitted model (M's harmonics, gravity, a1-a3, device.toml's spring), usable as
+        a nominal model of the stage."""
+        return ModelParameters(
+            inertia_harmonics=np.array(self.inertia_harmonics),
+            stiffness=self.stiffness,
+            zero_angle=self.zero_angle,
+            gravity_sin=self.gravity_sin,
+            gravity_cos=self.gravity_cos,
+            coulomb=self.a1,
+            viscous=self.a2,
+            quadratic=self.a3,
+        )
+
+
+def fit_pilot(device: Device, stage: int, log: Log, source: str | None = None) -> PilotFit:
+    """Mean reduced inertia and friction of stage ``stage`` from its pilot log.
+
+    The log is smoothed (estimation.smoothing.smooth_log with the encoder's quantum) and the
+    energy balance fitted over windows (:func:`ocp.nominal.fit_energy_windows`) with the
+    unknowns :data:`PILOT_UNKNOWNS`: M0, M's four harmonics, gravity (Gs, Gc) and the
+    friction a1, a2, a3, all of them when the log is long enough. M0 and a1-a3 are bounded
+    below by 0. The stds are those of ordinary least squares: the residual variance times
+    (A^T A)^-1, as if the windows' errors were independent. They are not: consecutive
+    windows share an endpoint, whose speed error enters both with opposite signs, so the
+    stds overstate the scatter; over eight pilots of each default stage (release angle and
+    seed varied, paper's friction and 30x its a1 and a2) the actual scatter was 0.4-1x the
+    stated std for M0 and 0.3-0.8x for a1-a3 on stage 1, 0.1-0.15x on stage 2.
+
+    Parameters
+    ----------
+    device : Device
+        The gimbal (encoder, spring).
+    stage : int
+        The stage number, from 1.
+    log : Log
+        The pilot log (plant.logs.read_log of ``stageN/pilot.csv``): the powered rows
+        first, then the coast's (the protocol of plant.virtual.simulate_pilot).
+    source : str, optional
+        The log's name in messages; default ``stageN/pilot.csv``.
+
+    Returns
+    -------
+    PilotFit
+
+    Raises
+    ------
+    InputError
+        One line naming the file: the log has no powered part (its torque never stands out
+        of its noise: a free spin-down alone cannot tell the scale of M from that of
+        friction), its coast covers less than one turn, or the fitted M0 is not positive.
+    """
+    source = f"stage{stage}/pilot.csv" if source is None else source
+    torque = np.asarray(log.torque, dtype=float)
+    sigma = torque_noise(log)
+    powered = np.nonzero(np.abs(torque) > POWERED_SIGMAS * sigma)[0]
+    if powered.size < MIN_POWERED_ROWS:
+        raise InputError(
+            f"{source}: no powered part: the logged torque never stands out of its noise "
+            f"({sigma:.3g} N m); a free spin-down alone cannot tell the scale of the inertia "
+            "from that of friction: the pilot must start with a known drive torque"
+        )
+    # The coast starts where the first powered stretch ends (a stray spike later is noise).
+    unpowered = np.nonzero(np.abs(torque[powered[0] :]) <= POWERED_SIGMAS * sigma)[0]
+    coast_start = int(powered[0] + unpowered[0]) if unpowered.size else len(log)
+    turns = (
+        float(log.phi[-1] - log.phi[coast_start]) / (2 * math.pi)
+        if coast_start < len(log)
+        else 0.0
+    )
+    if turns < MIN_COAST_TURNS:
+        raise InputError(
+            f"{source}: the coast (motor off) covers only {turns:.2f} turns; a pilot needs at "
+            f"least {MIN_COAST_TURNS:g} to tell friction from the inertia's and gravity's "
+            "exchange within a turn"
+        )
+    sm = smooth_log(log, device.encoder.quantum, source)
+    values, covariance = fit_energy_windows(device, log, sm, PILOT_UNKNOWNS, source)
+    std = dict(zip(PILOT_UNKNOWNS, np.sqrt(np.diag(covariance))))
+    if values["M0"] <= 0.0:
+        raise InputError(
+            f"{source}: the fitted mean reduced inertia is not positive "
+            f"({values['M0']:.3g} kg m^2): is the drive torque logged with its sign?"
+        )
+    return PilotFit(
+        M0=float(values["M0"]),
+        M0_std=float(std["M0"]),
+        a1=float(values["a1"]),
+        a1_std=float(std["a1"]),
+        a2=float(values["a2"]),
+        a2_std=float(std["a2"]),
+        a3=float(values["a3"]),
+        a3_std=float(std["a3"]),
+        torque_noise=sigma,
+        top_speed=float(sm.omega.max()),
+        coast_turns=turns,
+        duration=float(log.t[-1] - log.t[0]),
+        inertia_harmonics=tuple(float(values[k]) for k in ("M0", "Mc2", "Ms2", "Ms1", "Mc1")),
+        gravity_sin=float(values["Gs"]),
+        gravity_cos=float(values["Gc"]),
+        stiffness=device.spring.stiffness,
+        zero_angle=device.spring.zero_angle,
+    )

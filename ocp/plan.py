@@ -1,0 +1,474 @@
+"""Experiment planning: each stage's launch speed and braking torque (METHOD.md §4).
+
+The braking torque and the launch speed are protocol choices. This module tries a grid of
+them per stage on a nominal model of the stage (a pilot run's fit, or the rough guesses of
+``device.toml [plan]``), keeps the protocols that every limit below admits, predicts for
+each the standard deviations that ``identify`` will report (estimation.predict: the same
+balances, the same noise model) and picks, over all stages together, the protocols with the
+smallest predicted std of the worst J_k whose total duration fits the user's budget.
+
+Limits, each with its reason:
+
+- **Turns.** Both passes must share at least ``MIN_TURNS`` (2) turns at useful speed past
+  the release (estimation.balance.usable_range): every node then has a whole-turn pair and
+  the least squares sees M's pattern repeat. A protocol the balances refuse is infeasible.
+- **Energy loss per turn** at least ``MIN_LOSS_PER_TURN`` of the kinetic energy over the
+  first turn: below it the node formula's denominator Omega_a^2 - Omega_b^2 (METHOD.md §5)
+  is a small difference of two large numbers, and the pass lasts hundreds of turns.
+- **Reverse torque.** The mirror needs u' = -(u_b + 2 D(|Omega|)) (subtract the braking's
+  equation of motion from the reverse's at the same angle: inertia, spring and gravity
+  terms cancel, friction doubles), largest at the launch speed. It must stay within
+  (1 - ``TORQUE_MARGIN``) of ``motor.torque_limit``: the regulator needs the rest to absorb
+  the nominal model's error (a 30% error in friction moves u' by 0.3 x 2D).
+- **Reverse torque rate**, after the first ``RATE_SKIP`` s (the step from the hold to the
+  mirror's first torque is the OCP's to smooth): within (1 - TORQUE_MARGIN) of
+  ``motor.torque_rate_limit``.
+- **Hold.** Where the braking stops, the motor holds the body against the spring and
+  gravity (METHOD.md §4, step 3): that static torque within (1 - TORQUE_MARGIN) of the limit.
+- **Duration.** Per run: the spin-up (at (1 - TORQUE_MARGIN) x torque_limit against
+  friction), the braking and its mirror, once per direction of the stage; summed over the
+  stages, within ``max_duration``.
+
+Objective: the smallest predicted worst std over the axes. The runs' noises are independent,
+so each candidate's information matrix is computed once (estimation.predict.run_information)
+and combinations of one candidate per stage are summed and inverted exhaustively.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from estimation.balance import MIN_SPEED_FRACTION, MIN_TURNS
+from estimation.predict import PlannedPass, combine_information, predicted_balance, run_information
+from plant.config import Device
+from plant.errors import InputError
+from plant.geometry import design_matrix, device_design
+from plant.model import (
+    ModelParameters,
+    acceleration,
+    dissipation,
+    motor_torque,
+    reduced_inertia,
+    static_torque,
+)
+from plant.virtual import MAX_BRAKING_TIME, integrate_to_stop
+
+__all__ = [
+    "MIN_LOSS_PER_TURN",
+    "RATE_SKIP",
+    "RELEASE_BEFORE_NODE_DEG",
+    "TORQUE_MARGIN",
+    "Candidate",
+    "Plan",
+    "StageModel",
+    "evaluate",
+    "make_plan",
+    "stage_candidates",
+]
+
+TORQUE_MARGIN = 0.2
+"""Fraction of the motor's torque and rate limits left to the regulator (module docstring)."""
+
+RATE_SKIP = 0.05
+"""s at the start of the reverse whose torque rate is not checked (the step from the hold)."""
+
+MIN_LOSS_PER_TURN = 0.01
+"""Least fraction of the kinetic energy the braking loses over its first turn."""
+
+RELEASE_BEFORE_NODE_DEG = 30.0
+"""The planned release: this far before the stage's first node (METHOD.md §4, step 1)."""
+
+SPEED_CAP = 100.0
+"""rad/s: no launch speed above this, whatever the motor could mirror (a safety bound)."""
+
+N_SPEEDS = 8
+"""Launch speeds tried per stage, geometric from 1/8 of the fastest feasible one."""
+
+N_TORQUES = 7
+"""Braking torques tried per launch speed: none, then geometric up to the most the motor
+can mirror at that speed."""
+
+SIGNIFICANT = 3
+"""Significant digits of the protocols tried (and written into device.toml)."""
+
+MAX_COMBINATIONS = 500_000
+"""Combinations of one candidate per stage evaluated exhaustively (beyond: refused)."""
+
+
+@dataclass(frozen=True)
+class StageModel:
+    """What the planner knows of a stage before its runs."""
+
+    stage: int
+    """From 1."""
+    model: ModelParameters
+    """Nominal model of the forward motion (inertia, gravity, spring, friction)."""
+    torque_noise: float
+    """N m, std of the torque log's noise."""
+    source: str
+    """Where the model comes from, for the report."""
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One protocol of one stage, evaluated on its nominal model."""
+
+    stage: int
+    launch_speed: float
+    """rad/s."""
+    braking_torque: float
+    """N m, against the motion."""
+    braking_time: float = math.nan
+    """s, from the release to rest."""
+    turns: float = math.nan
+    """Turns of the braking pass."""
+    loss_first_turn: float = math.nan
+    """Fraction of the kinetic energy lost over the first turn."""
+    peak_torque: float = math.nan
+    """N m, the reverse's largest |u'|."""
+    peak_rate: float = math.nan
+    """N m/s, the reverse's largest |du'/dt| after RATE_SKIP."""
+    hold_torque: float = math.nan
+    """N m, the static torque where the braking stops."""
+    run_time: float = math.nan
+    """s, spin-up + braking + reverse, times the stage's directions."""
+    violations: tuple[str, ...] = ()
+    """The limits it breaks, one phrase each (with the numbers)."""
+    information: np.ndarray | None = field(default=None, repr=False)
+    """(8, 8) information on the tensor and gravity terms (estimation.predict), all runs."""
+
+    @property
+    def feasible(self) -> bool:
+        return not self.violations and self.information is not None
+
+
+@dataclass(frozen=True)
+class Plan:
+    """The chosen protocols and what they promise."""
+
+    chosen: tuple[Candidate, ...]
+    """One per stage."""
+    axis_std: np.ndarray
+    """kg m^2, predicted std of J_k at every node (device_design order)."""
+    axis_stage: np.ndarray
+    """Stage of each axis."""
+    duration: float
+    """s, the whole experiment's motion time."""
+    max_duration: float
+    """s, the budget it was chosen within."""
+    candidates: tuple[tuple[Candidate, ...], ...]
+    """Per stage, every candidate tried."""
+    front: np.ndarray
+    """(k, 2) [duration s, worst std kg m^2]: the best worst std within each duration."""
+    current: tuple[Candidate, ...] | None = None
+    """The protocols device.toml held before, evaluated the same way (None if infeasible)."""
+    current_std: float | None = None
+    """kg m^2, their predicted worst std."""
+    tradeoff: tuple[tuple[int, float, Candidate | None, float, float], ...] = ()
+    """Per stage and launch speed tried: (stage, speed, its best feasible candidate within
+    the budget with the other stages as chosen or None, the predicted worst std over the
+    stage's own axes, and over all axes), stds in kg m^2."""
+
+    @property
+    def worst(self) -> float:
+        return float(self.axis_std.max())
+
+
+def _friction(model: ModelParameters, omega) -> np.ndarray:
+    """D(|Omega|) of the forward motion, N m."""
+    return np.asarray(dissipation(np.abs(omega), model, np.ones_like(np.asarray(omega, float)))).ravel()
+
+
+def _top_speed(device: Device, model: ModelParameters) -> float:
+    """The fastest launch whose mirror stays within the torque limit with no braking torque.
+
+    Root of 2 D(Omega) = (1 - TORQUE_MARGIN) torque_limit (module docstring), capped.
+    """
+    usable = (1 - TORQUE_MARGIN) * device.motor.torque_limit
+    a1, a2, a3 = model.coulomb, model.viscous, model.quadratic
+    c = 2 * a1 - usable
+    if c >= 0:
+        return 0.0
+    if a3 > 0:
+        root = (-2 * a2 + math.sqrt(4 * a2 * a2 - 8 * a3 * c)) / (4 * a3)
+    elif a2 > 0:
+        root = -c / (2 * a2)
+    else:
+        root = math.inf
+    return min(root, SPEED_CAP)
+
+
+def _spin_up_time(device: Device, model: ModelParameters, speed: float) -> float:
+    """s to reach ``speed`` from rest at (1 - TORQUE_MARGIN) torque_limit against friction."""
+    omega = np.linspace(0.0, speed, 64)
+    net = (1 - TORQUE_MARGIN) * device.motor.torque_limit - _friction(model, omega)
+    if np.any(net <= 0):
+        return math.inf
+    M0 = float(model.inertia_harmonics[0])
+    return float(np.trapezoid(M0 / net, omega))
+
+
+def evaluate(
+    device: Device,
+    sm: StageModel,
+    launch_speed: float,
+    braking_torque: float,
+    max_time: float = MAX_BRAKING_TIME,
+) -> Candidate:
+    """One protocol of a stage on its nominal model: limits and predicted information."""
+    st = device.stages[sm.stage - 1]
+    model = sm.model
+    p = model.vector
+    usable = (1 - TORQUE_MARGIN) * device.motor.torque_limit
+    usable_rate = (1 - TORQUE_MARGIN) * device.motor.torque_rate_limit
+    base = Candidate(sm.stage, float(launch_speed), float(braking_torque))
+    release = math.radians(min(st.nodes_deg) - RELEASE_BEFORE_NODE_DEG)
+    dt = device.encoder.dt
+    stop = integrate_to_stop(
+        np.array([release, launch_speed]), -braking_torque, 1.0, p, dt, max_time, coarse=True
+    )
+    if stop is None:
+        return _replace(base, violations=(f"the braking lasts more than {max_time:.0f} s",))
+    t, traj, end_time, end_phi = stop
+    phi, omega = traj[:, 0], traj[:, 1]
+    if t.size < 50:
+        return _replace(base, violations=(f"the braking lasts only {end_time:.3f} s",))
+    u = np.full(t.size, -braking_torque)
+    eps = np.asarray(acceleration(phi, omega, u, model, np.ones_like(omega))).ravel()
+    braking = PlannedPass(t, phi, omega, eps, u)
+    shape = braking.mirrored(np.zeros(t.size))
+    reverse_torque = np.asarray(
+        motor_torque(shape.phi, shape.omega, shape.eps, model, -np.ones_like(omega))
+    ).ravel()
+    reverse = braking.mirrored(reverse_torque)
+    turns = (end_phi - phi[0]) / (2 * math.pi)
+    one_turn = np.interp(phi[0] + 2 * math.pi, phi, omega, right=0.0)
+    loss = 1.0 - (one_turn / launch_speed) ** 2
+    peak = float(np.abs(reverse_torque).max())
+    skip = min(round(RATE_SKIP / dt), t.size - 2)
+    rate = float(np.abs(np.diff(reverse_torque[skip:])).max() / dt) if t.size - skip > 2 else 0.0
+    hold = abs(float(static_torque(end_phi, model)))
+    directions = len(st.directions)
+    run_time = directions * (_spin_up_time(device, model, launch_speed) + 2 * end_time)
+    violations = []
+    if loss < MIN_LOSS_PER_TURN:
+        violations.append(
+            f"loses {loss:.2%} of its energy over the first turn (at least "
+            f"{MIN_LOSS_PER_TURN:.0%})"
+        )
+    if peak > usable:
+        violations.append(
+            f"the reverse needs {peak:.3g} N m, {peak / usable - 1:.0%} over "
+            f"{usable:.3g} N m ({1 - TORQUE_MARGIN:g} x motor.torque_limit)"
+        )
+    if rate > usable_rate:
+        violations.append(
+            f"the reverse needs {rate:.3g} N m/s, {rate / usable_rate - 1:.0%} over "
+            f"{usable_rate:.3g} N m/s ({1 - TORQUE_MARGIN:g} x motor.torque_rate_limit)"
+        )
+    if hold > usable:
+        violations.append(
+            f"holding the body where it stops takes {hold:.3g} N m, {hold / usable - 1:.0%} "
+            f"over {usable:.3g} N m ({1 - TORQUE_MARGIN:g} x motor.torque_limit)"
+        )
+    info = None
+    if not violations:
+        try:
+            balance = predicted_balance(device, sm.stage, braking, reverse, sm.torque_noise)
+        except InputError:
+            past = _turns_past_last_node(phi, end_phi, st.nodes)
+            violations.append(
+                f"too few turns: {turns:.2f} in all, {past:.2f} past the last node (the "
+                f"balances need {MIN_TURNS:g} shared turns above {MIN_SPEED_FRACTION:.0%} "
+                "of the top speed)"
+            )
+        else:
+            inertia = np.asarray(reduced_inertia(balance.phi, model)).ravel()
+            info = directions * run_information(device, balance, inertia)
+    return _replace(
+        base,
+        braking_time=end_time,
+        turns=turns,
+        loss_first_turn=loss,
+        peak_torque=peak,
+        peak_rate=rate,
+        hold_torque=hold,
+        run_time=run_time,
+        violations=tuple(violations),
+        information=info,
+    )
+
+
+def _turns_past_last_node(phi: np.ndarray, end_phi: float, nodes: np.ndarray) -> float:
+    ahead = np.mod(nodes - phi[0], 2 * math.pi)
+    return float((end_phi - (phi[0] + ahead.max())) / (2 * math.pi))
+
+
+def _replace(c: Candidate, **changes) -> Candidate:
+    return dataclasses.replace(c, **changes)
+
+
+def stage_candidates(
+    device: Device, sm: StageModel, max_duration: float, progress=None
+) -> list[Candidate]:
+    """The grid of protocols of one stage (module docstring), each evaluated."""
+    top = _top_speed(device, sm.model)
+    if top <= 0:
+        a1 = sm.model.coulomb
+        usable = (1 - TORQUE_MARGIN) * device.motor.torque_limit
+        return [
+            Candidate(
+                sm.stage, 0.0, 0.0,
+                violations=(
+                    f"the mirror needs 2 a1 = {2 * a1:.3g} N m at any speed, "
+                    f"{2 * a1 / usable - 1:.0%} over {usable:.3g} N m",
+                ),
+            )
+        ]
+    usable = (1 - TORQUE_MARGIN) * device.motor.torque_limit
+    directions = len(device.stages[sm.stage - 1].directions)
+    max_time = min(MAX_BRAKING_TIME, max_duration / (2 * directions))
+    out = []
+    for speed in _rounded(np.geomspace(top / 8, top * 0.98, N_SPEEDS)):
+        room = usable - 2 * float(_friction(sm.model, [speed])[0])
+        torques = [0.0] + list(np.geomspace(room / 200, room, N_TORQUES - 1)) if room > 0 else [0.0]
+        for torque in dict.fromkeys(_rounded(torques, down=True)):
+            c = evaluate(device, sm, speed, torque, max_time)
+            out.append(c)
+            if progress is not None:
+                progress(c)
+    return out
+
+
+def _rounded(values, down: bool = False) -> list[float]:
+    """Values to SIGNIFICANT digits (what device.toml will hold is what is evaluated);
+    ``down``: never above the value (a torque at its limit stays within it)."""
+    out = []
+    for v in values:
+        if v <= 0:
+            out.append(0.0)
+            continue
+        step = 10.0 ** (math.floor(math.log10(v)) - SIGNIFICANT + 1)
+        out.append(float(f"{(math.floor(v / step) if down else round(v / step)) * step:.{SIGNIFICANT}g}"))
+    return out
+
+
+def _axis_stds(device: Device, infos: np.ndarray) -> np.ndarray:
+    """kg m^2, (k, axes) J_k stds of many combinations at once: infos (k, 8, 8) summed already."""
+    scale = np.sqrt(np.abs(np.einsum("kii->ki", infos)))
+    scale[scale == 0.0] = 1.0
+    normed = infos / (scale[:, :, None] * scale[:, None, :])
+    cov = np.linalg.pinv(normed, hermitian=True) / (scale[:, :, None] * scale[:, None, :])
+    V = design_matrix(device_design(device).directions)
+    var = np.einsum("ij,kjl,il->ki", V, cov[:, :6, :6], V)
+    return np.sqrt(np.abs(var))
+
+
+def _worst_stds(device: Device, infos: np.ndarray) -> np.ndarray:
+    """kg m^2, the worst J_k std of each combination (:func:`_axis_stds`)."""
+    return _axis_stds(device, infos).max(axis=1)
+
+
+def make_plan(
+    device: Device,
+    models: list[StageModel],
+    max_duration: float,
+    progress=None,
+) -> Plan:
+    """Choose every stage's protocol (module docstring).
+
+    Raises
+    ------
+    InputError
+        A stage has no feasible protocol (the message names the limit and by how much), or
+        no combination fits ``max_duration``.
+    """
+    per_stage = []
+    for sm in models:
+        cands = stage_candidates(device, sm, max_duration, progress)
+        feasible = [c for c in cands if c.feasible]
+        if not feasible:
+            raise InputError(f"stage {sm.stage}: no feasible protocol: {_closest(cands)}")
+        per_stage.append((cands, feasible))
+    lists = [f for _, f in per_stage]
+    count = math.prod(len(f) for f in lists)
+    if count > MAX_COMBINATIONS:
+        raise InputError(
+            f"device.toml: {count} combinations of the stages' protocols, at most "
+            f"{MAX_COMBINATIONS} are searched: plan fewer stages at once"
+        )
+    combos = list(itertools.product(*[range(len(f)) for f in lists]))
+    durations = np.array([sum(lists[s][i].run_time for s, i in enumerate(c)) for c in combos])
+    infos = np.array([sum(lists[s][i].information for s, i in enumerate(c)) for c in combos])
+    worst = _worst_stds(device, infos)
+    within = durations <= max_duration
+    if not np.any(within):
+        shortest = float(durations.min())
+        raise InputError(
+            f"--max-duration: the shortest feasible experiment takes {shortest:.1f} s, "
+            f"{shortest - max_duration:.1f} s over the {max_duration:g} s allowed"
+        )
+    best = int(np.flatnonzero(within)[np.argmin(worst[within])])
+    chosen = tuple(lists[s][i] for s, i in enumerate(combos[best]))
+    order = np.argsort(durations, kind="stable")
+    running = np.minimum.accumulate(worst[order])
+    keep = np.concatenate([[True], running[1:] < running[:-1]])
+    front = np.column_stack([durations[order][keep], running[keep]])
+    design = device_design(device)
+    axis_std = combine_information(device, [c.information for c in chosen])
+    current = tuple(
+        evaluate(device, sm, st.launch_speed, st.braking_torque)
+        for sm, st in zip(models, device.stages)
+    )
+    current_std = None
+    if all(c.feasible for c in current):
+        current_std = float(combine_information(device, [c.information for c in current]).max())
+    else:
+        current = None
+    design = device_design(device)
+    rows = []
+    for k, cands in enumerate(per_stage):
+        others = [c for j, c in enumerate(chosen) if j != k]
+        rest_time = sum(c.run_time for c in others)
+        for speed in sorted({c.launch_speed for c in cands[0]}):
+            options = [
+                c for c in cands[1]
+                if c.launch_speed == speed and rest_time + c.run_time <= max_duration
+            ]
+            if not options:
+                rows.append((k + 1, speed, None, math.nan, math.nan))
+                continue
+            stack = np.array([sum(o.information for o in others) + c.information for c in options])
+            stds = _axis_stds(device, stack)
+            own = stds[:, np.asarray(design.stages) == k + 1].max(axis=1)
+            j = int(np.argmin(own))
+            rows.append((k + 1, speed, options[j], float(own[j]), float(stds[j].max())))
+    return Plan(
+        tradeoff=tuple(rows),
+        chosen=chosen,
+        axis_std=axis_std,
+        axis_stage=np.asarray(design.stages),
+        duration=float(durations[best]),
+        max_duration=max_duration,
+        candidates=tuple(tuple(c) for c, _ in per_stage),
+        front=front,
+        current=current,
+        current_std=current_std,
+    )
+
+
+def _closest(cands: list[Candidate]) -> str:
+    """The limit that binds: the violation of the candidate that breaks the fewest limits."""
+    best = min(
+        cands,
+        key=lambda c: (len(c.violations) or 99, -(c.turns if math.isfinite(c.turns) else 0.0)),
+    )
+    if not best.violations:
+        return "the balances cannot be formed"
+    what = "; ".join(best.violations)
+    return f"at launch {best.launch_speed:.3g} rad/s, braking {best.braking_torque:.3g} N m: {what}"

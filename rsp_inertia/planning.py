@@ -1,0 +1,221 @@
+"""``rsp-inertia plan``: device.toml and pilot runs in, each stage's protocol out.
+
+Reads ``EXP/device.toml`` and, per stage, ``stageN/pilot.csv`` when it exists (else the
+guesses of ``device.toml [plan]``), chooses every stage's ``launch_speed`` and
+``braking_torque`` (ocp.plan), writes them into ``EXP/device.toml`` (atomically, comments
+and key order kept), and draws ``EXP/plan.png``. Nothing is written when a stage has no
+feasible protocol.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import tomlkit
+
+from ocp.plan import TORQUE_MARGIN, Plan, StageModel, make_plan
+from plant.config import Device
+from plant.errors import InputError
+from plant.experiment import open_experiment
+from plant.logs import read_log, write_atomic
+from plant.model import ModelParameters
+
+__all__ = ["DEFAULT_MAX_DURATION", "PlanReport", "guess_model", "plan", "stage_models"]
+
+DEFAULT_MAX_DURATION = 120.0
+"""s of motion for the whole experiment when neither --max-duration nor [plan] max_duration
+says otherwise (the paper's default protocol takes about 90 s)."""
+
+PLAN_FIGURE = "plan.png"
+"""The trade-off figure, in the experiment folder."""
+
+def guess_model(device: Device, stage: int) -> tuple[ModelParameters, float]:
+    """Nominal model and torque noise of a stage from ``device.toml [plan]`` (no pilot run).
+
+    M0 = M_tare + (1 + lambda^2) J, J the mean of the guessed principal moments (the axis's
+    J_e lies between the extreme ones; METHOD.md §2); no M harmonics (their effect on the
+    mirror's torque cancels, module docstring of ocp.plan); gravity m g r from the mass and
+    the guessed offset of the centre of mass; friction and spring as given.
+    """
+    guess = device.plan
+    where = f"{device.name}: device.toml"
+    if guess is None:
+        raise InputError(
+            f"{where}: no [plan] table and no stage{stage}/pilot.csv: give the body's "
+            "approximate principal moments (plan.inertia or plan.box) and a friction guess, "
+            "or record a pilot run"
+        )
+    mass = device.body.mass if device.body is not None else None
+    moments = guess.principal_moments(mass)
+    if moments is None:
+        raise InputError(
+            f"{where}: plan.inertia: missing (or plan.box with [body] mass), and no "
+            f"stage{stage}/pilot.csv"
+        )
+    if guess.torque_noise is None:
+        raise InputError(
+            f"{where}: plan.torque_noise: missing, and no stage{stage}/pilot.csv to measure it"
+        )
+    st = device.stages[stage - 1]
+    M0 = st.tare_inertia + (1 + st.gear_ratio**2) * float(np.mean(moments))
+    weight = (mass or 0.0) * device.gravity * guess.com_offset
+    a1, a2, a3 = guess.friction
+    model = ModelParameters(
+        inertia_harmonics=np.array([M0, 0.0, 0.0, 0.0, 0.0]),
+        stiffness=device.spring.stiffness,
+        zero_angle=device.spring.zero_angle,
+        gravity_sin=weight,
+        gravity_cos=0.0,
+        coulomb=a1,
+        viscous=a2,
+        quadratic=a3,
+    )
+    return model, guess.torque_noise
+
+
+def stage_models(root: str | Path) -> list[StageModel]:
+    """Per stage: the pilot run's fit if ``stageN/pilot.csv`` exists, else device.toml's guess."""
+    exp = open_experiment(root)
+    models = []
+    for stage in exp.stages(None):
+        path = exp.pilot_path(stage)
+        if path.is_file():
+            from estimation.pilot import fit_pilot
+
+            log = read_log(path, exp.device.encoder, "pilot")
+            fit = fit_pilot(exp.device, stage, log, str(path))
+            models.append(StageModel(stage, fit.model(), fit.torque_noise, str(path)))
+        else:
+            model, noise = guess_model(exp.device, stage)
+            models.append(StageModel(stage, model, noise, "device.toml [plan]"))
+    return models
+
+
+@dataclass(frozen=True)
+class PlanReport:
+    """What ``plan`` chose, and the text it prints."""
+
+    plan: Plan
+    device: Device
+    models: list[StageModel]
+    old: list[tuple[float, float]]
+    """Per stage, (launch_speed, braking_torque) as device.toml held them."""
+    written: Path | None
+    """device.toml, when written."""
+    figure: Path | None
+    seconds: float
+
+    def __str__(self) -> str:
+        return format_plan(self)
+
+
+def format_plan(report: PlanReport) -> str:
+    plan, lines = report.plan, []
+    lines.append(
+        f"plan: worst predicted std of J_k {plan.worst:.3g} kg m^2 in {plan.duration:.0f} s "
+        f"of motion (budget {plan.max_duration:g} s)"
+    )
+    if plan.current_std is not None:
+        now = sum(c.run_time for c in plan.current)
+        lines.append(
+            f"  device.toml's protocol before: {plan.current_std:.3g} kg m^2 in {now:.0f} s "
+            f"({plan.current_std / plan.worst:.2f}x the plan's std)"
+        )
+    for c, sm, (speed, torque) in zip(plan.chosen, report.models, report.old):
+        stds = plan.axis_std[plan.axis_stage == c.stage]
+        J = _axial_guess(sm, report.device)
+        lines.append(
+            f"stage {c.stage} (model: {sm.source}): launch_speed {c.launch_speed:g} rad/s "
+            f"(was {speed:g}), braking_torque {c.braking_torque:g} N m (was {torque:g})"
+        )
+        lines.append(
+            f"  braking {c.braking_time:.1f} s over {c.turns:.1f} turns, {c.loss_first_turn:.0%}"
+            f" of the energy lost in the first turn; run {c.run_time:.1f} s (spin-up, braking"
+            " and reverse, every direction)"
+        )
+        lines.append(
+            f"  reverse: peak torque {c.peak_torque:.3g} N m, peak rate {c.peak_rate:.3g} N m/s;"
+            f" hold {c.hold_torque:.3g} N m (limits used: {1 - TORQUE_MARGIN:g} x the motor's)"
+        )
+        rel = f" (~{stds.max() / J:.2g} of J_k)" if J > 0 else ""
+        lines.append(
+            "  predicted std of J_k at the nodes: "
+            + ", ".join(f"{s:.3g}" for s in stds)
+            + f" kg m^2{rel}"
+        )
+    lines.append(
+        "trade-off: per launch speed, the braking torque with the smallest predicted std of the"
+        " stage's own J_k (other stages as planned); stds in kg m^2"
+    )
+    lines.append("  stage | launch rad/s | braking N m | braking s | run s | stage's worst | all")
+    for stage, speed, cand, own, overall in plan.tradeoff:
+        if cand is None:
+            lines.append(f"  {stage} | {speed:.3g} | infeasible | - | - | - | -")
+        else:
+            lines.append(
+                f"  {stage} | {speed:.3g} | {cand.braking_torque:.3g} | "
+                f"{cand.braking_time:.1f} | {cand.run_time:.1f} | {own:.3g} | {overall:.3g}"
+            )
+    if report.written is not None:
+        lines.append(f"protocol -> {report.written}")
+    if report.figure is not None:
+        lines.append(f"trade-off figure -> {report.figure}")
+    return "\n".join(lines)
+
+
+def _axial_guess(sm: StageModel, device: Device) -> float:
+    """kg m^2, the order of J_k on this stage: (M0 - M_tare) / (1 + lambda^2), METHOD.md §5."""
+    st = device.stages[sm.stage - 1]
+    return (float(sm.model.inertia_harmonics[0]) - st.tare_inertia) / (1 + st.gear_ratio**2)
+
+
+def plan(
+    root: str | Path,
+    max_duration: float | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> PlanReport:
+    """``rsp-inertia plan``: choose, write device.toml and plan.png (module docstring)."""
+    import time
+
+    start = time.perf_counter()
+    exp = open_experiment(root)
+    device = exp.device
+    if max_duration is None:
+        given = device.plan.max_duration if device.plan is not None else None
+        max_duration = given if given is not None else DEFAULT_MAX_DURATION
+    if not max_duration > 0:
+        raise InputError(f"--max-duration: must be > 0, got {max_duration!r}")
+    models = stage_models(root)
+    if progress is not None:
+        for sm in models:
+            m = sm.model
+            progress(
+                f"stage {sm.stage}: model from {sm.source}: M0 {m.inertia_harmonics[0]:.4g} "
+                f"kg m^2, friction a1 {m.coulomb:.3g} N m, a2 {m.viscous:.3g} N m s, "
+                f"a3 {m.quadratic:.3g} N m s^2, torque noise {sm.torque_noise:.3g} N m"
+            )
+    result = make_plan(device, models, max_duration)
+    old = [(st.launch_speed, st.braking_torque) for st in device.stages]
+    path = exp.root / "device.toml"
+    text = path.read_text()
+    doc = tomlkit.parse(text)
+    for c in result.chosen:
+        table = doc["stage"][c.stage - 1]
+        table["launch_speed"] = c.launch_speed
+        table["braking_torque"] = c.braking_torque
+    write_atomic(path, tomlkit.dumps(doc))
+    from rsp_inertia.plots import plan_figure
+
+    figure = plan_figure(result, exp.root / PLAN_FIGURE)
+    return PlanReport(
+        plan=result,
+        device=device,
+        models=models,
+        old=old,
+        written=path,
+        figure=figure,
+        seconds=time.perf_counter() - start,
+    )
