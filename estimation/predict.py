@@ -233,7 +233,11 @@ def _information(A: np.ndarray, balance: StageBalance, inertia: np.ndarray) -> n
     cov = balance.work_cov + speed
     c = np.sqrt(np.diag(balance.braking_work_cov))
     n = len(c)
-    rank_one = np.allclose(balance.braking_work_cov, np.outer(c, c), rtol=1e-9, atol=0.0)
+    # Rank one, c_i c_j, for the constant braking torque; checked on the first row and column.
+    first = balance.braking_work_cov[0]
+    rank_one = np.allclose(first, c[0] * c, rtol=1e-9, atol=0.0) and np.allclose(
+        balance.braking_work_cov[:, -1], c[-1] * c, rtol=1e-9, atol=0.0
+    )
     if not rank_one or n < 8:
         return information(A, cov)
     ridge = JITTER * np.trace(cov) / n

@@ -13,27 +13,22 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from estimation.calibration import CALIBRATION_FILE, Calibration
-from estimation.calibration import calibrate as calibrate_rig
-from estimation.identify import ENTRY_NAMES, Identification
-from estimation.identify import identify as identify_experiment
-from ocp.make import ProgramResult, make_program
 from plant.config import DIRECTIONS
 from plant.errors import InputError
 from plant.experiment import Experiment, open_experiment
-from plant.geometry import tensor_from_entries
 from plant.logs import read_log, read_program, write_atomic, write_log, write_program
-from plant.virtual import (
-    SimulatedPass,
-    run_program,
-    simulate_braking,
-    simulate_ideal_reverse,
-    simulate_pendulum,
-    simulate_pilot,
-)
+
+# Each command imports what it uses inside its function: ``program`` must not pay for the
+# identification's modules (scipy.stats, the GLS) nor ``identify`` for the OCP's.
+if TYPE_CHECKING:
+    from estimation.calibration import Calibration
+    from estimation.identify import Identification
+    from ocp.make import ProgramResult
+    from plant.virtual import SimulatedPass
 
 __all__ = [
     "DEFAULT_EXPERIMENT",
@@ -178,6 +173,8 @@ def _braking_truth(
     rather than storing truth next to the logs, and refuses a braking log it did not write
     with these settings.
     """
+    from plant.virtual import simulate_braking
+
     braking = simulate_braking(exp.device, stage, virtual, direction)
     path = exp.braking_path(stage, direction)
     if not path.is_file():
@@ -231,6 +228,14 @@ def simulate(
         Bad ``part`` or ``direction``, or no selected stage runs ``direction``; and whatever
         the files' readers and the simulator raise.
     """
+    from plant.virtual import (
+        run_program,
+        simulate_braking,
+        simulate_ideal_reverse,
+        simulate_pendulum,
+        simulate_pilot,
+    )
+
     if part not in PARTS:
         raise InputError(f"--part: must be one of {', '.join(PARTS)}, got {part!r}")
     if direction is not None and direction not in DIRECTIONS:
@@ -307,6 +312,8 @@ def program(
     Reads only device.toml and the braking log. Nothing is written for a stage whose mirror
     the motor cannot drive (the error says what torque it needs).
     """
+    from ocp.make import make_program
+
     exp = open_experiment(root)
     results = []
     for st in exp.stages(stage):
@@ -341,6 +348,9 @@ def calibrate(
     Nothing is written when an input is bad (stages that differ from EXP's, a missing or
     unphysical reference.toml, bad logs).
     """
+    from estimation.calibration import CALIBRATION_FILE
+    from estimation.calibration import calibrate as calibrate_rig
+
     exp = open_experiment(root)
     result = calibrate_rig(
         exp,
@@ -356,6 +366,8 @@ def identify(
     root: str | Path, progress: Callable[[str], None] | None = None
 ) -> Identification:
     """``rsp-inertia identify``: all stages' logs -> EXP/result.json (written atomically)."""
+    from estimation.identify import identify as identify_experiment
+
     exp = open_experiment(root)
     result = identify_experiment(exp, progress)
     write_atomic(exp.result_path, json.dumps(result.to_json(), indent=2) + "\n")
@@ -364,6 +376,9 @@ def identify(
 
 def format_identification(result: Identification, truth: np.ndarray | None = None) -> str:
     """A short human table of an identification (optionally against a known tensor)."""
+    from estimation.identify import ENTRY_NAMES
+    from plant.geometry import tensor_from_entries
+
     lines = []
     head = f"{'':5} {'RSP least squares':>26} {'RSP node formula':>26}"
     if truth is not None:
@@ -451,6 +466,7 @@ def demo_figures(exp: Experiment, result: Identification) -> list[Path]:
     """
     # Imported here: only the demo draws, and matplotlib costs the other commands a second.
     from estimation.smoothing import smooth_log
+    from plant.geometry import tensor_from_entries
     from plant.virtual import free_motion
     from rsp_inertia.design import plot_cone_conditioning
     from rsp_inertia.plots import plot_errors, plot_motion, plot_tracking
@@ -509,6 +525,9 @@ def demo(
     calibration (its warning and error shown); ``calibrate``; the identification, printed
     against the virtual device's true tensor, with figures.
     """
+    from estimation.calibration import CALIBRATION_FILE
+    from plant.geometry import tensor_from_entries
+
     say = progress or (lambda _text: None)
     root, empty, reference = create_rig_experiment(root)
     say(f"experiment folder: {root}; calibration runs: {empty}, {reference}")
