@@ -53,9 +53,15 @@ standard deviations (a pure-noise log of 40,000 rows has such a row once in ~25 
 MIN_POWERED_ROWS = 10
 """Powered rows a pilot needs at least (the default pilots have 2,700 and 12,500)."""
 
-MIN_COAST_TURNS = 1.0
-"""Turns the coast must cover at least: over whole turns M(phi)'s harmonics and gravity
-exchange no net energy, so the coast's loss stands apart from them as friction."""
+MIN_COAST_TURNS = 0.5
+"""Turns the coast must cover at least, and MIN_PILOT_TURNS the whole pilot: M(phi)'s
+harmonics and gravity are unknowns of the fit, but they exchange no net energy only over
+whole turns, which is what sets them apart from friction and the mean inertia. A spring
+limits the coast (c = 0.02 N m/rad stops the default stage 1 after 0.88 coast turns, 1.84
+in all), hence half a turn of coast within at least one turn of motion."""
+
+MIN_PILOT_TURNS = 1.0
+"""Turns the whole pilot (powered and coast) must cover at least (MIN_COAST_TURNS)."""
 
 
 @dataclass(frozen=True)
@@ -170,11 +176,12 @@ def fit_pilot(device: Device, stage: int, log: Log, source: str | None = None) -
         if coast_start < len(log)
         else 0.0
     )
-    if turns < MIN_COAST_TURNS:
+    total = float(log.phi[-1] - log.phi[0]) / (2 * math.pi)
+    if turns < MIN_COAST_TURNS or total < MIN_PILOT_TURNS:
         raise InputError(
-            f"{source}: the coast (motor off) covers only {turns:.2f} turns; a pilot needs at "
-            f"least {MIN_COAST_TURNS:g} to tell friction from the inertia's and gravity's "
-            "exchange within a turn"
+            f"{source}: the coast (motor off) covers {turns:.2f} turns and the pilot "
+            f"{total:.2f}; a pilot needs at least {MIN_COAST_TURNS:g} and {MIN_PILOT_TURNS:g} "
+            "to tell friction from the inertia's and gravity's exchange within a turn"
         )
     sm = smooth_log(log, device.encoder.quantum, source)
     values, covariance = fit_energy_windows(device, log, sm, PILOT_UNKNOWNS, source)

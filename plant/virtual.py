@@ -51,6 +51,7 @@ from plant.model import (
 __all__ = [
     "MAX_BRAKING_TIME",
     "PILOT_MAX_COAST",
+    "PILOT_PEAK_FRACTION",
     "PILOT_TORQUE_FRACTION",
     "SUBSTEPS",
     "PassTruth",
@@ -81,6 +82,9 @@ PILOT_TORQUE_FRACTION = 0.5
 gravity torques while leaving the drive room, and takes the default stages to their launch
 speeds in 2.7 s (stage 1, where the quadratic friction reaches 0.14 N m at 12 rad/s) and
 12.5 s (stage 2)."""
+
+PILOT_PEAK_FRACTION = 0.9
+"""A pilot's spin-up ends when the speed falls below this fraction of its peak so far."""
 
 PILOT_MAX_COAST = 30.0
 """s: the pilot's coast ends here if the body has not come to rest by then. Light friction on
@@ -743,7 +747,9 @@ def simulate_pilot(device: Device, stage: int, virtual: Virtual) -> SimulatedPas
     1. The body starts at rest at the release angle (``virtual.run.release_angle_deg``).
     2. Powered part: the drive commands the constant torque PILOT_TORQUE_FRACTION x
        ``motor.torque_limit`` (forward), held sample by sample, until the first sample at
-       which the true speed has reached the stage's ``launch_speed``.
+       which the true speed has reached the stage's ``launch_speed``, or has fallen below
+       PILOT_PEAK_FRACTION of its highest value so far (a spring wound up against the motor;
+       the within-turn exchange with M(phi) moves the speed by a few percent only).
     3. Coast: from that sample on the command is 0 (the motor is off; the log still records
        0 plus the channel's noise) and the body coasts until it comes to rest (the first
        instant the speed reaches zero, an event located inside its sample as in
@@ -786,9 +792,12 @@ def simulate_pilot(device: Device, stage: int, virtual: Virtual) -> SimulatedPas
     x = np.array([math.radians(virtual.run.release_angle_deg), 0.0])
     states = [x[None, :]]
     n = 1
+    top_so_far = 0.0
     while True:
         block = np.asarray(_STEP_BLOCK(x, u, 1.0, p, dt)).T  # (_BLOCK, 2)
-        reached = np.nonzero(block[:, 1] >= st.launch_speed)[0]
+        top = np.maximum.accumulate(np.concatenate([[top_so_far], block[:, 1]]))[1:]
+        peaked = block[:, 1] < PILOT_PEAK_FRACTION * top
+        reached = np.nonzero((block[:, 1] >= st.launch_speed) | peaked)[0]
         if np.any(block[: reached[0] if reached.size else _BLOCK, 1] <= 0.0):
             raise InputError(
                 f"stage {stage}: the pilot torque ({command:g} N m) does not turn the body "
@@ -801,6 +810,7 @@ def simulate_pilot(device: Device, stage: int, virtual: Virtual) -> SimulatedPas
         states.append(block)
         n += _BLOCK
         x = block[-1]
+        top_so_far = float(top[-1])
         if n * dt > MAX_BRAKING_TIME:
             raise InputError(
                 f"stage {stage}: the pilot torque ({command:g} N m) does not reach the "
