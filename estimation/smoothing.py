@@ -145,8 +145,33 @@ class Smoothed:
         """
         t = np.asarray(t, dtype=float)
         ramp = np.asarray(omega_std) / np.median(self.omega_std)
-        R = speed_error_autocovariance(t[:, None] - t[None, :], self.bandwidth, self.noise_density)
+        R = _banded_autocovariance(t, self.bandwidth, self.noise_density)
         return R * np.outer(ramp, ramp)
+
+
+def _banded_autocovariance(t: np.ndarray, bandwidth: float, noise_density: float) -> np.ndarray:
+    """R(t_i - t_j) for all pairs, evaluated only where w_c |t_i - t_j| < _KERNEL_SPAN.
+
+    R is zero beyond that span (:func:`speed_error_autocovariance`), so for monotone times the
+    matrix is banded: it is filled diagonal by diagonal up to the widest offset still within
+    the span, O(n b) instead of O(n^2) evaluations, with the same values. Times that are not
+    monotone take the dense evaluation.
+    """
+    n = t.size
+    steps = np.diff(t)
+    if n < 2 or not (np.all(steps > 0) or np.all(steps < 0)):
+        return speed_error_autocovariance(t[:, None] - t[None, :], bandwidth, noise_density)
+    R = np.zeros((n, n))
+    span = _KERNEL_SPAN / bandwidth
+    rows = np.arange(n)
+    for k in range(n):
+        tau = t[k:] - t[: n - k]
+        if k > 0 and np.min(np.abs(tau)) >= span:
+            break
+        values = speed_error_autocovariance(tau, bandwidth, noise_density)
+        R[rows[: n - k], rows[k:]] = values
+        R[rows[k:], rows[: n - k]] = values
+    return R
 
 
 def _transition(T: float) -> np.ndarray:

@@ -19,10 +19,12 @@ interval's (x_k, v_k, x_{k+1}); the cost is a sum of squares. So the constraint 
 the Lagrangian's Hessian are assembled from per-interval blocks: the step's 3x4 Jacobian and
 the 4x4 Hessian of lam_k . F(x_k, v_k), both SX functions (built once per step length h and
 cached) mapped over the N intervals, plus the cost's own constant Hessian. The same numbers
-as CasADi's automatic MX derivatives of the whole NLP, at a third of the time: those colour
-the NLP's sparsity and sweep the mapped step several times per evaluation (~40 ms per
-Hessian on a 22 s pass against ~15 ms here), and an expanded SX graph of the whole NLP takes
-seconds to differentiate.
+as CasADi's automatic MX derivatives of the whole NLP (to rounding; tests/ocp/
+test_program_derivatives.py), at less than half the time: those colour the NLP's sparsity
+and sweep the mapped step several times per evaluation (measured on the default stage 2,
+1105 intervals: 40 ms per Hessian and 22 ms per Jacobian against 20 and 8 ms here, and
+0.15 s to build the solver against 0.03 s), while an expanded SX graph of the whole NLP
+takes seconds to differentiate.
 
 Before the OCP, the mirror's torque is checked against the motor: if the nominal model
 needs more than ``torque_limit`` anywhere, the mirror is impossible and nothing is written.
@@ -131,7 +133,7 @@ class _StepDerivatives:
 
 @functools.lru_cache(maxsize=4)
 def _step_derivatives(h: float) -> _StepDerivatives:
-    """The step of length h and its derivative blocks, built once per h (~0.1 s)."""
+    """The step of length h and its derivative blocks, built once per h (~20 ms)."""
     F = _step_function(h)
     x = ca.SX.sym("x", 3)
     v = ca.SX.sym("v")
@@ -190,7 +192,7 @@ def _nlp_derivatives(
     hess_values = ca.vec(blocks.hessian.map(N)(X[:, :-1], V, p, lam_g))
     steps = _block_matrix(position(hr).ravel(), position(hc).ravel(), (w.numel(),) * 2, hess_values)
     hess = steps + lam_f * ca.triu(ca.hessian(cost, w)[0])
-    none = ca.MX(0, 1)  # the NLP has no parameters
+    none = ca.MX.sym("p", 0, 1)  # the NLP has no parameters
     return {
         "jac_g": ca.Function("jac_g", [w, none], [g, jac], ["x", "p"], ["g", "jac_g_x"]),
         "hess_lag": ca.Function(
