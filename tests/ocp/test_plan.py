@@ -186,3 +186,25 @@ def test_plan_from_pilot_runs(tmp_path, capsys):
     assert "model from" in out and "pilot.csv" in out
     device = load_device(root / "device.toml")
     assert device.stages[0].launch_speed != 12.0 or device.stages[0].braking_torque != 0.005
+
+
+def test_program_serves_a_two_second_spring_pass(paper):
+    """A planned braking against a spring (c = 0.02 N m/rad, 13.8 rad/s, no braking torque):
+    2 s, ending at the turning point. The nominal model's windows shorten to the pass
+    (ocp.nominal): M0 within 2%; the program starts from the hold torque there."""
+    from ocp.make import make_program
+    from plant.model import static_torque
+    from plant.virtual import simulate_braking
+
+    device, virtual = paper
+    spring = dataclasses.replace(device.spring, stiffness=0.02)
+    stage = dataclasses.replace(device.stages[0], launch_speed=13.8, braking_torque=0.0)
+    device = dataclasses.replace(device, spring=spring, stages=(stage, *device.stages[1:]))
+    braking = simulate_braking(device, 1, virtual)
+    assert 1.5 < braking.truth.end_time < 2.5
+    result = make_program(device, 1, braking.log)
+    truth = true_parameters(device, 1, virtual, 1.0)
+    assert result.nominal.inertia_harmonics[0] == pytest.approx(truth.inertia_harmonics[0], rel=0.02)
+    hold = float(static_torque(braking.truth.end_phi, truth))
+    assert abs(hold) > 0.2  # the spring is wound: a real hold
+    assert result.ocp.torque[0] == pytest.approx(hold, rel=0.05)
