@@ -116,9 +116,12 @@ def test_limits_are_reported_with_numbers(paper):
     too_fast = evaluate(device, sm, 20.0, 0.0)  # 2 a3 W^2 = 0.8 N m > 0.4 N m
     assert any("the reverse needs" in v and "motor.torque_limit" in v for v in too_fast.violations)
     assert too_fast.peak_torque > (1 - TORQUE_MARGIN) * device.motor.torque_limit
-    short = evaluate(device, sm, 3.0, 0.2)
-    assert any("too few turns" in v for v in short.violations)
+    short = evaluate(device, sm, 3.0, 0.02)
+    assert any("too few turns: 0.33 in all" in v for v in short.violations)
     assert not short.feasible
+    # 0.26 N m from the hold to the mirror at 20 N m/s: 13 ms of a 0.46 s pass at the limit.
+    step = evaluate(device, sm, 3.0, 0.2)
+    assert any("at the torque-rate limit going from the hold" in v for v in step.violations)
 
 
 def _plan_experiment(tmp_path) -> Path:
