@@ -49,6 +49,7 @@ __all__ = [
     "check_braking_monotone",
     "constancy_p_value",
     "estimate_pass",
+    "motor_work",
     "sample_at",
     "speed_error_covariance",
     "torque_noise",
@@ -150,15 +151,9 @@ def estimate_pass(
     """
     smoothed = smooth_log(log, quantum, source)
     sigma = torque_noise(log) if sigma_torque is None else sigma_torque
-    dphi = np.diff(smoothed.phi)
-    steps = np.concatenate([[0.0], np.cumsum(dphi * dphi)])
     p_value = constancy_p_value(log, smoothed.phi, sigma) if constant_torque else None
-    if p_value is not None and p_value >= CONSTANCY_TAIL:
-        mean = float(np.mean(log.torque))
-        work = mean * (smoothed.phi - smoothed.phi[0])
-    else:
-        mean = None
-        work = np.concatenate([[0.0], np.cumsum(log.torque[:-1] * dphi)])
+    constant = p_value is not None and p_value >= CONSTANCY_TAIL
+    work, steps, mean = motor_work(log.torque, smoothed.phi, constant)
     return PassEstimate(
         log=log,
         smoothed=smoothed,
@@ -169,6 +164,24 @@ def estimate_pass(
         torque_mean=mean,
         constancy_p=p_value,
     )
+
+
+def motor_work(
+    torque: np.ndarray, phi: np.ndarray, constant: bool
+) -> tuple[np.ndarray, np.ndarray, float | None]:
+    """Motor work from a pass's first row to each row, and its noise factors (module docstring).
+
+    Returns the work W (J), the cumulative sum of squared angle increments (rad^2: the work's
+    noise variance per unit sigma^2 for the sample-by-sample sum) and, for a ``constant``
+    applied torque, the log's mean torque (N m; the work is then mean x (phi - phi_0)),
+    else None (the Stieltjes sum of the logged torque over the increments of ``phi``).
+    """
+    dphi = np.diff(phi)
+    steps = np.concatenate([[0.0], np.cumsum(dphi * dphi)])
+    if constant:
+        mean = float(np.mean(torque))
+        return mean * (phi - phi[0]), steps, mean
+    return np.concatenate([[0.0], np.cumsum(torque[:-1] * dphi)]), steps, None
 
 
 @dataclass(frozen=True)

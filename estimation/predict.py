@@ -25,7 +25,7 @@ import numpy as np
 import scipy.linalg
 
 from estimation.balance import StageBalance, stage_balance
-from estimation.energy import PassEstimate
+from estimation.energy import PassEstimate, motor_work
 from estimation.gls import JITTER, information
 from estimation.smoothing import Smoothed, noise_density, smoother_bandwidth
 from estimation.tensor import (
@@ -102,15 +102,8 @@ def planned_estimate(
         bandwidth=bandwidth,
         noise_density=r,
     )
-    dphi = np.diff(planned.phi)
-    steps = np.concatenate([[0.0], np.cumsum(dphi * dphi)])
     log = Log(t=planned.t, phi=planned.phi, torque=planned.torque)
-    if constant_torque:
-        mean = float(np.mean(planned.torque))
-        work = mean * (planned.phi - planned.phi[0])
-    else:
-        mean = None
-        work = np.concatenate([[0.0], np.cumsum(planned.torque[:-1] * dphi)])
+    work, steps, mean = motor_work(planned.torque, planned.phi, constant_torque)
     return PassEstimate(
         log=log,
         smoothed=smoothed,

@@ -69,7 +69,10 @@ m^2, 16-bit encoder, the virtual drive's 100 rad/s speed observer), with the sha
 samples, and identify's speed-noise scale for that run was 10, 5.8, 3.4 and 1.3 (the
 chattering loop leaves slow residuals in the balances that no encoder noise explains); J_k
 errors stayed within 2e-5 throughout. Against a spring (c = 0.02 N m/rad) the scale went
-from 337 at share 1 to 28 at 0.1."""
+from 337 at share 1 to 28 at 0.1. The price is looser tracking of a wrong nominal model
+(benchmarks/results/program.md, model +-30% in inertia and +-50% in friction): node
+mismatch up to 1.65e-3 of the speed (0.7-1.2e-3 at share 1), which the balances' mismatch
+terms absorb (J_k within 2.1e-5)."""
 
 
 def bandwidth(device: Device, M: float) -> float:
