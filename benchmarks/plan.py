@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 import tomlkit
+from tables import markdown_table
 
 from plant.config import load_device, load_virtual
 from plant.experiment import open_experiment
@@ -30,7 +31,6 @@ from plant.geometry import axis_direction, design_matrix, entries_from_tensor
 from plant.logs import read_log, write_atomic
 from rsp_inertia.pipeline import identify, program, simulate
 from rsp_inertia.planning import plan
-from tables import markdown_table
 
 RESULTS = Path(__file__).parent / "results"
 DEFAULTS = Path(__file__).parents[1] / "plant" / "defaults"

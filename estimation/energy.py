@@ -42,10 +42,10 @@ from plant.errors import InputError
 from plant.logs import Log
 
 __all__ = [
-    "AngleSample",
-    "PassEstimate",
     "CONSTANCY_CHUNK",
     "CONSTANCY_TAIL",
+    "AngleSample",
+    "PassEstimate",
     "check_braking_monotone",
     "constancy_p_value",
     "estimate_pass",

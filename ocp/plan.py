@@ -46,8 +46,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from estimation.balance import MIN_SPEED_FRACTION, MIN_TURNS
-from estimation.smoothing import hermite
 from estimation.predict import PlannedPass, combine_information, predicted_balance, run_information
+from estimation.smoothing import hermite
 from plant.config import Device
 from plant.errors import InputError
 from plant.geometry import design_matrix, device_design
