@@ -83,7 +83,7 @@ def stage_models(root: str | Path) -> list[StageModel]:
     for stage in exp.stages(None):
         path = exp.pilot_path(stage)
         if path.is_file():
-            from estimation.pilot import fit_pilot
+            from ocp.pilot import fit_pilot
 
             log = read_log(path, exp.device.encoder, "pilot")
             fit = fit_pilot(exp.device, stage, log, str(path))

@@ -2,8 +2,8 @@
 
 A pilot run (``stageN/pilot.csv``, the log format of braking.csv; the virtual device's
 :func:`plant.virtual.simulate_pilot`) starts at rest, drives the body forward at a constant
-known torque up to the stage's launch speed, then switches the motor off and lets it coast
-to rest (or for a while). Its energy balance over windows of the pass (METHOD.md §3),
+known torque up to the stage's launch speed (or until a spring stops the speed rising),
+then switches the motor off and lets it coast to rest (or for a while). Its energy balance over windows of the pass (METHOD.md §3),
 
     E(b) - E(a) + integral_a^b D dphi = motor work from a to b,
 

@@ -1,4 +1,4 @@
-"""Pilot runs (plant.virtual.simulate_pilot) and their fit (estimation.pilot.fit_pilot).
+"""Pilot runs (plant.virtual.simulate_pilot) and their fit (ocp.pilot.fit_pilot).
 
 Every estimate is compared with the virtual device's truth (true_parameters), at the default
 friction and at 30x its Coulomb and viscous terms (the coast then stops in 10 s on stage 1).
@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from estimation.pilot import PILOT_UNKNOWNS, fit_pilot
+from ocp.pilot import PILOT_UNKNOWNS, fit_pilot
 from plant import virtual as vd
 from plant.errors import InputError
 from plant.experiment import open_experiment
