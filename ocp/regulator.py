@@ -23,10 +23,14 @@ measured: within 1e-12 on the default stages).
 
 The bandwidth w: high enough to absorb a nominal model 30% off, low enough that the
 encoder's quantization does not make the torque chatter. One count q of angle error moves
-the torque by k_phi q, and the drive's speed estimate, which jumps with each count, moves it
-by k_omega times that jump; keeping k_phi q within ``RATE_SHARE`` of one sample's rate limit
-(torque_rate_limit dt) gives w <= sqrt(RATE_SHARE torque_rate_limit dt / (M q)), capped at
-``MAX_BANDWIDTH``.
+the torque by k_phi q, and the drive's speed estimate, which jumps by about c_o q with each
+count (c_o = 3 w_o^2 dt for a third-order tracking observer of bandwidth w_o, the virtual
+drive's), moves it by k_omega c_o q. With the LQR gains k_phi = M w^2, k_omega = sqrt 2 M w,
+keeping that step within one sample's rate limit,
+
+    M q (w^2 + sqrt 2 c_o w) <= torque_rate_limit dt,
+
+gives the largest w (the root of the quadratic), capped at ``MAX_BANDWIDTH``.
 """
 
 from __future__ import annotations
@@ -41,7 +45,7 @@ from threadpoolctl import threadpool_limits
 from plant.config import Device
 from plant.model import MODEL, ModelParameters, reduced_inertia
 
-__all__ = ["GAIN_STEP", "MAX_BANDWIDTH", "RATE_SHARE", "bandwidth", "lqr_gains"]
+__all__ = ["GAIN_STEP", "MAX_BANDWIDTH", "OBSERVER_BANDWIDTH", "bandwidth", "lqr_gains"]
 
 MAX_BANDWIDTH = 45.0
 """rad/s: ceiling on the regulator's bandwidth. Measured on the default stage 1 with the
@@ -61,24 +65,26 @@ _JAC = ca.Function(
 )
 
 
-RATE_SHARE = 0.1
-"""Share of one sample's torque-rate limit that one count's k_phi q may take (module
-docstring). Measured on the closed loop of a planned paper protocol (stage 2, M = 0.83 kg
-m^2, 16-bit encoder, the virtual drive's 100 rad/s speed observer), with the share 1, 0.5,
-0.25 and 0.1: the drive's rate limiter was engaged on 47%, 23%, 3% and 0.004% of the reverse
-samples, and identify's speed-noise scale for that run was 10, 5.8, 3.4 and 1.3 (the
-chattering loop leaves slow residuals in the balances that no encoder noise explains); J_k
-errors stayed within 2e-5 throughout. Against a spring (c = 0.02 N m/rad) the scale went
-from 337 at share 1 to 28 at 0.1. The price is looser tracking of a wrong nominal model
-(benchmarks/results/program.md, model +-30% in inertia and +-50% in friction): node
-mismatch up to 1.65e-3 of the speed (0.7-1.2e-3 at share 1), which the balances' mismatch
-terms absorb (J_k within 2.1e-5)."""
+OBSERVER_BANDWIDTH = 100.0
+"""rad/s: the drive's speed observer assumed by the bandwidth rule (module docstring); the
+virtual drive's (virtual.toml controller.speed_observer_bandwidth). Measured on the closed
+loop of a planned paper protocol: keeping only k_phi q within the rate limit (c_o = 0) left
+the heavy stage (M = 0.83 kg m^2, w = 15.8 rad/s) riding the drive's rate limiter on 47% of
+its reverse samples, and identify's speed-noise scale for that run at 10 (337 against a
+spring of 0.02 N m/rad): the chattering loop leaves slow residuals in the balances that no
+encoder noise explains. With the observer's step counted, w = 5.2 rad/s there: 0.004% of
+samples, scale 1.3-1.8 (28 with the spring); the light stage keeps MAX_BANDWIDTH. The price
+is looser tracking of a wrong nominal model on the heavy stage (benchmarks/results/
+program.md), which the balances' mismatch terms absorb."""
 
 
 def bandwidth(device: Device, M: float) -> float:
     """Regulator bandwidth w, rad/s, for a reduced inertia M (module docstring)."""
     enc = device.encoder
-    limit = math.sqrt(RATE_SHARE * device.motor.torque_rate_limit * enc.dt / (M * enc.quantum))
+    c_o = 3.0 * OBSERVER_BANDWIDTH**2 * enc.dt
+    step = device.motor.torque_rate_limit * enc.dt / (M * enc.quantum)
+    b = math.sqrt(2.0) * c_o
+    limit = (-b + math.sqrt(b * b + 4.0 * step)) / 2.0
     return min(MAX_BANDWIDTH, limit)
 
 
