@@ -74,7 +74,7 @@ its reverse samples, and identify's speed-noise scale for that run at 10 (337 ag
 spring of 0.02 N m/rad): the chattering loop leaves slow residuals in the balances that no
 encoder noise explains. With the observer's step counted, w = 5.3 rad/s there: the rate
 limiter engaged on under 0.01% of samples, scale 1.7-2.2 over six realisations (J_k within
-1.4 std); the light stage keeps MAX_BANDWIDTH. The price
+1.7 std); the light stage keeps MAX_BANDWIDTH. The price
 is looser tracking of a wrong nominal model on the heavy stage (benchmarks/results/
 program.md), which the balances' mismatch terms absorb."""
 
