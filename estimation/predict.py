@@ -44,6 +44,7 @@ __all__ = [
     "SHARED",
     "PlannedPass",
     "Prediction",
+    "axis_stds",
     "combine_information",
     "planned_estimate",
     "predict_fit",
@@ -201,13 +202,21 @@ def run_information(device: Device, balance: StageBalance, inertia: np.ndarray) 
 
 def combine_information(device: Device, infos: list[np.ndarray]) -> np.ndarray:
     """kg m^2: the std of J_k at every node of the device from the runs' information matrices."""
-    F = sum(infos)
-    scale = np.sqrt(np.abs(np.diag(F)))
+    return axis_stds(device, sum(infos)[None])[0]
+
+
+def axis_stds(device: Device, informations: np.ndarray) -> np.ndarray:
+    """kg m^2, (k, axes): J_k stds of k summed information matrices (k, 8, 8) at once.
+
+    Each matrix is scaled to unit diagonal before its (pseudo-)inverse, as the least squares
+    scales its columns (estimation.gls); J_k = v_k . J through V (METHOD.md §5).
+    """
+    scale = np.sqrt(np.abs(np.einsum("kii->ki", informations)))
     scale[scale == 0.0] = 1.0
-    cov = np.linalg.pinv(F / np.outer(scale, scale)) / np.outer(scale, scale)
+    outer = scale[:, :, None] * scale[:, None, :]
+    cov = np.linalg.pinv(informations / outer, hermitian=True) / outer
     V = design_matrix(device_design(device).directions)
-    entries_cov = cov[:6, :6]
-    return np.sqrt(np.einsum("ij,jk,ik->i", V, entries_cov, V))
+    return np.sqrt(np.abs(np.einsum("ij,kjl,il->ki", V, cov[:, :6, :6], V)))
 
 
 def _information(A: np.ndarray, balance: StageBalance, inertia: np.ndarray) -> np.ndarray:

@@ -46,11 +46,17 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from estimation.balance import MIN_SPEED_FRACTION, MIN_TURNS
-from estimation.predict import PlannedPass, combine_information, predicted_balance, run_information
+from estimation.predict import (
+    PlannedPass,
+    axis_stds,
+    combine_information,
+    predicted_balance,
+    run_information,
+)
 from estimation.smoothing import hermite
 from plant.config import Device
 from plant.errors import InputError
-from plant.geometry import design_matrix, device_design
+from plant.geometry import device_design, turns_past_last_node
 from plant.model import (
     ModelParameters,
     acceleration,
@@ -251,10 +257,10 @@ def evaluate(
         np.array([release, launch_speed]), -braking_torque, 1.0, p, h, max_time, coarse=True
     )
     if stop is None:
-        return _replace(base, violations=(f"the braking lasts more than {max_time:.0f} s",))
+        return dataclasses.replace(base, violations=(f"the braking lasts more than {max_time:.0f} s",))
     tc, traj, end_time, end_phi = stop
     if end_time < 50 * dt:
-        return _replace(base, violations=(f"the braking lasts only {end_time:.3f} s",))
+        return dataclasses.replace(base, violations=(f"the braking lasts only {end_time:.3f} s",))
     # The encoder's samples from the integrator's steps: cubic Hermite (phi with Omega, Omega
     # with eps), the stop appended as the last knot.
     knots_t = np.append(tc[tc < end_time], end_time)
@@ -319,7 +325,7 @@ def evaluate(
         try:
             balance = predicted_balance(device, sm.stage, braking, reverse, sm.torque_noise)
         except InputError:
-            past = _turns_past_last_node(phi, end_phi, st.nodes)
+            past = turns_past_last_node([phi[0], end_phi], st.nodes)
             violations.append(
                 f"too few turns: {turns:.2f} in all, {past:.2f} past the last node (the "
                 f"balances need {MIN_TURNS:g} shared turns above {MIN_SPEED_FRACTION:.0%} "
@@ -328,7 +334,7 @@ def evaluate(
         else:
             inertia = np.asarray(reduced_inertia(balance.phi, model)).ravel()
             info = directions * run_information(device, balance, inertia)
-    return _replace(
+    return dataclasses.replace(
         base,
         braking_time=end_time,
         turns=turns,
@@ -340,15 +346,6 @@ def evaluate(
         violations=tuple(violations),
         information=info,
     )
-
-
-def _turns_past_last_node(phi: np.ndarray, end_phi: float, nodes: np.ndarray) -> float:
-    ahead = np.mod(nodes - phi[0], 2 * math.pi)
-    return float((end_phi - (phi[0] + ahead.max())) / (2 * math.pi))
-
-
-def _replace(c: Candidate, **changes) -> Candidate:
-    return dataclasses.replace(c, **changes)
 
 
 def stage_candidates(
@@ -396,22 +393,6 @@ def _rounded(values, down: bool = False) -> list[float]:
     return out
 
 
-def _axis_stds(device: Device, infos: np.ndarray) -> np.ndarray:
-    """kg m^2, (k, axes) J_k stds of many combinations at once: infos (k, 8, 8) summed already."""
-    scale = np.sqrt(np.abs(np.einsum("kii->ki", infos)))
-    scale[scale == 0.0] = 1.0
-    normed = infos / (scale[:, :, None] * scale[:, None, :])
-    cov = np.linalg.pinv(normed, hermitian=True) / (scale[:, :, None] * scale[:, None, :])
-    V = design_matrix(device_design(device).directions)
-    var = np.einsum("ij,kjl,il->ki", V, cov[:, :6, :6], V)
-    return np.sqrt(np.abs(var))
-
-
-def _worst_stds(device: Device, infos: np.ndarray) -> np.ndarray:
-    """kg m^2, the worst J_k std of each combination (:func:`_axis_stds`)."""
-    return _axis_stds(device, infos).max(axis=1)
-
-
 def make_plan(
     device: Device,
     models: list[StageModel],
@@ -443,7 +424,7 @@ def make_plan(
     combos = list(itertools.product(*[range(len(f)) for f in lists]))
     durations = np.array([sum(lists[s][i].run_time for s, i in enumerate(c)) for c in combos])
     infos = np.array([sum(lists[s][i].information for s, i in enumerate(c)) for c in combos])
-    worst = _worst_stds(device, infos)
+    worst = axis_stds(device, infos).max(axis=1)
     within = durations <= max_duration
     if not np.any(within):
         shortest = float(durations.min())
@@ -482,7 +463,7 @@ def make_plan(
                 rows.append((k + 1, speed, None, math.nan, math.nan))
                 continue
             stack = np.array([sum(o.information for o in others) + c.information for c in options])
-            stds = _axis_stds(device, stack)
+            stds = axis_stds(device, stack)
             own = stds[:, np.asarray(design.stages) == k + 1].max(axis=1)
             j = int(np.argmin(own))
             rows.append((k + 1, speed, options[j], float(own[j]), float(stds[j].max())))

@@ -7,6 +7,7 @@ designs of the paper (icosahedron, one cone plus the z axis) §5 "Axis designs".
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -29,6 +30,7 @@ __all__ = [
     "icosahedron_design",
     "rcond_curve",
     "tensor_from_entries",
+    "turns_past_last_node",
 ]
 
 
@@ -388,3 +390,17 @@ def device_design(device: Any) -> AxisDesign:
         phis += list(np.radians(nodes))
         stages += [index] * len(nodes)
     return AxisDesign(name="device", gear_ratios=lams, phis=phis, stages=stages)
+
+
+def turns_past_last_node(phi: ArrayLike, nodes: ArrayLike) -> float:
+    """Turns from the first passage of the last node (in order of passage) to the end.
+
+    ``phi``: the pass's angles (rad) in time order, at least its first and last; ``nodes``
+    in rad. Measured along the motion, so phi may increase (forward) or decrease (backward);
+    negative if the pass ends before it reaches every node.
+    """
+    phi = np.asarray(phi, dtype=float)
+    first = phi[0]
+    s = 1.0 if phi[-1] >= first else -1.0
+    ahead = np.mod(s * (np.asarray(nodes, dtype=float) - first), 2 * math.pi)
+    return float(s * (phi[-1] - (first + s * ahead.max())) / (2 * math.pi))

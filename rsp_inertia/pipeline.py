@@ -128,18 +128,6 @@ def create_rig_experiment(root: str | Path) -> tuple[Path, Path, Path]:
     return root, folders[1], folders[2]
 
 
-def _turns_past_last_node(phi: np.ndarray, nodes: np.ndarray) -> float:
-    """Turns from the first passage of the last node (in order of passage) to the end.
-
-    Measured along the motion, so phi may increase (forward) or decrease (backward);
-    negative if the pass ends before it reaches every node.
-    """
-    first = phi[0]
-    s = 1.0 if phi[-1] >= first else -1.0
-    ahead = np.mod(s * (nodes - first), 2 * math.pi)  # to each node's first passage
-    return float(s * (phi[-1] - (first + s * ahead.max())) / (2 * math.pi))
-
-
 def _summary(
     exp: Experiment,
     stage: int,
@@ -151,7 +139,9 @@ def _summary(
     log = sim.log
     past = None
     if part == "braking":
-        past = _turns_past_last_node(log.phi, exp.device.stages[stage - 1].nodes)
+        from plant.geometry import turns_past_last_node
+
+        past = turns_past_last_node(log.phi, exp.device.stages[stage - 1].nodes)
     return PassSummary(
         stage=stage,
         part=part,

@@ -167,9 +167,10 @@ def format_plan(report: PlanReport) -> str:
 
 
 def _axial_guess(sm: StageModel, device: Device) -> float:
-    """kg m^2, the order of J_k on this stage: (M0 - M_tare) / (1 + lambda^2), METHOD.md §5."""
-    st = device.stages[sm.stage - 1]
-    return (float(sm.model.inertia_harmonics[0]) - st.tare_inertia) / (1 + st.gear_ratio**2)
+    """kg m^2, the order of J_k on this stage: its nominal mean reduced inertia as J_e."""
+    from estimation.identify import axial_moment
+
+    return float(axial_moment(sm.model.inertia_harmonics[0], device.stages[sm.stage - 1]))
 
 
 def plan(
