@@ -89,11 +89,19 @@ def make_program(
     model = nominal if nominal is not None else fit_nominal(device, stage, braking, sm)
     sol = solve_program_ocp(device, stage, ref, model)
     torque = np.interp(ref.t, sol.t, sol.torque)  # u is linear between grid points
-    k_phi, k_omega = lqr_gains(device, ref.t, ref.phi, ref.omega, torque, model)
+    # The regulator's reference is the trajectory the feedforward was solved for: the mirror
+    # plus the OCP's own departure from it (linear between grid points), which is nil where
+    # the motor can follow and not where it cannot, as over the step from the hold torque at
+    # the start. Regulating onto the bare mirror there would fight the feedforward.
+    phi_ref = ref.phi + np.interp(ref.t, sol.t, sol.phi - np.interp(sol.t, ref.t, ref.phi))
+    omega_ref = ref.omega + np.interp(
+        ref.t, sol.t, sol.omega - np.interp(sol.t, ref.t, ref.omega)
+    )
+    k_phi, k_omega = lqr_gains(device, ref.t, phi_ref, omega_ref, torque, model)
     program = Program(
         t=ref.t,
-        phi_ref=ref.phi,
-        omega_ref=ref.omega,
+        phi_ref=phi_ref,
+        omega_ref=omega_ref,
         torque_ff=torque,
         k_phi=k_phi,
         k_omega=k_omega,

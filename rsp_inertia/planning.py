@@ -87,7 +87,8 @@ def stage_models(root: str | Path) -> list[StageModel]:
 
             log = read_log(path, exp.device.encoder, "pilot")
             fit = fit_pilot(exp.device, stage, log, str(path))
-            models.append(StageModel(stage, fit.model(), fit.torque_noise, str(path)))
+            bound = fit.a1 + 2 * fit.a1_std if np.isfinite(fit.a1_std) else fit.a1
+            models.append(StageModel(stage, fit.model(), fit.torque_noise, str(path), bound))
         else:
             model, noise = guess_model(exp.device, stage)
             models.append(StageModel(stage, model, noise, "device.toml [plan]"))
@@ -195,7 +196,7 @@ def plan(
             m = sm.model
             progress(
                 f"stage {sm.stage}: model from {sm.source}: M0 {m.inertia_harmonics[0]:.4g} "
-                f"kg m^2, friction a1 {m.coulomb:.3g} N m, a2 {m.viscous:.3g} N m s, "
+                f"kg m^2, friction a1 {m.coulomb:.3g} N m (up to {sm.coulomb:.3g}), a2 {m.viscous:.3g} N m s, "
                 f"a3 {m.quadratic:.3g} N m s^2, torque noise {sm.torque_noise:.3g} N m"
             )
     result = make_plan(device, models, max_duration)

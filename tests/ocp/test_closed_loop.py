@@ -16,9 +16,9 @@ from estimation.balance import stage_balance
 from estimation.energy import estimate_pass
 from estimation.tensor import axis_values, fit_tensor
 from ocp.make import make_program
+from plant import virtual as vd
 from plant.geometry import axis_direction
 from plant.model import dissipation
-from plant import virtual as vd
 from tests.ocp.conftest import STAGES, TARGET, node_passages, true_rest
 
 

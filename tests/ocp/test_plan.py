@@ -17,7 +17,7 @@ from estimation.predict import (
     predicted_balance,
     run_information,
 )
-from ocp.plan import TORQUE_MARGIN, StageModel, evaluate
+from ocp.plan import NOMINAL_COULOMB_SHARE, TORQUE_MARGIN, StageModel, evaluate
 from plant.config import load_device, load_virtual
 from plant.experiment import open_experiment
 from plant.model import acceleration, dissipation, motor_torque, reduced_inertia
@@ -124,6 +124,24 @@ def test_limits_are_reported_with_numbers(paper):
     assert any("at the torque-rate limit going from the hold" in v for v in step.violations)
 
 
+def test_braking_torque_must_dominate_coulomb_friction_for_program(paper):
+    """program's nominal model cannot tell a1 from the braking torque (ocp.nominal), so a
+    braking torque under a1 / NOMINAL_COULOMB_SHARE is refused, naming a1 and the share;
+    a spring's known torque fixes the model's scale as well, and the same torque passes."""
+    device, virtual = paper
+    model = true_parameters(device, 1, virtual, 1.0)  # a1 = 1e-4 N m
+    sm = StageModel(1, model, 1e-4, "truth")
+    weak = evaluate(device, sm, 8.0, 0.5 * model.coulomb / NOMINAL_COULOMB_SHARE)
+    assert any("program's nominal model" in v and "a1 (up to 0.0001 N m)" in v
+               for v in weak.violations), weak.violations
+    assert not any("nominal" in v for v in evaluate(device, sm, 8.0, 0.002).violations)
+    # A pilot's loose a1 raises the bound: the same 2 mN m is then refused.
+    loose = dataclasses.replace(sm, coulomb_bound=5e-4)
+    assert any("program's nominal model" in v for v in evaluate(device, loose, 8.0, 0.002).violations)
+    sprung = StageModel(1, dataclasses.replace(model, stiffness=0.02), 1e-4, "truth")
+    assert not any("nominal" in v for v in evaluate(device, sprung, 8.0, 0.0).violations)
+
+
 def _plan_experiment(tmp_path) -> Path:
     root = create_default_experiment(tmp_path / "exp")
     text = (root / "device.toml").read_text() + PLAN_TABLE
@@ -197,7 +215,7 @@ def test_program_serves_a_two_second_spring_pass(paper):
     (ocp.nominal): M0 within 2%; the program starts from the hold torque there."""
     from ocp.make import make_program
     from plant.model import static_torque
-    from plant.virtual import simulate_braking
+    from plant.virtual import run_program, simulate_braking
 
     device, virtual = paper
     spring = dataclasses.replace(device.spring, stiffness=0.02)
@@ -211,3 +229,12 @@ def test_program_serves_a_two_second_spring_pass(paper):
     hold = float(static_torque(braking.truth.end_phi, truth))
     assert abs(hold) > 0.2  # the spring is wound: a real hold
     assert result.ocp.torque[0] == pytest.approx(hold, rel=0.05)
+    # The regulator's reference leaves the mirror as the OCP does while the torque steps from
+    # the hold at the drive's rate, so the closed loop does not fight its own feedforward:
+    # the drive rides its rate limit for under 1% of the pass (the step itself takes 15 ms).
+    prog = result.program
+    assert prog.phi_ref[0] == pytest.approx(result.mirror.phi[0], abs=1e-12)
+    run = run_program(device, 1, virtual, prog, (braking.truth.end_phi, 0.0))
+    du = np.abs(np.diff(run.truth.torque * virtual.rig.torque_gain))  # the drive's command
+    at_rate = np.mean(du >= device.motor.torque_rate_limit * device.encoder.dt * (1 - 1e-9))
+    assert at_rate <= 0.01
