@@ -125,7 +125,8 @@ def run(scenario: str, tmp: Path) -> dict:
     J_std = np.array([a["J_std"] for a in res["axes"]])
     truth = truth_axes(root)
     err = np.abs(J - truth) / truth
-    ratio = J_std / p.axis_std
+    ratio = J_std / report.predicted_std
+    ideal_ratio = J_std / p.axis_std
     noise = load_virtual(root / "virtual.toml").run.torque_noise
     sat = saturation(root, noise)
     front = p.front
@@ -142,8 +143,9 @@ def run(scenario: str, tmp: Path) -> dict:
         "rate-limited": sat[1],
         "worst J_k err": float(err.max()),
         "worst err/std": float((np.abs(J - truth) / J_std).max()),
-        "predicted worst std": float(p.worst / truth.max()),
+        "predicted worst std": float(report.predicted_std.max() / truth.max()),
         "std ratio": f"{ratio.min():.2f}-{ratio.max():.2f}",
+        "ideal std ratio": f"{ideal_ratio.min():.2f}-{ideal_ratio.max():.2f}",
         "warnings": len(res.get("warnings", [])),
         "current std": (p.current_std / truth.max()) if p.current_std else math.nan,
         "current s": sum(c.run_time for c in p.current) if p.current else math.nan,
@@ -171,7 +173,8 @@ def main() -> None:
     keys = [
         "scenario", "protocol", "motion s", "plan s", "program s / pass s", "torque-limited",
         "rate-limited",
-        "worst J_k err", "worst err/std", "predicted worst std", "std ratio", "warnings",
+        "worst J_k err", "worst err/std", "predicted worst std", "std ratio",
+        "ideal std ratio", "warnings",
     ]
 
     def spec(key: str) -> str:

@@ -208,8 +208,16 @@ def stage_balance(
     b = sample_at(braking, phi)
     r = sample_at(reverse, phi)
     S = b.omega**2 + r.omega**2
-    S_cov = 4 * np.outer(b.omega, b.omega) * speed_error_covariance(braking, b)
-    S_cov += 4 * np.outer(r.omega, r.omega) * speed_error_covariance(reverse, r)
+    # cov(S_i, S_j) = 4 Omega_i Omega_j cov(Omega_i, Omega_j) per pass, scaled in place (the
+    # matrices are n x n).
+    S_cov = speed_error_covariance(braking, b)
+    S_cov *= (4 * b.omega)[:, None]
+    S_cov *= b.omega[None, :]
+    rev_cov = speed_error_covariance(reverse, r)
+    rev_cov *= (4 * r.omega)[:, None]
+    rev_cov *= r.omega[None, :]
+    S_cov += rev_cov
+    del rev_cov
     spring = 2 * _spring_potential(direction * phi, device)
     work = b.work + r.work - spring
     delta = np.abs(r.omega) - np.abs(b.omega)

@@ -141,6 +141,7 @@ def estimate_pass(
     source: str,
     sigma_torque: float | None = None,
     constant_torque: bool = False,
+    smoothed: Smoothed | None = None,
 ) -> PassEstimate:
     """Smooth a pass and accumulate its motor work (METHOD.md §3, Stieltjes sum; see above).
 
@@ -148,8 +149,11 @@ def estimate_pass(
     this log (right for a braking log, see :func:`torque_noise`). ``constant_torque``: the
     protocol holds the applied torque constant (a braking pass); the log is tested for it and,
     unless the test rejects it, the work is the log's mean torque times the angle.
+    ``smoothed``: the log's smoothed states when already computed (``smooth_log`` of this
+    very log, as ``program`` does for a braking).
     """
-    smoothed = smooth_log(log, quantum, source)
+    if smoothed is None:
+        smoothed = smooth_log(log, quantum, source)
     sigma = torque_noise(log) if sigma_torque is None else sigma_torque
     p_value = constancy_p_value(log, smoothed.phi, sigma) if constant_torque else None
     constant = p_value is not None and p_value >= CONSTANCY_TAIL

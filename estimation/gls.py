@@ -281,7 +281,10 @@ def _matrix(blocks: list[Block], names: list[str]) -> np.ndarray:
 
 
 def solve_blocks(
-    blocks: list[Block], known_cov: np.ndarray | None = None, predict: bool = False
+    blocks: list[Block],
+    known_cov: np.ndarray | None = None,
+    predict: bool = False,
+    tests: bool = True,
 ) -> BalanceFit:
     """Generalised least squares over the blocks, with the model tests (module docstring).
 
@@ -299,6 +302,9 @@ def solve_blocks(
         The blocks hold noise-free balances of a planned run (estimation.predict): the
         covariance is the noise model's as it stands (every speed-noise scale 1, no
         inflation by the residuals, which are zero) and no model test is made.
+    tests : bool
+        Make the model tests (False: the estimate and its covariance only, as a rehearsal of
+        a plan needs).
     """
     names = list(dict.fromkeys(name for block in blocks for name in block.columns))
     A = _matrix(blocks, names)
@@ -374,9 +380,9 @@ def solve_blocks(
         if live.any():
             nuisance = (B @ (U[:, live] * np.sqrt(lam[live])), int(live.sum()))
 
-    tests = []
+    found_tests = []
     splits = (
-        () if predict
+        () if predict or not tests
         else ((None, "consistency"), ("halves", "early/late"), ("turns", "per turn"))
     )
     for split, kind in splits:
@@ -392,10 +398,10 @@ def solve_blocks(
             nuisance,
         )
         if found is not None:
-            tests.append(((kind, found[0]), found[1], found[2]))
-    level = TEST_ALPHA / max(len(tests), 1)
+            found_tests.append(((kind, found[0]), found[1], found[2]))
+    level = TEST_ALPHA / max(len(found_tests), 1)
     model_tests = []
-    for (kind, label), stat, dof_ in tests:
+    for (kind, label), stat, dof_ in found_tests:
         p_value = float(chi2.sf(max(stat, 0.0), dof_))
         model_tests.append(
             ModelTest(kind, label, float(stat), int(dof_), p_value, p_value < level)

@@ -9,11 +9,12 @@ from __future__ import annotations
 
 from estimation.balance import StageBalance, mirror_log, stage_balance
 from estimation.energy import PassEstimate, check_braking_monotone, estimate_pass
+from estimation.smoothing import Smoothed
 from plant.config import Device
 from plant.experiment import Experiment
-from plant.logs import read_log
+from plant.logs import Log, read_log
 
-__all__ = ["read_run", "run_balances", "runs"]
+__all__ = ["estimate_run", "read_run", "run_balances", "runs"]
 
 
 def runs(device: Device) -> list[tuple[int, str]]:
@@ -30,24 +31,42 @@ def read_run(
 ) -> tuple[PassEstimate, PassEstimate]:
     """Both passes of one run, read, checked and estimated (a backward run mirrored)."""
     device = exp.device
-    q = device.encoder.quantum
     b_path = exp.braking_path(stage, direction)
     r_path = exp.reverse_path(stage, direction)
     braking = read_log(b_path, device.encoder, "braking", direction)
     reverse = read_log(r_path, device.encoder, "reverse", direction)
+    return estimate_run(device, braking, reverse, direction, warnings, str(b_path), str(r_path))
+
+
+def estimate_run(
+    device: Device,
+    braking: Log,
+    reverse: Log,
+    direction: str,
+    warnings: list[str],
+    braking_source: str = "braking",
+    reverse_source: str = "reverse",
+    braking_smoothed: Smoothed | None = None,
+) -> tuple[PassEstimate, PassEstimate]:
+    """Both passes of one run from their logs in memory, checked and estimated (a backward
+    run mirrored); the sources name the logs in messages. ``braking_smoothed``: the
+    (mirrored) braking log's smoothed states when already computed (ocp.make's)."""
+    q = device.encoder.quantum
     if direction == "backward":
         braking, reverse = mirror_log(braking, q), mirror_log(reverse, q)
-    check_braking_monotone(braking, str(b_path))
-    b_est = estimate_pass(braking, q, str(b_path), constant_torque=True)
+    check_braking_monotone(braking, braking_source)
+    b_est = estimate_pass(
+        braking, q, braking_source, constant_torque=True, smoothed=braking_smoothed
+    )
     if b_est.torque_mean is None:
         warnings.append(
-            f"{b_path}: the braking torque is not constant within the log's noise "
+            f"{braking_source}: the braking torque is not constant within the log's noise "
             f"(p = {b_est.constancy_p:.2g}); its work is summed row by row, with a larger "
             "uncertainty"
         )
     # The torque channel's logging noise shows cleanly only in the braking log (constant
     # applied torque); the reverse's own changes are largely real regulator torque.
-    r_est = estimate_pass(reverse, q, str(r_path), sigma_torque=b_est.sigma_torque)
+    r_est = estimate_pass(reverse, q, reverse_source, sigma_torque=b_est.sigma_torque)
     return b_est, r_est
 
 

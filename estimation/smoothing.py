@@ -146,7 +146,11 @@ class Smoothed:
         t = np.asarray(t, dtype=float)
         ramp = np.asarray(omega_std) / np.median(self.omega_std)
         R = _banded_autocovariance(t, self.bandwidth, self.noise_density)
-        return R * np.outer(ramp, ramp)
+        if np.all(ramp == 1.0):
+            return R
+        R *= ramp[:, None]
+        R *= ramp[None, :]
+        return R
 
 
 def _banded_autocovariance(t: np.ndarray, bandwidth: float, noise_density: float) -> np.ndarray:
@@ -163,14 +167,18 @@ def _banded_autocovariance(t: np.ndarray, bandwidth: float, noise_density: float
         return speed_error_autocovariance(t[:, None] - t[None, :], bandwidth, noise_density)
     R = np.zeros((n, n))
     span = _KERNEL_SPAN / bandwidth
-    rows = np.arange(n)
-    for k in range(n):
-        tau = t[k:] - t[: n - k]
-        if k > 0 and np.min(np.abs(tau)) >= span:
-            break
-        values = speed_error_autocovariance(tau, bandwidth, noise_density)
-        R[rows[: n - k], rows[k:]] = values
-        R[rows[k:], rows[: n - k]] = values
+    # Diagonals 0 .. width - 1: each diagonal's smallest |tau| grows with its offset (monotone
+    # times), and the first one whose smallest |tau| reaches the span is all zeros.
+    width = 1
+    while width < n and np.min(np.abs(t[width:] - t[: n - width])) < span:
+        width += 1
+    i = np.repeat(np.arange(n), width)
+    j = i + np.tile(np.arange(width), n)
+    inside = j < n
+    i, j = i[inside], j[inside]
+    values = speed_error_autocovariance(t[j] - t[i], bandwidth, noise_density)
+    R[i, j] = values
+    R[j, i] = values
     return R
 
 

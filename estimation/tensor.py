@@ -261,7 +261,10 @@ def tensor_block(bal: StageBalance, run: str, known: KnownTerms, asymmetry: bool
 
 
 def fit_tensor(
-    balances: list[StageBalance], known: KnownTerms | None = None, predict: bool = False
+    balances: list[StageBalance],
+    known: KnownTerms | None = None,
+    predict: bool = False,
+    tests: bool = True,
 ) -> TensorFit:
     """Generalised least squares for the tensor and the gravity terms (module docstring).
 
@@ -269,14 +272,17 @@ def fit_tensor(
     the tracking mismatch's two friction slopes per run, and the friction asymmetry
     e = [e1, e2, e3] per stage run in both directions. Solved, weighted and checked by
     :func:`estimation.gls.solve_blocks`. ``predict``: noise-free balances of a planned run,
-    whose covariance is then the noise model's alone (estimation.predict).
+    whose covariance is then the noise model's alone (estimation.predict); ``tests`` False:
+    no model tests (a rehearsal of a plan, ocp.rehearsal).
     """
     if known is None:
         tares = {bal.stage: bal.tare_inertia for bal in balances}
         known = KnownTerms.from_tares([tares.get(s, 0.0) for s in range(1, max(tares) + 1)])
     both = both_directions(balances)
     blocks = [tensor_block(bal, str(k), known, bal.stage in both) for k, bal in enumerate(balances)]
-    fit = solve_blocks(blocks, known.cov if known.calibrated else None, predict=predict)
+    fit = solve_blocks(
+        blocks, known.cov if known.calibrated else None, predict=predict, tests=tests
+    )
     shared = [fit.index(name) for name in (*ENTRY_KEYS, "Gs", "Gc")]
     n_runs, stages = len(balances), sorted({bal.stage for bal in balances})
     slope = np.full((n_runs, 2), np.nan)

@@ -15,7 +15,7 @@ import numpy as np
 
 from estimation.balance import mirror_log
 from estimation.energy import check_braking_monotone
-from estimation.smoothing import smooth_log
+from estimation.smoothing import Smoothed, smooth_log
 from ocp.nominal import fit_nominal
 from ocp.program import OcpSolution, solve_program_ocp
 from ocp.reference import Mirror, mirror
@@ -39,6 +39,8 @@ class ProgramResult:
     """The nominal model fitted to the braking."""
     ocp: OcpSolution
     """The OCP's solution on its grid."""
+    smoothed: Smoothed
+    """The braking log's smoothed states (of the mirrored log for a backward run)."""
     seconds: float
     """Wall time of the whole generation."""
 
@@ -111,5 +113,6 @@ def make_program(
         mirror=ref,
         nominal=model,
         ocp=sol,
+        smoothed=sm,
         seconds=time.perf_counter() - start,
     )

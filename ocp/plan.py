@@ -50,6 +50,9 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
+import multiprocessing
+import os
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -88,6 +91,7 @@ __all__ = [
     "StageModel",
     "evaluate",
     "make_plan",
+    "map_stages",
     "stage_candidates",
 ]
 
@@ -429,6 +433,18 @@ def _rounded(values, down: bool = False) -> list[float]:
     return out
 
 
+def map_stages(fn, jobs: list[tuple]) -> list:
+    """[fn(*job) for job in jobs], the jobs in parallel processes (forked, one per job up to
+    the machine's cores) when there are several: the stages are independent, and each job is
+    deterministic, so the result does not depend on the scheduling."""
+    workers = min(len(jobs), os.cpu_count() or 1)
+    if workers <= 1:
+        return [fn(*job) for job in jobs]
+    context = multiprocessing.get_context("fork")
+    with ProcessPoolExecutor(workers, mp_context=context) as pool:
+        return list(pool.map(fn, *zip(*jobs)))
+
+
 def make_plan(
     device: Device,
     models: list[StageModel],
@@ -444,8 +460,11 @@ def make_plan(
         no combination fits ``max_duration``.
     """
     per_stage = []
-    for sm in models:
-        cands = stage_candidates(device, sm, max_duration, progress)
+    if progress is None:
+        found = map_stages(stage_candidates, [(device, sm, max_duration) for sm in models])
+    else:
+        found = [stage_candidates(device, sm, max_duration, progress) for sm in models]
+    for sm, cands in zip(models, found):
         feasible = [c for c in cands if c.feasible]
         if not feasible:
             raise InputError(f"stage {sm.stage}: no feasible protocol: {_closest(cands)}")

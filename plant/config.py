@@ -536,6 +536,10 @@ class Virtual:
     friction_backward: Friction | None = None
     """Explicit friction for backward motion (Omega < 0), from ``[friction_backward]``; None:
     ``friction`` scaled by its ``backward_scale``."""
+    models: tuple | None = None
+    """Per stage, the true model given directly (plant.model.ModelParameters, both directions
+    of motion) in place of body, fixture, tare and friction: a rehearsal of a plan on its
+    nominal model (ocp.rehearsal). Never read from virtual.toml."""
 
     def friction_for(self, direction: float) -> Friction:
         """The friction coefficients while the body moves in ``direction`` (sign of Omega).

@@ -43,7 +43,14 @@ def _cmd_program(args: argparse.Namespace) -> None:
 def _cmd_plan(args: argparse.Namespace) -> None:
     from rsp_inertia.planning import plan
 
-    print(plan(args.exp, args.max_duration, progress=lambda text: print(text, flush=True)))
+    print(
+        plan(
+            args.exp,
+            args.max_duration,
+            progress=lambda text: print(text, flush=True),
+            rehearse=not args.no_rehearsal,
+        )
+    )
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> None:
@@ -142,6 +149,11 @@ def _parser() -> argparse.ArgumentParser:
         "--max-duration", type=float, default=None, metavar="S",
         help="seconds of motion for the whole experiment (default: device.toml [plan] "
         "max_duration, else 120)",
+    )
+    p.add_argument(
+        "--no-rehearsal", action="store_true",
+        help="skip the closed-loop rehearsal of the chosen plan (about 15 s): the predicted "
+        "stds are then an ideal reverse's, a closed loop's best case",
     )
     p.set_defaults(run=_cmd_plan)
 

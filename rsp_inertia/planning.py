@@ -16,7 +16,8 @@ from pathlib import Path
 import numpy as np
 import tomlkit
 
-from ocp.plan import TORQUE_MARGIN, Plan, StageModel, make_plan
+from ocp.plan import TORQUE_MARGIN, Plan, StageModel, make_plan, map_stages
+from ocp.rehearsal import Rehearsal
 from plant.config import Device
 from plant.errors import InputError
 from plant.experiment import open_experiment
@@ -79,20 +80,24 @@ def guess_model(device: Device, stage: int) -> tuple[ModelParameters, float]:
 def stage_models(root: str | Path) -> list[StageModel]:
     """Per stage: the pilot run's fit if ``stageN/pilot.csv`` exists, else device.toml's guess."""
     exp = open_experiment(root)
-    models = []
-    for stage in exp.stages(None):
-        path = exp.pilot_path(stage)
-        if path.is_file():
-            from ocp.pilot import fit_pilot
+    pilots = [(exp.device, stage, exp.pilot_path(stage)) for stage in exp.stages(None)]
+    for _, _, path in pilots:
+        if path.is_file():  # read errors come here, before any process starts
+            read_log(path, exp.device.encoder, "pilot")
+    return map_stages(_stage_model, pilots)
 
-            log = read_log(path, exp.device.encoder, "pilot")
-            fit = fit_pilot(exp.device, stage, log, str(path))
-            bound = fit.a1 + 2 * fit.a1_std if np.isfinite(fit.a1_std) else fit.a1
-            models.append(StageModel(stage, fit.model(), fit.torque_noise, str(path), bound))
-        else:
-            model, noise = guess_model(exp.device, stage)
-            models.append(StageModel(stage, model, noise, "device.toml [plan]"))
-    return models
+
+def _stage_model(device: Device, stage: int, path: Path) -> StageModel:
+    """One stage's model: its pilot's fit, else device.toml's guess."""
+    if path.is_file():
+        from ocp.pilot import fit_pilot
+
+        log = read_log(path, device.encoder, "pilot")
+        fit = fit_pilot(device, stage, log, str(path))
+        bound = fit.a1 + 2 * fit.a1_std if np.isfinite(fit.a1_std) else fit.a1
+        return StageModel(stage, fit.model(), fit.torque_noise, str(path), bound)
+    model, noise = guess_model(device, stage)
+    return StageModel(stage, model, noise, "device.toml [plan]")
 
 
 @dataclass(frozen=True)
@@ -108,6 +113,17 @@ class PlanReport:
     """device.toml, when written."""
     figure: Path | None
     seconds: float
+    rehearsal: Rehearsal | None = None
+    """identify's stds on the plan run in closed loop on the nominal model (ocp.rehearsal);
+    None when skipped."""
+    rehearsal_error: str | None = None
+    """Why the rehearsal could not run (what program or identify refused), if it did not."""
+
+    @property
+    def predicted_std(self) -> np.ndarray:
+        """kg m^2, J_k std at every node as predicted: the rehearsal's, else the ideal
+        reverse's."""
+        return self.rehearsal.axis_std if self.rehearsal is not None else self.plan.axis_std
 
     def __str__(self) -> str:
         return format_plan(self)
@@ -115,18 +131,32 @@ class PlanReport:
 
 def format_plan(report: PlanReport) -> str:
     plan, lines = report.plan, []
+    rehearsal = report.rehearsal
+    predicted = report.predicted_std
     lines.append(
-        f"plan: worst predicted std of J_k {plan.worst:.3g} kg m^2 in {plan.duration:.0f} s "
-        f"of motion (budget {plan.max_duration:g} s)"
+        f"plan: worst predicted std of J_k {predicted.max():.3g} kg m^2 in "
+        f"{plan.duration:.0f} s of motion (budget {plan.max_duration:g} s)"
     )
+    if rehearsal is not None:
+        scales = ", ".join(
+            f"{run} {s:.2g}" for run, s in zip(rehearsal.runs, rehearsal.speed_noise_scale)
+        )
+        lines.append(
+            f"  from a closed-loop rehearsal on the nominal model (ideal reverse: "
+            f"{plan.worst:.3g}; speed-noise scales {scales}; drive at a limit on "
+            f"{rehearsal.saturated:.2%} of the reverse samples)"
+        )
+    else:
+        why = f": {report.rehearsal_error}" if report.rehearsal_error else ""
+        lines.append(f"  for an ideal reverse (no closed-loop rehearsal{why})")
     if plan.current_std is not None:
         now = sum(c.run_time for c in plan.current)
         lines.append(
-            f"  device.toml's protocol before: {plan.current_std:.3g} kg m^2 in {now:.0f} s "
-            f"({plan.current_std / plan.worst:.2f}x the plan's std)"
+            f"  device.toml's protocol before (ideal reverse): {plan.current_std:.3g} kg m^2 in "
+            f"{now:.0f} s ({plan.current_std / plan.worst:.2f}x the plan's ideal std)"
         )
     for c, sm, (speed, torque) in zip(plan.chosen, report.models, report.old):
-        stds = plan.axis_std[plan.axis_stage == c.stage]
+        stds = predicted[plan.axis_stage == c.stage]
         J = _axial_guess(sm, report.device)
         lines.append(
             f"stage {c.stage} (model: {sm.source}): launch_speed {c.launch_speed:g} rad/s "
@@ -149,7 +179,7 @@ def format_plan(report: PlanReport) -> str:
         )
     lines.append(
         "trade-off: per launch speed, the braking torque with the smallest predicted std of the"
-        " stage's own J_k (other stages as planned); stds in kg m^2"
+        " stage's own J_k (other stages as planned; ideal reverse); stds in kg m^2"
     )
     lines.append("  stage | launch rad/s | braking N m | braking s | run s | stage's worst | all")
     for stage, speed, cand, own, overall in plan.tradeoff:
@@ -178,8 +208,13 @@ def plan(
     root: str | Path,
     max_duration: float | None = None,
     progress: Callable[[str], None] | None = None,
+    rehearse: bool = True,
 ) -> PlanReport:
-    """``rsp-inertia plan``: choose, write device.toml and plan.png (module docstring)."""
+    """``rsp-inertia plan``: choose, write device.toml and plan.png (module docstring).
+
+    ``rehearse``: run the chosen plan in closed loop on the nominal model and predict with
+    identify's stds there (ocp.rehearsal); else the ideal reverse's prediction only.
+    """
     import time
 
     start = time.perf_counter()
@@ -209,6 +244,14 @@ def plan(
         table["launch_speed"] = c.launch_speed
         table["braking_torque"] = c.braking_torque
     write_atomic(path, tomlkit.dumps(doc))
+    rehearsal, rehearsal_error = None, None
+    if rehearse:
+        from ocp.rehearsal import rehearse as run_rehearsal
+
+        try:
+            rehearsal = run_rehearsal(device, models, result.chosen, progress=progress)
+        except InputError as exc:
+            rehearsal_error = str(exc)
     from rsp_inertia.plots import plan_figure
 
     figure = plan_figure(result, exp.root / PLAN_FIGURE)
@@ -220,4 +263,6 @@ def plan(
         written=path,
         figure=figure,
         seconds=time.perf_counter() - start,
+        rehearsal=rehearsal,
+        rehearsal_error=rehearsal_error,
     )

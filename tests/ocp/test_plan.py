@@ -166,6 +166,7 @@ def test_plan_writes_the_protocol_keeping_comments(tmp_path, capsys):
     assert (root / "plan.png").stat().st_size > 10_000
     assert all(st.launch_speed > 0 and st.braking_torque >= 0 for st in device.stages)
     assert "predicted std of J_k" in out
+    assert "from a closed-loop rehearsal on the nominal model" in out
 
 
 def test_infeasible_plan_is_one_line_and_writes_nothing(tmp_path, capsys):
@@ -202,9 +203,10 @@ def test_plan_from_pilot_runs(tmp_path, capsys):
     """Pilot runs replace the guesses: the model printed is the pilot's fit."""
     root = create_default_experiment(tmp_path / "exp")
     assert main(["simulate", str(root), "--part", "pilot"]) == 0
-    assert main(["plan", str(root), "--max-duration", "100"]) == 0
+    assert main(["plan", str(root), "--max-duration", "100", "--no-rehearsal"]) == 0
     out = capsys.readouterr().out
     assert "model from" in out and "pilot.csv" in out
+    assert "for an ideal reverse (no closed-loop rehearsal)" in out
     device = load_device(root / "device.toml")
     assert device.stages[0].launch_speed != 12.0 or device.stages[0].braking_torque != 0.005
 
