@@ -11,9 +11,13 @@ its exact time mirror. From it this module builds the balance equations exactly 
   the smoother's own rule (``smoother_bandwidth``) and r = (q^2/12) dt.
 
 The generalised least squares then gives the covariance the noise model alone implies
-(``fit_tensor(..., predict=True)``: speed-noise scale 1, no inflation by residuals). What
-it cannot foresee: a closed-loop reverse's tracking mismatch (its friction slopes cost some
-information; an exact mirror has none) and a rig's imperfections beyond the noise model.
+(``fit_tensor(..., predict=True)``: speed-noise scale 1, no inflation by residuals). That
+is an ideal reverse's std, a closed loop's best case: it cannot foresee the closed-loop
+reverse's tracking mismatch (its friction slopes cost information; an exact mirror has
+none) nor the regulator's speed noise, which together put identify's std 1.0-2.6x above it
+on the planning benchmark. The planner uses it to rank protocols; the closed-loop
+rehearsal of the chosen one (ocp.rehearsal) gives the std it promises. Neither foresees a
+rig's imperfections beyond the noise model.
 """
 
 from __future__ import annotations

@@ -17,14 +17,14 @@ from estimation.balance import mirror_log
 from estimation.energy import check_braking_monotone
 from estimation.smoothing import Smoothed, smooth_log
 from ocp.nominal import fit_nominal
-from ocp.program import OcpSolution, solve_program_ocp
+from ocp.program import OcpSolution, required_torque, solve_program_ocp
 from ocp.reference import Mirror, mirror
-from ocp.regulator import lqr_gains
+from ocp.regulator import bandwidth, lqr_gains
 from plant.config import Device
 from plant.logs import Log, Program
-from plant.model import ModelParameters
+from plant.model import ModelParameters, reduced_inertia
 
-__all__ = ["ProgramResult", "make_program"]
+__all__ = ["START_FADE_BANDWIDTHS", "ProgramResult", "make_program", "start_reference"]
 
 
 @dataclass(frozen=True)
@@ -43,6 +43,38 @@ class ProgramResult:
     """The braking log's smoothed states (of the mirrored log for a backward run)."""
     seconds: float
     """Wall time of the whole generation."""
+
+
+START_FADE_BANDWIDTHS = 3.0
+"""Regulator time constants (1 / w, ocp.regulator) over which the reference returns from the
+OCP's start transient to the mirror."""
+
+
+def start_reference(
+    device: Device, ref: Mirror, sol: OcpSolution, model: ModelParameters
+) -> tuple[np.ndarray, np.ndarray]:
+    """The regulator's reference (phi, Omega) at the program's samples.
+
+    The mirror, except over the start: there the torque must step from the hold to the
+    mirror's first torque at the drive's rate (the OCP's bound), so the body cannot follow the
+    mirror, and the OCP's trajectory departs from it. Regulating onto the bare mirror there
+    would fight the feedforward (on a spring's 2 s pass the drive then rode its rate limit
+    on 4.6% of the samples). So the reference carries the OCP's departure (linear between
+    its grid points) for the step's duration |u'(0) - hold| / torque_rate_limit, then fades
+    it out with a half cosine over START_FADE_BANDWIDTHS / w, w the regulator's bandwidth.
+    Not beyond: after the start the OCP tracks the mirror only to its cost's tolerance (up to
+    6e-4 of the top speed on the default stages), which the regulator removes; carrying that
+    departure all along made the 12-bit closed loops' errors 1.3-2.7x larger.
+    """
+    need = float(required_torque(ref, model)[0])
+    step = abs(need - float(sol.torque[0])) / device.motor.torque_rate_limit
+    w = bandwidth(device, float(np.max(reduced_inertia(ref.phi, model))))
+    fade = START_FADE_BANDWIDTHS / w
+    s = np.clip((ref.t - step) / fade, 0.0, 1.0)
+    weight = 0.5 * (1.0 + np.cos(np.pi * s))
+    phi_dev = np.interp(ref.t, sol.t, sol.phi - np.interp(sol.t, ref.t, ref.phi))
+    omega_dev = np.interp(ref.t, sol.t, sol.omega - np.interp(sol.t, ref.t, ref.omega))
+    return ref.phi + weight * phi_dev, ref.omega + weight * omega_dev
 
 
 def make_program(
@@ -91,14 +123,7 @@ def make_program(
     model = nominal if nominal is not None else fit_nominal(device, stage, braking, sm)
     sol = solve_program_ocp(device, stage, ref, model)
     torque = np.interp(ref.t, sol.t, sol.torque)  # u is linear between grid points
-    # The regulator's reference is the trajectory the feedforward was solved for: the mirror
-    # plus the OCP's own departure from it (linear between grid points), which is nil where
-    # the motor can follow and not where it cannot, as over the step from the hold torque at
-    # the start. Regulating onto the bare mirror there would fight the feedforward.
-    phi_ref = ref.phi + np.interp(ref.t, sol.t, sol.phi - np.interp(sol.t, ref.t, ref.phi))
-    omega_ref = ref.omega + np.interp(
-        ref.t, sol.t, sol.omega - np.interp(sol.t, ref.t, ref.omega)
-    )
+    phi_ref, omega_ref = start_reference(device, ref, sol, model)
     k_phi, k_omega = lqr_gains(device, ref.t, phi_ref, omega_ref, torque, model)
     program = Program(
         t=ref.t,

@@ -42,7 +42,9 @@ Limits, each with its reason:
 
 Objective: the smallest predicted worst std over the axes. The runs' noises are independent,
 so each candidate's information matrix is computed once (estimation.predict.run_information)
-and combinations of one candidate per stage are summed and inverted exhaustively.
+and combinations of one candidate per stage are summed and inverted exhaustively. These
+stds are an ideal reverse's, right for ranking protocols; what the chosen plan promises in
+closed loop comes from its rehearsal (ocp.rehearsal).
 """
 
 from __future__ import annotations
