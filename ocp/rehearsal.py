@@ -38,7 +38,7 @@ import numpy as np
 
 from estimation.balance import stage_balance
 from estimation.runs import estimate_run
-from estimation.tensor import axis_values, fit_tensor
+from estimation.tensor import axis_values, fit_tensor, format_run
 from ocp.make import make_program
 from ocp.plan import RELEASE_BEFORE_NODE_DEG, Candidate, StageModel, map_stages
 from ocp.regulator import OBSERVER_BANDWIDTH
@@ -175,7 +175,7 @@ def _rehearse_stage(dev: Device, stage: int, torque_noise: float, truth: tuple, 
             np.abs(u[1:]) >= motor.torque_limit * (1 - 1e-9)
         )
         saturated = max(saturated, float(np.mean(at_limit)))
-        label = f"stage {stage} {direction}"
+        label = format_run((stage, direction))
         b_est, r_est = estimate_run(
             dev, braking.log, reverse.log, direction, warnings,
             f"rehearsed {label} braking", f"rehearsed {label} reverse", made.smoothed,
