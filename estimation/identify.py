@@ -23,7 +23,13 @@ import numpy as np
 from estimation.balance import NodeEstimate, node_formula
 from estimation.calibration import known_terms
 from estimation.gls import ModelTest, model_warnings
-from estimation.pendulum import PendulumEstimate, estimate_pendulum
+from estimation.pendulum import (
+    BestPractice,
+    PendulumEstimate,
+    best_practice_inertia,
+    estimate_pendulum,
+    half_cycle_fit,
+)
 from estimation.runs import run_balances
 from estimation.tensor import (
     KnownTerms,
@@ -103,6 +109,20 @@ class PendulumResult:
     """Tensor through V from the classic J_k, when every node has a run."""
     entries_damped: np.ndarray | None
     """Tensor through V from the damped-fit J_k, when every node has a run."""
+    best: list[BestPractice | None] = field(default_factory=list)
+    """Per run, the best-practice reduction (estimation.pendulum), None where it failed."""
+    J_best: np.ndarray | None = None
+    """kg m^2 per run, J along the axis at the run's equilibrium angle ``phi_best``."""
+    J_best_std: np.ndarray | None = None
+    """kg m^2, the best-practice budget's std."""
+    phi_best: np.ndarray | None = None
+    """rad per run, the oscillation's equilibrium (the axis J_best is about)."""
+    entries_best: np.ndarray | None = None
+    """Tensor through V from J_best, with the axes at the equilibria, when every run has one."""
+    entries_best_cov: np.ndarray | None = None
+    """(6, 6) its covariance."""
+    J_best_budget: list[dict[str, float]] = field(default_factory=list)
+    """Per run, J_best's std by source (kg m^2: the best practice's M budget over 1+lam^2)."""
 
     def to_json(self) -> dict:
         """The result.json section ``pendulum``."""
@@ -116,15 +136,34 @@ class PendulumResult:
                 "J_classic_std": float(self.J_classic_std[i]),
                 "J_damped": float(self.J_damped[i]),
                 "J_damped_std": float(self.J_damped_std[i]),
+                **self._best_json(i),
             }
             for i, r in enumerate(self.runs)
         ]
         def entries(e):
             return None if e is None else dict(zip(ENTRY_NAMES, map(float, e)))
+        best_std = (
+            None if self.entries_best_cov is None
+            else np.sqrt(np.maximum(np.diag(self.entries_best_cov), 0.0))
+        )
         return {
             "axes": axes,
             "tensor_classic": entries(self.entries_classic),
             "tensor_damped": entries(self.entries_damped),
+            "tensor_best": entries(self.entries_best),
+            "tensor_best_std": entries(best_std),
+        }
+
+    def _best_json(self, i: int) -> dict:
+        """The best-practice keys of run i's entry in ``axes`` (None where it failed)."""
+        b = self.best[i] if i < len(self.best) else None
+        if b is None or self.J_best is None:
+            return {"J_best": None, "J_best_std": None, "phi_best_deg": None, "best_budget": None}
+        return {
+            "J_best": float(self.J_best[i]),
+            "J_best_std": float(self.J_best_std[i]),
+            "phi_best_deg": math.degrees(float(self.phi_best[i])),
+            "best_budget": {k: float(v) for k, v in self.J_best_budget[i].items()},
         }
 
 
@@ -412,7 +451,9 @@ def identify(
         com = fit.gravity / weight
         com_std = gravity_std / weight
     warnings += physical_warnings(fit.entries, fit.entries_cov)
-    pendulum = identify_pendulum(exp, say, known)
+    pendulum = identify_pendulum(
+        exp, say, known, fit.gravity, fit.gravity_cov, warnings
+    )
     return Identification(
         entries=fit.entries,
         entries_cov=fit.entries_cov,
@@ -444,12 +485,19 @@ def identify_pendulum(
     exp: Experiment,
     progress: Callable[[str], None] | None = None,
     known: KnownTerms | None = None,
+    gravity: np.ndarray | None = None,
+    gravity_cov: np.ndarray | None = None,
+    warnings: list[str] | None = None,
 ) -> PendulumResult | None:
     """The torsion-pendulum baseline from every ``stageN/pendulum_kK.csv`` present.
 
     None when there is no such log. The stiffness is device.toml's ``[pendulum]`` one; the
     empty system's inertia at the node is the calibration's when ``known`` has one (the same
-    tare and fixture as the RSP result), else device.toml's tare.
+    tare and fixture as the RSP result), else device.toml's tare. ``gravity`` (the body's
+    [Gs, Gc], N m, with ``gravity_cov``: the RSP least squares') feeds the best-practice
+    reduction's gravity stiffness, with the fixture's from ``known``; without it that
+    reduction is skipped. A run the best-practice reduction cannot take (too few half
+    cycles) gets None there and a line in ``warnings``.
     """
     device = exp.device
     found = [
@@ -486,10 +534,15 @@ def identify_pendulum(
     J_damped = np.array([axial_moment(r.M_damped, st, e) for r, st, e in zip(runs, stages, empty)])
     J_damped_std = np.array([axial_std(r.M_damped_std, st) for r, st in zip(runs, stages)])
     entries_classic = entries_damped = None
-    if len(found) == sum(len(st.nodes) for st in device.stages):
-        directions = np.array(directions)
-        entries_classic = tensor_from_axes(J_classic, np.ones(len(runs)), directions)[0]
-        entries_damped = tensor_from_axes(J_damped, np.ones(len(runs)), directions)[0]
+    complete = len(found) == sum(len(st.nodes) for st in device.stages)
+    if complete:
+        entries_classic = tensor_from_axes(J_classic, np.ones(len(runs)), np.array(directions))[0]
+        entries_damped = tensor_from_axes(J_damped, np.ones(len(runs)), np.array(directions))[0]
+    best_parts = {}
+    if gravity is not None:
+        best_parts = _best_practice(
+            exp, found, runs, known, gravity, gravity_cov, warnings, complete
+        )
     if progress is not None:
         progress(f"pendulum: {len(runs)} run(s) reduced")
     return PendulumResult(
@@ -500,4 +553,61 @@ def identify_pendulum(
         J_damped_std=J_damped_std,
         entries_classic=entries_classic,
         entries_damped=entries_damped,
+        **best_parts,
     )
+
+
+def _best_practice(exp, found, runs, known, gravity, gravity_cov, warnings, complete) -> dict:
+    """The best-practice reduction of every pendulum run (estimation.pendulum) and, when
+    every node has one, its tensor through V with the axes at the runs' equilibria."""
+    device = exp.device
+    G = np.asarray(gravity, dtype=float)
+    G_cov = np.zeros((2, 2)) if gravity_cov is None else np.asarray(gravity_cov, dtype=float)
+    if known is not None:
+        G = G + known.gravity
+        G_cov = G_cov + known.cov[-2:, -2:]
+    best, budgets, J, J_std, phi = [], [], [], [], []
+    for (stage, k), run in zip(found, runs):
+        st = device.stages[stage - 1]
+        path = exp.pendulum_path(stage, k)
+        log = read_log(path, device.encoder, "pendulum")
+        try:
+            fit = half_cycle_fit(log, run.period, device.encoder.quantum, str(path))
+        except InputError as exc:
+            if warnings is not None:
+                warnings.append(f"pendulum best practice: {exc}")
+            best.append(None)
+            budgets.append({})
+            J.append(math.nan)
+            J_std.append(math.nan)
+            phi.append(math.nan)
+            continue
+        b = best_practice_inertia(
+            fit, device.pendulum.stiffness, device.pendulum.stiffness_std, fit.centre, G, G_cov
+        )
+        empty = None if known is None else known.empty_inertia(stage, fit.centre)
+        best.append(b)
+        budgets.append({name: float(axial_std(v, st)) for name, v in b.budget.items()})
+        J.append(float(axial_moment(b.M, st, empty)))
+        J_std.append(float(axial_std(b.M_std, st)))
+        phi.append(fit.centre)
+    J, J_std, phi = np.array(J), np.array(J_std), np.array(phi)
+    entries = cov = None
+    if complete and np.all(np.isfinite(J)):
+        dirs = np.array(
+            [
+                axis_direction(p, device.stages[stage - 1].gear_ratio)
+                for (stage, _), p in zip(found, phi)
+            ]
+        )
+        entries, cov, _ = tensor_from_axes(J, J_std, dirs)
+    return {
+        "best": best,
+        "J_best": J,
+        "J_best_std": J_std,
+        "phi_best": phi,
+        "entries_best": entries,
+        "entries_best_cov": cov,
+        "J_best_budget": budgets,
+    }
+

@@ -14,25 +14,56 @@ Both ignore what the RSP method does not: Coulomb and quadratic friction, the gr
 torque of an off-centre body (a stiffness -m g (x_c sin phi + y_c cos phi) of its own about
 a horizontal shaft) and the angle dependence of M. Each step is its own small function so
 that the data reduction can be followed and tested step by step.
+
+(c) **best practice** (:func:`half_cycle_fit`, :func:`best_practice_inertia`), what a
+    careful pendulum user does about each of those:
+
+    - *Coulomb and viscous friction.* Between two turning points the friction's sign is
+      fixed, so M x'' + a2 x' + a1 sgn + k x = 0 is a linear oscillator about a centre
+      shifted by a1 / k: x = c_i + exp(-delta t) (a_i cos w_d t + b_i sin w_d t) on every
+      half cycle i, with the same w_d and delta throughout and a centre that alternates.
+      Fitted to every half cycle at once (variable projection: c_i, a_i, b_i by linear
+      least squares for each trial (w, delta)), then w_n^2 = w_d^2 + delta^2, exact for this
+      model; Coulomb friction leaves the frequency alone. Quadratic friction acts as an
+      amplitude-dependent viscous term: its frequency effect is of order (delta / w)^2,
+      which the budget carries as the damping model's error.
+    - *Amplitude.* Gravity's curvature and M's variation with the angle make the frequency
+      depend on the amplitude, to first order w_d (1 + kappa A^2): each half cycle has its
+      own amplitude A_i (half its range), kappa is fitted with the rest, and w_d is its
+      value at zero amplitude.
+    - *Gravity stiffness.* The body's centre of mass off the shaft adds d^2 Pi / d phi^2 =
+      -(Gs sin phi_k + Gc cos phi_k) to the torsion stiffness c at the node (METHOD.md §3:
+      Pi = Gs sin phi + Gc cos phi). Gs, Gc come from the RSP least squares (the body's,
+      with its covariance) plus the calibrated fixture's: M = (c + k_g) / w_n^2.
+    - *Stiffness.* device.toml's [pendulum] stiffness with its stated std.
+
+    Each J_best carries the std of its own budget: the fit (encoder readings), the
+    stiffness, the gravity correction, and the damping model.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import curve_fit
+from scipy.optimize import curve_fit, least_squares
 
 from plant.errors import InputError
 from plant.logs import Log
 
 __all__ = [
+    "BestPractice",
+    "HalfCycleFit",
     "PendulumEstimate",
+    "best_practice_inertia",
     "crossing_period",
     "damped_fit",
     "estimate_pendulum",
+    "half_cycle_fit",
     "pendulum_inertia",
+    "turning_points",
 ]
 
 
@@ -127,4 +158,185 @@ def estimate_pendulum(
         M_damped=M_damped,
         M_damped_std=2 * M_damped * w_n_std / w_n,
         damping=float(delta),
+    )
+
+
+# --- best practice ----------------------------------------------------------------------------
+
+MIN_HALF_CYCLES = 6
+"""Half cycles the best-practice fit needs (three periods: the amplitude term needs a spread
+of amplitudes, the damping a decay)."""
+
+MIN_AMPLITUDE_COUNTS = 20
+"""Half cycles whose amplitude is under this many encoder counts are left out: near the end
+of a run Coulomb friction stops the body, and a few counts are all quantization."""
+
+
+@dataclass(frozen=True)
+class HalfCycleFit:
+    """The free oscillation's frequency, decay and amplitude dependence (module docstring)."""
+
+    omega_n: float
+    """rad/s, undamped angular frequency at zero amplitude, sqrt(w_d^2 + delta^2)."""
+    omega_n_std: float
+    """rad/s, from the fit alone."""
+    omega_d: float
+    """rad/s, damped frequency at zero amplitude."""
+    delta: float
+    """1/s, viscous decay rate."""
+    kappa: float
+    """1/rad^2, relative frequency change per squared amplitude."""
+    centre: float
+    """rad, the equilibrium: the mean of the half cycles' centres over an even number of
+    them (Coulomb friction shifts them alternately by +-a1 / k)."""
+    amplitude: float
+    """rad, the largest half-cycle amplitude fitted."""
+    half_cycles: int
+    """Half cycles fitted."""
+    residual_rms: float
+    """rad, of the fit (a quantized reading alone gives q / sqrt 12)."""
+
+
+def turning_points(log: Log, period: float) -> np.ndarray:
+    """Sample indices where the oscillation turns, from the readings' slope over a tenth of
+    a period (the quantization's steps averaged out); turns closer than a quarter period
+    are merged."""
+    t, phi = log.t, log.phi
+    dt = float(np.median(np.diff(t)))
+    half = max(round(period / 20 / dt), 1)
+    slope = np.zeros_like(phi)
+    slope[half:-half] = phi[2 * half :] - phi[: -2 * half]
+    sign = np.sign(slope)
+    nz = np.nonzero(sign)[0]
+    turns: list[int] = []
+    for j in np.nonzero(sign[nz[1:]] != sign[nz[:-1]])[0]:
+        k = int(nz[j + 1])
+        if turns and (t[k] - t[turns[-1]]) < period / 4:
+            continue
+        # The extremum near the flip: a maximum after a rise, a minimum after a fall.
+        lo, hi = max(k - 2 * half, 0), min(k + 2 * half, phi.size - 1)
+        window = phi[lo : hi + 1]
+        rising = sign[nz[j]] > 0
+        turns.append(lo + int(np.argmax(window) if rising else np.argmin(window)))
+    return np.asarray(turns, dtype=int)
+
+
+def half_cycle_fit(log: Log, period: float, quantum: float, source: str) -> HalfCycleFit:
+    """Fit x = c_i + exp(-delta s) (a_i cos w_i s + b_i sin w_i s) on every half cycle i
+    (s from its start), w_i = w_d (1 + kappa A_i^2), sharing (w_d, delta, kappa).
+
+    Variable projection: for trial (w_d, delta, kappa) each half cycle's c_i, a_i, b_i are a
+    linear least squares, and the shared three minimise the sum of squares
+    (scipy.optimize.least_squares); their covariance is the residual variance times
+    (J^T J)^-1 of the projected residuals (Golub and Pereyra). The readings are the encoder's
+    (floor), so half a count is added back.
+    """
+    turns = turning_points(log, period)
+    t, phi = log.t, log.phi + quantum / 2
+    segments = []
+    for a, b in itertools.pairwise(turns):
+        amplitude = 0.5 * abs(phi[b] - phi[a])
+        if amplitude < MIN_AMPLITUDE_COUNTS * quantum:
+            break
+        segments.append((t[a : b + 1] - t[a], phi[a : b + 1], amplitude))
+    if len(segments) < MIN_HALF_CYCLES:
+        raise InputError(
+            f"{source}: {len(segments)} half cycles of the oscillation above "
+            f"{MIN_AMPLITUDE_COUNTS} counts, the best-practice fit needs {MIN_HALF_CYCLES} "
+            "(friction stops the pendulum too soon: a larger amplitude or a stiffer spring)"
+        )
+
+    segments = segments[: len(segments) // 2 * 2]  # pairs: the Coulomb shifts cancel
+
+    def solve(p: np.ndarray) -> tuple[np.ndarray, list[float]]:
+        """Projected residuals and the half cycles' centres c_i at (w_d, delta, kappa)."""
+        w, delta, kappa = p
+        out, centres = [], []
+        for s, y, amp in segments:
+            wi = w * (1.0 + kappa * amp * amp)
+            decay = np.exp(-delta * s)
+            X = np.column_stack([np.ones_like(s), decay * np.cos(wi * s), decay * np.sin(wi * s)])
+            coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+            out.append(y - X @ coef)
+            centres.append(float(coef[0]))
+        return np.concatenate(out), centres
+
+    def residuals(p: np.ndarray) -> np.ndarray:
+        return solve(p)[0]
+
+    w0 = 2 * math.pi / period
+    fit = least_squares(residuals, x0=[w0, 0.0, 0.0], x_scale=[w0 * 1e-3, 1e-2, 1e-2])
+    r = fit.fun
+    n, k = r.size, 3 + 3 * len(segments)
+    variance = float(r @ r) / max(n - k, 1)
+    cov = variance * np.linalg.pinv(fit.jac.T @ fit.jac)
+    w_d, delta, kappa = map(float, fit.x)
+    centres = solve(fit.x)[1]
+    w_n = math.hypot(w_d, delta)
+    # d w_n = (w_d d w_d + delta d delta) / w_n.
+    grad = np.array([w_d / w_n, delta / w_n, 0.0])
+    return HalfCycleFit(
+        omega_n=w_n,
+        omega_n_std=float(math.sqrt(max(grad @ cov @ grad, 0.0))),
+        omega_d=w_d,
+        delta=delta,
+        kappa=kappa,
+        centre=float(np.mean(centres)),
+        amplitude=float(max(amp for _, _, amp in segments)),
+        half_cycles=len(segments),
+        residual_rms=float(math.sqrt(variance)),
+    )
+
+
+@dataclass(frozen=True)
+class BestPractice:
+    """Reduced inertia at a node by the best-practice reduction, with its budget."""
+
+    M: float
+    """kg m^2, (c + k_g) / w_n^2."""
+    M_std: float
+    """kg m^2, the budget's parts in quadrature."""
+    budget: dict[str, float]
+    """kg m^2 per source: "fit", "stiffness", "gravity", "damping model", "amplitude"."""
+    gravity_stiffness: float
+    """k_g, N m/rad."""
+    fit: HalfCycleFit
+
+
+def best_practice_inertia(
+    fit: HalfCycleFit,
+    stiffness: float,
+    stiffness_std: float,
+    node: float,
+    gravity: np.ndarray,
+    gravity_cov: np.ndarray,
+) -> BestPractice:
+    """M = (c + k_g) / w_n^2 at node angle ``node`` (rad), k_g = -(Gs sin + Gc cos)(node).
+
+    ``gravity``: [Gs, Gc], N m, of everything on the shaft (body and fixture), with its
+    covariance. Two model errors are budgeted at the size of the correction they come from:
+    the damping model's, M (delta / w_n)^2 (quadratic friction's frequency effect is of that
+    order), and the amplitude extrapolation's, 2 M |kappa| A_max^2 (w (1 + kappa A^2) is
+    the first term of the frequency's dependence on the amplitude; measured on the virtual
+    device, M at the equilibrium came out 0.3-1.5e-3 off with the fit's std alone at
+    1-4e-4, and the whole amplitude correction at 0.5-2e-3).
+    """
+    rows = np.array([-math.sin(node), -math.cos(node)])
+    k_g = float(rows @ gravity)
+    k = stiffness + k_g
+    w2 = fit.omega_n**2
+    M = k / w2
+    budget = {
+        "fit": 2 * M * fit.omega_n_std / fit.omega_n,
+        "stiffness": stiffness_std / w2,
+        "gravity": float(math.sqrt(max(rows @ gravity_cov @ rows, 0.0))) / w2,
+        "damping model": M * (fit.delta / fit.omega_n) ** 2,
+        "amplitude": 2 * M * abs(fit.kappa) * fit.amplitude**2,
+    }
+    return BestPractice(
+        M=M,
+        M_std=float(math.sqrt(sum(v * v for v in budget.values()))),
+        budget=budget,
+        gravity_stiffness=k_g,
+        fit=fit,
     )

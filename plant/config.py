@@ -153,6 +153,9 @@ class Pendulum:
     """Initial deflection from the node, deg, > 0."""
     duration: float = 30.0
     """Logged time per run, s, > 0."""
+    stiffness_std: float = 0.0
+    """Std of ``stiffness``, N m/rad, >= 0 (0: taken as exact); the best-practice pendulum
+    reduction carries it into its stds."""
 
 
 @dataclass(frozen=True)
@@ -290,13 +293,16 @@ def _device(doc: dict[str, Any]) -> Device:
     table = _table(doc, "body", {"mass"}, required=False)
     body = None if table is None else Body(mass=_get(table, "body", "mass", float, bound="> 0"))
 
-    table = _table(doc, "pendulum", {"stiffness", "amplitude_deg", "duration"}, required=False)
+    table = _table(
+        doc, "pendulum", {"stiffness", "stiffness_std", "amplitude_deg", "duration"}, required=False
+    )
     pendulum = None
     if table is not None:
         pendulum = Pendulum(
             stiffness=_get(table, "pendulum", "stiffness", float, bound="> 0"),
             amplitude_deg=_get(table, "pendulum", "amplitude_deg", float, default=5.0, bound="> 0"),
             duration=_get(table, "pendulum", "duration", float, default=30.0, bound="> 0"),
+            stiffness_std=_get(table, "pendulum", "stiffness_std", float, default=0.0, bound=">= 0"),
         )
 
     table = _table(

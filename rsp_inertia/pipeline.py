@@ -425,19 +425,31 @@ def format_identification(result: Identification, truth: np.ndarray | None = Non
         )
     if result.pendulum is not None:
         pend = result.pendulum
-        lines.append("torsion-pendulum baseline (classic / damped fit):")
+        lines.append(
+            "torsion-pendulum baseline (classic / damped fit; best practice +- std, about the "
+            "axis at the oscillation's equilibrium):"
+        )
         for i, r in enumerate(pend.runs):
+            best = ""
+            if pend.J_best is not None and np.isfinite(pend.J_best[i]):
+                best = (
+                    f"; {pend.J_best[i]:.8f} +- {pend.J_best_std[i]:.1e} at "
+                    f"{np.degrees(pend.phi_best[i]):.2f} deg"
+                )
             lines.append(
                 f"  stage {r.stage} node {r.node_deg:6.1f} deg: tau = {r.period:.5f} s,"
-                f" J = {pend.J_classic[i]:.8f} / {pend.J_damped[i]:.8f}"
+                f" J = {pend.J_classic[i]:.8f} / {pend.J_damped[i]:.8f}{best}"
             )
         if truth is not None and pend.entries_classic is not None:
             err_c = np.abs(pend.entries_classic - truth).max() / scale
             err_d = np.abs(pend.entries_damped - truth).max() / scale
             err_ls = np.abs(result.entries - truth).max() / scale
+            best = ""
+            if pend.entries_best is not None:
+                best = f", pendulum best practice {np.abs(pend.entries_best - truth).max() / scale:.1e}"
             lines.append(
                 f"worst tensor error / largest moment: RSP {err_ls:.1e}, pendulum classic "
-                f"{err_c:.1e}, pendulum damped fit {err_d:.1e}"
+                f"{err_c:.1e}, pendulum damped fit {err_d:.1e}{best}"
             )
     if result.com is not None:
         lines.append(
@@ -456,7 +468,7 @@ def demo_figures(exp: Experiment, result: Identification) -> list[Path]:
     """
     # Imported here: only the demo draws, and matplotlib costs the other commands a second.
     from estimation.smoothing import smooth_log
-    from plant.geometry import tensor_from_entries
+    from plant.geometry import axis_direction, tensor_from_entries
     from plant.virtual import free_motion
     from rsp_inertia.design import plot_cone_conditioning
     from rsp_inertia.plots import plot_errors, plot_motion, plot_tracking
@@ -498,6 +510,18 @@ def demo_figures(exp: Experiment, result: Identification) -> list[Path]:
     if result.pendulum is not None and len(result.pendulum.runs) == len(result.axes):
         errors["pendulum classic"] = result.pendulum.J_classic / J_true - 1
         errors["pendulum damped fit"] = result.pendulum.J_damped / J_true - 1
+        pend = result.pendulum
+        if pend.J_best is not None:
+            # About the axis at each run's equilibrium, where the best practice measures.
+            best_dirs = np.array(
+                [
+                    axis_direction(p, exp.device.stages[r.stage - 1].gear_ratio)
+                    if np.isfinite(p) else np.full(3, np.nan)
+                    for r, p in zip(pend.runs, pend.phi_best)
+                ]
+            )
+            J_best_true = np.einsum("ij,jk,ik->i", best_dirs, tensor, best_dirs)
+            errors["pendulum best practice"] = pend.J_best / J_best_true - 1
     labels = [f"s{a.stage} {a.phi_deg:g} deg" for a in result.axes]
     paths.append(exp.root / "errors.png")
     plot_errors(paths[-1], labels, errors, "Relative error of each axial moment, per method")
