@@ -37,6 +37,7 @@ from estimation.pendulum import estimate_pendulum
 from plant.config import load_device
 from plant.errors import InputError
 from plant.experiment import open_experiment
+from plant.geometry import axis_direction
 from plant.logs import read_log, write_atomic
 from plant.model import ModelParameters, dissipation
 from plant.virtual import true_parameters
@@ -88,6 +89,7 @@ METHODS = {
     "node": "RSP node formula",
     "pendulum": "pendulum classic",
     "pendulum_damped": "pendulum damped fit",
+    "pendulum_best": "pendulum best practice",
 }
 """Row-key suffixes of the four methods (``err_Jk_<key>``, ``err_tensor_<key>``) and their names."""
 
@@ -233,10 +235,12 @@ def _fit_protocol(root: Path, stage: int) -> dict:
     }
 
 
-def _relative_errors(result, virtual) -> dict:
+def _relative_errors(result, virtual, device) -> dict:
     """Worst J_k error over the axes and worst tensor entry over the largest principal moment.
 
-    Also ``z_Jk_ls``, the least squares' worst |J_k error| / reported std.
+    Also ``z_Jk_ls``, the least squares' worst |J_k error| / reported std, and
+    ``z_Jk_pendulum_best``, the best-practice pendulum's (about its equilibrium axes, where
+    it measures).
 
     The pendulum's J_k error is over the axes whose run could be reduced (``pendulum_axes``);
     its tensor needs all of them.
@@ -258,13 +262,29 @@ def _relative_errors(result, virtual) -> dict:
         J_true_pend = J_true[index]
         estimates["pendulum"] = (pend.J_classic, pend.entries_classic)
         estimates["pendulum_damped"] = (pend.J_damped, pend.entries_damped)
+        if pend.J_best is not None:
+            estimates["pendulum_best"] = (pend.J_best, pend.entries_best)
+            # The best practice measures about the axis at each run's equilibrium.
+            lams = [device.stages[r.stage - 1].gear_ratio for r in pend.runs]
+            best_axes = np.array(
+                [
+                    axis_direction(p, lam) if np.isfinite(p) else np.full(3, np.nan)
+                    for p, lam in zip(pend.phi_best, lams)
+                ]
+            )
+            J_true_best = np.einsum("ij,jk,ik->i", best_axes, body.tensor, best_axes)
+            z = np.abs(pend.J_best - J_true_best) / pend.J_best_std
+            row["z_Jk_pendulum_best"] = float(np.nanmax(z)) if np.any(np.isfinite(z)) else None
     for key in METHODS:
         if key not in estimates:
             row[f"err_Jk_{key}"] = row[f"err_tensor_{key}"] = None
             continue
         J, entries = estimates[key]
         truth = J_true_pend if key.startswith("pendulum") else J_true
-        row[f"err_Jk_{key}"] = float(np.max(np.abs(J / truth - 1.0)))
+        if key == "pendulum_best":
+            truth = J_true_best
+        rel = np.abs(J / truth - 1.0)
+        row[f"err_Jk_{key}"] = float(np.nanmax(rel)) if np.any(np.isfinite(rel)) else None
         row[f"err_tensor_{key}"] = (
             None if entries is None else float(np.max(np.abs(entries - body.inertia)) / scale)
         )
@@ -394,7 +414,7 @@ def _run_experiment(root: Path, case: Case) -> dict:
         row[f"time_program_{stage}"] for stage in stages
     )
     row["axes"] = len(result.axes)
-    row.update(_relative_errors(result, exp.load_virtual()))
+    row.update(_relative_errors(result, exp.load_virtual(), exp.device))
     row["warnings"] = "; ".join(result.warnings)
     return row
 
@@ -628,7 +648,8 @@ def _case_table(rows: list[dict]) -> str:
     head = ["case", "launch speeds rad/s", "braking torques N m", "turns past last node"]
     head += [f"{name} J_k" for name in METHODS.values()]
     head += [f"{name} tensor" for name in METHODS.values()]
-    head += ["com mm", "pendulum axes", "RSP LS worst |err|/std", "warnings"]
+    head += ["com mm", "pendulum axes", "RSP LS worst |err|/std", "pendulum best worst |err|/std",
+             "warnings"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     notes = []
     for row in rows:
@@ -648,7 +669,8 @@ def _case_table(rows: list[dict]) -> str:
         cells += [_fmt(row["com_error_mm"]), f"{row['pendulum_axes']}/{row['axes']}"]
         z = row.get("z_Jk_ls")  # absent from the rows of older sweeps
         warned = len(row["warnings"].split("; ")) if row["warnings"] else 0
-        cells += ["" if z is None else f"{z:.1f}", str(warned)]
+        zb = row.get("z_Jk_pendulum_best")
+        cells += ["" if z is None else f"{z:.1f}", "" if zb is None else f"{zb:.1f}", str(warned)]
         lines.append("| " + " | ".join(cells) + " |")
         short = [s for s in stages if row[f"short_protocol_{s}"]]
         if short:
