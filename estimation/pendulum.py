@@ -29,8 +29,10 @@ that the data reduction can be followed and tested step by step.
       which the budget carries as the damping model's error.
     - *Amplitude.* Gravity's curvature and M's variation with the angle make the frequency
       depend on the amplitude, to first order w_d (1 + kappa A^2): each half cycle has its
-      own amplitude A_i (half its range), kappa is fitted with the rest, and w_d is its
-      value at zero amplitude.
+      own amplitude A_i (half its range), kappa is fitted with the rest when the amplitudes
+      spread (AMPLITUDE_SPREAD; a prior KAPPA_PRIOR keeps it physical), and w_d is its value
+      at zero amplitude. A pendulum that barely decays cannot tell kappa from w_d: kappa is
+      then 0 and its effect budgeted (KAPPA_BOUND).
     - *Gravity stiffness.* The body's centre of mass off the shaft adds d^2 Pi / d phi^2 =
       -(Gs sin phi_k + Gc cos phi_k) to the torsion stiffness c at the node (METHOD.md §3:
       Pi = Gs sin phi + Gc cos phi). Gs, Gc come from the RSP least squares (the body's,
@@ -167,6 +169,28 @@ MIN_HALF_CYCLES = 6
 """Half cycles the best-practice fit needs (three periods: the amplitude term needs a spread
 of amplitudes, the damping a decay)."""
 
+KAPPA_PRIOR = 1.0
+"""1/rad^2, std of the Gaussian prior on kappa, the frequency's relative change per squared
+amplitude. A pendulum that barely decays gives every half cycle nearly the same amplitude,
+and then kappa and the zero-amplitude frequency trade off freely: fitted unconstrained, the
+sweep's low-friction cases came out 5-29% off (with stds as large). Physically kappa stays
+small: gravity's curvature is m g r / c ~ 0.04 of the stiffness here, and M's relative
+second derivative is below 4 (its harmonics are smaller than M0), which give |kappa| of
+order 0.01-0.5 (fitted 0.01-0.15 where the amplitude decays). With a prior std of 1 the data
+decide when the amplitudes spread, and the prior bounds the extrapolation when they do not
+(kappa A^2 <= 8e-3 at 5 deg)."""
+
+KAPPA_BOUND = 0.15
+"""1/rad^2: |kappa| assumed when the amplitudes do not spread enough to fit it
+(AMPLITUDE_SPREAD): the largest fitted on the virtual device where they do (-0.10 to +0.11
+over the default stages' nodes at friction x1-x100). The amplitude budget is then
+2 M KAPPA_BOUND A_max^2, 2.3e-3 of M at 5 deg."""
+
+AMPLITUDE_SPREAD = 0.75
+"""kappa is fitted only when the smallest half-cycle amplitude squared is at most this
+fraction of the largest; above it (a pendulum that barely decays: the default stage 2 at
+friction x1 keeps 0.95) kappa is 0 and KAPPA_BOUND budgets the amplitude effect."""
+
 MIN_AMPLITUDE_COUNTS = 20
 """Half cycles whose amplitude is under this many encoder counts are left out: near the end
 of a run Coulomb friction stops the body, and a few counts are all quantization."""
@@ -186,6 +210,8 @@ class HalfCycleFit:
     """1/s, viscous decay rate."""
     kappa: float
     """1/rad^2, relative frequency change per squared amplitude."""
+    kappa_fitted: bool
+    """Whether the amplitudes spread enough to fit kappa (AMPLITUDE_SPREAD); else 0."""
     centre: float
     """rad, the equilibrium: the mean of the half cycles' centres over an even number of
     them (Coulomb friction shifts them alternately by +-a1 / k)."""
@@ -223,7 +249,8 @@ def turning_points(log: Log, period: float) -> np.ndarray:
 
 def half_cycle_fit(log: Log, period: float, quantum: float, source: str) -> HalfCycleFit:
     """Fit x = c_i + exp(-delta s) (a_i cos w_i s + b_i sin w_i s) on every half cycle i
-    (s from its start), w_i = w_d (1 + kappa A_i^2), sharing (w_d, delta, kappa).
+    (s from its start), w_i = w_d (1 + kappa A_i^2), sharing (w_d, delta, kappa), kappa with
+    a Gaussian prior of std KAPPA_PRIOR.
 
     Variable projection: for trial (w_d, delta, kappa) each half cycle's c_i, a_i, b_i are a
     linear least squares, and the shared three minimise the sum of squares
@@ -261,17 +288,30 @@ def half_cycle_fit(log: Log, period: float, quantum: float, source: str) -> Half
             centres.append(float(coef[0]))
         return np.concatenate(out), centres
 
+    sigma = quantum / math.sqrt(12.0)  # a reading's error: the prior in the same weights
+    amplitudes = np.array([amp for _, _, amp in segments])
+    kappa_fitted = (amplitudes.min() / amplitudes.max()) ** 2 <= AMPLITUDE_SPREAD
+
     def residuals(p: np.ndarray) -> np.ndarray:
-        return solve(p)[0]
+        if not kappa_fitted:
+            return solve(np.append(p, 0.0))[0]
+        return np.append(solve(p)[0], sigma * p[2] / KAPPA_PRIOR)
 
     w0 = 2 * math.pi / period
-    fit = least_squares(residuals, x0=[w0, 0.0, 0.0], x_scale=[w0 * 1e-3, 1e-2, 1e-2])
+    start, scale = [w0, 0.0, 0.0], [w0 * 1e-3, 1e-2, 1e-2]
+    shared = 3 if kappa_fitted else 2
+    fit = least_squares(residuals, x0=start[:shared], x_scale=scale[:shared])
     r = fit.fun
-    n, k = r.size, 3 + 3 * len(segments)
-    variance = float(r @ r) / max(n - k, 1)
-    cov = variance * np.linalg.pinv(fit.jac.T @ fit.jac)
-    w_d, delta, kappa = map(float, fit.x)
-    centres = solve(fit.x)[1]
+    n = r.size - (1 if kappa_fitted else 0)  # the prior's row is not a reading
+    variance = float(r @ r) / max(n - shared - 3 * len(segments), 1)
+    cov = np.zeros((3, 3))
+    cov[:shared, :shared] = (
+        variance * _correlation_factor(r[:n], period, float(np.median(np.diff(log.t))))
+        * np.linalg.pinv(fit.jac.T @ fit.jac)
+    )
+    params = np.append(fit.x, 0.0) if not kappa_fitted else fit.x
+    w_d, delta, kappa = map(float, params)
+    centres = solve(params)[1]
     w_n = math.hypot(w_d, delta)
     # d w_n = (w_d d w_d + delta d delta) / w_n.
     grad = np.array([w_d / w_n, delta / w_n, 0.0])
@@ -281,11 +321,27 @@ def half_cycle_fit(log: Log, period: float, quantum: float, source: str) -> Half
         omega_d=w_d,
         delta=delta,
         kappa=kappa,
+        kappa_fitted=bool(kappa_fitted),
         centre=float(np.mean(centres)),
         amplitude=float(max(amp for _, _, amp in segments)),
         half_cycles=len(segments),
         residual_rms=float(math.sqrt(variance)),
     )
+
+
+def _correlation_factor(r: np.ndarray, period: float, dt: float) -> float:
+    """1 + 2 sum_k rho_k of the residuals over lags up to a tenth of a period, at least 1:
+    the variance factor of an average of correlated errors. A reading's quantization error is
+    independent from sample to sample only while the body crosses counts quickly; near the
+    turning points, and everywhere on a coarse encoder, it stays on one count for many
+    samples (12-bit sweep cases: the fit's std without it was 4-7x below the error)."""
+    lags = max(min(round(period / 10 / dt), r.size // 4), 1)
+    r = r - r.mean()
+    c0 = float(r @ r)
+    if c0 == 0.0:
+        return 1.0
+    rho = [float(r[k:] @ r[:-k]) / c0 for k in range(1, lags + 1)]
+    return max(1.0 + 2.0 * sum(rho), 1.0)
 
 
 @dataclass(frozen=True)
@@ -316,7 +372,8 @@ def best_practice_inertia(
     ``gravity``: [Gs, Gc], N m, of everything on the shaft (body and fixture), with its
     covariance. Two model errors are budgeted at the size of the correction they come from:
     the damping model's, M (delta / w_n)^2 (quadratic friction's frequency effect is of that
-    order), and the amplitude extrapolation's, 2 M |kappa| A_max^2 (w (1 + kappa A^2) is
+    order), and the amplitude extrapolation's, 2 M |kappa| A_max^2 (KAPPA_BOUND for kappa
+    when it was not fitted; w (1 + kappa A^2) is
     the first term of the frequency's dependence on the amplitude; measured on the virtual
     device, M at the equilibrium came out 0.3-1.5e-3 off with the fit's std alone at
     1-4e-4, and the whole amplitude correction at 0.5-2e-3).
@@ -331,7 +388,8 @@ def best_practice_inertia(
         "stiffness": stiffness_std / w2,
         "gravity": float(math.sqrt(max(rows @ gravity_cov @ rows, 0.0))) / w2,
         "damping model": M * (fit.delta / fit.omega_n) ** 2,
-        "amplitude": 2 * M * abs(fit.kappa) * fit.amplitude**2,
+        "amplitude": 2 * M * (abs(fit.kappa) if fit.kappa_fitted else KAPPA_BOUND)
+        * fit.amplitude**2,
     }
     return BestPractice(
         M=M,
