@@ -14,7 +14,7 @@ that identify sees and the ideal prediction cannot:
   the body in a way the smoother does not follow; identify measures that as its
   speed-noise scale.
 
-Measured on the planning benchmark (five scenarios), identify's std was 1.0-2.6x the ideal
+Measured on the planning benchmark (five scenarios), identify's std was 1.0-3.0x the ideal
 prediction, most of it from the mismatch columns (with them left out, identify's std on the
 same logs was within 10% of the prediction on the paper's scenario).
 
@@ -24,8 +24,11 @@ quantization, the torque log's noise of the pilot or the guess), ``program`` fro
 braking log (its own nominal fit, blind to a1 as on the rig), the closed-loop reverse on a
 drive with the regulator's assumed speed observer (ocp.regulator.OBSERVER_BANDWIDTH) and the
 motor's limits, and identify's least squares on those logs. Its reported stds are the
-prediction. One realisation, seeded: the std of a least squares scatters little between
-noise draws (its speed-noise scale most, by ~20% on the benchmark's heavy stages).
+prediction. One realisation, seeded: the stds scatter by 3% over four noise seeds (spring
+scenario). What the rehearsal cannot know is how far the program's nominal model will be
+from the real truth, which sets the mismatch's shape: its truth is the pilot's model, whose
+a1 a pilot pins only loosely (on the spring's slow stage identify then reported up to 2.2x
+less than rehearsed on two axes; 0.96-1.17x elsewhere, benchmarks/results/plan.md).
 """
 
 from __future__ import annotations
