@@ -513,11 +513,12 @@ def identify_pendulum(
             f"{exp.root / 'device.toml'}: pendulum: pendulum logs are present but the "
             "[pendulum] table (its stiffness) is missing"
         )
-    runs, directions = [], []
+    runs, directions, logs = [], [], []
     for stage, k in found:
         st = device.stages[stage - 1]
         path = exp.pendulum_path(stage, k)
         log = read_log(path, device.encoder, "pendulum")
+        logs.append(log)
         runs.append(
             estimate_pendulum(log, device.pendulum.stiffness, stage, st.nodes_deg[k - 1], str(path))
         )
@@ -541,7 +542,7 @@ def identify_pendulum(
     best_parts = {}
     if gravity is not None:
         best_parts = _best_practice(
-            exp, found, runs, known, gravity, gravity_cov, warnings, complete
+            exp, found, runs, logs, known, gravity, gravity_cov, warnings, complete
         )
     if progress is not None:
         progress(f"pendulum: {len(runs)} run(s) reduced")
@@ -557,7 +558,9 @@ def identify_pendulum(
     )
 
 
-def _best_practice(exp, found, runs, known, gravity, gravity_cov, warnings, complete) -> dict:
+def _best_practice(
+    exp, found, runs, logs, known, gravity, gravity_cov, warnings, complete
+) -> dict:
     """The best-practice reduction of every pendulum run (estimation.pendulum) and, when
     every node has one, its tensor through V with the axes at the runs' equilibria."""
     device = exp.device
@@ -567,10 +570,9 @@ def _best_practice(exp, found, runs, known, gravity, gravity_cov, warnings, comp
         G = G + known.gravity
         G_cov = G_cov + known.cov[-2:, -2:]
     best, budgets, J, J_std, phi = [], [], [], [], []
-    for (stage, k), run in zip(found, runs):
+    for (stage, k), run, log in zip(found, runs, logs):
         st = device.stages[stage - 1]
         path = exp.pendulum_path(stage, k)
-        log = read_log(path, device.encoder, "pendulum")
         try:
             fit = half_cycle_fit(log, run.period, device.encoder.quantum, str(path))
         except InputError as exc:
