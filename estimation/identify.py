@@ -154,6 +154,18 @@ class PendulumResult:
             "tensor_best_std": entries(best_std),
         }
 
+    def best_axes(self, device) -> np.ndarray:
+        """(runs, 3) unit axes about which J_best is measured (each run's equilibrium), NaN
+        rows where the best practice failed."""
+        phi = np.full(len(self.runs), np.nan) if self.phi_best is None else self.phi_best
+        return np.array(
+            [
+                axis_direction(p, device.stages[r.stage - 1].gear_ratio)
+                if np.isfinite(p) else np.full(3, np.nan)
+                for r, p in zip(self.runs, phi)
+            ]
+        )
+
     def _best_json(self, i: int) -> dict:
         """The best-practice keys of run i's entry in ``axes`` (None where it failed)."""
         b = self.best[i] if i < len(self.best) else None

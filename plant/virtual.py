@@ -132,14 +132,10 @@ _COARSE_STEP = _build_step(1)
 _COARSE_BLOCK = _COARSE_STEP.mapaccum(_BLOCK)
 
 
-def _step(x: np.ndarray, u: float, direction: float, p: np.ndarray, h: float) -> np.ndarray:
-    return np.asarray(_STEP(x, u, direction, p, h)).ravel()
-
-
-def _coarse_step(
-    x: np.ndarray, u: float, direction: float, p: np.ndarray, h: float
+def _step(
+    x: np.ndarray, u: float, direction: float, p: np.ndarray, h: float, fn: ca.Function = _STEP
 ) -> np.ndarray:
-    return np.asarray(_COARSE_STEP(x, u, direction, p, h)).ravel()
+    return np.asarray(fn(x, u, direction, p, h)).ravel()
 
 
 def integrate_to_stop(
@@ -416,7 +412,9 @@ class SpeedObserver:
         return self.omega
 
 
-def _advance(x: np.ndarray, u: float, h: float, pair: _Pair, step=_step) -> np.ndarray:
+def _advance(
+    x: np.ndarray, u: float, h: float, pair: _Pair, fn: ca.Function = _STEP
+) -> np.ndarray:
     """Advance the true state over h with the physical torque u held, with stops and static
     friction.
 
@@ -438,14 +436,14 @@ def _advance(x: np.ndarray, u: float, h: float, pair: _Pair, step=_step) -> np.n
         else:
             direction = math.copysign(1.0, x[1])
         p = _pick(pair, direction)
-        nxt = step(x, u, direction, p, remaining)
+        nxt = _step(x, u, direction, p, remaining, fn)
         if nxt[1] * direction > 0.0:
             return nxt
         def speed_along(h, x=x, direction=direction, p=p):
-            return step(x, u, direction, p, h)[1] * direction
+            return _step(x, u, direction, p, h, fn)[1] * direction
 
         h_stop = brentq(speed_along, 0.0, remaining, xtol=1e-15)
-        x = step(x, u, direction, p, h_stop)
+        x = _step(x, u, direction, p, h_stop, fn)
         x[1] = 0.0
         remaining -= h_stop
     return x
@@ -536,7 +534,7 @@ def run_program(
         applied[k] = physical
         commands[k] = u * gain if ideal else u
         u_prev = u
-        x = _advance(x, physical, dt, pair, _coarse_step if coarse else _step)
+        x = _advance(x, physical, dt, pair, _COARSE_STEP if coarse else _STEP)
     truth = PassTruth(
         t=np.asarray(program.t, dtype=float),
         phi=phi_true,

@@ -37,7 +37,6 @@ from estimation.pendulum import estimate_pendulum
 from plant.config import load_device
 from plant.errors import InputError
 from plant.experiment import open_experiment
-from plant.geometry import axis_direction
 from plant.logs import read_log, write_atomic
 from plant.model import ModelParameters, dissipation
 from plant.virtual import true_parameters
@@ -265,13 +264,7 @@ def _relative_errors(result, virtual, device) -> dict:
         if pend.J_best is not None:
             estimates["pendulum_best"] = (pend.J_best, pend.entries_best)
             # The best practice measures about the axis at each run's equilibrium.
-            lams = [device.stages[r.stage - 1].gear_ratio for r in pend.runs]
-            best_axes = np.array(
-                [
-                    axis_direction(p, lam) if np.isfinite(p) else np.full(3, np.nan)
-                    for p, lam in zip(pend.phi_best, lams)
-                ]
-            )
+            best_axes = pend.best_axes(device)
             J_true_best = np.einsum("ij,jk,ik->i", best_axes, body.tensor, best_axes)
             z = np.abs(pend.J_best - J_true_best) / pend.J_best_std
             row["z_Jk_pendulum_best"] = float(np.nanmax(z)) if np.any(np.isfinite(z)) else None

@@ -468,7 +468,7 @@ def demo_figures(exp: Experiment, result: Identification) -> list[Path]:
     """
     # Imported here: only the demo draws, and matplotlib costs the other commands a second.
     from estimation.smoothing import smooth_log
-    from plant.geometry import axis_direction, tensor_from_entries
+    from plant.geometry import tensor_from_entries
     from plant.virtual import free_motion
     from rsp_inertia.design import plot_cone_conditioning
     from rsp_inertia.plots import plot_errors, plot_motion, plot_tracking
@@ -513,13 +513,7 @@ def demo_figures(exp: Experiment, result: Identification) -> list[Path]:
         pend = result.pendulum
         if pend.J_best is not None:
             # About the axis at each run's equilibrium, where the best practice measures.
-            best_dirs = np.array(
-                [
-                    axis_direction(p, exp.device.stages[r.stage - 1].gear_ratio)
-                    if np.isfinite(p) else np.full(3, np.nan)
-                    for r, p in zip(pend.runs, pend.phi_best)
-                ]
-            )
+            best_dirs = pend.best_axes(exp.device)
             J_best_true = np.einsum("ij,jk,ik->i", best_dirs, tensor, best_dirs)
             errors["pendulum best practice"] = pend.J_best / J_best_true - 1
     labels = [f"s{a.stage} {a.phi_deg:g} deg" for a in result.axes]
