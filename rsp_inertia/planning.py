@@ -21,7 +21,7 @@ from ocp.rehearsal import Rehearsal
 from plant.config import Device
 from plant.errors import InputError
 from plant.experiment import open_experiment
-from plant.logs import read_log, write_atomic
+from plant.logs import Log, read_log, write_atomic
 from plant.model import ModelParameters
 
 __all__ = ["DEFAULT_MAX_DURATION", "PlanReport", "guess_model", "plan", "stage_models"]
@@ -78,21 +78,26 @@ def guess_model(device: Device, stage: int) -> tuple[ModelParameters, float]:
 
 
 def stage_models(root: str | Path) -> list[StageModel]:
-    """Per stage: the pilot run's fit if ``stageN/pilot.csv`` exists, else device.toml's guess."""
+    """Per stage: the pilot run's fit if ``stageN/pilot.csv`` exists, else device.toml's guess.
+
+    The pilots are read here (a bad log's error comes before any process starts) and fitted
+    per stage in parallel (ocp.plan.map_stages).
+    """
     exp = open_experiment(root)
-    pilots = [(exp.device, stage, exp.pilot_path(stage)) for stage in exp.stages(None)]
-    for _, _, path in pilots:
-        if path.is_file():  # read errors come here, before any process starts
-            read_log(path, exp.device.encoder, "pilot")
-    return map_stages(_stage_model, pilots)
+    jobs = []
+    for stage in exp.stages(None):
+        path = exp.pilot_path(stage)
+        log = read_log(path, exp.device.encoder, "pilot") if path.is_file() else None
+        jobs.append((exp.device, stage, path, log))
+    return map_stages(_stage_model, jobs)
 
 
-def _stage_model(device: Device, stage: int, path: Path) -> StageModel:
-    """One stage's model: its pilot's fit, else device.toml's guess."""
-    if path.is_file():
+def _stage_model(device: Device, stage: int, path: Path, log: Log | None) -> StageModel:
+    """One stage's model: its pilot's fit (``log``, read from ``path``), else device.toml's
+    guess."""
+    if log is not None:
         from ocp.pilot import fit_pilot
 
-        log = read_log(path, device.encoder, "pilot")
         fit = fit_pilot(device, stage, log, str(path))
         bound = fit.a1 + 2 * fit.a1_std if np.isfinite(fit.a1_std) else fit.a1
         return StageModel(stage, fit.model(), fit.torque_noise, str(path), bound)
