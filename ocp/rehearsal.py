@@ -20,7 +20,8 @@ same logs was within 10% of the prediction on the paper's scenario).
 
 The rehearsal therefore runs what the experiment will run, with the nominal model as the
 truth: for every stage and direction the braking of the chosen protocol (encoder
-quantization, the torque log's noise of the pilot or the guess), ``program`` from that
+quantization, the torque log's noise of the pilot or the guess; the release where the plan
+puts it, ocp.plan.planned_release), ``program`` from that
 braking log (its own nominal fit, blind to a1 as on the rig), the closed-loop reverse on a
 drive with the regulator's assumed speed observer (ocp.regulator.OBSERVER_BANDWIDTH) and the
 motor's limits, and identify's least squares on those logs. Its reported stds are the
@@ -43,7 +44,7 @@ from estimation.balance import stage_balance
 from estimation.runs import estimate_run
 from estimation.tensor import axis_values, fit_tensor, format_run
 from ocp.make import make_program
-from ocp.plan import RELEASE_BEFORE_NODE_DEG, Candidate, StageModel, map_stages
+from ocp.plan import Candidate, StageModel, map_stages, planned_release
 from ocp.regulator import OBSERVER_BANDWIDTH
 from plant.config import ControllerSettings, Device, Friction, RunSettings, Virtual
 from plant.geometry import device_design
@@ -125,8 +126,12 @@ def rehearse(
     """
     stages = list(device.stages)
     for c in chosen:
+        st = stages[c.stage - 1]
         stages[c.stage - 1] = dataclasses.replace(
-            stages[c.stage - 1], launch_speed=c.launch_speed, braking_torque=c.braking_torque
+            st,
+            launch_speed=c.launch_speed,
+            braking_torque=c.braking_torque,
+            release_angle_deg=planned_release(st),
         )
     dev = dataclasses.replace(device, stages=tuple(stages))
     truth = [None] * len(stages)
@@ -155,11 +160,7 @@ def _rehearse_stage(dev: Device, stage: int, torque_noise: float, truth: tuple, 
     virtual = Virtual(
         body=None,
         friction=Friction(0.0, 0.0, 0.0),
-        run=RunSettings(
-            release_angle_deg=min(st.nodes_deg) - RELEASE_BEFORE_NODE_DEG,
-            torque_noise=torque_noise,
-            seed=seed,
-        ),
+        run=RunSettings(torque_noise=torque_noise, seed=seed),  # the release: dev's stage
         controller=ControllerSettings(speed_observer_bandwidth=OBSERVER_BANDWIDTH),
         models=truth,
     )

@@ -128,6 +128,11 @@ class Stage:
     tare_inertia_std: float | None = None
     """Standard deviation of ``tare_inertia``, kg m^2, >= 0, as the user knows it; None (not
     stated) makes identify warn unless a calibration.toml replaces the tare."""
+    release_angle_deg: float | None = None
+    """Where the rig releases the body for a forward braking pass, phi in deg (the backward
+    pass: its negative); part of the protocol, which ``plan`` predicts for and writes. None
+    (not stated): the virtual device releases at virtual.toml's ``[run] release_angle_deg``,
+    and ``plan`` assumes a release ocp.plan.RELEASE_BEFORE_NODE_DEG before the first node."""
 
     @property
     def nodes(self) -> np.ndarray:
@@ -379,6 +384,7 @@ def _stage(table: dict[str, Any], where: str) -> Stage:
             "braking_torque",
             "directions",
             "tare_inertia_std",
+            "release_angle_deg",
         },
     )
     gear_ratio = _get(table, where, "gear_ratio", float, bound=">= 0")
@@ -403,6 +409,7 @@ def _stage(table: dict[str, Any], where: str) -> Stage:
         braking_torque=_get(table, where, "braking_torque", float, bound=">= 0"),
         directions=_directions(table, where),
         tare_inertia_std=_get(table, where, "tare_inertia_std", float, default=None, bound=">= 0"),
+        release_angle_deg=_get(table, where, "release_angle_deg", float, default=None),
     )
 
 

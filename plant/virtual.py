@@ -61,6 +61,7 @@ __all__ = [
     "free_motion",
     "ideal_program",
     "integrate_to_stop",
+    "release_angle",
     "pendulum_parameters",
     "run_program",
     "simulate_braking",
@@ -269,6 +270,15 @@ def _braking_torque(stage: Stage, virtual: Virtual, s: float) -> tuple[float, fl
     return command, command / virtual.rig.torque_gain
 
 
+def release_angle(stage: Stage, virtual: Virtual) -> float:
+    """deg, where a forward braking pass starts: the protocol's (device.toml ``[[stage]]
+    release_angle_deg``) when it states one, else the virtual rig's own
+    (virtual.toml ``[run] release_angle_deg``)."""
+    if stage.release_angle_deg is not None:
+        return stage.release_angle_deg
+    return virtual.run.release_angle_deg
+
+
 def encoder_reading(phi: np.ndarray, quantum: float) -> np.ndarray:
     """Incremental encoder: floor(phi / q) q (INTERFACES.md, logs)."""
     return np.floor(np.asarray(phi) / quantum) * quantum
@@ -320,8 +330,8 @@ def simulate_braking(
 ) -> SimulatedPass:
     """The braking pass of METHOD.md §4 for stage ``stage`` (1-based).
 
-    Forward: release at ``release_angle_deg`` with the stage's launch speed. Backward, the
-    mirror: release at -``release_angle_deg`` with -launch speed. The drive's command is the
+    Forward: release at the release angle (:func:`release_angle`) with the stage's launch
+    speed. Backward, the mirror: release at minus that angle with -launch speed. The drive's command is the
     constant ``braking_torque`` against the motion (-braking_torque forward, +braking_torque
     backward), which the log records; the body receives command / torque_gain. The pass ends
     at the first instant the speed reaches zero (an event located inside its sample by
@@ -349,7 +359,7 @@ def simulate_braking(
     p = true_parameters(device, stage, virtual, s).vector
     dt = device.encoder.dt
     command, u = _braking_torque(st, virtual, s)
-    x0 = np.array([s * math.radians(virtual.run.release_angle_deg), s * st.launch_speed])
+    x0 = np.array([s * math.radians(release_angle(st, virtual)), s * st.launch_speed])
     stop = integrate_to_stop(x0, u, s, p, dt, MAX_BRAKING_TIME)
     if stop is None:
         run = "braking pass" if s > 0 else "backward braking pass"
@@ -744,8 +754,8 @@ def free_motion(
         pair = (params.vector, params.vector)
     dt = device.encoder.dt
     n = round(duration / dt) + 1
-    launch = device.stages[stage - 1].launch_speed
-    x0 = np.array([math.radians(virtual.run.release_angle_deg), launch])
+    st = device.stages[stage - 1]
+    x0 = np.array([math.radians(release_angle(st, virtual)), st.launch_speed])
     traj = _free_motion(x0, pair, n, dt)
     return np.arange(n) * dt, traj[:, 0], traj[:, 1]
 

@@ -2,7 +2,8 @@
 
 Reads ``EXP/device.toml`` and, per stage, ``stageN/pilot.csv`` when it exists (else the
 guesses of ``device.toml [plan]``), chooses every stage's ``launch_speed`` and
-``braking_torque`` (ocp.plan), writes them into ``EXP/device.toml`` (atomically, comments
+``braking_torque`` (ocp.plan), writes them, and the release angle the plan assumed
+(``release_angle_deg``, kept when device.toml states one), into ``EXP/device.toml`` (atomically, comments
 and key order kept), and draws ``EXP/plan.png``. Nothing is written when a stage has no
 feasible protocol.
 """
@@ -16,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import tomlkit
 
-from ocp.plan import TORQUE_MARGIN, Plan, StageModel, make_plan, map_stages
+from ocp.plan import TORQUE_MARGIN, Plan, StageModel, make_plan, map_stages, planned_release
 from ocp.rehearsal import Rehearsal
 from plant.config import Device
 from plant.errors import InputError
@@ -112,7 +113,7 @@ class PlanReport:
     plan: Plan
     device: Device
     models: list[StageModel]
-    old: list[tuple[float, float]]
+    old: list[tuple[float, float, float | None]]
     """Per stage, (launch_speed, braking_torque) as device.toml held them."""
     written: Path | None
     """device.toml, when written."""
@@ -160,12 +161,14 @@ def format_plan(report: PlanReport) -> str:
             f"  device.toml's protocol before (ideal reverse): {plan.current_std:.3g} kg m^2 in "
             f"{now:.0f} s ({plan.current_std / plan.worst:.2f}x the plan's ideal std)"
         )
-    for c, sm, (speed, torque) in zip(plan.chosen, report.models, report.old):
+    for c, sm, (speed, torque, release) in zip(plan.chosen, report.models, report.old):
         stds = predicted[plan.axis_stage == c.stage]
         J = _axial_guess(sm, report.device)
         lines.append(
             f"stage {c.stage} (model: {sm.source}): launch_speed {c.launch_speed:g} rad/s "
-            f"(was {speed:g}), braking_torque {c.braking_torque:g} N m (was {torque:g})"
+            f"(was {speed:g}), braking_torque {c.braking_torque:g} N m (was {torque:g}), "
+            f"release_angle_deg {planned_release(report.device.stages[c.stage - 1]):g} "
+            f"(was {'not stated' if release is None else format(release, 'g')})"
         )
         lines.append(
             f"  braking {c.braking_time:.1f} s over {c.turns:.1f} turns, {c.loss_first_turn:.0%}"
@@ -240,7 +243,7 @@ def plan(
                 f"a3 {m.quadratic:.3g} N m s^2, torque noise {sm.torque_noise:.3g} N m"
             )
     result = make_plan(device, models, max_duration)
-    old = [(st.launch_speed, st.braking_torque) for st in device.stages]
+    old = [(st.launch_speed, st.braking_torque, st.release_angle_deg) for st in device.stages]
     path = exp.root / "device.toml"
     text = path.read_text()
     doc = tomlkit.parse(text)
@@ -248,6 +251,7 @@ def plan(
         table = doc["stage"][c.stage - 1]
         table["launch_speed"] = c.launch_speed
         table["braking_torque"] = c.braking_torque
+        table["release_angle_deg"] = planned_release(device.stages[c.stage - 1])
     write_atomic(path, tomlkit.dumps(doc))
     rehearsal, rehearsal_error = None, None
     if rehearse:

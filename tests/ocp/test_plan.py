@@ -156,9 +156,14 @@ def test_plan_writes_the_protocol_keeping_comments(tmp_path, capsys):
     out = capsys.readouterr().out
     after = (root / "device.toml").read_text()
     device = load_device(root / "device.toml")
+    # The release the plan assumed is added per stage: 30 deg before the first node.
+    assert [st.release_angle_deg for st in device.stages] == [-30.0, 30.0]
+    assert "release_angle_deg -30 (was not stated)" in out
+    kept = [line for line in after.splitlines() if not line.startswith("release_angle_deg")]
+    assert len(kept) == len(after.splitlines()) - 2
     # Comments and every other line kept; the two keys per stage changed in place.
-    changed = [(a, b) for a, b in zip(before.splitlines(), after.splitlines()) if a != b]
-    assert len(before.splitlines()) == len(after.splitlines())
+    changed = [(a, b) for a, b in zip(before.splitlines(), kept) if a != b]
+    assert len(before.splitlines()) == len(kept)
     assert all(a.split("=")[0] == b.split("=")[0] for a, b in changed)
     assert all(k in ("launch_speed ", "braking_torque ") for k, _ in (c[0].split("=", 1) for c in changed))
     assert "# rad/s" in after and "# N m" in after

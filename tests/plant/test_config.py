@@ -507,3 +507,13 @@ def test_a_tare_list_of_the_wrong_length_names_the_virtual_file(tmp_path):
     good = load_virtual(write(tmp_path, "virtual.toml", VIRTUAL_TOML + RIG)).rig
     assert (good.true_tare(device, 1), good.true_tare(device, 2)) == (0.004, 0.085)
     assert Rig().true_tare(device, 2) == device.stages[1].tare_inertia
+
+
+def test_stage_release_angle_is_optional(tmp_path):
+    device = load_device(write(tmp_path, "device.toml", DEVICE_TOML))
+    assert [st.release_angle_deg for st in device.stages] == [None, None]
+    stated = edited(DEVICE_TOML, STAGE_1_END, STAGE_1_END + "release_angle_deg = -45\n")
+    assert load_device(write(tmp_path, "device.toml", stated)).stages[0].release_angle_deg == -45.0
+    wrong = edited(DEVICE_TOML, STAGE_1_END, STAGE_1_END + 'release_angle_deg = "early"\n')
+    with pytest.raises(InputError, match=r"stage\[1\]\.release_angle_deg: must be a number"):
+        load_device(write(tmp_path, "device.toml", wrong))

@@ -496,3 +496,22 @@ def test_braking_is_reproducible_and_the_seed_moves_only_the_noise(
     assert np.all(difference != 0.0)
     sigma = default_virtual.run.torque_noise
     assert abs(difference.std() / (math.sqrt(2) * sigma) - 1.0) < 0.05
+
+
+@pytest.mark.parametrize("direction", ["forward", "backward"])
+def test_a_stage_release_angle_overrides_the_virtual_rigs(default_device, default_virtual, direction):
+    """device.toml's protocol says where to release; virtual.toml's angle is only the rig's
+    default. A release 40 deg later is the same motion as the default one seen from 40 deg on:
+    same start speed, phi shifted by 40 deg at t = 0 (backward: by -40 deg)."""
+    sign = 1 if direction == "forward" else -1
+    default = vd.simulate_braking(default_device, 1, default_virtual, direction)
+    angle = default_virtual.run.release_angle_deg + 40.0
+    stage = dataclasses.replace(default_device.stages[0], release_angle_deg=angle)
+    device = dataclasses.replace(default_device, stages=(stage, *default_device.stages[1:]))
+    moved = vd.simulate_braking(device, 1, default_virtual, direction)
+    assert moved.truth.phi[0] == pytest.approx(sign * math.radians(angle), abs=1e-12)
+    assert default.truth.phi[0] == pytest.approx(
+        sign * math.radians(default_virtual.run.release_angle_deg), abs=1e-12
+    )
+    assert moved.truth.omega[0] == default.truth.omega[0] == sign * stage.launch_speed
+    assert vd.release_angle(stage, default_virtual) == angle
