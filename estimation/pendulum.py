@@ -62,6 +62,7 @@ __all__ = [
     "best_practice_inertia",
     "crossing_period",
     "damped_fit",
+    "encoder_edges",
     "estimate_pendulum",
     "half_cycle_fit",
     "pendulum_inertia",
@@ -220,7 +221,7 @@ class HalfCycleFit:
     half_cycles: int
     """Half cycles fitted."""
     residual_rms: float
-    """rad, of the fit (a quantized reading alone gives q / sqrt 12)."""
+    """rad, of the fit (encoder edges alone give x' dt / sqrt 12, at most q / sqrt 12)."""
 
 
 def turning_points(log: Log, period: float) -> np.ndarray:
@@ -247,6 +248,21 @@ def turning_points(log: Log, period: float) -> np.ndarray:
     return np.asarray(turns, dtype=int)
 
 
+def encoder_edges(t: np.ndarray, phi: np.ndarray, quantum: float) -> tuple[np.ndarray, np.ndarray]:
+    """(time, angle) of every change of an encoder's reading: the midpoint of the two samples
+    and the mean of the two readings plus half a count.
+
+    The readings are floor(x / q) q. When they step by one count the body crossed the level
+    between the two counts, max of the two readings, which the mean plus q / 2 is, exactly,
+    somewhere within the sample: the observation's error is x' u, u uniform over +-dt/2, and
+    no longer the staircase's q / sqrt 12, constant over the samples that stay on one count.
+    A step of several counts (a fine encoder, a fast body) crosses several levels; their mean
+    is the same expression, and the error that of the readings' mean.
+    """
+    change = np.nonzero(np.diff(phi) != 0.0)[0]
+    return 0.5 * (t[change] + t[change + 1]), 0.5 * (phi[change] + phi[change + 1]) + quantum / 2
+
+
 def half_cycle_fit(log: Log, period: float, quantum: float, source: str) -> HalfCycleFit:
     """Fit x = c_i + exp(-delta s) (a_i cos w_i s + b_i sin w_i s) on every half cycle i
     (s from its start), w_i = w_d (1 + kappa A_i^2), sharing (w_d, delta, kappa), kappa with
@@ -255,17 +271,22 @@ def half_cycle_fit(log: Log, period: float, quantum: float, source: str) -> Half
     Variable projection: for trial (w_d, delta, kappa) each half cycle's c_i, a_i, b_i are a
     linear least squares, and the shared three minimise the sum of squares
     (scipy.optimize.least_squares); their covariance is the residual variance times
-    (J^T J)^-1 of the projected residuals (Golub and Pereyra). The readings are the encoder's
-    (floor), so half a count is added back.
+    (J^T J)^-1 of the projected residuals (Golub and Pereyra).
+
+    The observations are the encoder's edges (:func:`encoder_edges`), not its readings: a
+    reading that stays on one count for many samples is a staircase whose odd harmonics,
+    over a half-cycle window, lean on the frequency's column (12-bit sweep: every M 1.4 to
+    9.8e-3 low, up to 7 stds), while an edge is the crossing of a known level.
     """
     turns = turning_points(log, period)
-    t, phi = log.t, log.phi + quantum / 2
+    t, phi = log.t, log.phi
     segments = []
     for a, b in itertools.pairwise(turns):
         amplitude = 0.5 * abs(phi[b] - phi[a])
         if amplitude < MIN_AMPLITUDE_COUNTS * quantum:
             break
-        segments.append((t[a : b + 1] - t[a], phi[a : b + 1], amplitude))
+        te, xe = encoder_edges(t[a : b + 1], phi[a : b + 1], quantum)
+        segments.append((te - t[a], xe, amplitude))
     if len(segments) < MIN_HALF_CYCLES:
         raise InputError(
             f"{source}: {len(segments)} half cycles of the oscillation above "
@@ -288,7 +309,13 @@ def half_cycle_fit(log: Log, period: float, quantum: float, source: str) -> Half
             centres.append(float(coef[0]))
         return np.concatenate(out), centres
 
-    sigma = quantum / math.sqrt(12.0)  # a reading's error: the prior in the same weights
+    # An edge's error, x' u with u uniform over +-dt/2 (at most a count's, q / sqrt 12): the
+    # prior's row in the same weights.
+    dt = float(np.median(np.diff(log.t)))
+    step = np.concatenate(
+        [np.minimum(np.abs(np.gradient(y, s)) * dt, quantum) for s, y, _ in segments if s.size > 1]
+    )
+    sigma = float(np.sqrt(np.mean(step**2) / 12.0))
     amplitudes = np.array([amp for _, _, amp in segments])
     kappa_fitted = (amplitudes.min() / amplitudes.max()) ** 2 <= AMPLITUDE_SPREAD
 
@@ -306,7 +333,7 @@ def half_cycle_fit(log: Log, period: float, quantum: float, source: str) -> Half
     variance = float(r @ r) / max(n - shared - 3 * len(segments), 1)
     cov = np.zeros((3, 3))
     cov[:shared, :shared] = (
-        variance * _correlation_factor(r[:n], period, float(np.median(np.diff(log.t))))
+        variance * _correlation_factor(r[:n], period, dt)
         * np.linalg.pinv(fit.jac.T @ fit.jac)
     )
     params = np.append(fit.x, 0.0) if not kappa_fitted else fit.x

@@ -44,21 +44,27 @@ def _coulomb_viscous_oscillation(w_d, delta, shift, x0, duration, dt=1e-3):
     return t, x
 
 
-def test_half_cycle_fit_recovers_coulomb_and_viscous_oscillator():
+@pytest.mark.parametrize("bits, tolerance, delta_tolerance", [(16, 1e-4, 3e-3), (12, 3e-4, 1e-2)])
+def test_half_cycle_fit_recovers_coulomb_and_viscous_oscillator(bits, tolerance, delta_tolerance):
     """Coulomb friction shifts each half cycle's centre and leaves w_d alone; viscous
     friction's decay gives w_n^2 = w_d^2 + delta^2. The fit recovers w_n within 3 of its std
-    and 1e-4, and the equilibrium within a tenth of a count, from the quantized readings."""
+    and ``tolerance``, and the equilibrium within a tenth of a count, from the quantized
+    readings. At 12 bits (a 5 deg amplitude is 57 counts, the body stays on a count for up
+    to tens of samples) the readings themselves biased w_n by +2.4e-3, 3.1 stds, and gave a
+    negative delta; the encoder's edges do not (measured: w_n 16 bits 1.2e-5, 12 bits
+    4.7e-5; delta 0.0208 and 0.0269)."""
+    q = 2 * math.pi / 2**bits
     w_d, delta, shift = 6.3, 0.02, 4e-4
     t, x = _coulomb_viscous_oscillation(w_d, delta, shift, math.radians(5.0), 30.0)
-    log = Log(t=t, phi=encoder_reading(x, Q), torque=np.zeros_like(t))
+    log = Log(t=t, phi=encoder_reading(x, q), torque=np.zeros_like(t))
     period, _ = crossing_period(log, "synthetic")
-    fit = half_cycle_fit(log, period, Q, "synthetic")
+    fit = half_cycle_fit(log, period, q, "synthetic")
     w_n = math.hypot(w_d, delta)
     assert abs(fit.omega_n - w_n) <= 3 * fit.omega_n_std
-    assert abs(fit.omega_n / w_n - 1) < 1e-4
-    assert abs(fit.delta - delta) < 3e-3
-    assert abs(fit.centre) < 0.1 * Q
-    assert fit.residual_rms < 0.5 * Q  # the readings' quantization, q / sqrt 12 = 0.29 q
+    assert abs(fit.omega_n / w_n - 1) < tolerance
+    assert abs(fit.delta - delta) < delta_tolerance
+    assert abs(fit.centre) < 0.1 * q
+    assert fit.residual_rms < 0.3 * q  # an edge's error is at most a count's, q / sqrt 12
 
 
 def test_too_few_half_cycles_is_refused():
