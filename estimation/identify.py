@@ -236,6 +236,8 @@ class Identification:
     against late turns."""
     calibration: dict | None = None
     """What the identification took from calibration.toml (None: device.toml's tares)."""
+    gravity_cov: np.ndarray | None = None
+    """(2, 2) covariance of ``gravity``, N^2 m^2 (the pendulum's gravity correction uses it)."""
 
     @property
     def entries_std(self) -> np.ndarray:
@@ -476,6 +478,7 @@ def identify(
         com_std=com_std,
         gravity=fit.gravity,
         gravity_std=gravity_std,
+        gravity_cov=fit.gravity_cov,
         condition_number=cond,
         chi2_dof=fit.chi2_dof,
         n_equations=fit.n_equations,

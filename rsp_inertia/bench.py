@@ -30,19 +30,23 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
+import tomlkit
 from scipy.optimize import brentq
 from threadpoolctl import threadpool_limits
 
+from estimation.calibration import known_terms
+from estimation.identify import identify_pendulum
 from estimation.pendulum import estimate_pendulum
 from plant.config import load_device
 from plant.errors import InputError
 from plant.experiment import open_experiment
-from plant.logs import read_log, write_atomic
+from plant.logs import Log, read_log, write_atomic, write_log
 from plant.model import ModelParameters, dissipation
 from plant.virtual import true_parameters
 from rsp_inertia.pipeline import create_default_experiment, identify, program, simulate
 
 __all__ = [
+    "COM_OFFSETS_MM",
     "ENCODER_BITS",
     "FRICTION_FACTORS",
     "METHODS",
@@ -72,6 +76,16 @@ QUICK_FRICTION_FACTORS = (1.0, 10.0)
 QUICK_ENCODER_BITS = (16,)
 """... on the default 16-bit encoder, one seed."""
 
+DEFAULT_COM_MM = 3.0
+"""mm, the centre-of-mass offset of most cases (the default body's is 3.9 mm)."""
+
+COM_OFFSETS_MM = (0.0, 3.0, 10.0)
+"""Centre-of-mass offsets of the default sweep, mm: a balanced body, a typical one, and one
+whose gravity stiffness m g r is 10% of the pendulum's torsion spring (2 kg, 2 N m/rad)."""
+
+COM_FRICTION_FACTORS = (1.0, 10.0)
+"""Friction factors at which the offsets other than DEFAULT_COM_MM are run."""
+
 TORQUE_MARGIN = 0.7
 """Fraction of the motor's torque limit the mirror's reverse torque may need; the rest is the
 regulator's headroom (gravity, inertia slope, tracking corrections)."""
@@ -90,12 +104,16 @@ METHODS = {
     "pendulum_damped": "pendulum damped fit",
     "pendulum_best": "pendulum best practice",
 }
-"""Row-key suffixes of the four methods (``err_Jk_<key>``, ``err_tensor_<key>``) and their names."""
+"""Row-key suffixes of the methods (``err_Jk_<key>``, ``std_Jk_<key>``, ``z_Jk_<key>``,
+``err_tensor_<key>``) and their names."""
+
+EQUAL_TIME_METHODS = ("pendulum_equal", "pendulum_best_equal")
+"""Row-key suffixes of the pendulum reduced from logs cut to the RSP experiment's time."""
 
 
 @dataclass(frozen=True, order=True)
 class Case:
-    """One virtual experiment of a sweep; cases sort by friction, then bits, then seed."""
+    """One virtual experiment of a sweep; cases sort by friction, bits, seed, then com."""
 
     friction_factor: float
     """Factor on the paper's Coulomb (a1) and viscous (a2) friction, >= 0; a3 is kept."""
@@ -103,24 +121,40 @@ class Case:
     """Encoder resolution, bits: counts_per_rev = 2**encoder_bits."""
     seed: int
     """Seed of the virtual device's noise and of the release-angle jitter, >= 0."""
+    com_mm: float = DEFAULT_COM_MM
+    """Distance of the body's centre of mass from the fixed point O, mm, >= 0, along the
+    default body's offset direction."""
 
     @property
     def name(self) -> str:
-        """File-name stem of the case's result, e.g. ``friction10_bits16_seed0``."""
-        return f"friction{self.friction_factor:g}_bits{self.encoder_bits}_seed{self.seed}"
+        """File-name stem of the case's result, e.g. ``friction10_bits16_com3_seed0``."""
+        return (
+            f"friction{self.friction_factor:g}_bits{self.encoder_bits}_com{self.com_mm:g}"
+            f"_seed{self.seed}"
+        )
 
 
 def default_cases(seeds: int = 2, quick: bool = False) -> list[Case]:
-    """The default grid: friction x {0, 1, 10, 100} x bits {12, 16, 20} x ``seeds`` seeds.
+    """The default grid: friction x {0, 1, 10, 100} x bits {12, 16, 20} x ``seeds`` seeds at
+    a 3 mm centre-of-mass offset, and the other offsets of COM_OFFSETS_MM at friction x1 and
+    x10 for every encoder, on the first seed (a partial factorial: the offset acts through
+    gravity, whatever the friction and noise, so its cases need not repeat every cell).
 
-    With ``quick``: friction {1, 10} x 16 bits x one seed.
+    With ``quick``: friction {1, 10} x 16 bits x one seed, 3 mm.
     """
     if seeds < 1:
         raise InputError(f"--seeds: must be >= 1, got {seeds}")
-    factors, bits = FRICTION_FACTORS, ENCODER_BITS
     if quick:
-        factors, bits, seeds = QUICK_FRICTION_FACTORS, QUICK_ENCODER_BITS, 1
-    return [Case(f, b, s) for f in factors for b in bits for s in range(seeds)]
+        return [Case(f, b, 0) for f in QUICK_FRICTION_FACTORS for b in QUICK_ENCODER_BITS]
+    cases = [Case(f, b, s) for f in FRICTION_FACTORS for b in ENCODER_BITS for s in range(seeds)]
+    cases += [
+        Case(f, b, 0, c)
+        for f in COM_FRICTION_FACTORS
+        for b in ENCODER_BITS
+        for c in COM_OFFSETS_MM
+        if c != DEFAULT_COM_MM
+    ]
+    return sorted(cases)
 
 
 # --- one case ----------------------------------------------------------------------------
@@ -153,7 +187,12 @@ def _configure(root: Path, case: Case) -> None:
     jitter = np.random.default_rng(case.seed).uniform(-1.0, 1.0)
     release = float(virtual.run.release_angle_deg + jitter)
     text = _set_key(text, "release_angle_deg", release, str(path))
-    write_atomic(path, text)
+    if case.com_mm < 0:
+        raise InputError(f"case {case.name}: com_mm must be >= 0")
+    doc = tomlkit.parse(text)
+    com = np.asarray(virtual.body.com, dtype=float)
+    doc["body"]["com"] = [float(v) for v in com / np.linalg.norm(com) * case.com_mm * 1e-3]
+    write_atomic(path, tomlkit.dumps(doc))
     path = root / "device.toml"
     text = _set_key(path.read_text(), "counts_per_rev", 2**case.encoder_bits, str(path))
     write_atomic(path, text)
@@ -235,59 +274,125 @@ def _fit_protocol(root: Path, stage: int) -> dict:
 
 
 def _relative_errors(result, virtual, device) -> dict:
-    """Worst J_k error over the axes and worst tensor entry over the largest principal moment.
+    """Per method of METHODS: ``err_Jk_<key>``, the worst relative J_k error over the axes;
+    ``std_Jk_<key>``, the worst relative std it reports; ``z_Jk_<key>``, the worst |J_k error|
+    / its std; ``err_tensor_<key>``, the worst tensor entry error over the largest principal
+    moment. Also ``com_error_mm`` and ``pendulum_axes``.
 
-    Also ``z_Jk_ls``, the least squares' worst |J_k error| / reported std, and
-    ``z_Jk_pendulum_best``, the best-practice pendulum's (about its equilibrium axes, where
-    it measures).
-
-    The pendulum's J_k error is over the axes whose run could be reduced (``pendulum_axes``);
-    its tensor needs all of them.
+    The pendulum's J_k are over the axes whose run could be reduced (``pendulum_axes``), its
+    tensor needs all of them; the best practice measures about each run's equilibrium axis.
     """
     body = virtual.body
     axes = np.array([a.direction for a in result.axes])
     J_true = np.einsum("ij,jk,ik->i", axes, body.tensor, axes)
     scale = np.linalg.eigvalsh(body.tensor).max()
     estimates = {
-        "ls": (np.array([a.J for a in result.axes]), result.entries),
-        "node": (np.array([a.J_node for a in result.axes]), result.node_entries),
+        "ls": (np.array([a.J for a in result.axes]), np.array([a.J_std for a in result.axes]),
+               J_true, result.entries),
+        "node": (np.array([a.J_node for a in result.axes]),
+                 np.array([a.J_node_std for a in result.axes]), J_true, result.node_entries),
     }
     pend = result.pendulum
     row: dict = {"pendulum_axes": 0 if pend is None else len(pend.runs)}
     if pend is not None:
-        # The pendulum runs that could be reduced, matched to their axes.
-        where = [(a.stage, a.phi_deg) for a in result.axes]
-        index = [where.index((r.stage, r.node_deg)) for r in pend.runs]
-        J_true_pend = J_true[index]
-        estimates["pendulum"] = (pend.J_classic, pend.entries_classic)
-        estimates["pendulum_damped"] = (pend.J_damped, pend.entries_damped)
-        if pend.J_best is not None:
-            estimates["pendulum_best"] = (pend.J_best, pend.entries_best)
-            # The best practice measures about the axis at each run's equilibrium.
-            best_axes = pend.best_axes(device)
-            J_true_best = np.einsum("ij,jk,ik->i", best_axes, body.tensor, best_axes)
-            z = np.abs(pend.J_best - J_true_best) / pend.J_best_std
-            row["z_Jk_pendulum_best"] = float(np.nanmax(z)) if np.any(np.isfinite(z)) else None
+        estimates.update(_pendulum_estimates(pend, result, body, device, ""))
     for key in METHODS:
-        if key not in estimates:
-            row[f"err_Jk_{key}"] = row[f"err_tensor_{key}"] = None
-            continue
-        J, entries = estimates[key]
-        truth = J_true_pend if key.startswith("pendulum") else J_true
-        if key == "pendulum_best":
-            truth = J_true_best
-        rel = np.abs(J / truth - 1.0)
-        row[f"err_Jk_{key}"] = float(np.nanmax(rel)) if np.any(np.isfinite(rel)) else None
-        row[f"err_tensor_{key}"] = (
-            None if entries is None else float(np.max(np.abs(entries - body.inertia)) / scale)
-        )
+        row.update(_method_errors(estimates.get(key), key, body, scale))
     row["com_error_mm"] = (
         None if result.com is None else float(np.hypot(*(result.com - body.com[:2])) * 1e3)
     )
-    # The promise of the reported std: the worst |error| / std of the least-squares J_k.
-    J_std = np.array([a.J_std for a in result.axes])
-    row["z_Jk_ls"] = float(np.max(np.abs(estimates["ls"][0] - J_true) / J_std))
     return row
+
+
+def _pendulum_estimates(pend, result, body, device, suffix: str) -> dict:
+    """The pendulum methods' (J, J_std, J_true, entries), keyed ``pendulum<...>`` + suffix."""
+    where = [(a.stage, a.phi_deg) for a in result.axes]
+    index = [where.index((r.stage, r.node_deg)) for r in pend.runs]
+    axes = np.array([result.axes[i].direction for i in index])
+    J_true = np.einsum("ij,jk,ik->i", axes, body.tensor, axes)
+    out = {
+        "pendulum" + suffix: (pend.J_classic, pend.J_classic_std, J_true, pend.entries_classic),
+        "pendulum_damped" + suffix: (pend.J_damped, pend.J_damped_std, J_true,
+                                     pend.entries_damped),
+    }
+    if pend.J_best is not None:
+        best_axes = pend.best_axes(device)
+        J_true_best = np.einsum("ij,jk,ik->i", best_axes, body.tensor, best_axes)
+        out["pendulum_best" + suffix] = (pend.J_best, pend.J_best_std, J_true_best,
+                                         pend.entries_best)
+    return out
+
+
+def _method_errors(estimate, key: str, body, scale: float) -> dict:
+    """``err_Jk_``, ``std_Jk_``, ``z_Jk_`` and ``err_tensor_`` + key of one method's
+    (J, J_std, J_true, entries); None where it has nothing (NaN J: a failed run)."""
+    names = [f"{name}_{key}" for name in ("err_Jk", "std_Jk", "z_Jk", "err_tensor")]
+    if estimate is None:
+        return dict.fromkeys(names)
+    J, J_std, J_true, entries = estimate
+    J, J_std = np.asarray(J, dtype=float), np.asarray(J_std, dtype=float)
+
+    def worst(values):
+        return float(np.nanmax(values)) if np.any(np.isfinite(values)) else None
+
+    return dict(zip(names, (
+        worst(np.abs(J / J_true - 1.0)),
+        worst(J_std / J_true),
+        worst(np.abs(J - J_true) / J_std),
+        None if entries is None else float(np.max(np.abs(entries - body.inertia)) / scale),
+    )))
+
+
+def _equal_time_pendulum(root: Path, result, row: dict) -> dict:
+    """The pendulum at the RSP experiment's time: every run's log cut to the RSP passes' total
+    duration over the number of runs, reduced again (classic and best practice, with the
+    same gravity terms). Runs the cut leaves too short are left out and said."""
+    exp = open_experiment(root)
+    device = exp.device
+    pend = result.pendulum
+    if pend is None or not pend.runs:
+        return {}
+    runs = sum(len(st.nodes_deg) for st in device.stages)  # the method's runs, failed or not
+    duration = min(row["experiment_time_rsp"] / runs, device.pendulum.duration)
+    cut_root = root.parent / f"{root.name}-equal-time"
+    cut_root.mkdir()
+    (cut_root / "device.toml").write_text((root / "device.toml").read_text())
+    cut = open_experiment(cut_root)
+    left_out = []
+    for r in pend.runs:
+        k = device.stages[r.stage - 1].nodes_deg.index(r.node_deg) + 1
+        log = read_log(exp.pendulum_path(r.stage, k), device.encoder, "pendulum")
+        keep = log.t <= log.t[0] + duration
+        short = Log(t=log.t[keep], phi=log.phi[keep], torque=log.torque[keep])
+        path = cut.pendulum_path(r.stage, k)
+        try:
+            estimate_pendulum(short, device.pendulum.stiffness, r.stage, r.node_deg, str(path))
+        except InputError as error:
+            left_out.append(str(error))
+            continue
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write_log(path, short)
+    warnings: list[str] = []
+    known = known_terms(exp)[0]
+    short_pend = identify_pendulum(
+        cut, None, known, result.gravity, result.gravity_cov, warnings
+    )
+    out: dict = {
+        "experiment_time_pendulum_equal": duration * runs,
+        "pendulum_failures_equal": "; ".join(
+            w.replace(str(cut_root), "EXP") for w in left_out + warnings
+        ) or None,
+        "pendulum_axes_equal": 0 if short_pend is None else len(short_pend.runs),
+    }
+    estimates = (
+        {} if short_pend is None
+        else _pendulum_estimates(short_pend, result, exp.load_virtual().body, device, "_equal")
+    )
+    body = exp.load_virtual().body
+    scale = np.linalg.eigvalsh(body.tensor).max()
+    for key in EQUAL_TIME_METHODS:
+        out.update(_method_errors(estimates.get(key), key, body, scale))
+    return out
 
 
 def _drop_failing_pendulum_runs(root: Path) -> str:
@@ -409,6 +514,15 @@ def _run_experiment(root: Path, case: Case) -> dict:
     row["axes"] = len(result.axes)
     row.update(_relative_errors(result, exp.load_virtual(), exp.device))
     row["warnings"] = "; ".join(result.warnings)
+    # Experiment time (physical): RSP's braking and reverse passes; the pendulum's logged
+    # runs, one per node. Neither calibrates here (device.toml's tares and stiffness are
+    # exact on this virtual device), and neither counts setting up, spin-up or deflection.
+    row["experiment_time_rsp"] = physical
+    pendulum = exp.device.pendulum
+    nodes = sum(len(st.nodes_deg) for st in exp.device.stages)
+    row["experiment_time_pendulum"] = None if pendulum is None else nodes * pendulum.duration
+    if pendulum is not None:
+        row.update(_equal_time_pendulum(root, result, row))
     return row
 
 
@@ -592,10 +706,13 @@ def _fmt(value: float | None, spec: str = ".1e") -> str:
     return "-" if value is None else format(value, spec)
 
 
-def _groups(rows: list[dict]) -> dict[tuple[float, int], list[dict]]:
-    groups: dict[tuple[float, int], list[dict]] = {}
-    for row in rows:
-        groups.setdefault((row["friction_factor"], row["encoder_bits"]), []).append(row)
+def _groups(rows: list[dict]) -> dict[tuple[float, int, float], list[dict]]:
+    """Rows by (friction, bits, com mm), in case order."""
+    groups: dict[tuple[float, int, float], list[dict]] = {}
+    for row in sorted(rows, key=lambda r: (r["friction_factor"], r["encoder_bits"],
+                                           r.get("com_mm", DEFAULT_COM_MM), r["seed"])):
+        key = (row["friction_factor"], row["encoder_bits"], row.get("com_mm", DEFAULT_COM_MM))
+        groups.setdefault(key, []).append(row)
     return groups
 
 
@@ -607,33 +724,95 @@ def _stat(rows: list[dict], key: str) -> tuple[float | None, float | None]:
     return float(np.mean(values)), float(np.max(values))
 
 
-def _partial_pendulum(row: dict) -> bool:
+def _partial_pendulum(row: dict, suffix: str = "") -> bool:
     """Whether the row's pendulum errors cover fewer axes than the RSP ones."""
-    return row["error"] is None and row["pendulum_axes"] < row["axes"]
+    return row["error"] is None and row.get(f"pendulum_axes{suffix}", 0) < row["axes"]
+
+
+COMPARED = {
+    "pendulum": "naive pendulum",
+    "pendulum_best": "best-practice pendulum",
+    "pendulum_best_equal": "best-practice pendulum at RSP's time",
+    "node": "RSP node formula",
+    "ls": "RSP least squares",
+}
+"""The comparison table's methods, in its column order."""
 
 
 def accuracy_table(rows: list[dict]) -> str:
-    """Markdown: one row per friction x bits, mean / worst over seeds of each method's error.
+    """Markdown: the comparison, one row per friction x bits x com offset.
 
-    A pendulum cell marked * is over fewer axes than six: some of its runs could not be
-    reduced (see the per-case notes of accuracy.md).
+    Per method, worst over the seeds of: the worst relative J_k error over the axes, the
+    worst relative std the method reports, and the worst |error| / std. A pendulum cell
+    marked * is over fewer axes than six (runs friction stopped too early, said in the
+    per-case notes).
     """
-    head = ["friction x", "encoder bits", "cases ok"]
-    head += [f"{name} J_k" for name in METHODS.values()]
-    head += ["RSP LS tensor (worst)", "com mm (worst)"]
+    head = ["friction x", "bits", "com mm", "cases ok", "experiment s RSP / pendulum"]
+    head += [f"{name}: J_k err (std) worst err/std" for name in COMPARED.values()]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-    for (factor, bits), group in _groups(rows).items():
+    for (factor, bits, com), group in _groups(rows).items():
         ok = [row for row in group if row["error"] is None]
-        cells = [f"{factor:g}", f"{bits}", f"{len(ok)}/{len(group)}"]
-        partial = any(_partial_pendulum(row) for row in ok)
-        for key in METHODS:
-            mean, worst = _stat(ok, f"err_Jk_{key}")
-            mark = "*" if partial and key.startswith("pendulum") else ""
-            cells.append(f"{_fmt(mean)} / {_fmt(worst)}{mark}")
-        cells.append(_fmt(_stat(ok, "err_tensor_ls")[1]))
+        rsp_time = _stat(ok, "experiment_time_rsp")[0]
+        pend_time = _stat(ok, "experiment_time_pendulum")[0]
+        cells = [f"{factor:g}", f"{bits}", f"{com:g}", f"{len(ok)}/{len(group)}",
+                 f"{_fmt(rsp_time, '.0f')} / {_fmt(pend_time, '.0f')}"]
+        for key in COMPARED:
+            err, std, z = (_stat(ok, f"{kind}_Jk_{key}")[1] for kind in ("err", "std", "z"))
+            suffix = "_equal" if key.endswith("_equal") else ""
+            mark = "*" if key.startswith("pendulum") and any(
+                _partial_pendulum(row, suffix) for row in ok) else ""
+            cells.append(f"{_fmt(err)} ({_fmt(std)}) {_fmt(z, '.1f')}{mark}")
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def tensor_table(rows: list[dict]) -> str:
+    """Markdown: worst over the seeds of each method's worst tensor-entry error over the
+    largest principal moment, and the centre of mass's error."""
+    head = ["friction x", "bits", "com mm"] + [f"{name} tensor" for name in COMPARED.values()]
+    head += ["RSP com mm"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for (factor, bits, com), group in _groups(rows).items():
+        ok = [row for row in group if row["error"] is None]
+        cells = [f"{factor:g}", f"{bits}", f"{com:g}"]
+        cells += [_fmt(_stat(ok, f"err_tensor_{key}")[1]) for key in COMPARED]
         cells.append(_fmt(_stat(ok, "com_error_mm")[1]))
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def headline(rows: list[dict]) -> str:
+    """One paragraph: RSP least squares' worst J_k error against the best-practice pendulum's,
+    at the default protocols and at equal time, over the cases where both have all six axes;
+    and where the pendulum is as good or better."""
+    ok = [r for r in rows if r["error"] is None and r.get("err_Jk_pendulum_best") is not None
+          and not _partial_pendulum(r)]
+    if not ok:
+        return "No case has both methods on all six axes."
+    ratio = np.array([r["err_Jk_pendulum_best"] / r["err_Jk_ls"] for r in ok])
+    equal = np.array([r["err_Jk_pendulum_best_equal"] / r["err_Jk_ls"] for r in ok
+                      if r.get("err_Jk_pendulum_best_equal") is not None
+                      and not _partial_pendulum(r, "_equal")])
+    at_least = [r["case"] for r in ok if r["err_Jk_pendulum_best"] <= r["err_Jk_ls"]]
+    text = (
+        f"Over the {len(ok)} cases where both have all six axes, the best-practice pendulum's "
+        f"worst J_k error is {np.median(ratio):.0f}x RSP least squares' (median; "
+        f"{ratio.min():.1f}x to {ratio.max():.0f}x) with each method's default protocol "
+    )
+    rsp_time = np.median([r["experiment_time_rsp"] for r in ok])
+    pend_time = np.median([r["experiment_time_pendulum"] for r in ok])
+    text += f"(RSP {rsp_time:.0f} s of runs, the pendulum {pend_time:.0f} s)"
+    if equal.size:
+        text += (
+            f", and {np.median(equal):.0f}x ({equal.min():.1f}x to {equal.max():.0f}x) with the "
+            "pendulum's runs cut to RSP's time"
+        )
+    text += ". "
+    if at_least:
+        text += "The pendulum is as good or better in: " + ", ".join(at_least) + "."
+    else:
+        text += "In no case is the pendulum as good as RSP's least squares."
+    return text
 
 
 def _case_table(rows: list[dict]) -> str:
@@ -641,6 +820,7 @@ def _case_table(rows: list[dict]) -> str:
     head = ["case", "launch speeds rad/s", "braking torques N m", "turns past last node"]
     head += [f"{name} J_k" for name in METHODS.values()]
     head += [f"{name} tensor" for name in METHODS.values()]
+    head += ["best practice at RSP's time J_k", "experiment s RSP / pendulum / cut"]
     head += ["com mm", "pendulum axes", "RSP LS worst |err|/std", "pendulum best worst |err|/std",
              "warnings"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
@@ -659,6 +839,11 @@ def _case_table(rows: list[dict]) -> str:
         ]
         cells += [_fmt(row[f"err_Jk_{k}"]) for k in METHODS]
         cells += [_fmt(row[f"err_tensor_{k}"]) for k in METHODS]
+        cells.append(_fmt(row.get("err_Jk_pendulum_best_equal")))
+        cells.append(" / ".join(
+            _fmt(row.get(f"experiment_time_{k}"), ".0f")
+            for k in ("rsp", "pendulum", "pendulum_equal")
+        ))
         cells += [_fmt(row["com_error_mm"]), f"{row['pendulum_axes']}/{row['axes']}"]
         z = row.get("z_Jk_ls")  # absent from the rows of older sweeps
         warned = len(row["warnings"].split("; ")) if row["warnings"] else 0
@@ -674,6 +859,11 @@ def _case_table(rows: list[dict]) -> str:
             )
         if row["pendulum_failures"]:
             notes.append(f"- {row['case']}: pendulum runs left out: {row['pendulum_failures']}")
+        if row.get("pendulum_failures_equal"):
+            notes.append(
+                f"- {row['case']}: at RSP's time, pendulum runs left out or not reduced by the "
+                f"best practice: {row['pendulum_failures_equal'][:400]}"
+            )
         if row["warnings"]:
             notes.append(f"- {row['case']}: warnings: {row['warnings'][:300]}")
     if notes:
@@ -718,7 +908,8 @@ def _accuracy_figure(rows: list[dict], path: Path, command: str) -> None:
 
     from rsp_inertia.plots import save_figure
 
-    groups = _groups(rows)
+    # Over friction x bits at the default offset (the other offsets: the tables).
+    groups = {(f, b): g for (f, b, c), g in _groups(rows).items() if c == DEFAULT_COM_MM}
     factors = sorted({f for f, _ in groups})
     bits_all = sorted({b for _, b in groups})
     fig = Figure(figsize=(4.2 * len(bits_all) + 1.0, 4.4), layout="constrained")
@@ -752,7 +943,10 @@ def _accuracy_figure(rows: list[dict], path: Path, command: str) -> None:
         Line2D([], [], color="grey", marker="v", ls="--", alpha=0.6, label="worst over seeds"),
     ]
     axes[-1].legend(handles=handles, fontsize=7, loc="best")
-    fig.suptitle(f"RSP and torsion-pendulum accuracy over seeds\n$ {command}", fontsize=9)
+    fig.suptitle(
+        f"RSP and torsion-pendulum accuracy over seeds (com {DEFAULT_COM_MM:g} mm)\n$ {command}",
+        fontsize=9,
+    )
     save_figure(fig, path)
 
 
@@ -783,7 +977,11 @@ def write_report(rows: list[dict], out_dir: str | os.PathLike, command: str) -> 
             "torsion-pendulum runs at every node, identification. 'friction x' scales the "
             "Coulomb (a1) and viscous (a2) coefficients of the paper's a = [1e-4, 1e-4, 1e-3]; "
             "the quadratic a3 keeps the paper's value (at 10x it would take 95% of stage 1's "
-            "energy every turn). counts_per_rev = 2^bits. Seeds "
+            "energy every turn). counts_per_rev = 2^bits. 'com mm': the body's centre of mass "
+            "this far from the fixed point, along the default body's offset direction "
+            f"({', '.join(f'{c:g}' for c in COM_OFFSETS_MM)} mm; the offsets other than "
+            f"{DEFAULT_COM_MM:g} mm at friction x"
+            f"{' and x'.join(f'{f:g}' for f in COM_FRICTION_FACTORS)}, first seed). Seeds "
             f"{', '.join(map(str, seeds))} set the noise and move the release angle by "
             "U(-1, 1) deg. Protocol: where the default launch speed would make the reverse "
             f"pass need more than {TORQUE_MARGIN:g} of the motor's torque limit "
@@ -794,14 +992,37 @@ def write_report(rows: list[dict], out_dir: str | os.PathLike, command: str) -> 
         ),
         "",
         (
-            "Cells: mean / worst over the seeds of the worst relative J_k error over the six "
-            "axes; tensor: worst entry error over the largest principal moment; com: "
-            "centre-of-mass error. Pendulum cells marked * are over fewer axes: the runs that "
-            "heavy Coulomb friction stops within 3 oscillations are left out. Target "
-            "(issue 5): RSP at or under 1e-4 at friction x1 and x10."
+            "Methods: the naive pendulum (period from the zero crossings, M = c tau^2 / 4 pi^2, "
+            "the spring's stiffness and the tare as stated); the best-practice pendulum "
+            "(estimation/pendulum.py: every half cycle fitted on the encoder's edges, Coulomb "
+            "and viscous damping, amplitude extrapolation, the gravity stiffness from the RSP "
+            "least squares' Gs, Gc; its std from its own budget); the same at RSP's time (each "
+            "pendulum log cut to the RSP passes' total duration over the six runs); RSP's node "
+            "formula and its least squares. Experiment time: the physical duration of the runs "
+            "each method needs, RSP's braking and reverse passes, the pendulum's six logged "
+            "runs of [pendulum] duration; neither counts setting up, spin-up or deflection, and "
+            "neither calibrates here: the virtual device's tares and stiffness are exactly "
+            "device.toml's (errors in them: sensitivity.md)."
+        ),
+        "",
+        (
+            "Cells: worst over the seeds of the worst relative J_k error over the axes, "
+            "(the worst relative std the method reports), and the worst |error| / std. "
+            "Pendulum cells marked * are over fewer axes: the runs friction stops within 3 "
+            "oscillations (or, cut to RSP's time, with too few half cycles) are left out and "
+            "named in the per-case notes."
         ),
         "",
         table,
+        "",
+        (
+            "Tensor: worst entry error over the largest principal moment (worst over the "
+            "seeds); a pendulum tensor needs all six runs."
+        ),
+        "",
+        tensor_table(rows),
+        "",
+        "**Headline.** " + headline(rows),
         "",
         "Chart: accuracy.png. Timings: speed.md.",
         "",

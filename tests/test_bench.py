@@ -32,7 +32,7 @@ def swept(tmp_path_factory):
 def test_a_case_runs_end_to_end(swept):
     out, row = swept
     assert row["error"] is None, row["error"]
-    assert row["case"] == PAPER.name == "friction1_bits16_seed0"
+    assert row["case"] == PAPER.name == "friction1_bits16_com3_seed0"
     errors = [row[f"err_{kind}_{key}"] for kind in ("Jk", "tensor") for key in bench.METHODS]
     assert all(math.isfinite(e) for e in [*errors, row["com_error_mm"]])
     # Issue 5's target at the paper's friction is 1e-4; the torsion pendulum, which ignores
@@ -41,6 +41,16 @@ def test_a_case_runs_end_to_end(swept):
     assert row["err_Jk_ls"] < row["err_Jk_pendulum"] / 100
     assert row["err_Jk_ls"] < row["err_Jk_pendulum_damped"] / 100
     assert row["pendulum_axes"] == 6
+    # The best-practice pendulum: well below the naive one, and its std explains its error.
+    assert row["err_Jk_pendulum_best"] < row["err_Jk_pendulum"] / 10
+    assert row["z_Jk_pendulum_best"] <= 3.0 and row["z_Jk_ls"] <= 3.0
+    # Experiment times: RSP's passes, six 30 s pendulum runs; cut to RSP's time, the
+    # pendulum's logs total RSP's passes (runs that became too short are named).
+    assert row["experiment_time_rsp"] == row["physical_duration"]
+    assert row["experiment_time_pendulum"] == 6 * 30.0
+    assert row["experiment_time_pendulum_equal"] == pytest.approx(row["experiment_time_rsp"])
+    assert row["err_Jk_pendulum_best_equal"] is not None
+    assert row["pendulum_axes_equal"] == 6 or row["pendulum_failures_equal"]
     # The paper's friction needs no change of protocol.
     assert (row["launch_speed_1"], row["launch_speed_2"]) == (12.0, 3.5)
     assert not row["short_protocol_1"] and not row["short_protocol_2"]
@@ -99,12 +109,13 @@ def test_report_and_command_line(swept, tmp_path, monkeypatch, capsys):
 
     def like_paper(case):
         return {**row, "case": case.name, "friction_factor": case.friction_factor,
-                "encoder_bits": case.encoder_bits, "seed": case.seed}
+                "encoder_bits": case.encoder_bits, "seed": case.seed, "com_mm": case.com_mm}
 
     monkeypatch.setattr(bench, "run_case", like_paper)
     assert main(["bench", "--quick", "--jobs", "1", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
-    assert "| 1 | 16 | 1/1 |" in out and "| 10 | 16 | 1/1 |" in out
+    assert "| 1 | 16 | 3 | 1/1 |" in out and "| 10 | 16 | 3 | 1/1 |" in out
+    assert "**Headline.**" in (tmp_path / "accuracy.md").read_text()
     for name in ("accuracy.md", "accuracy.png", "speed.md"):
         assert (tmp_path / name).stat().st_size > 0
     command = f"rsp-inertia bench --quick --out {tmp_path}"
@@ -129,3 +140,16 @@ def test_scheduler_without_dask_is_one_line(tmp_path, monkeypatch, capsys):
 def test_bad_arguments_are_one_line(tmp_path, capsys):
     assert main(["bench", "--seeds", "0", "--out", str(tmp_path)]) == 2
     assert "--seeds: must be >= 1" in capsys.readouterr().err
+
+
+def test_the_default_grid_covers_friction_encoder_offset_and_seeds():
+    cases = bench.default_cases(seeds=2)
+    assert cases == sorted(cases) and len(set(cases)) == len(cases)
+    main_grid = {(c.friction_factor, c.encoder_bits, c.seed) for c in cases
+                 if c.com_mm == bench.DEFAULT_COM_MM}
+    assert len(main_grid) == 4 * 3 * 2
+    offsets = {(c.friction_factor, c.encoder_bits, c.com_mm) for c in cases}
+    for com in bench.COM_OFFSETS_MM:
+        for bits in bench.ENCODER_BITS:
+            assert (1.0, bits, com) in offsets and (10.0, bits, com) in offsets
+    assert {c.name for c in cases} >= {"friction0_bits12_com3_seed1", "friction10_bits20_com0_seed0"}
