@@ -272,6 +272,8 @@ def node_formula(
     speed_noise_scale: float = 1.0,
     direction: int = 1,
     work_scale: float = 1.0,
+    friction_slope: np.ndarray | None = None,
+    friction_slope_cov: np.ndarray | None = None,
 ) -> list[NodeEstimate]:
     """M at each node of the stage from every one-turn pair (phi_a, phi_a + 2 pi).
 
@@ -284,6 +286,13 @@ def node_formula(
     ``direction`` -1: a backward run's passes, mirrored by :func:`mirror_log`; its node phi
     sits at -phi in the mirrored coordinate. ``work_scale``: h = 1 / torque gain, the factor
     that makes the logged motor work physical (a calibration's, estimation.calibration).
+
+    ``friction_slope`` [d1, d2] (with its (2, 2) covariance): the run's tracking-mismatch
+    slopes that the least squares fits (module docstring). The balance of a pair then reads
+    1/2 M (S_a - S_b) = N + (R_a - R_b) . d, R the mismatch regressors at the passages, so
+    the correction joins every pair's numerator and its uncertainty the numerators'
+    covariance (the pairs share d). Without it the mismatch's friction work is left in M
+    (friction x100 sweep: the node formula 3e-3 off at 150 of its stds).
     """
     st = device.stages[stage - 1]
     lo, hi = usable_range(braking, reverse, stage)
@@ -309,15 +318,22 @@ def node_formula(
         step = np.diff(np.eye(passages.size), axis=0)
         num_cov = step @ (work_covariance(braking, b) + work_covariance(reverse, r)) @ step.T
         num_cov = num_cov * work_scale**2
+        plain_num, plain_cov = num, num_cov
+        if friction_slope is not None and np.all(np.isfinite(friction_slope)):
+            R = _mismatch_at(braking, reverse, lo, passages)
+            dR = R[a_] - R[b_]  # (pairs, 2): R_a - R_b
+            num = num + dR @ friction_slope
+            if friction_slope_cov is not None:
+                num_cov = num_cov + dR @ friction_slope_cov @ dR.T
         wb2, wr2 = b.omega**2, r.omega**2
         # Passages a turn apart: their speed errors are independent (R decays in ~40 / w_c).
         vb = 4 * wb2 * np.diag(speed_error_covariance(braking, b)) * speed_noise_scale
         vr = 4 * wr2 * np.diag(speed_error_covariance(reverse, r)) * speed_noise_scale
         den = wb2[a_] + wr2[a_] - wb2[b_] - wr2[b_]
         M = 2 * num / den
-        M_plain = num / (wb2[a_] - wb2[b_])
+        M_plain = plain_num / (wb2[a_] - wb2[b_])
         M_mean, M_std = _combine_pairs(M, num_cov, den, vb + vr)
-        P_mean, P_std = _combine_pairs(M_plain, num_cov / 4, wb2[a_] - wb2[b_], vb)
+        P_mean, P_std = _combine_pairs(M_plain, plain_cov / 4, wb2[a_] - wb2[b_], vb)
         estimates.append(
             NodeEstimate(
                 stage=stage,
@@ -330,6 +346,23 @@ def node_formula(
             )
         )
     return estimates
+
+
+def _mismatch_at(braking: PassEstimate, reverse: PassEstimate, lo: float, at: np.ndarray):
+    """(len(at), 2) the mismatch regressors [R1, R2] of :func:`stage_balance` at the angles
+    ``at``, integrated from ``lo`` on the balance's own grid (trapezoid, then linear)."""
+    bandwidth = min(braking.smoothed.bandwidth, reverse.smoothed.bandwidth)
+    top = max(np.abs(braking.smoothed.omega).max(), np.abs(reverse.smoothed.omega).max())
+    spacing = POSITION_SPACING_BANDWIDTHS / bandwidth * top
+    phi = np.append(np.arange(lo, at.max(), spacing), at.max())
+    b = sample_at(braking, phi)
+    r = sample_at(reverse, phi)
+    delta = np.abs(r.omega) - np.abs(b.omega)
+    R = np.column_stack([
+        cumulative_trapezoid(delta, phi, initial=0.0),
+        cumulative_trapezoid(np.abs(b.omega) * delta + delta**2 / 2, phi, initial=0.0),
+    ])
+    return np.column_stack([np.interp(at, phi, R[:, j]) for j in range(2)])
 
 
 def _combine_pairs(M, num_cov, den, passage_var) -> tuple[float, float]:

@@ -41,6 +41,7 @@ import numpy as np
 
 from estimation.gls import BalanceFit, Block, ModelTest, model_warnings, solve_blocks
 from estimation.runs import run_balances
+from estimation.stiffness import StiffnessCalibration, calibrate_stiffness
 from estimation.tensor import (
     KnownTerms,
     both_directions,
@@ -58,6 +59,7 @@ __all__ = [
     "REFERENCE_FILE",
     "Calibration",
     "calibrate",
+    "calibrated_stiffness",
     "check_same_stages",
     "known_terms",
     "load_calibration",
@@ -67,6 +69,9 @@ CALIBRATION_FILE = "calibration.toml"
 """Written into the experiment folder by ``rsp-inertia calibrate``, read by identify."""
 
 REFERENCE_FILE = "reference.toml"
+
+STIFFNESS_CHI2_WARN = 4.0
+"""chi^2/dof of the nodes' pendulum stiffnesses above which calibrate warns."""
 """The reference body's known data, in the reference experiment's folder."""
 
 HARMONIC_NAMES = ("M0", "Mc2", "Ms2", "Ms1", "Mc1")
@@ -104,6 +109,8 @@ class Calibration:
     """The calibration fit's model tests (estimation.gls)."""
     warnings: list[str] = field(default_factory=list)
     """What the calibration's own checks found."""
+    stiffness: StiffnessCalibration | None = None
+    """The pendulum's torsion stiffness, when both folders have pendulum runs at a node."""
 
     def to_toml(self) -> str:
         """The calibration.toml text (deterministic: the same inputs give the same bytes)."""
@@ -136,6 +143,15 @@ class Calibration:
                 f"empty_inertia_std = {_toml_list(std[1 + 5 * s : 6 + 5 * s])}",
             ]
         names = _param_names(len(self.gear_ratios))
+        if self.stiffness is not None:
+            c = self.stiffness
+            lines += [
+                "",
+                "[pendulum]                   # the torsion element, from the pendulum runs",
+                f"stiffness = {c.stiffness!r}      # N m/rad",
+                f"stiffness_std = {c.stiffness_std!r}",
+                f"nodes = {len(c.per_node)}",
+            ]
         lines += ["", "[covariance]", f"parameters = [{', '.join(map(_toml_str, names))}]"]
         lines.append("matrix = [")
         lines += [f"  {_toml_list(row)}," for row in k.cov]
@@ -166,6 +182,13 @@ class Calibration:
             f"fixture gravity: m g x_c = {k.gravity[0]:+.3e} +- {std[-2]:.0e} N m, "
             f"m g y_c = {k.gravity[1]:+.3e} +- {std[-1]:.0e} N m"
         )
+        if self.stiffness is not None:
+            c = self.stiffness
+            out.append(
+                f"pendulum stiffness: {c.stiffness:.6f} +- {c.stiffness_std:.1e} N m/rad from "
+                f"{len(c.per_node)} node(s) with an empty and a reference run"
+                + ("" if math.isnan(c.chi2_dof) else f" (chi2/dof {c.chi2_dof:.2f})")
+            )
         out += [f"warning: {w}" for w in self.warnings]
         return "\n".join(out)
 
@@ -317,6 +340,16 @@ def calibrate(
         ref_bal, _ = run_balances(reference, warnings, progress)
     known, fit = fit_calibration(exp.device, empty_bal, ref_bal, body)
     warnings += model_warnings(fit.tests, fit.scales, fit.labels)
+    stiffness = None
+    if reference is not None:
+        stiffness = calibrate_stiffness(
+            empty, reference, body, known.gravity, known.cov[-2:, -2:], known.inertia
+        )
+        if stiffness is not None and stiffness.chi2_dof > STIFFNESS_CHI2_WARN:
+            warnings.append(
+                f"pendulum stiffness: the nodes' values disagree beyond their stds (chi2/dof "
+                f"{stiffness.chi2_dof:.1f}); its std is scaled up to their scatter"
+            )
     inputs = {}
     for folder in [empty] + ([reference] if reference is not None else []):
         files = [folder.root / "device.toml"]
@@ -326,6 +359,8 @@ def calibrate(
             for direction in st.directions:
                 files += [folder.braking_path(stage, direction), folder.reverse_path(stage, direction)]
         inputs.update({str(path): _sha256(path) for path in files})
+    if stiffness is not None:
+        inputs.update({path: _sha256(Path(path)) for path in stiffness.paths})
     device = exp.device
     return Calibration(
         device_name=device.name,
@@ -338,6 +373,7 @@ def calibrate(
         chi2_dof=fit.chi2_dof,
         tests=fit.tests,
         warnings=warnings,
+        stiffness=stiffness,
     )
 
 
@@ -398,6 +434,25 @@ def load_calibration(exp: Experiment) -> KnownTerms | None:
     if not gain > 0 or not np.all(np.isfinite(cov)):
         raise InputError(f"{path}: malformed calibration file (torque_gain or covariance)")
     return KnownTerms(1.0 / gain, inertia, gravity, cov, calibrated=True)
+
+
+def calibrated_stiffness(exp: Experiment) -> tuple[float, float] | None:
+    """(c, std), N m/rad, of calibration.toml's ``[pendulum]`` when it has one (checked to be
+    made for this device, :func:`load_calibration`); None otherwise."""
+    if load_calibration(exp) is None:
+        return None
+    path = exp.root / CALIBRATION_FILE
+    with open(path, "rb") as file:
+        table = tomllib.load(file).get("pendulum")
+    if table is None:
+        return None
+    try:
+        c, std = float(table["stiffness"]), float(table["stiffness_std"])
+    except (KeyError, TypeError, ValueError) as error:
+        raise InputError(f"{path}: pendulum: malformed ({error!r})") from None
+    if not (c > 0 and std >= 0):
+        raise InputError(f"{path}: pendulum: stiffness must be > 0 and its std >= 0")
+    return c, std
 
 
 def known_terms(exp: Experiment) -> tuple[KnownTerms, list[str]]:

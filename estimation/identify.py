@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from estimation.balance import NodeEstimate, node_formula
-from estimation.calibration import known_terms
+from estimation.calibration import calibrated_stiffness, known_terms
 from estimation.gls import ModelTest, model_warnings
 from estimation.pendulum import (
     BestPractice,
@@ -123,6 +123,9 @@ class PendulumResult:
     """(6, 6) its covariance."""
     J_best_budget: list[dict[str, float]] = field(default_factory=list)
     """Per run, J_best's std by source (kg m^2: the best practice's M budget over 1+lam^2)."""
+    stiffness: tuple[float, float, str] | None = None
+    """(c, std, source) the best practice used, N m/rad: calibration.toml's [pendulum] (the
+    calibration folders' pendulum runs) when it has one, else device.toml's."""
 
     def to_json(self) -> dict:
         """The result.json section ``pendulum``."""
@@ -146,8 +149,13 @@ class PendulumResult:
             None if self.entries_best_cov is None
             else np.sqrt(np.maximum(np.diag(self.entries_best_cov), 0.0))
         )
+        stiffness = None
+        if self.stiffness is not None:
+            c, c_std, source = self.stiffness
+            stiffness = {"value": c, "std": c_std, "source": source}
         return {
             "axes": axes,
+            "best_stiffness": stiffness,
             "tensor_classic": entries(self.entries_classic),
             "tensor_damped": entries(self.entries_damped),
             "tensor_best": entries(self.entries_best),
@@ -401,7 +409,8 @@ def identify(
     by_node = {}
     for k, (stage, sign, b_est, r_est) in enumerate(nodes):
         for n in node_formula(
-            device, stage, b_est, r_est, fit.speed_noise_scale[k], sign, known.work_scale
+            device, stage, b_est, r_est, fit.speed_noise_scale[k], sign, known.work_scale,
+            fit.friction_slope[k], fit.friction_slope_cov[k],
         ):
             by_node.setdefault((n.stage, n.node_deg), []).append(n)
     nodes = [_combine_directions(found) for found in by_node.values()]
@@ -584,6 +593,20 @@ def _best_practice(
     if known is not None:
         G = G + known.gravity
         G_cov = G_cov + known.cov[-2:, -2:]
+    calibrated = calibrated_stiffness(exp)
+    if calibrated is not None:
+        c, c_std, source = *calibrated, "calibration.toml"
+    else:
+        c, c_std, source = device.pendulum.stiffness, device.pendulum.stiffness_std, "device.toml"
+        if c_std is None:
+            c_std = 0.0
+            if warnings is not None:
+                warnings.append(
+                    f"{exp.root / 'device.toml'}: pendulum: no stiffness_std and no calibrated "
+                    "stiffness (calibration.toml [pendulum]): the best-practice pendulum takes "
+                    "the stiffness as exact, and its error is not in the stds (calibrate with "
+                    "pendulum runs in the empty and reference folders)"
+                )
     best, budgets, J, J_std, phi = [], [], [], [], []
     for (stage, k), run, log in zip(found, runs, logs):
         st = device.stages[stage - 1]
@@ -599,9 +622,7 @@ def _best_practice(
             J_std.append(math.nan)
             phi.append(math.nan)
             continue
-        b = best_practice_inertia(
-            fit, device.pendulum.stiffness, device.pendulum.stiffness_std, fit.centre, G, G_cov
-        )
+        b = best_practice_inertia(fit, c, c_std, fit.centre, G, G_cov)
         empty = None if known is None else known.empty_inertia(stage, fit.centre)
         best.append(b)
         budgets.append({name: float(axial_std(v, st)) for name, v in b.budget.items()})
@@ -626,5 +647,6 @@ def _best_practice(
         "entries_best": entries,
         "entries_best_cov": cov,
         "J_best_budget": budgets,
+        "stiffness": (float(c), float(c_std), source),
     }
 

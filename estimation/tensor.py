@@ -81,6 +81,8 @@ class TensorFit:
     tracking mismatch; NaN for a run with exactly no mismatch (exact data)."""
     friction_slope_std: np.ndarray
     """(runs, 2)."""
+    friction_slope_cov: np.ndarray
+    """(runs, 2, 2) covariance of each run's [d1, d2] (NaN where not fitted)."""
     mismatch_terms: list[bool]
     """Per run: whether the tracking-mismatch friction terms were fitted (NaN slopes if not:
     only when the mismatch is exactly zero)."""
@@ -287,9 +289,14 @@ def fit_tensor(
     n_runs, stages = len(balances), sorted({bal.stage for bal in balances})
     slope = np.full((n_runs, 2), np.nan)
     slope_std = np.full((n_runs, 2), np.nan)
+    slope_cov = np.full((n_runs, 2, 2), np.nan)
     for k in range(n_runs):
         for j in range(2):
             slope[k, j], slope_std[k, j] = fit.value(f"d{j + 1}[{k}]")
+        names = [f"d1[{k}]", f"d2[{k}]"]
+        if all(name in fit.names for name in names):
+            i = [fit.index(name) for name in names]
+            slope_cov[k] = fit.cov[np.ix_(i, i)]
     asym = np.full((max(stages), 3), np.nan)
     asym_std = np.full((max(stages), 3), np.nan)
     for s in both:
@@ -306,6 +313,7 @@ def fit_tensor(
         n_equations=fit.n_equations,
         friction_slope=slope,
         friction_slope_std=slope_std,
+        friction_slope_cov=slope_cov,
         mismatch_terms=[bool(np.any(bal.mismatch != 0.0)) for bal in balances],
         cov_parts={name: part[sub] for name, part in fit.cov_parts.items()},
         friction_asymmetry=asym,

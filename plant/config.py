@@ -158,9 +158,10 @@ class Pendulum:
     """Initial deflection from the node, deg, > 0."""
     duration: float = 30.0
     """Logged time per run, s, > 0."""
-    stiffness_std: float = 0.0
-    """Std of ``stiffness``, N m/rad, >= 0 (0: taken as exact); the best-practice pendulum
-    reduction carries it into its stds."""
+    stiffness_std: float | None = None
+    """Std of ``stiffness``, N m/rad, >= 0, as the user knows it; the best-practice pendulum
+    reduction carries it into its stds. None (not stated): taken as exact, and identify warns
+    unless calibration.toml has the stiffness from pendulum runs of the calibration folders."""
 
 
 @dataclass(frozen=True)
@@ -307,7 +308,9 @@ def _device(doc: dict[str, Any]) -> Device:
             stiffness=_get(table, "pendulum", "stiffness", float, bound="> 0"),
             amplitude_deg=_get(table, "pendulum", "amplitude_deg", float, default=5.0, bound="> 0"),
             duration=_get(table, "pendulum", "duration", float, default=30.0, bound="> 0"),
-            stiffness_std=_get(table, "pendulum", "stiffness_std", float, default=0.0, bound=">= 0"),
+            stiffness_std=_get(
+                table, "pendulum", "stiffness_std", float, default=None, bound=">= 0"
+            ),
         )
 
     table = _table(
@@ -510,6 +513,9 @@ class Rig:
     tare_inertia: tuple[float, ...] | None = None
     """True M_tare of each stage, kg m^2, >= 0, one per [[stage]] of device.toml (which only
     approximates them); None: device.toml's values are exact."""
+    pendulum_stiffness: float | None = None
+    """True stiffness of the pendulum's torsion element, N m/rad, > 0 (device.toml's
+    ``[pendulum] stiffness`` only approximates it); None: device.toml's is exact."""
 
     def true_tare(self, device: Device, stage: int, source: str = "virtual.toml") -> float:
         """The true M_tare of stage ``stage`` (1-based), kg m^2 (METHOD.md §2).
@@ -643,7 +649,9 @@ def _virtual(doc: dict[str, Any]) -> Virtual:
             quadratic=_get(table, "friction_backward", "quadratic", float, bound=">= 0"),
         )
 
-    table = _table(doc, "rig", {"torque_gain", "tare_inertia"}, required=False) or {}
+    table = _table(
+        doc, "rig", {"torque_gain", "tare_inertia", "pendulum_stiffness"}, required=False
+    ) or {}
     tare = None
     if "tare_inertia" in table:
         tare = _numbers(table, "rig", "tare_inertia")
@@ -653,6 +661,9 @@ def _virtual(doc: dict[str, Any]) -> Virtual:
     rig = Rig(
         torque_gain=_get(table, "rig", "torque_gain", float, default=1.0, bound="> 0"),
         tare_inertia=tare,
+        pendulum_stiffness=_get(
+            table, "rig", "pendulum_stiffness", float, default=None, bound="> 0"
+        ),
     )
 
     table = _table(doc, "run", {"release_angle_deg", "torque_noise", "seed"}, required=False)

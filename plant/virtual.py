@@ -664,15 +664,20 @@ def pendulum_parameters(
 ) -> ModelParameters:
     """The true model during the pendulum run at node ``node`` (0-based) of a stage.
 
-    The torsion element of device.toml's ``[pendulum]`` is attached and zeroed at the node;
-    everything else (body, fixture, gravity, the friction of ``direction``, the sign of
+    The torsion element of device.toml's ``[pendulum]`` is attached and zeroed at the node,
+    with the rig's true stiffness (virtual.toml ``[rig] pendulum_stiffness``, else
+    device.toml's); everything else (body, fixture, gravity, the friction of ``direction``, the sign of
     Omega) is the stage's (:func:`true_parameters`).
     """
     if device.pendulum is None:
         raise InputError("device.toml: pendulum: missing [pendulum] table (its stiffness)")
     return dataclasses.replace(
         true_parameters(device, stage, virtual, direction),
-        stiffness=device.pendulum.stiffness,
+        stiffness=(
+            device.pendulum.stiffness
+            if virtual.rig.pendulum_stiffness is None
+            else virtual.rig.pendulum_stiffness
+        ),
         zero_angle=float(device.stages[stage - 1].nodes[node]),
     )
 

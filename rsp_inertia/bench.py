@@ -44,6 +44,13 @@ from plant.logs import Log, read_log, write_atomic, write_log
 from plant.model import ModelParameters, dissipation
 from plant.virtual import true_parameters
 from rsp_inertia.pipeline import create_default_experiment, identify, program, simulate
+from rsp_inertia.sensitivity import (
+    Perturbation,
+    default_perturbations,
+    run_perturbation,
+    sensitivity_figure,
+    sensitivity_table,
+)
 
 __all__ = [
     "COM_OFFSETS_MM",
@@ -294,6 +301,7 @@ def _relative_errors(result, virtual, device) -> dict:
     }
     pend = result.pendulum
     row: dict = {"pendulum_axes": 0 if pend is None else len(pend.runs)}
+    row["pendulum_best_axes"] = _best_axes_count(pend)
     if pend is not None:
         estimates.update(_pendulum_estimates(pend, result, body, device, ""))
     for key in METHODS:
@@ -302,6 +310,13 @@ def _relative_errors(result, virtual, device) -> dict:
         None if result.com is None else float(np.hypot(*(result.com - body.com[:2])) * 1e3)
     )
     return row
+
+
+def _best_axes_count(pend) -> int:
+    """Axes the best-practice pendulum reduced (its runs with enough half cycles)."""
+    if pend is None or pend.J_best is None:
+        return 0
+    return int(np.sum(np.isfinite(pend.J_best)))
 
 
 def _pendulum_estimates(pend, result, body, device, suffix: str) -> dict:
@@ -315,7 +330,7 @@ def _pendulum_estimates(pend, result, body, device, suffix: str) -> dict:
         "pendulum_damped" + suffix: (pend.J_damped, pend.J_damped_std, J_true,
                                      pend.entries_damped),
     }
-    if pend.J_best is not None:
+    if pend.J_best is not None and np.any(np.isfinite(pend.J_best)):
         best_axes = pend.best_axes(device)
         J_true_best = np.einsum("ij,jk,ik->i", best_axes, body.tensor, best_axes)
         out["pendulum_best" + suffix] = (pend.J_best, pend.J_best_std, J_true_best,
@@ -383,6 +398,7 @@ def _equal_time_pendulum(root: Path, result, row: dict) -> dict:
             w.replace(str(cut_root), "EXP") for w in left_out + warnings
         ) or None,
         "pendulum_axes_equal": 0 if short_pend is None else len(short_pend.runs),
+        "pendulum_best_axes_equal": _best_axes_count(short_pend),
     }
     estimates = (
         {} if short_pend is None
@@ -552,14 +568,14 @@ def code_fingerprint() -> str:
     return digest.hexdigest()[:16]
 
 
-def _run_guarded(case: Case) -> dict:
-    """:func:`run_case`, with a crash (a bug, not bad input) turned into a row flagged ``bug``.
+def _run_guarded(case: Case | Perturbation) -> dict:
+    """:func:`run_case` (or the sensitivity study's run_perturbation), with a crash (a bug, not bad input) turned into a row flagged ``bug``.
 
     One crashing case must not lose a sweep's other results or its report; the row says what
     crashed and where, and is never cached, so the case runs again once the bug is fixed.
     """
     try:
-        return run_case(case)
+        return run_perturbation(case) if isinstance(case, Perturbation) else run_case(case)
     except Exception as error:  # noqa: BLE001 - reported in its row, never cached
         frames = [
             f
@@ -614,7 +630,7 @@ def run_sweep(
     """
     from tqdm import tqdm
 
-    cases = sorted(set(cases))
+    cases = sorted(set(cases), key=lambda c: (isinstance(c, Perturbation), c))
     case_dir = Path(out_dir) / "cases"
     case_dir.mkdir(parents=True, exist_ok=True)
     code = code_fingerprint()
@@ -706,6 +722,13 @@ def _fmt(value: float | None, spec: str = ".1e") -> str:
     return "-" if value is None else format(value, spec)
 
 
+def _fmt_z(value: float | None) -> str:
+    """|err|/std: one decimal up to 1000, then a power of ten."""
+    if value is None:
+        return "-"
+    return format(value, ".1f") if value < 1000 else format(value, ".0e")
+
+
 def _groups(rows: list[dict]) -> dict[tuple[float, int, float], list[dict]]:
     """Rows by (friction, bits, com mm), in case order."""
     groups: dict[tuple[float, int, float], list[dict]] = {}
@@ -724,9 +747,11 @@ def _stat(rows: list[dict], key: str) -> tuple[float | None, float | None]:
     return float(np.mean(values)), float(np.max(values))
 
 
-def _partial_pendulum(row: dict, suffix: str = "") -> bool:
-    """Whether the row's pendulum errors cover fewer axes than the RSP ones."""
-    return row["error"] is None and row.get(f"pendulum_axes{suffix}", 0) < row["axes"]
+def _partial_pendulum(row: dict, suffix: str = "", best: bool = False) -> bool:
+    """Whether the row's pendulum errors (``best``: the best practice's) cover fewer axes
+    than the RSP ones."""
+    key = f"pendulum_best_axes{suffix}" if best else f"pendulum_axes{suffix}"
+    return row["error"] is None and row.get(key, 0) < row["axes"]
 
 
 COMPARED = {
@@ -760,8 +785,8 @@ def accuracy_table(rows: list[dict]) -> str:
             err, std, z = (_stat(ok, f"{kind}_Jk_{key}")[1] for kind in ("err", "std", "z"))
             suffix = "_equal" if key.endswith("_equal") else ""
             mark = "*" if key.startswith("pendulum") and any(
-                _partial_pendulum(row, suffix) for row in ok) else ""
-            cells.append(f"{_fmt(err)} ({_fmt(std)}) {_fmt(z, '.1f')}{mark}")
+                _partial_pendulum(row, suffix, best="best" in key) for row in ok) else ""
+            cells.append(f"{_fmt(err)} ({_fmt(std)}) {_fmt_z(z)}{mark}")
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
@@ -786,14 +811,16 @@ def headline(rows: list[dict]) -> str:
     at the default protocols and at equal time, over the cases where both have all six axes;
     and where the pendulum is as good or better."""
     ok = [r for r in rows if r["error"] is None and r.get("err_Jk_pendulum_best") is not None
-          and not _partial_pendulum(r)]
+          and not _partial_pendulum(r, best=True)]
     if not ok:
         return "No case has both methods on all six axes."
     ratio = np.array([r["err_Jk_pendulum_best"] / r["err_Jk_ls"] for r in ok])
-    equal = np.array([r["err_Jk_pendulum_best_equal"] / r["err_Jk_ls"] for r in ok
-                      if r.get("err_Jk_pendulum_best_equal") is not None
-                      and not _partial_pendulum(r, "_equal")])
+    both = [r for r in ok if r.get("err_Jk_pendulum_best_equal") is not None
+            and not _partial_pendulum(r, "_equal", best=True)]
+    equal = np.array([r["err_Jk_pendulum_best_equal"] / r["err_Jk_ls"] for r in both])
     at_least = [r["case"] for r in ok if r["err_Jk_pendulum_best"] <= r["err_Jk_ls"]]
+    at_least += [f"{r['case']} (at RSP's time)" for r in both
+                 if r["err_Jk_pendulum_best_equal"] <= r["err_Jk_ls"]]
     text = (
         f"Over the {len(ok)} cases where both have all six axes, the best-practice pendulum's "
         f"worst J_k error is {np.median(ratio):.0f}x RSP least squares' (median; "
@@ -805,7 +832,7 @@ def headline(rows: list[dict]) -> str:
     if equal.size:
         text += (
             f", and {np.median(equal):.0f}x ({equal.min():.1f}x to {equal.max():.0f}x) with the "
-            "pendulum's runs cut to RSP's time"
+            f"pendulum's runs cut to RSP's time ({equal.size} cases with all six axes)"
         )
     text += ". "
     if at_least:
@@ -963,6 +990,8 @@ def write_report(rows: list[dict], out_dir: str | os.PathLike, command: str) -> 
         The command line that produced the rows, written into each file.
     """
     out = Path(out_dir)
+    sensitivity = [row for row in rows if "source" in row]
+    rows = [row for row in rows if "source" not in row]
     table = accuracy_table(rows)
     failed = [row for row in rows if row["error"] is not None]
     seeds = sorted({row["seed"] for row in rows})
@@ -1053,6 +1082,24 @@ def write_report(rows: list[dict], out_dir: str | os.PathLike, command: str) -> 
         _speed_table(rows),
     ]
     paths = (out / "accuracy.md", out / "accuracy.png", out / "speed.md")
+    if sensitivity:
+        accuracy += [
+            "",
+            "## Sensitivity to calibration errors",
+            "",
+            (
+                "The default case (friction x1, 16 bits, 3 mm, seed 0) with one constant off "
+                "at a time (rsp_inertia/sensitivity.py): the pendulum's torsion stiffness in "
+                "device.toml, the rig's torque gain (the logged torque over the applied one, "
+                "device.toml says 1), the tares in device.toml; each identified with the "
+                "constants stated exact (std 0) and with the error's size stated as their "
+                "std. Chart: sensitivity.png."
+            ),
+            "",
+            sensitivity_table(sensitivity),
+        ]
+        paths += (out / "sensitivity.png",)
+        sensitivity_figure(sensitivity, paths[-1], command)
     write_atomic(paths[0], "\n".join(accuracy) + "\n")
     _accuracy_figure(rows, paths[1], command)
     write_atomic(paths[2], "\n".join(speed) + "\n")
@@ -1084,6 +1131,8 @@ def bench(
     command : str
         The command line to record in the report.
     """
-    cases = default_cases(seeds, quick)
+    cases: list = default_cases(seeds, quick)
+    if not quick:
+        cases += default_perturbations()
     rows = run_sweep(cases, out, scheduler=scheduler, jobs=jobs, progress=progress)
     return write_report(rows, out, command)

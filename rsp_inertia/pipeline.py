@@ -529,8 +529,9 @@ def demo(
 
     The rig of :func:`create_rig_experiment`: for the body and for both calibration
     experiments, every stage's braking passes in both directions, their torque programs and
-    the closed-loop reverse passes; the torsion-pendulum runs; an identification without
-    calibration (its warning and error shown); ``calibrate``; the identification, printed
+    the closed-loop reverse passes; the torsion-pendulum runs (in the calibration folders
+    too: they give the torsion element's stiffness); an identification without calibration
+    (its warnings and error shown); ``calibrate``; the identification, printed
     against the virtual device's true tensor, with figures.
     """
     from estimation.calibration import CALIBRATION_FILE
@@ -543,8 +544,9 @@ def demo(
         simulate(folder, part="braking", progress=lambda s: say(str(s)))
         program(folder, progress=say)
         simulate(folder, part="reverse", progress=lambda s: say(str(s)))
-    if open_experiment(root).device.pendulum is not None:
-        simulate(root, part="pendulum", progress=lambda s: say(str(s)))
+    for folder in (empty, reference, root):  # calibration folders: the torsion element's runs
+        if open_experiment(folder).device.pendulum is not None:
+            simulate(folder, part="pendulum", progress=lambda s: say(str(s)))
     exp = open_experiment(root)
     truth = exp.load_virtual()
     (root / CALIBRATION_FILE).unlink(missing_ok=True)

@@ -153,3 +153,23 @@ def test_the_default_grid_covers_friction_encoder_offset_and_seeds():
         for bits in bench.ENCODER_BITS:
             assert (1.0, bits, com) in offsets and (10.0, bits, com) in offsets
     assert {c.name for c in cases} >= {"friction0_bits12_com3_seed1", "friction10_bits20_com0_seed0"}
+
+
+@pytest.mark.slow
+def test_sensitivity_each_method_depends_on_its_own_constants():
+    """A 1% pendulum-stiffness error moves the pendulum by about 1% and RSP not at all (RSP
+    never uses it); stated as the stiffness' std, the best practice's |err|/std is within 3.
+    A 1% torque-gain error moves RSP and leaves the pendulum (motor off) as it was."""
+    from rsp_inertia.sensitivity import Perturbation, run_perturbation
+
+    base = run_perturbation(Perturbation("none", 0.0))
+    stiff = run_perturbation(Perturbation("stiffness", 0.01))
+    gain = run_perturbation(Perturbation("torque_gain", 0.01))
+    for row in (base, stiff, gain):
+        assert row["error"] is None, row["error"]
+    assert stiff["err_Jk_ls"] == base["err_Jk_ls"] and stiff["err_Jk_node"] == base["err_Jk_node"]
+    assert 0.005 < stiff["err_Jk_pendulum_best"] < 0.02
+    assert stiff["z_Jk_pendulum_best"] > 3 and stiff["z_Jk_pendulum_best_stated"] <= 3
+    assert gain["err_Jk_pendulum_best"] == base["err_Jk_pendulum_best"]
+    assert gain["err_Jk_ls"] > 10 * base["err_Jk_ls"]
+    assert gain["z_Jk_ls_stated"] <= 3

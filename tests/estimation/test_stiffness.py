@@ -1,0 +1,72 @@
+"""The torsion element's stiffness from the calibration folders' pendulum runs
+(estimation.stiffness, the added-known-inertia method)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from estimation.stiffness import _two_period, calibrate_stiffness
+from plant.config import load_reference
+from plant.experiment import open_experiment
+from plant.virtual import true_parameters
+from rsp_inertia.pipeline import create_rig_experiment, simulate
+
+
+def test_two_period_formula_is_the_textbook_one_without_gravity():
+    """With no gravity and no change of the empty inertia between the equilibria, the
+    elimination is c = M_r w_e^2 w_r^2 / (w_e^2 - w_r^2); and it inverts the forward model
+    with gravity: frequencies made from a known c give c back."""
+    c, M_e, M_r = 2.0, 0.012, 0.03
+    w_e, w_r = math.sqrt(c / M_e), math.sqrt(c / (M_e + M_r))
+    textbook = M_r * w_e**2 * w_r**2 / (w_e**2 - w_r**2)
+    assert _two_period(w_e, w_r, np.zeros(2), np.zeros(2), 0.1, 0.2, 0.0, M_r) == pytest.approx(
+        textbook, rel=1e-12
+    )
+    assert textbook == pytest.approx(c, rel=1e-12)
+    Gf, Gr, phi_e, phi_r, d = np.array([0.01, -0.02]), np.array([0.03, 0.05]), 0.1, 0.13, 2e-4
+
+    def k(G, phi):
+        return -(G[0] * math.sin(phi) + G[1] * math.cos(phi))
+
+    w_e = math.sqrt((c + k(Gf, phi_e)) / M_e)
+    w_r = math.sqrt((c + k(Gf, phi_r) + k(Gr, phi_r)) / (M_e + d + M_r))
+    assert _two_period(w_e, w_r, Gf, Gr, phi_e, phi_r, d, M_r) == pytest.approx(c, rel=1e-12)
+
+
+@pytest.fixture(scope="module")
+def rig(tmp_path_factory):
+    """The demo rig's calibration folders with their pendulum runs (the torsion element is
+    0.5% stiffer than device.toml's nominal 2 N m/rad)."""
+    _, empty, reference = create_rig_experiment(tmp_path_factory.mktemp("rig") / "exp")
+    for folder in (empty, reference):
+        simulate(folder, part="pendulum")
+    return open_experiment(empty), open_experiment(reference)
+
+
+def test_calibrated_stiffness_recovers_the_rigs(rig):
+    """From the true fixture gravity and empty harmonics (what the RSP calibration gives):
+    the rig's true c within 3 of its std and 1e-3, every node's c within 3 of its own std,
+    and the nominal value (0.5% off) excluded."""
+    empty, reference = rig
+    virtual = empty.load_virtual()
+    device = empty.device
+    fixture = virtual.fixture
+    g = device.gravity
+    G_f = np.array([fixture.mass * g * fixture.com[0], fixture.mass * g * fixture.com[1]])
+    harmonics = np.array([
+        true_parameters(device, s, virtual).inertia_harmonics
+        for s in range(1, len(device.stages) + 1)
+    ])
+    body = load_reference(reference.root / "reference.toml")
+    cal = calibrate_stiffness(empty, reference, body, G_f, np.zeros((2, 2)), harmonics)
+    truth = virtual.rig.pendulum_stiffness
+    assert truth == 2.01
+    assert len(cal.per_node) == 6
+    assert abs(cal.stiffness - truth) <= 3 * cal.stiffness_std
+    assert abs(cal.stiffness / truth - 1) < 1e-3
+    assert abs(cal.stiffness - device.pendulum.stiffness) > 5 * cal.stiffness_std
+    for _, _, c, std in cal.per_node:
+        assert abs(c - truth) <= 3 * std
