@@ -444,11 +444,16 @@ def identify(
     J_node, J_node_std, J_plain, J_plain_std = [], [], [], []
     for n in nodes:
         st = device.stages[n.stage - 1]
-        empty = known.empty_inertia(n.stage, math.radians(n.node_deg))
+        phi = math.radians(n.node_deg)
+        empty = known.empty_inertia(n.stage, phi)
+        # The known terms' uncertainty (calibration, or device.toml's stated stds) adds to
+        # the node formula's own, as it does to the least squares'.
+        known_var = known.node_variance(n.stage, phi, n.M) if known.calibrated else 0.0
         J_node.append(axial_moment(n.M, st, empty))
-        J_node_std.append(axial_std(n.M_std, st))
+        J_node_std.append(axial_std(math.sqrt(n.M_std**2 + known_var), st))
         J_plain.append(axial_moment(n.M_plain, st, empty))
-        J_plain_std.append(axial_std(n.M_plain_std, st))
+        plain_var = known.node_variance(n.stage, phi, n.M_plain) if known.calibrated else 0.0
+        J_plain_std.append(axial_std(math.sqrt(n.M_plain_std**2 + plain_var), st))
     node_entries, node_cov, _ = tensor_from_axes(
         np.array(J_node), np.array(J_node_std), directions
     )
@@ -624,10 +629,17 @@ def _best_practice(
             continue
         b = best_practice_inertia(fit, c, c_std, fit.centre, G, G_cov)
         empty = None if known is None else known.empty_inertia(stage, fit.centre)
+        # The empty system subtracted from M: its uncertainty (calibration, or device.toml's
+        # tare_inertia_std) is the budget's "empty system".
+        empty_std = 0.0
+        if known is not None and known.calibrated:
+            empty_std = math.sqrt(max(known.empty_variance(stage, fit.centre), 0.0))
         best.append(b)
-        budgets.append({name: float(axial_std(v, st)) for name, v in b.budget.items()})
+        budget = {name: float(axial_std(v, st)) for name, v in b.budget.items()}
+        budget["empty system"] = float(axial_std(empty_std, st))
+        budgets.append(budget)
         J.append(float(axial_moment(b.M, st, empty)))
-        J_std.append(float(axial_std(b.M_std, st)))
+        J_std.append(float(axial_std(math.sqrt(b.M_std**2 + empty_std**2), st)))
         phi.append(fit.centre)
     J, J_std, phi = np.array(J), np.array(J_std), np.array(phi)
     entries = cov = None

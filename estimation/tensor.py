@@ -145,6 +145,24 @@ class KnownTerms:
         value = inertia_basis(np.atleast_1d(phi)) @ self.inertia[stage - 1]
         return float(value[0]) if np.ndim(phi) == 0 else value
 
+    def node_variance(self, stage: int, phi: float, M: float) -> float:
+        """Variance the known terms give a node's J (1 + lam^2)^2, kg^2 m^4: J = (M -
+        M_empty(phi)) / (1 + lam^2) with M = h x (logged motor work's share), so to first
+        order dM = M dh / h (a spring's potential, exact, is left out of that share) and
+        dM_empty = basis(phi) d(harmonics of the stage)."""
+        g = np.zeros(self.cov.shape[0])
+        g[0] = M / self.work_scale
+        s = stage - 1
+        g[1 + 5 * s : 6 + 5 * s] = -inertia_basis(np.atleast_1d(phi))[0]
+        return float(g @ self.cov @ g)
+
+    def empty_variance(self, stage: int, phi: float) -> float:
+        """Variance of M_empty(phi) of stage ``stage``, kg^2 m^4."""
+        g = np.zeros(self.cov.shape[0])
+        s = stage - 1
+        g[1 + 5 * s : 6 + 5 * s] = inertia_basis(np.atleast_1d(phi))[0]
+        return float(g @ self.cov @ g)
+
     def summary(self) -> dict | None:
         """result.json's ``calibration``: what was applied (None when nothing was)."""
         if not self.calibrated:

@@ -359,22 +359,32 @@ def _method_errors(estimate, key: str, body, scale: float) -> dict:
 
 
 def _equal_time_pendulum(root: Path, result, row: dict) -> dict:
-    """The pendulum at the RSP experiment's time: every run's log cut to the RSP passes' total
-    duration over the number of runs, reduced again (classic and best practice, with the
-    same gravity terms). Runs the cut leaves too short are left out and said."""
+    """The pendulum at the RSP experiment's time: the RSP passes' total duration shared by
+    the pendulum's runs in proportion to their periods (every run gets the same number of
+    oscillations, as a user with that time would plan; a run friction stopped early counts
+    with the mean period), each log cut to its share (at most its logged duration) and
+    reduced again (classic and best practice, with the same gravity terms). Runs the cut
+    leaves too short are left out and said."""
     exp = open_experiment(root)
     device = exp.device
     pend = result.pendulum
     if pend is None or not pend.runs:
         return {}
     runs = sum(len(st.nodes_deg) for st in device.stages)  # the method's runs, failed or not
-    duration = min(row["experiment_time_rsp"] / runs, device.pendulum.duration)
+    periods = np.array([r.period for r in pend.runs])
+    total_periods = periods.sum() + (runs - periods.size) * periods.mean()
+    shares = np.minimum(
+        row["experiment_time_rsp"] * periods / total_periods, device.pendulum.duration
+    )
+    used = float(shares.sum() + (runs - periods.size) * min(
+        row["experiment_time_rsp"] * periods.mean() / total_periods, device.pendulum.duration
+    ))
     cut_root = root.parent / f"{root.name}-equal-time"
     cut_root.mkdir()
     (cut_root / "device.toml").write_text((root / "device.toml").read_text())
     cut = open_experiment(cut_root)
     left_out = []
-    for r in pend.runs:
+    for r, duration in zip(pend.runs, shares):
         k = device.stages[r.stage - 1].nodes_deg.index(r.node_deg) + 1
         log = read_log(exp.pendulum_path(r.stage, k), device.encoder, "pendulum")
         keep = log.t <= log.t[0] + duration
@@ -393,7 +403,7 @@ def _equal_time_pendulum(root: Path, result, row: dict) -> dict:
         cut, None, known, result.gravity, result.gravity_cov, warnings
     )
     out: dict = {
-        "experiment_time_pendulum_equal": duration * runs,
+        "experiment_time_pendulum_equal": used,
         "pendulum_failures_equal": "; ".join(
             w.replace(str(cut_root), "EXP") for w in left_out + warnings
         ) or None,
@@ -1025,9 +1035,10 @@ def write_report(rows: list[dict], out_dir: str | os.PathLike, command: str) -> 
             "the spring's stiffness and the tare as stated); the best-practice pendulum "
             "(estimation/pendulum.py: every half cycle fitted on the encoder's edges, Coulomb "
             "and viscous damping, amplitude extrapolation, the gravity stiffness from the RSP "
-            "least squares' Gs, Gc; its std from its own budget); the same at RSP's time (each "
-            "pendulum log cut to the RSP passes' total duration over the six runs); RSP's node "
-            "formula and its least squares. Experiment time: the physical duration of the runs "
+            "least squares' Gs, Gc; its std from its own budget); the same at RSP's time; "
+            "RSP's node formula and its least squares. At RSP's time, the RSP passes' total duration is "
+            "shared by the six pendulum runs in proportion to their periods (each log cut to "
+            "its share). Experiment time: the physical duration of the runs "
             "each method needs, RSP's braking and reverse passes, the pendulum's six logged "
             "runs of [pendulum] duration; neither counts setting up, spin-up or deflection, and "
             "neither calibrates here: the virtual device's tares and stiffness are exactly "

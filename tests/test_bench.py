@@ -49,6 +49,7 @@ def test_a_case_runs_end_to_end(swept):
     assert row["experiment_time_rsp"] == row["physical_duration"]
     assert row["experiment_time_pendulum"] == 6 * 30.0
     assert row["experiment_time_pendulum_equal"] == pytest.approx(row["experiment_time_rsp"])
+    assert row["pendulum_best_axes_equal"] == 6  # shares by period: every run keeps enough
     assert row["err_Jk_pendulum_best_equal"] is not None
     assert row["pendulum_axes_equal"] == 6 or row["pendulum_failures_equal"]
     # The paper's friction needs no change of protocol.
