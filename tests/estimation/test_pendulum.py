@@ -121,7 +121,10 @@ def test_identify_reports_the_best_practice_pendulum(tmp_path, capsys):
         d = axis_direction(math.radians(axis["phi_best_deg"]), st.gear_ratio)
         J_true = float((design_matrix(d[None, :]) @ truth)[0])
         assert abs(axis["J_best"] - J_true) <= 3 * axis["J_best_std"]
-        assert set(axis["best_budget"]) == {"fit", "stiffness", "gravity", "damping model", "amplitude"}
+        assert set(axis["best_budget"]) == {
+            "fit", "stiffness", "gravity", "damping model", "amplitude", "empty system"
+        }
+    assert pend["best_stiffness"] == {"value": 2.0, "std": 0.0, "source": "device.toml"}
     best = np.array(list(pend["tensor_best"].values()))
     std = np.array(list(pend["tensor_best_std"].values()))
     assert np.all(np.abs(best - truth) <= 3 * std)

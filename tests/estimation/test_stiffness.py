@@ -70,3 +70,44 @@ def test_calibrated_stiffness_recovers_the_rigs(rig):
     assert abs(cal.stiffness - device.pendulum.stiffness) > 5 * cal.stiffness_std
     for _, _, c, std in cal.per_node:
         assert abs(c - truth) <= 3 * std
+
+
+@pytest.mark.slow
+def test_calibrate_writes_the_stiffness_and_identify_uses_it(rig, capsys):
+    """End to end on the demo rig (ideal reverse for speed): calibrate measures c from the
+    calibration folders' pendulum runs into calibration.toml [pendulum]; identify's best
+    practice then takes it (result.json ``best_stiffness``), no longer warns about it, and
+    its J_best are within 3 of their stds of the truth (device.toml's nominal c, 0.5% off,
+    gave a warning and errors of about 0.5%)."""
+    import json
+    import tomllib
+
+    from plant.geometry import tensor_from_entries
+    from rsp_inertia.cli import main
+    from rsp_inertia.pipeline import identify
+
+    empty, reference = rig
+    root = empty.root.parent.parent
+    for folder in (empty.root, reference.root, root):
+        simulate(folder, part="braking")
+        simulate(folder, part="reverse", ideal=True)
+    simulate(root, part="pendulum")
+    before = identify(root)
+    assert any("no stiffness_std and no calibrated stiffness" in w for w in before.warnings)
+    args = ["calibrate", str(root), "--empty", str(empty.root), "--reference", str(reference.root)]
+    assert main(args) == 0
+    assert "pendulum stiffness: 2.0" in capsys.readouterr().out
+    with open(root / "calibration.toml", "rb") as file:
+        table = tomllib.load(file)["pendulum"]
+    assert abs(table["stiffness"] - 2.01) <= 3 * table["stiffness_std"]
+    after = identify(root)
+    assert not any("stiffness" in w for w in after.warnings)
+    saved = json.loads((root / "result.json").read_text())["pendulum"]["best_stiffness"]
+    assert saved == {"value": table["stiffness"], "std": table["stiffness_std"],
+                     "source": "calibration.toml"}
+    pend = after.pendulum
+    exp = open_experiment(root)
+    tensor = tensor_from_entries(exp.load_virtual().body.inertia)
+    axes = pend.best_axes(exp.device)
+    J_true = np.einsum("ij,jk,ik->i", axes, tensor, axes)
+    assert np.all(np.abs(pend.J_best - J_true) <= 3 * pend.J_best_std)
