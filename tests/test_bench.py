@@ -160,7 +160,8 @@ def test_the_default_grid_covers_friction_encoder_offset_and_seeds():
 def test_sensitivity_each_method_depends_on_its_own_constants():
     """A 1% pendulum-stiffness error moves the pendulum by about 1% and RSP not at all (RSP
     never uses it); stated as the stiffness' std, the best practice's |err|/std is within 3.
-    A 1% torque-gain error moves RSP and leaves the pendulum (motor off) as it was."""
+    A 1% torque-gain error moves RSP by about 1% and the pendulum (motor off) only through
+    the gravity terms it takes from RSP."""
     from rsp_inertia.sensitivity import Perturbation, run_perturbation
 
     base = run_perturbation(Perturbation("none", 0.0))
@@ -171,6 +172,8 @@ def test_sensitivity_each_method_depends_on_its_own_constants():
     assert stiff["err_Jk_ls"] == base["err_Jk_ls"] and stiff["err_Jk_node"] == base["err_Jk_node"]
     assert 0.005 < stiff["err_Jk_pendulum_best"] < 0.02
     assert stiff["z_Jk_pendulum_best"] > 3 and stiff["z_Jk_pendulum_best_stated"] <= 3
-    assert gain["err_Jk_pendulum_best"] == base["err_Jk_pendulum_best"]
+    # The pendulum borrows only RSP's gravity terms, whose stiffness m g r is about 3.5% of
+    # c: a 1% gain error moves it by at most 0.05 x 1%.
+    assert abs(gain["err_Jk_pendulum_best"] - base["err_Jk_pendulum_best"]) < 0.05 * 0.01
     assert gain["err_Jk_ls"] > 10 * base["err_Jk_ls"]
     assert gain["z_Jk_ls_stated"] <= 3
