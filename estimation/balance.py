@@ -201,10 +201,7 @@ def stage_balance(
     """
     st: Stage = device.stages[stage - 1]
     lo, hi = usable_range(braking, reverse, stage)
-    bandwidth = min(braking.smoothed.bandwidth, reverse.smoothed.bandwidth)
-    top = max(np.abs(braking.smoothed.omega).max(), np.abs(reverse.smoothed.omega).max())
-    spacing = POSITION_SPACING_BANDWIDTHS / bandwidth * top
-    phi = np.arange(lo, hi, spacing)
+    phi = np.arange(lo, hi, _balance_spacing(braking, reverse))
     b = sample_at(braking, phi)
     r = sample_at(reverse, phi)
     S = b.omega**2 + r.omega**2
@@ -220,13 +217,7 @@ def stage_balance(
     del rev_cov
     spring = 2 * _spring_potential(direction * phi, device)
     work = b.work + r.work - spring
-    delta = np.abs(r.omega) - np.abs(b.omega)
-    mismatch = np.column_stack(
-        [
-            cumulative_trapezoid(delta, phi, initial=0.0),
-            cumulative_trapezoid(np.abs(b.omega) * delta + delta**2 / 2, phi, initial=0.0),
-        ]
-    )
+    mismatch = _mismatch_regressors(phi, b.omega, r.omega)
     return StageBalance(
         stage=stage,
         gear_ratio=st.gear_ratio,
@@ -348,20 +339,31 @@ def node_formula(
     return estimates
 
 
-def _mismatch_at(braking: PassEstimate, reverse: PassEstimate, lo: float, at: np.ndarray):
-    """(len(at), 2) the mismatch regressors [R1, R2] of :func:`stage_balance` at the angles
-    ``at``, integrated from ``lo`` on the balance's own grid (trapezoid, then linear)."""
+def _balance_spacing(braking: PassEstimate, reverse: PassEstimate) -> float:
+    """rad between the balance angles: POSITION_SPACING_BANDWIDTHS smoother time constants
+    at the passes' top speed."""
     bandwidth = min(braking.smoothed.bandwidth, reverse.smoothed.bandwidth)
     top = max(np.abs(braking.smoothed.omega).max(), np.abs(reverse.smoothed.omega).max())
-    spacing = POSITION_SPACING_BANDWIDTHS / bandwidth * top
-    phi = np.append(np.arange(lo, at.max(), spacing), at.max())
-    b = sample_at(braking, phi)
-    r = sample_at(reverse, phi)
-    delta = np.abs(r.omega) - np.abs(b.omega)
-    R = np.column_stack([
-        cumulative_trapezoid(delta, phi, initial=0.0),
-        cumulative_trapezoid(np.abs(b.omega) * delta + delta**2 / 2, phi, initial=0.0),
-    ])
+    return POSITION_SPACING_BANDWIDTHS / bandwidth * top
+
+
+def _mismatch_regressors(phi: np.ndarray, omega: np.ndarray, omega_rev: np.ndarray):
+    """(n, 2) [R1, R2] of the module docstring from ``phi[0]``: int delta dphi and
+    int (|Omega| delta + delta^2 / 2) dphi, delta = |Omega'| - |Omega| (trapezoid)."""
+    delta = np.abs(omega_rev) - np.abs(omega)
+    return np.column_stack(
+        [
+            cumulative_trapezoid(delta, phi, initial=0.0),
+            cumulative_trapezoid(np.abs(omega) * delta + delta**2 / 2, phi, initial=0.0),
+        ]
+    )
+
+
+def _mismatch_at(braking: PassEstimate, reverse: PassEstimate, lo: float, at: np.ndarray):
+    """(len(at), 2) the mismatch regressors of :func:`stage_balance` at the angles ``at``,
+    integrated from ``lo`` on the balance's own grid, then interpolated."""
+    phi = np.append(np.arange(lo, at.max(), _balance_spacing(braking, reverse)), at.max())
+    R = _mismatch_regressors(phi, sample_at(braking, phi).omega, sample_at(reverse, phi).omega)
     return np.column_stack([np.interp(at, phi, R[:, j]) for j in range(2)])
 
 

@@ -69,10 +69,10 @@ CALIBRATION_FILE = "calibration.toml"
 """Written into the experiment folder by ``rsp-inertia calibrate``, read by identify."""
 
 REFERENCE_FILE = "reference.toml"
+"""The reference body's known data, in the reference experiment's folder."""
 
 STIFFNESS_CHI2_WARN = 4.0
 """chi^2/dof of the nodes' pendulum stiffnesses above which calibrate warns."""
-"""The reference body's known data, in the reference experiment's folder."""
 
 HARMONIC_NAMES = ("M0", "Mc2", "Ms2", "Ms1", "Mc1")
 
