@@ -71,6 +71,14 @@ def _cmd_identify(args: argparse.Namespace) -> None:
     print(f"result -> {args.exp / 'result.json'}")
 
 
+def _cmd_check(args: argparse.Namespace) -> int:
+    from rsp_inertia.checking import check
+
+    report = check(args.exp)
+    print(report)
+    return 0 if report.ready else 1
+
+
 def _cmd_design(args: argparse.Namespace) -> None:
     from rsp_inertia.design import run_design
 
@@ -179,6 +187,14 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(run=_cmd_calibrate)
 
+    p = sub.add_parser(
+        "check",
+        help="what EXP has, lacks or looks wrong before a run, one line each (exit 1: not "
+        "ready for identify)",
+    )
+    p.add_argument("exp", type=Path, metavar="EXP", help="experiment folder")
+    p.set_defaults(run=_cmd_check)
+
     p = sub.add_parser("identify", help="all stages' logs -> EXP/result.json")
     p.add_argument("exp", type=Path, metavar="EXP", help="experiment folder")
     p.set_defaults(run=_cmd_identify)
@@ -224,11 +240,11 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``rsp-inertia`` console script; returns the exit status."""
     args = _parser().parse_args(argv)
     try:
-        args.run(args)
+        status = args.run(args)
     except InputError as error:
         print(f"rsp-inertia: error: {error}", file=sys.stderr)
         return 2
-    return 0
+    return status or 0
 
 
 if __name__ == "__main__":

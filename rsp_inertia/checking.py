@@ -1,0 +1,262 @@
+"""``rsp-inertia check``: an experiment folder checked before a run, one line per finding.
+
+Reads what a rig produces (device.toml, the logs, calibration.toml, reference.toml), never
+virtual.toml, and reports for every stage and direction of rotation what is there, what is
+missing for the next step and what looks wrong, without stopping at the first problem:
+
+- ``error``: a file that is there but cannot be used (malformed, not on the encoder grid, a
+  braking whose speed reverses); the message is the one identify would give.
+- ``missing``: what identify needs and does not find (a braking or reverse log), with the
+  command that makes it.
+- ``suspicious``: what identify accepts but a test engineer would want to know before the
+  run: a braking that covers few turns past its last node, a logged braking torque that is
+  not device.toml's, a program older than the braking it mirrors, a reverse much shorter or
+  longer than its braking, constants that identify will take as exact and warn about.
+- ``ok``: what is in place.
+
+The folder is ready for identify when no line is ``error`` or ``missing``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from plant.errors import InputError
+from plant.experiment import open_experiment
+from plant.geometry import turns_past_last_node
+from plant.logs import read_log
+
+__all__ = ["LEVELS", "MIN_TURNS_PAST_LAST_NODE", "CheckReport", "check"]
+
+LEVELS = ("error", "missing", "suspicious", "ok")
+"""Line levels, worst first."""
+
+MIN_TURNS_PAST_LAST_NODE = 3.0
+"""Turns past the last node below which a braking is flagged: every node then has few
+whole-turn pairs (identify needs at least one)."""
+
+TORQUE_TOLERANCE = 0.05
+"""Relative difference between the logged mean braking torque and device.toml's above which
+the braking is flagged (a drive that did not apply the commanded torque)."""
+
+DURATION_TOLERANCE = 0.05
+"""Relative difference of a reverse's duration from its braking's above which it is flagged
+(the mirror runs the braking backwards in time)."""
+
+
+@dataclass
+class CheckReport:
+    """The findings, in the order they were made."""
+
+    root: Path
+    lines: list[tuple[str, str]] = field(default_factory=list)
+    """(level, message) pairs."""
+
+    def add(self, level: str, message: str) -> None:
+        self.lines.append((level, message))
+
+    @property
+    def ready(self) -> bool:
+        """Whether identify has everything it needs (no error, nothing missing)."""
+        return not any(level in ("error", "missing") for level, _ in self.lines)
+
+    def __str__(self) -> str:
+        out = [f"{level}: {message}" for level, message in self.lines]
+        counts = {level: sum(1 for lv, _ in self.lines if lv == level) for level in LEVELS}
+        verdict = "ready for identify" if self.ready else "not ready for identify"
+        out.append(
+            f"{self.root}: {verdict} ({counts['error']} error(s), {counts['missing']} missing, "
+            f"{counts['suspicious']} suspicious)"
+        )
+        return "\n".join(out)
+
+
+def check(root: str | Path) -> CheckReport:
+    """Check the experiment folder ``root`` (module docstring).
+
+    Raises
+    ------
+    InputError
+        The folder or its device.toml is missing or malformed (nothing else can be checked).
+    """
+    exp = open_experiment(root)
+    device = exp.device
+    report = CheckReport(exp.root)
+    report.add("ok", f"{exp.root / 'device.toml'}: {len(device.stages)} stage(s)")
+    for stage, st in enumerate(device.stages, 1):
+        for direction in st.directions:
+            _check_run(exp, stage, direction, report)
+        if exp.pilot_path(stage).is_file():
+            _try_read(report, exp.pilot_path(stage), device.encoder, "pilot")
+    _check_pendulum(exp, report)
+    _check_constants(exp, report)
+    reference = exp.root / "reference.toml"
+    if reference.is_file():
+        from plant.config import load_reference
+
+        try:
+            load_reference(reference)
+            report.add("ok", f"{reference}: the reference body's data")
+        except InputError as error:
+            report.add("error", str(error))
+    return report
+
+
+def _try_read(report: CheckReport, path: Path, encoder, kind: str, direction: str = "forward"):
+    """The log, or None with an ``error`` line."""
+    try:
+        return read_log(path, encoder, kind, direction)
+    except InputError as error:
+        report.add("error", str(error))
+        return None
+
+
+def _check_run(exp, stage: int, direction: str, report: CheckReport) -> None:
+    """One stage in one direction: braking, program, reverse."""
+    device = exp.device
+    st = device.stages[stage - 1]
+    run = f"stage {stage} {direction}"
+    option = "" if direction == "forward" else f" --direction {direction}"
+    b_path = exp.braking_path(stage, direction)
+    braking = None
+    if not b_path.is_file():
+        report.add(
+            "missing",
+            f"{b_path}: the {run} braking log (the rig's braking pass; on the virtual device "
+            f"rsp-inertia simulate {exp.root} --stage {stage}{option})",
+        )
+    else:
+        braking = _try_read(report, b_path, device.encoder, "braking", direction)
+    if braking is not None:
+        sign = 1.0 if direction == "forward" else -1.0
+        back = np.nonzero(np.diff(sign * braking.phi) < 0)[0]
+        if back.size:
+            report.add(
+                "error",
+                f"{b_path}, line {int(back[0]) + 3}: the angle goes back: the speed reverses "
+                "inside the braking",
+            )
+        turns = turns_past_last_node(braking.phi, st.nodes)
+        torque = float(np.mean(np.abs(braking.torque)))
+        duration = float(braking.t[-1] - braking.t[0])
+        level = "ok"
+        notes = []
+        if turns < 1.0:
+            level = "missing"
+            notes.append(
+                f"it covers {turns:.2f} turns past its last node: identify needs whole turns "
+                "from every node (raise launch_speed or lower braking_torque; rsp-inertia plan)"
+            )
+        elif turns < MIN_TURNS_PAST_LAST_NODE:
+            level = "suspicious"
+            notes.append(
+                f"it covers only {turns:.2f} turns past its last node (few whole-turn pairs)"
+            )
+        expected = st.braking_torque
+        if expected > 0 and abs(torque / expected - 1) > TORQUE_TOLERANCE:
+            level = "suspicious" if level == "ok" else level
+            notes.append(
+                f"its mean logged torque {torque:.4g} N m is not device.toml's braking_torque "
+                f"{expected:.4g} N m"
+            )
+        summary = f"{b_path}: {duration:.2f} s, {turns:.2f} turns past the last node"
+        report.add(level, summary + ("; " + "; ".join(notes) if notes else ""))
+    p_path = exp.program_path(stage, direction)
+    r_path = exp.reverse_path(stage, direction)
+    if p_path.is_file():
+        if b_path.is_file() and p_path.stat().st_mtime < b_path.stat().st_mtime:
+            report.add(
+                "suspicious",
+                f"{p_path}: older than {b_path.name}: made from another braking? (rerun "
+                f"rsp-inertia program {exp.root} --stage {stage})",
+            )
+        else:
+            report.add("ok", f"{p_path}: the torque program")
+    elif not r_path.is_file():
+        report.add(
+            "missing",
+            f"{p_path}: no torque program for the {run} reverse pass (rsp-inertia program "
+            f"{exp.root} --stage {stage})",
+        )
+    if not r_path.is_file():
+        report.add(
+            "missing",
+            f"{r_path}: the {run} reverse log (the rig runs the program; on the virtual device "
+            f"rsp-inertia simulate {exp.root} --stage {stage} --part reverse{option})",
+        )
+        return
+    reverse = _try_read(report, r_path, device.encoder, "reverse", direction)
+    if reverse is None:
+        return
+    duration = float(reverse.t[-1] - reverse.t[0])
+    if braking is not None:
+        b_duration = float(braking.t[-1] - braking.t[0])
+        if not math.isclose(duration, b_duration, rel_tol=DURATION_TOLERANCE):
+            report.add(
+                "suspicious",
+                f"{r_path}: {duration:.2f} s against the braking's {b_duration:.2f} s: the "
+                "reverse should mirror the braking (the drive stopped early or ran on?)",
+            )
+            return
+    report.add("ok", f"{r_path}: {duration:.2f} s")
+
+
+def _check_pendulum(exp, report: CheckReport) -> None:
+    """The torsion-pendulum baseline's runs (optional)."""
+    device = exp.device
+    if device.pendulum is None:
+        return
+    found, total = 0, 0
+    for stage, st in enumerate(device.stages, 1):
+        for k in range(1, len(st.nodes_deg) + 1):
+            total += 1
+            path = exp.pendulum_path(stage, k)
+            if path.is_file() and _try_read(report, path, device.encoder, "pendulum") is not None:
+                found += 1
+    level = "ok" if found in (0, total) else "suspicious"
+    report.add(
+        level,
+        f"pendulum baseline: {found} of {total} node runs (stageN/pendulum_kK.csv; optional, "
+        "its tensor needs all of them)",
+    )
+
+
+def _check_constants(exp, report: CheckReport) -> None:
+    """What identify will take as known: calibration.toml, or device.toml's stated stds."""
+    from estimation.calibration import CALIBRATION_FILE, calibrated_stiffness, load_calibration
+
+    device = exp.device
+    path = exp.root / CALIBRATION_FILE
+    try:
+        calibrated = load_calibration(exp)
+        stiffness = calibrated_stiffness(exp) if calibrated is not None else None
+    except InputError as error:
+        report.add("error", str(error))
+        return
+    if calibrated is not None:
+        report.add("ok", f"{path}: made for this device; identify applies it")
+    else:
+        unstated = [
+            f"stage[{k}].tare_inertia_std"
+            for k, st in enumerate(device.stages, 1)
+            if st.tare_inertia_std is None
+        ]
+        if device.motor.torque_gain_std is None:
+            unstated.append("motor.torque_gain_std")
+        if unstated:
+            report.add(
+                "suspicious",
+                f"{path}: not found, and device.toml states no {', '.join(unstated)}: identify "
+                "will take the tares and a torque gain of 1 as exact, and warn (rsp-inertia "
+                "calibrate)",
+            )
+    if device.pendulum is not None and stiffness is None and device.pendulum.stiffness_std is None:
+        report.add(
+            "suspicious",
+            f"{exp.root / 'device.toml'}: pendulum: no stiffness_std and no calibrated stiffness: "
+            "the best-practice pendulum will take the stiffness as exact, and warn",
+        )
