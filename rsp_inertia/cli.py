@@ -79,6 +79,12 @@ def _cmd_check(args: argparse.Namespace) -> int:
     return 0 if report.ready else 1
 
 
+def _cmd_report(args: argparse.Namespace) -> None:
+    from rsp_inertia.report import write_report
+
+    print(f"report -> {write_report(args.exp)}")
+
+
 def _cmd_design(args: argparse.Namespace) -> None:
     from rsp_inertia.design import run_design
 
@@ -198,6 +204,14 @@ def _parser() -> argparse.ArgumentParser:
     p = sub.add_parser("identify", help="all stages' logs -> EXP/result.json")
     p.add_argument("exp", type=Path, metavar="EXP", help="experiment folder")
     p.set_defaults(run=_cmd_identify)
+
+    p = sub.add_parser(
+        "report",
+        help="EXP/result.json, protocol, input hashes, versions and figures -> EXP/report.html "
+        "(one self-contained file)",
+    )
+    p.add_argument("exp", type=Path, metavar="EXP", help="experiment folder (identified)")
+    p.set_defaults(run=_cmd_report)
 
     p = sub.add_parser("design", help="conditioning of axis designs (icosahedron, cone + z, EXP)")
     p.add_argument(
