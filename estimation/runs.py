@@ -12,7 +12,7 @@ from estimation.energy import PassEstimate, check_braking_monotone, estimate_pas
 from estimation.smoothing import Smoothed
 from plant.config import Device
 from plant.experiment import Experiment
-from plant.logs import Log, read_log
+from plant.logs import Log, align_counter, read_log
 
 __all__ = ["estimate_run", "read_run", "run_balances", "runs"]
 
@@ -34,7 +34,11 @@ def read_run(
     b_path = exp.braking_path(stage, direction)
     r_path = exp.reverse_path(stage, direction)
     braking = read_log(b_path, device.encoder, "braking", direction)
-    reverse = read_log(r_path, device.encoder, "reverse", direction)
+    # The reverse starts where the braking stopped: one counter, one angle.
+    reverse = align_counter(
+        read_log(r_path, device.encoder, "reverse", direction), float(braking.phi[-1]),
+        device.encoder,
+    )
     return estimate_run(device, braking, reverse, direction, warnings, str(b_path), str(r_path))
 
 

@@ -96,6 +96,9 @@ class Encoder:
     """Counts per revolution, a positive integer."""
     sample_rate: float
     """Sampling rate, Hz, > 0."""
+    counter_bits: int | None = None
+    """Width of the drive's position counter, bits (1 to 64), when logs give integer
+    ``counts`` that wrap around at 2**counter_bits; None: counts never wrap."""
 
     @property
     def quantum(self) -> float:
@@ -288,11 +291,14 @@ def _device(doc: dict[str, Any]) -> Device:
         torque_gain_std=_get(table, "motor", "torque_gain_std", float, default=None, bound=">= 0"),
     )
 
-    table = _table(doc, "encoder", {"counts_per_rev", "sample_rate"})
+    table = _table(doc, "encoder", {"counts_per_rev", "sample_rate", "counter_bits"})
     encoder = Encoder(
         counts_per_rev=_get(table, "encoder", "counts_per_rev", int, bound="> 0"),
         sample_rate=_get(table, "encoder", "sample_rate", float, bound="> 0"),
+        counter_bits=_get(table, "encoder", "counter_bits", int, default=None, bound="> 0"),
     )
+    if encoder.counter_bits is not None and encoder.counter_bits > 64:
+        raise _ContentError("encoder.counter_bits", f"must be at most 64, got {encoder.counter_bits}")
 
     stages = tuple(_stage(stage, f"stage[{k}]") for k, stage in enumerate(_stages(doc), 1))
 

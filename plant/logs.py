@@ -23,6 +23,9 @@ from plant.config import DIRECTIONS
 from plant.errors import InputError
 
 LOG_COLUMNS = ("t", "phi", "torque")
+
+COUNT_COLUMNS = ("t", "counts", "torque")
+"""A drive logger's alternative header: integer encoder counts instead of phi in rad."""
 """Header of braking.csv and reverse.csv."""
 
 PROGRAM_COLUMNS = ("t", "phi_ref", "omega_ref", "torque_ff", "k_phi", "k_omega")
@@ -232,6 +235,62 @@ def _check_time(path: str | os.PathLike, t: np.ndarray, encoder: EncoderLike) ->
         )
 
 
+def _header(path: str | os.PathLike) -> list[str] | None:
+    """The first line's column names, or None if the file cannot be read (the full reader
+    then says why)."""
+    try:
+        with open(path, encoding="utf-8-sig") as file:
+            return [name.strip() for name in file.readline().split(",")]
+    except (OSError, UnicodeDecodeError):
+        return None
+
+
+def _unwrap_counts(path: str | os.PathLike, counts: np.ndarray, encoder: EncoderLike):
+    """Integer counts, a counter of ``encoder.counter_bits`` unwrapped (float array).
+
+    A step between two samples is taken modulo 2**bits into [-2**(bits-1), 2**(bits-1)): a
+    counter wraps, the body does not turn half a counter's range in one sample. Where the
+    counter stood before the log began is unknown by whole wraps, so counts_per_rev must
+    divide 2**bits for the angle modulo a turn (the nodes) to be defined.
+    """
+    bad = np.flatnonzero(counts != np.round(counts))
+    if bad.size:
+        k = int(bad[0])
+        raise InputError(f"{path}, line {k + 2}: counts = {float(counts[k])!r} is not an integer")
+    bits = getattr(encoder, "counter_bits", None)
+    if bits is None:
+        return counts
+    span = 2**bits
+    if span % int(encoder.counts_per_rev):
+        raise InputError(
+            f"{path}: counts wrap at 2^{bits} (device.toml encoder.counter_bits), which is not "
+            f"a whole number of turns of {encoder.counts_per_rev} counts: the angle is undefined"
+        )
+    out_of_range = np.flatnonzero((counts < 0) | (counts >= span))
+    if out_of_range.size:
+        k = int(out_of_range[0])
+        raise InputError(
+            f"{path}, line {k + 2}: counts = {counts[k]:.0f} is outside the {bits}-bit counter "
+            f"(0 to {span - 1})"
+        )
+    step = np.mod(np.diff(counts) + span // 2, span) - span // 2
+    return counts[0] + np.concatenate([[0.0], np.cumsum(step)])
+
+
+def align_counter(log: Log, phi: float, encoder: EncoderLike) -> Log:
+    """``log`` moved by whole ranges of a wrapping counter (``encoder.counter_bits``) so that
+    it starts nearest ``phi``: two logs of one counter (a braking and its reverse, which
+    starts where the braking stopped) then share one angle. Unchanged without a counter."""
+    bits = getattr(encoder, "counter_bits", None)
+    if bits is None:
+        return log
+    span = 2**bits * float(encoder.quantum)
+    wraps = round((phi - float(log.phi[0])) / span)
+    if wraps == 0:
+        return log
+    return Log(t=log.t, phi=log.phi + wraps * span, torque=log.torque)
+
+
 def _check_grid(path: str | os.PathLike, phi: np.ndarray, encoder: EncoderLike) -> None:
     """phi a whole number of encoder counts."""
     q = float(encoder.quantum)
@@ -276,10 +335,14 @@ def read_log(
     Parameters
     ----------
     path : str or path-like
-        The CSV file, header ``t,phi,torque``.
+        The CSV file, header ``t,phi,torque``, or ``t,counts,torque`` with integer encoder
+        counts (phi = counts x quantum), unwrapped when the encoder has ``counter_bits`` (a
+        counter that wraps at 2**counter_bits). A counter's position before the log began is
+        known only modulo its range: with a torsion spring, whose potential depends on the
+        absolute angle, its zero must be the spring's reference.
     encoder : encoder-like
         Anything with ``quantum`` (rad, 2 pi / counts_per_rev) and ``sample_rate`` (Hz), such
-        as ``plant.config.Encoder``.
+        as ``plant.config.Encoder``; ``counts_per_rev`` and ``counter_bits`` for counts.
     kind : {"braking", "reverse", "pendulum"}
         Which pass: a forward braking must end at a larger phi than it starts, its reverse at
         a smaller one; a pendulum run may go either way.
@@ -304,8 +367,11 @@ def read_log(
         raise ValueError(f"kind must be one of {LOG_KINDS}, got {kind!r}")
     if direction not in DIRECTIONS:
         raise ValueError(f"direction must be one of {DIRECTIONS}, got {direction!r}")
-    values = _read_table(path, LOG_COLUMNS)
-    t, phi, torque = values.T
+    if _header(path) == list(COUNT_COLUMNS):
+        t, counts, torque = _read_table(path, COUNT_COLUMNS).T
+        phi = _unwrap_counts(path, counts, encoder) * float(encoder.quantum)
+    else:
+        t, phi, torque = _read_table(path, LOG_COLUMNS).T
     _check_time(path, t, encoder)
     _check_grid(path, phi, encoder)
     _check_direction(path, phi, kind, direction)

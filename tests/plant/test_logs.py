@@ -411,3 +411,56 @@ def test_pendulum_logs_ignore_the_direction_and_bad_directions_are_refused(tmp_p
         assert len(read_log(path, ENCODER, "pendulum", direction)) == 6
     with pytest.raises(ValueError, match="direction must be one of"):
         read_log(path, ENCODER, "braking", "up")
+
+
+# ---------------------------------------------------------------------------------------------
+# Integer counts from a drive's counter
+
+
+@dataclass(frozen=True)
+class CountingEncoder(Encoder):
+    counter_bits: int | None = 16
+
+
+def _counts_file(path, t, counts, torque):
+    rows = [f"{float(a)!r},{int(c)},{float(b)!r}" for a, c, b in zip(t, counts, torque)]
+    path.write_text("t,counts,torque\n" + "\n".join(rows) + "\n")
+    return path
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    bits_=st.integers(13, 20),
+    start=st.integers(0, 2**20),
+    steps=st.lists(st.integers(1, 3000), min_size=2, max_size=300),
+)
+def test_wrapped_counts_read_as_the_unwrapped_angle(tmp_path_factory, bits_, start, steps):
+    """A counter of 2^b counts that wraps many times reads back as phi = counts x q of the
+    unwrapped counts, up to whole wraps of the start (whole turns: 2^b is a multiple of
+    counts_per_rev = 2^13): the angle modulo a turn is exactly the true one."""
+    encoder = CountingEncoder(counts_per_rev=2**13, counter_bits=bits_)
+    true = start + np.concatenate([[0], np.cumsum(steps)])
+    t = np.arange(true.size) * encoder.dt
+    path = _counts_file(tmp_path_factory.mktemp("c") / "b.csv", t, true % 2**bits_, 0 * t - 0.01)
+    log = read_log(path, encoder, "braking")
+    q = encoder.quantum
+    turns = (log.phi - true * q) / (2 * math.pi)
+    np.testing.assert_allclose(turns, np.round(turns[0]), atol=1e-9)
+    np.testing.assert_array_equal(np.diff(np.round(log.phi / q)), np.diff(true))
+
+
+def test_bad_counts_are_one_line(tmp_path):
+    encoder = CountingEncoder(counts_per_rev=2**13, counter_bits=16)
+    t = np.arange(5) * encoder.dt
+    path = _counts_file(tmp_path / "b.csv", t, [1, 2, 3, 4, 5], -0.01 + 0 * t)
+    text = path.read_text().replace("\n0.003,4,", "\n0.003,4.5,")
+    path.write_text(text)
+    with pytest.raises(InputError, match=r"b\.csv, line 5: counts = 4\.5 is not an integer"):
+        read_log(path, encoder, "braking")
+    path = _counts_file(tmp_path / "c.csv", t, [1, 2, 3, 70000, 5], -0.01 + 0 * t)
+    with pytest.raises(InputError, match=r"c\.csv, line 5: counts = 70000 is outside the 16-bit"):
+        read_log(path, encoder, "braking")
+    odd = CountingEncoder(counts_per_rev=3600, counter_bits=16)
+    path = _counts_file(tmp_path / "d.csv", t, [1, 2, 3, 4, 5], -0.01 + 0 * t)
+    with pytest.raises(InputError, match="not a whole number of turns of 3600 counts"):
+        read_log(path, odd, "braking")
