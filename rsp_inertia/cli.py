@@ -193,25 +193,23 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(run=_cmd_calibrate)
 
-    p = sub.add_parser(
-        "check",
-        help="what EXP has, lacks or looks wrong before a run, one line each (exit 1: not "
-        "ready for identify)",
+    # The commands whose only argument is the experiment folder.
+    check_help = (
+        "what EXP has, lacks or looks wrong before a run, one line each (exit 1: not ready "
+        "for identify)"
     )
-    p.add_argument("exp", type=Path, metavar="EXP", help="experiment folder")
-    p.set_defaults(run=_cmd_check)
-
-    p = sub.add_parser("identify", help="all stages' logs -> EXP/result.json")
-    p.add_argument("exp", type=Path, metavar="EXP", help="experiment folder")
-    p.set_defaults(run=_cmd_identify)
-
-    p = sub.add_parser(
-        "report",
-        help="EXP/result.json, protocol, input hashes, versions and figures -> EXP/report.html "
-        "(one self-contained file)",
+    report_help = (
+        "EXP/result.json, protocol, input hashes, versions and figures -> EXP/report.html "
+        "(one self-contained file)"
     )
-    p.add_argument("exp", type=Path, metavar="EXP", help="experiment folder (identified)")
-    p.set_defaults(run=_cmd_report)
+    for name, run, text in (
+        ("check", _cmd_check, check_help),
+        ("identify", _cmd_identify, "all stages' logs -> EXP/result.json"),
+        ("report", _cmd_report, report_help),
+    ):
+        p = sub.add_parser(name, help=text)
+        p.add_argument("exp", type=Path, metavar="EXP", help="experiment folder")
+        p.set_defaults(run=run)
 
     p = sub.add_parser("design", help="conditioning of axis designs (icosahedron, cone + z, EXP)")
     p.add_argument(
