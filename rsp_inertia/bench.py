@@ -539,7 +539,7 @@ def _run_experiment(root: Path, case: Case) -> dict:
     )
     row["axes"] = len(result.axes)
     row.update(_relative_errors(result, exp.load_virtual(), exp.device))
-    row["warnings"] = "; ".join(result.warnings)
+    row["warnings"] = "; ".join(result.warnings).replace(str(root), "EXP")
     # Experiment time (physical): RSP's braking and reverse passes; the pendulum's logged
     # runs, one per node. Neither calibrates here (device.toml's tares and stiffness are
     # exact on this virtual device), and neither counts setting up, spin-up or deflection.
