@@ -64,6 +64,7 @@ __all__ = [
     "damped_fit",
     "encoder_edges",
     "estimate_pendulum",
+    "gravity_stiffness",
     "half_cycle_fit",
     "pendulum_inertia",
     "turning_points",
@@ -386,6 +387,12 @@ class BestPractice:
     fit: HalfCycleFit
 
 
+def gravity_stiffness(gravity: np.ndarray, phi: float) -> float:
+    """k_g = d^2 Pi / d phi^2 = -(Gs sin phi + Gc cos phi), N m/rad, of gravity terms
+    [Gs, Gc] at the angle phi (METHOD.md §3: Pi = Gs sin phi + Gc cos phi)."""
+    return -(float(gravity[0]) * math.sin(phi) + float(gravity[1]) * math.cos(phi))
+
+
 def best_practice_inertia(
     fit: HalfCycleFit,
     stiffness: float,
@@ -405,8 +412,8 @@ def best_practice_inertia(
     device, M at the equilibrium came out 0.3-1.5e-3 off with the fit's std alone at
     1-4e-4, and the whole amplitude correction at 0.5-2e-3).
     """
-    rows = np.array([-math.sin(node), -math.cos(node)])
-    k_g = float(rows @ gravity)
+    rows = np.array([-math.sin(node), -math.cos(node)])  # d k_g / d[Gs, Gc]
+    k_g = gravity_stiffness(gravity, node)
     k = stiffness + k_g
     w2 = fit.omega_n**2
     M = k / w2

@@ -32,7 +32,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from estimation.pendulum import best_practice_inertia, crossing_period, half_cycle_fit
+from estimation.pendulum import (
+    best_practice_inertia,
+    crossing_period,
+    gravity_stiffness,
+    half_cycle_fit,
+)
 from plant.config import TrueBody
 from plant.errors import InputError
 from plant.experiment import Experiment
@@ -72,17 +77,12 @@ def _frequency(exp: Experiment, stage: int, k: int) -> tuple[float, float, float
     return fit.omega_n, 0.5 * fit.omega_n * math.sqrt(sum(v * v for v in parts)) / b.M, fit.centre
 
 
-def _gravity_stiffness(gravity: np.ndarray, phi: float) -> float:
-    """k = d^2 Pi / d phi^2 = -(Gs sin phi + Gc cos phi), N m/rad (METHOD.md §3)."""
-    return -(gravity[0] * math.sin(phi) + gravity[1] * math.cos(phi))
-
-
 def _two_period(w_e, w_r, Gf, Gr, phi_e, phi_r, d, M_r) -> float:
     """c from the two frequencies (module docstring): fixture gravity Gf and reference body
     gravity Gr ([Gs, Gc], N m), equilibria phi_e and phi_r, d = M_e(phi_r) - M_e(phi_e), and
     the reference's reduced inertia M_r at phi_r."""
-    k_fe, k_fr = _gravity_stiffness(Gf, phi_e), _gravity_stiffness(Gf, phi_r)
-    k_r = _gravity_stiffness(Gr, phi_r)
+    k_fe, k_fr = gravity_stiffness(Gf, phi_e), gravity_stiffness(Gf, phi_r)
+    k_r = gravity_stiffness(Gr, phi_r)
     m_e = (w_r**2 * (d + M_r) - k_fr - k_r + k_fe) / (w_e**2 - w_r**2)
     return w_e**2 * m_e - k_fe
 
