@@ -43,6 +43,7 @@ from plant.experiment import open_experiment
 from plant.logs import Log, read_log, write_atomic, write_log
 from plant.model import ModelParameters, dissipation
 from plant.virtual import true_parameters
+from rsp_inertia.checking import MIN_TURNS_PAST_LAST_NODE
 from rsp_inertia.pipeline import create_default_experiment, identify, program, simulate
 from rsp_inertia.sensitivity import (
     Perturbation,
@@ -96,10 +97,6 @@ COM_FRICTION_FACTORS = (1.0, 10.0)
 TORQUE_MARGIN = 0.7
 """Fraction of the motor's torque limit the mirror's reverse torque may need; the rest is the
 regulator's headroom (gravity, inertia slope, tracking corrections)."""
-
-MIN_TURNS_PAST_LAST_NODE = 3.0
-"""Turns the braking pass must cover after its first passage of the stage's last node, so that
-every node has whole-turn pairs for the node formula and the least squares."""
 
 MAX_PROTOCOL_TRIES = 8
 """Braking torques tried per stage (the default, then halved each time)."""

@@ -25,6 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
+from estimation.balance import mirror_log
+from estimation.energy import check_braking_monotone
 from plant.errors import InputError
 from plant.experiment import open_experiment
 from plant.geometry import turns_past_last_node
@@ -132,14 +134,11 @@ def _check_run(exp, stage: int, direction: str, report: CheckReport) -> None:
     else:
         braking = _try_read(report, b_path, device.encoder, "braking", direction)
     if braking is not None:
-        sign = 1.0 if direction == "forward" else -1.0
-        back = np.nonzero(np.diff(sign * braking.phi) < 0)[0]
-        if back.size:
-            report.add(
-                "error",
-                f"{b_path}, line {int(back[0]) + 3}: the angle goes back: the speed reverses "
-                "inside the braking",
-            )
+        forward = braking if direction == "forward" else mirror_log(braking, device.encoder.quantum)
+        try:
+            check_braking_monotone(forward, str(b_path))
+        except InputError as error:
+            report.add("error", str(error))
         turns = turns_past_last_node(braking.phi, st.nodes)
         torque = float(np.mean(np.abs(braking.torque)))
         duration = float(braking.t[-1] - braking.t[0])
