@@ -23,12 +23,12 @@ from pathlib import Path
 
 import numpy as np
 import tomlkit
+from rsp_inertia.plant.config import load_device, load_virtual
+from rsp_inertia.plant.experiment import open_experiment
+from rsp_inertia.plant.geometry import axis_direction, design_matrix, entries_from_tensor
+from rsp_inertia.plant.logs import read_log, write_atomic
 from tables import markdown_table
 
-from plant.config import load_device, load_virtual
-from plant.experiment import open_experiment
-from plant.geometry import axis_direction, design_matrix, entries_from_tensor
-from plant.logs import read_log, write_atomic
 from rsp_inertia.pipeline import identify, program, simulate
 from rsp_inertia.planning import plan
 
@@ -88,7 +88,7 @@ def saturation(root: Path, noise: float) -> tuple[float, float]:
     the logged value lies within 5 noise stds of it; at the rate limit the logged change
     (noise std sqrt 2 sigma) within 3 of its stds of torque_rate_limit dt. The regulator's
     own steps, k_phi q per encoder count, are kept at or below torque_rate_limit dt by its
-    bandwidth rule (ocp.regulator); on a heavy stage they sit just under it (0.0186 against
+    bandwidth rule (rsp_inertia.ocp.regulator); on a heavy stage they sit just under it (0.0186 against
     0.02 N m), 9 stds of the logged change away.
     """
     exp = open_experiment(root)

@@ -19,17 +19,17 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+from rsp_inertia.estimation.identify import identify
+from rsp_inertia.estimation.smoothing import smooth_log
+from rsp_inertia.ocp.make import make_program
+from rsp_inertia.ocp.nominal import fit_nominal
+from rsp_inertia.plant.experiment import open_experiment
+from rsp_inertia.plant.logs import write_atomic, write_log, write_program
+from rsp_inertia.plant.virtual import run_program, simulate_braking
+from tables import markdown_table
 
-from estimation.identify import identify
-from estimation.smoothing import smooth_log
-from ocp.make import make_program
-from ocp.nominal import fit_nominal
-from plant.experiment import open_experiment
-from plant.logs import write_atomic, write_log, write_program
-from plant.virtual import run_program, simulate_braking
 from rsp_inertia.pipeline import create_default_experiment
 from rsp_inertia.plots import plot_tracking
-from tables import markdown_table
 
 RESULTS = Path(__file__).parent / "results"
 CASES = [(1.0, 1.0), (1.3, 1.5), (1.3, 0.5), (0.7, 1.5), (0.7, 0.5)]

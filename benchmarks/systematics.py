@@ -42,7 +42,6 @@ from __future__ import annotations
 import argparse
 import json
 import re
-import shutil
 import sys
 import tempfile
 import time
@@ -50,11 +49,11 @@ from pathlib import Path
 
 import numpy as np
 from joblib import Parallel, delayed
-
-from plant.experiment import open_experiment
-from plant.geometry import tensor_from_entries
-from rsp_inertia.pipeline import calibrate, create_default_experiment, identify, simulate
+from rsp_inertia.plant.experiment import open_experiment
+from rsp_inertia.plant.geometry import tensor_from_entries
 from tables import markdown_table
+
+from rsp_inertia.pipeline import calibrate, create_default_experiment, identify, simulate
 
 RESULTS = Path(__file__).parent / "results"
 
@@ -124,13 +123,13 @@ def _calibration_folder(root: Path, kind: str, seed: int) -> Path:
         d = _replace(d, "braking_torque = 0.12 ", "braking_torque = 0.03 ")
     if kind != "exp":
         d = re.sub(r"(?m)^\[body\]\nmass = .*\n", "", d)
-    d = re.sub(r"\[pendulum\].*", "", d, flags=re.S)
+    d = re.sub(r"\[pendulum\].*", "", d, flags=re.DOTALL)
     (root / "device.toml").write_text(d)
 
     v = (root / "virtual.toml").read_text()
     body = {"exp": None, "empty": "", "ref": REF_BODY}[kind]
     if body is not None:
-        v = re.sub(r"\[body\].*?\n\n", body + "\n" if body else "", v, flags=re.S)
+        v = re.sub(r"\[body\].*?\n\n", body + "\n" if body else "", v, flags=re.DOTALL)
     v = _set_seed(v, seed)
     tare = ", ".join(f"{t * 1.02:.10f}" for t in TARE)
     v += FIXTURE + f"\n[rig]\ntorque_gain = 1.005\ntare_inertia = [{tare}]   # 2% above device.toml's\n"

@@ -41,13 +41,17 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from rsp_inertia.estimation.energy import (
+    PassEstimate,
+    sample_at,
+    speed_error_covariance,
+    work_covariance,
+)
+from rsp_inertia.plant.config import Device, Stage
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.logs import Log
+from rsp_inertia.plant.model import potential, spring_parameters
 from scipy.integrate import cumulative_trapezoid
-
-from estimation.energy import PassEstimate, sample_at, speed_error_covariance, work_covariance
-from plant.config import Device, Stage
-from plant.errors import InputError
-from plant.logs import Log
-from plant.model import potential, spring_parameters
 
 __all__ = [
     "EDGE_MARGIN",
@@ -76,7 +80,7 @@ Measured on the default experiment (speed noise alone): spacing 3/w_c leaves J_k
 
 
 def _spring_potential(phi: np.ndarray, device: Device) -> np.ndarray:
-    """Spring part of Pi (METHOD.md §3, plant.model); gravity is estimated, not known."""
+    """Spring part of Pi (METHOD.md §3, rsp_inertia.plant.model); gravity is estimated, not known."""
     return potential(phi, spring_parameters(device.spring.stiffness, device.spring.zero_angle))
 
 
@@ -125,7 +129,7 @@ class StageBalance:
     speed_sq_cov: np.ndarray
     """(n, n) covariance of S from the smoothers' speed errors: to first order
     dS = 2 Omega dOmega + 2 Omega' dOmega', the passes independent, each pass's errors
-    correlated as the smoother's derived autocovariance says (estimation.smoothing)."""
+    correlated as the smoother's derived autocovariance says (rsp_inertia.estimation.smoothing)."""
     mismatch: np.ndarray
     """(n, 2) the tracking mismatch's friction regressors [R1, R2] (module docstring):
     int_lo^phi delta dphi (rad^2/s) and int_lo^phi (|Omega| delta + delta^2 / 2) dphi
@@ -134,7 +138,7 @@ class StageBalance:
     """W(phi) = A(release->phi) + A'(phi7->phi) minus 2 Pi_spring(phi), J."""
     braking_work_cov: np.ndarray
     """(n, n) covariance of the braking pass's share of ``work`` (its torque log's noise,
-    estimation.energy), J^2."""
+    rsp_inertia.estimation.energy), J^2."""
     reverse_work_cov: np.ndarray
     """(n, n) the same for the reverse pass, J^2."""
     direction: int = 1
@@ -163,7 +167,7 @@ def mirror_log(log: Log, quantum: float) -> Log:
     The motor work sum u dphi is unchanged, so every balance reads the same. The encoder
     reading y = floor(phi / q) q of the mirrored angle -phi is -y - q (for -phi off the grid),
     so the mirrored log keeps the floor convention that the smoother assumes
-    (estimation.smoothing: true angle in [y, y + q)).
+    (rsp_inertia.estimation.smoothing: true angle in [y, y + q)).
     """
     return Log(t=log.t, phi=-np.asarray(log.phi) - quantum, torque=-np.asarray(log.torque))
 
@@ -273,10 +277,10 @@ def node_formula(
     over whole turns; dPi is the spring's. Pairs are combined by generalised least squares
     (:func:`_combine_pairs`): speed noise from the smoothers' derived error variance times
     ``speed_noise_scale`` (the calibration that the least squares finds on its residuals,
-    estimation.tensor), and work noise from the torque logs (estimation.energy).
+    rsp_inertia.estimation.tensor), and work noise from the torque logs (rsp_inertia.estimation.energy).
     ``direction`` -1: a backward run's passes, mirrored by :func:`mirror_log`; its node phi
     sits at -phi in the mirrored coordinate. ``work_scale``: h = 1 / torque gain, the factor
-    that makes the logged motor work physical (a calibration's, estimation.calibration).
+    that makes the logged motor work physical (a calibration's, rsp_inertia.estimation.calibration).
 
     ``friction_slope`` [d1, d2] (with its (2, 2) covariance): the run's tracking-mismatch
     slopes that the least squares fits (module docstring). The balance of a pair then reads

@@ -11,7 +11,7 @@ Like every mass-properties instrument, the gimbal is calibrated with runs of its
   gravity added fix the scale of the logged torque, h = 1 / torque gain (logged torque =
   gain x applied: every inertia and gravity term from the logged work scales with it).
 
-One generalised least squares over every run of both experiments (estimation.gls), per
+One generalised least squares over every run of both experiments (rsp_inertia.estimation.gls), per
 balance angle of a run of stage s:
 
     1/2 S M_s(phi) . [basis] + 2 Pi_f(phi) - h W(phi) - C_run - (slopes, asymmetry)
@@ -38,21 +38,20 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-
-from estimation.gls import BalanceFit, Block, ModelTest, model_warnings, solve_blocks
-from estimation.runs import run_balances
-from estimation.stiffness import StiffnessCalibration, calibrate_stiffness
-from estimation.tensor import (
+from rsp_inertia.estimation.gls import BalanceFit, Block, ModelTest, model_warnings, solve_blocks
+from rsp_inertia.estimation.runs import run_balances
+from rsp_inertia.estimation.stiffness import StiffnessCalibration, calibrate_stiffness
+from rsp_inertia.estimation.tensor import (
     KnownTerms,
     both_directions,
     gravity_rows,
     run_columns,
     run_label,
 )
-from plant.config import Device, TrueBody, load_reference
-from plant.errors import InputError
-from plant.experiment import Experiment
-from plant.model import inertia_basis, inertia_harmonics
+from rsp_inertia.plant.config import Device, TrueBody, load_reference
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.experiment import Experiment
+from rsp_inertia.plant.model import inertia_basis, inertia_harmonics
 
 __all__ = [
     "CALIBRATION_FILE",
@@ -106,7 +105,7 @@ class Calibration:
     chi2_dof: float = math.nan
     """Residual chi^2 per degree of freedom of the calibration fit."""
     tests: list[ModelTest] = field(default_factory=list)
-    """The calibration fit's model tests (estimation.gls)."""
+    """The calibration fit's model tests (rsp_inertia.estimation.gls)."""
     warnings: list[str] = field(default_factory=list)
     """What the calibration's own checks found."""
     stiffness: StiffnessCalibration | None = None
@@ -259,7 +258,7 @@ def _blocks(device: Device, balances, role: str, reference: TrueBody | None, has
                 inertia_columns={f"{h}[{s}]": basis[:, j] for j, h in enumerate(HARMONIC_NAMES)},
                 inertia_known=known_M,
                 # h scales the logged work, a smooth function as the kinetic energy is: alone
-                # in one run it would stand in for the noisy speeds (estimation.gls).
+                # in one run it would stand in for the noisy speeds (rsp_inertia.estimation.gls).
                 joint_only=frozenset(name for name in cols if name.startswith("e") or name == "h"),
                 groups={f"{h}[{s}]": f"{role} {run_label(bal)}" for h in HARMONIC_NAMES},
                 fixed_in_tests=frozenset({"h"}),

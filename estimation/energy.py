@@ -35,11 +35,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from rsp_inertia.estimation.smoothing import Smoothed, hermite, smooth_log
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.logs import Log
 from scipy.stats import chi2
-
-from estimation.smoothing import Smoothed, hermite, smooth_log
-from plant.errors import InputError
-from plant.logs import Log
 
 __all__ = [
     "CONSTANCY_CHUNK",
@@ -271,7 +270,7 @@ def work_covariance(est: PassEstimate, a: AngleSample, b: AngleSample | None = N
 def speed_error_covariance(est: PassEstimate, a: AngleSample) -> np.ndarray:
     """(n, n) covariance of the pass's smoothed speed at the angles of ``a``, rad^2/s^2.
 
-    The smoother's derived error autocovariance (estimation.smoothing) at the instants the
+    The smoother's derived error autocovariance (rsp_inertia.estimation.smoothing) at the instants the
     pass is at those angles.
     """
     return est.smoothed.speed_error_covariance(a.time, a.omega_std)

@@ -1,13 +1,13 @@
 """Generalised least squares over the runs' balance equations, with its own model checks.
 
 Every run (one stage in one direction) contributes one equation per balance angle
-(estimation.balance, METHOD.md §5). Which unknowns those equations share depends on the
-question: the body's tensor (estimation.tensor) or the empty fixture's harmonics and the
-torque gain (estimation.calibration). Both build :class:`Block` s, named columns and a
+(rsp_inertia.estimation.balance, METHOD.md §5). Which unknowns those equations share depends on the
+question: the body's tensor (rsp_inertia.estimation.tensor) or the empty fixture's harmonics and the
+torque gain (rsp_inertia.estimation.calibration). Both build :class:`Block` s, named columns and a
 right-hand side, and this module solves them the same way:
 
 - **weights**: the covariance of a run's equations is the motor work's (the torque logs'
-  own noise, estimation.energy) plus the speed noise's, 1/4 M_i M_j cov(S_i, S_j), M from a
+  own noise, rsp_inertia.estimation.energy) plus the speed noise's, 1/4 M_i M_j cov(S_i, S_j), M from a
   first unweighted pass and cov(S) from the smoothers' derived error autocovariance;
 - **speed-noise scale**: the derived speed part of each run is scaled by the factor that makes
   that run's own fit reach chi^2/dof = 1 (a real encoder adds line errors, a closed loop its
@@ -41,10 +41,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg
+from rsp_inertia.estimation.balance import StageBalance
 from scipy.optimize import brentq
 from scipy.stats import chi2
-
-from estimation.balance import StageBalance
 
 __all__ = [
     "CALIBRATION_SOURCE",
@@ -299,7 +298,7 @@ def solve_blocks(
         Covariance of the calibrated parameters theta that the blocks' ``known_jacobian``
         refers to.
     predict : bool
-        The blocks hold noise-free balances of a planned run (estimation.predict): the
+        The blocks hold noise-free balances of a planned run (rsp_inertia.estimation.predict): the
         covariance is the noise model's as it stands (every speed-noise scale 1, no
         inflation by the residuals, which are zero) and no model test is made.
     tests : bool

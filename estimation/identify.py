@@ -1,8 +1,8 @@
 """Identification of an experiment: every stage's logs in, tensor and centre of mass out.
 
 Reads only what a rig produces (device.toml and the logs), never virtual.toml. Steps, each in
-its own function elsewhere: smoothing and motor work (estimation.energy), balances and the node
-formula (estimation.balance), least squares and the tensor (estimation.tensor).
+its own function elsewhere: smoothing and motor work (rsp_inertia.estimation.energy), balances and the node
+formula (rsp_inertia.estimation.balance), least squares and the tensor (rsp_inertia.estimation.tensor).
 
 Two estimates of the tensor are reported:
 
@@ -19,19 +19,18 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-
-from estimation.balance import NodeEstimate, node_formula
-from estimation.calibration import calibrated_stiffness, known_terms
-from estimation.gls import ModelTest, model_warnings
-from estimation.pendulum import (
+from rsp_inertia.estimation.balance import NodeEstimate, node_formula
+from rsp_inertia.estimation.calibration import calibrated_stiffness, known_terms
+from rsp_inertia.estimation.gls import ModelTest, model_warnings
+from rsp_inertia.estimation.pendulum import (
     BestPractice,
     PendulumEstimate,
     best_practice_inertia,
     estimate_pendulum,
     half_cycle_fit,
 )
-from estimation.runs import run_balances
-from estimation.tensor import (
+from rsp_inertia.estimation.runs import run_balances
+from rsp_inertia.estimation.tensor import (
     KnownTerms,
     axis_values,
     fit_tensor,
@@ -40,10 +39,10 @@ from estimation.tensor import (
     principal,
     tensor_from_axes,
 )
-from plant.errors import InputError
-from plant.experiment import Experiment
-from plant.geometry import axis_direction, design_matrix
-from plant.logs import read_log
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.experiment import Experiment
+from rsp_inertia.plant.geometry import axis_direction, design_matrix
+from rsp_inertia.plant.logs import read_log
 
 __all__ = [
     "MAX_CONDITION",
@@ -110,7 +109,7 @@ class PendulumResult:
     entries_damped: np.ndarray | None
     """Tensor through V from the damped-fit J_k, when every node has a run."""
     best: list[BestPractice | None] = field(default_factory=list)
-    """Per run, the best-practice reduction (estimation.pendulum), None where it failed."""
+    """Per run, the best-practice reduction (rsp_inertia.estimation.pendulum), None where it failed."""
     J_best: np.ndarray | None = None
     """kg m^2 per run, J along the axis at the run's equilibrium angle ``phi_best``."""
     J_best_std: np.ndarray | None = None
@@ -220,12 +219,12 @@ class Identification:
     the residuals."""
     friction_slope: np.ndarray | None = None
     """(stages, 2) [d1, d2] of the friction torque's slope D'(Omega) = d1 + d2 Omega that the
-    least squares fits from the reverse's tracking mismatch (estimation.balance); NaN rows
+    least squares fits from the reverse's tracking mismatch (rsp_inertia.estimation.balance); NaN rows
     only for a stage whose passes match exactly (exact data)."""
     friction_slope_std: np.ndarray | None = None
     """(stages, 2)."""
     std_budget: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
-    """Uncertainty budget of the least squares: for each noise source (estimation.tensor
+    """Uncertainty budget of the least squares: for each noise source (rsp_inertia.estimation.tensor
     NOISE_SOURCES), the standard deviations it alone gives to ``axes`` J ("axes") and to the
     entries ("tensor"); the variances of the sources add up to the totals."""
     warnings: list[str] = field(default_factory=list)
@@ -240,7 +239,7 @@ class Identification:
     friction_asymmetry_std: np.ndarray | None = None
     """(stages, 3)."""
     model_tests: list[ModelTest] = field(default_factory=list)
-    """The balance model's chi^2 tests (estimation.gls): runs against each other, early
+    """The balance model's chi^2 tests (rsp_inertia.estimation.gls): runs against each other, early
     against late turns."""
     calibration: dict | None = None
     """What the identification took from calibration.toml (None: device.toml's tares)."""
@@ -366,7 +365,7 @@ def _combine_directions(found: list[NodeEstimate]) -> NodeEstimate:
     """One node's estimate from its runs: one run as it is; forward and backward averaged.
 
     The two directions' node formulas carry a friction asymmetry's work with opposite signs
-    (estimation.balance friction_shape), so their plain mean cancels it to first order; the
+    (rsp_inertia.estimation.balance friction_shape), so their plain mean cancels it to first order; the
     runs' noise is independent.
     """
     if len(found) == 1:
@@ -590,7 +589,7 @@ def identify_pendulum(
 def _best_practice(
     exp, found, runs, logs, known, gravity, gravity_cov, warnings, complete
 ) -> dict:
-    """The best-practice reduction of every pendulum run (estimation.pendulum) and, when
+    """The best-practice reduction of every pendulum run (rsp_inertia.estimation.pendulum) and, when
     every node has one, its tensor through V with the axes at the runs' equilibria."""
     device = exp.device
     G = np.asarray(gravity, dtype=float)

@@ -50,10 +50,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.logs import Log
 from scipy.optimize import curve_fit, least_squares
-
-from plant.errors import InputError
-from plant.logs import Log
 
 __all__ = [
     "BestPractice",

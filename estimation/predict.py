@@ -2,12 +2,12 @@
 
 A planned run is a braking pass computed from a nominal model of the stage (no noise) and
 its exact time mirror. From it this module builds the balance equations exactly as
-``identify`` does (estimation.balance, estimation.tensor), with the same noise model:
+``identify`` does (rsp_inertia.estimation.balance, rsp_inertia.estimation.tensor), with the same noise model:
 
 - the torque log's white noise of std sigma: the braking's constant torque estimated as the
-  mean of the log (estimation.energy), the reverse's work as the sample-by-sample sum;
+  mean of the log (rsp_inertia.estimation.energy), the reverse's work as the sample-by-sample sum;
 - the encoder's quantization through the smoother: the derived speed-error autocovariance
-  R(tau) = r w_c^3 g(w_c tau) (estimation.smoothing), with w_c from the pass's top speed by
+  R(tau) = r w_c^3 g(w_c tau) (rsp_inertia.estimation.smoothing), with w_c from the pass's top speed by
   the smoother's own rule (``smoother_bandwidth``) and r = (q^2/12) dt.
 
 The generalised least squares then gives the covariance the noise model alone implies
@@ -16,7 +16,7 @@ is an ideal reverse's std, a closed loop's best case: it cannot foresee the clos
 reverse's tracking mismatch (its friction slopes cost information; an exact mirror has
 none) nor the regulator's speed noise, which together put identify's std 1.0-2.6x above it
 on the planning benchmark. The planner uses it to rank protocols; the closed-loop
-rehearsal of the chosen one (ocp.rehearsal) gives the std it promises. Neither foresees a
+rehearsal of the chosen one (rsp_inertia.ocp.rehearsal) gives the std it promises. Neither foresees a
 rig's imperfections beyond the noise model.
 """
 
@@ -27,12 +27,11 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
-
-from estimation.balance import StageBalance, stage_balance
-from estimation.energy import PassEstimate, motor_work
-from estimation.gls import JITTER, information
-from estimation.smoothing import Smoothed, noise_density, smoother_bandwidth
-from estimation.tensor import (
+from rsp_inertia.estimation.balance import StageBalance, stage_balance
+from rsp_inertia.estimation.energy import PassEstimate, motor_work
+from rsp_inertia.estimation.gls import JITTER, information
+from rsp_inertia.estimation.smoothing import Smoothed, noise_density, smoother_bandwidth
+from rsp_inertia.estimation.tensor import (
     ENTRY_KEYS,
     KnownTerms,
     TensorFit,
@@ -40,9 +39,9 @@ from estimation.tensor import (
     fit_tensor,
     tensor_block,
 )
-from plant.config import Device
-from plant.geometry import design_matrix, device_design
-from plant.logs import Log
+from rsp_inertia.plant.config import Device
+from rsp_inertia.plant.geometry import design_matrix, device_design
+from rsp_inertia.plant.logs import Log
 
 __all__ = [
     "SHARED",
@@ -130,7 +129,7 @@ def predicted_balance(
 ) -> StageBalance:
     """The balance equations identify would form from these passes (forward run).
 
-    Raises InputError (estimation.balance.usable_range) when the passes share fewer than
+    Raises InputError (rsp_inertia.estimation.balance.usable_range) when the passes share fewer than
     the turns the balances need.
     """
     q = device.encoder.quantum
@@ -181,8 +180,8 @@ def run_information(device: Device, balance: StageBalance, inertia: np.ndarray) 
 
     The runs' noises are independent, so the joint least squares' information is the sum of
     the runs' (:func:`combine_information`); each run's is A^T C^-1 A of its equations
-    (estimation.tensor.tensor_block) with C its work covariance plus the speed noise's
-    1/4 M_i M_j cov(S_i, S_j) (estimation.gls), and its own unknowns (the run's constant,
+    (rsp_inertia.estimation.tensor.tensor_block) with C its work covariance plus the speed noise's
+    1/4 M_i M_j cov(S_i, S_j) (rsp_inertia.estimation.gls), and its own unknowns (the run's constant,
     its friction slopes) taken out by the Schur complement. ``inertia``: M at the balance's
     angles (the nominal model's), which the least squares takes from a first unweighted fit.
     Equal to :func:`predict_fit`'s covariance (tests), at a fraction of its cost, so that a
@@ -213,7 +212,7 @@ def axis_stds(device: Device, informations: np.ndarray) -> np.ndarray:
     """kg m^2, (k, axes): J_k stds of k summed information matrices (k, 8, 8) at once.
 
     Each matrix is scaled to unit diagonal before its (pseudo-)inverse, as the least squares
-    scales its columns (estimation.gls); J_k = v_k . J through V (METHOD.md §5).
+    scales its columns (rsp_inertia.estimation.gls); J_k = v_k . J through V (METHOD.md §5).
     """
     scale = np.sqrt(np.abs(np.einsum("kii->ki", informations)))
     scale[scale == 0.0] = 1.0
@@ -230,7 +229,7 @@ def _information(A: np.ndarray, balance: StageBalance, inertia: np.ndarray) -> n
     one) + the reverse's work, a random walk sigma^2 min(s_i, s_j) (s falling along the
     balance angles: the reverse runs down from phi7) + the speed noise 1/4 M_i M_j
     cov(S_i, S_j), zero beyond the smoother's correlation span, + the least squares' ridge
-    (estimation.gls). The invertible transform T x = (x_0 - x_1, ..., x_{n-2} - x_{n-1},
+    (rsp_inertia.estimation.gls). The invertible transform T x = (x_0 - x_1, ..., x_{n-2} - x_{n-1},
     x_{n-1}) turns the random walk into its independent increments (diagonal) and keeps the
     rest banded, so T C T^T = K + (T c)(T c)^T with K banded; K is assembled diagonal by
     diagonal (O(n b)), and a banded Cholesky factor and one Sherman-Morrison step give the

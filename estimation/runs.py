@@ -2,17 +2,17 @@
 
 A run is one stage in one direction of rotation (device.toml ``[[stage]] directions``): its
 braking log and its reverse log. A backward run is mirrored into the forward coordinate
-(estimation.balance mirror_log), so everything downstream treats it as a forward run.
+(rsp_inertia.estimation.balance mirror_log), so everything downstream treats it as a forward run.
 """
 
 from __future__ import annotations
 
-from estimation.balance import StageBalance, mirror_log, stage_balance
-from estimation.energy import PassEstimate, check_braking_monotone, estimate_pass
-from estimation.smoothing import Smoothed
-from plant.config import Device
-from plant.experiment import Experiment
-from plant.logs import Log, align_counter, read_log
+from rsp_inertia.estimation.balance import StageBalance, mirror_log, stage_balance
+from rsp_inertia.estimation.energy import PassEstimate, check_braking_monotone, estimate_pass
+from rsp_inertia.estimation.smoothing import Smoothed
+from rsp_inertia.plant.config import Device
+from rsp_inertia.plant.experiment import Experiment
+from rsp_inertia.plant.logs import Log, align_counter, read_log
 
 __all__ = ["estimate_run", "read_run", "run_balances", "runs"]
 
@@ -54,7 +54,7 @@ def estimate_run(
 ) -> tuple[PassEstimate, PassEstimate]:
     """Both passes of one run from their logs in memory, checked and estimated (a backward
     run mirrored); the sources name the logs in messages. ``braking_smoothed``: the
-    (mirrored) braking log's smoothed states when already computed (ocp.make's)."""
+    (mirrored) braking log's smoothed states when already computed (rsp_inertia.ocp.make's)."""
     q = device.encoder.quantum
     if direction == "backward":
         braking, reverse = mirror_log(braking, q), mirror_log(reverse, q)
@@ -77,7 +77,7 @@ def estimate_run(
 def run_balances(
     exp: Experiment, warnings: list[str], progress=None
 ) -> tuple[list[StageBalance], list[tuple[int, int, PassEstimate, PassEstimate]]]:
-    """Every run's balance equations (estimation.balance), and its passes for the node formula
+    """Every run's balance equations (rsp_inertia.estimation.balance), and its passes for the node formula
     as (stage, sign, braking, reverse), sign +1 forward and -1 backward."""
     balances, passes = [], []
     for stage, direction in runs(exp.device):

@@ -71,7 +71,7 @@ is the model's r H, variance r w_c^3 / 6: twice the actual error's r w_c^3 / 12,
 model expects a random jerk where the true motion is smooth. R(tau) changes sign at
 w_c tau ~ 2.5 and decays like exp(-w_c tau / 2): the speed error has no low-frequency
 content (its integral is the angle's error, a small fraction of a count), which is what makes
-it nearly harmless to the energy balances' slow trends (estimation.balance).
+it nearly harmless to the energy balances' slow trends (rsp_inertia.estimation.balance).
 """
 
 from __future__ import annotations
@@ -82,10 +82,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.logs import Log
 from scipy.integrate import trapezoid
-
-from plant.errors import InputError
-from plant.logs import Log
 
 __all__ = [
     "BANDWIDTH_FACTOR",
@@ -310,7 +309,7 @@ def smooth_log(log: Log, quantum: float, source: str = "log") -> Smoothed:
 
     Parameters
     ----------
-    log : plant.logs.Log
+    log : rsp_inertia.plant.logs.Log
         The encoder log (validated: uniform time steps, angles on the grid).
     quantum : float
         Encoder count q = 2 pi / counts_per_rev, rad.

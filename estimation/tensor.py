@@ -9,7 +9,7 @@ stage, one direction of rotation) gives
     1/2 S v(phi) . J + 2 Gs sin phi + 2 Gc cos phi - C_run - d . R - dir e_s . Q
         = h W(phi) - 2 Pi_spring - 1/2 S M_empty(phi) - 2 Pi_fixture(phi)
 
-(estimation.balance), linear in the six entries, the gravity terms Gs = m g x_c,
+(rsp_inertia.estimation.balance), linear in the six entries, the gravity terms Gs = m g x_c,
 Gc = m g y_c shared by all runs, one constant per run, per run the two slopes d of the
 friction torque that the closed loop's tracking mismatch leaves in the balance (regressors R),
 and, for a stage run in both directions, its friction asymmetry e_s (regressors Q, sign
@@ -18,7 +18,7 @@ directions of rotation cancels between the runs). The right-hand side holds what
 calibration knows (:class:`KnownTerms`): the torque gain's h = 1 / gain on the logged motor
 work W, the empty system's reduced inertia M_empty (tare and fixture) and the fixture's
 gravity; without a calibration, device.toml's tare as exact. Weights, the speed-noise scale,
-the model tests and the uncertainty budget: estimation.gls.
+the model tests and the uncertainty budget: rsp_inertia.estimation.gls.
 """
 
 from __future__ import annotations
@@ -26,11 +26,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from estimation.balance import StageBalance
-from estimation.gls import NOISE_SOURCES, Block, ModelTest, solve_blocks
-from plant.geometry import axis_direction, design_matrix, tensor_from_entries
-from plant.model import inertia_basis
+from rsp_inertia.estimation.balance import StageBalance
+from rsp_inertia.estimation.gls import NOISE_SOURCES, Block, ModelTest, solve_blocks
+from rsp_inertia.plant.geometry import axis_direction, design_matrix, tensor_from_entries
+from rsp_inertia.plant.model import inertia_basis
 
 __all__ = [
     "ENTRY_KEYS",
@@ -73,7 +72,7 @@ class TensorFit:
     """Residual chi^2 per degree of freedom of the weighted fit (1 when the noise model fits)."""
     speed_noise_scale: list[float]
     """Per run, the factor on the derived speed-error covariance that makes the run's own
-    fit reach chi^2/dof = 1 (estimation.gls)."""
+    fit reach chi^2/dof = 1 (rsp_inertia.estimation.gls)."""
     n_equations: int
     """Balance angles used, all runs."""
     friction_slope: np.ndarray
@@ -87,7 +86,7 @@ class TensorFit:
     """Per run: whether the tracking-mismatch friction terms were fitted (NaN slopes if not:
     only when the mismatch is exactly zero)."""
     cov_parts: dict[str, np.ndarray]
-    """Covariance of [entries, gravity] split by noise source (estimation.gls NOISE_SOURCES
+    """Covariance of [entries, gravity] split by noise source (rsp_inertia.estimation.gls NOISE_SOURCES
     and CALIBRATION_SOURCE); the parts sum to the whole: the uncertainty budget."""
     friction_asymmetry: np.ndarray | None = None
     """(stages, 3) e = [e1, e2, e3] of D_backward - D_forward = e1 + e2 |Omega| + e3 Omega^2
@@ -95,7 +94,7 @@ class TensorFit:
     friction_asymmetry_std: np.ndarray | None = None
     """(stages, 3)."""
     tests: list[ModelTest] | None = None
-    """The balance model's tests (estimation.gls): runs against each other, early against
+    """The balance model's tests (rsp_inertia.estimation.gls): runs against each other, early against
     late turns."""
     runs: list[tuple[int, str]] | None = None
     """(stage, direction) of each run, in the order of the balances."""
@@ -113,7 +112,7 @@ def _design_rows(bal: StageBalance) -> np.ndarray:
 class KnownTerms:
     """What the balances take as known about the rig (METHOD.md §2-3).
 
-    From ``calibration.toml`` (estimation.calibration), or device.toml's tares alone: the
+    From ``calibration.toml`` (rsp_inertia.estimation.calibration), or device.toml's tares alone: the
     empty system's reduced inertia per stage (tare and fixture), the fixture's gravity terms,
     and the factor h = 1 / torque gain that turns the logged motor work into the physical
     one; with the covariance of theta = [h, harmonics of stage 1..n, Gs_f, Gc_f].
@@ -231,7 +230,7 @@ def run_columns(
     bal: StageBalance, key: str, both_directions: bool, group: str | None = None
 ) -> dict[str, np.ndarray]:
     """The columns every run has whatever the question: its constant, the tracking mismatch's
-    friction slopes (estimation.balance; left out when the mismatch is exactly zero, exact
+    friction slopes (rsp_inertia.estimation.balance; left out when the mismatch is exactly zero, exact
     data), and the friction asymmetry of a stage run in both directions (shared by the runs of
     ``group``, by default the stage).
     """
@@ -291,9 +290,9 @@ def fit_tensor(
     Unknowns: the six entries and the gravity terms (shared by every run), one constant and
     the tracking mismatch's two friction slopes per run, and the friction asymmetry
     e = [e1, e2, e3] per stage run in both directions. Solved, weighted and checked by
-    :func:`estimation.gls.solve_blocks`. ``predict``: noise-free balances of a planned run,
-    whose covariance is then the noise model's alone (estimation.predict); ``tests`` False:
-    no model tests (a rehearsal of a plan, ocp.rehearsal).
+    :func:`rsp_inertia.estimation.gls.solve_blocks`. ``predict``: noise-free balances of a planned run,
+    whose covariance is then the noise model's alone (rsp_inertia.estimation.predict); ``tests`` False:
+    no model tests (a rehearsal of a plan, rsp_inertia.ocp.rehearsal).
     """
     if known is None:
         tares = {bal.stage: bal.tare_inertia for bal in balances}

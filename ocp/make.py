@@ -1,8 +1,8 @@
 """From a braking log to the reverse pass's program (the ``program`` command's library call).
 
-Steps, each in its own module: smoothing (estimation.smoothing, the identification's own
-smoother), the mirror (ocp.reference), the nominal model (ocp.nominal), the OCP
-(ocp.program), the regulator (ocp.regulator).
+Steps, each in its own module: smoothing (rsp_inertia.estimation.smoothing, the identification's own
+smoother), the mirror (rsp_inertia.ocp.reference), the nominal model (rsp_inertia.ocp.nominal), the OCP
+(rsp_inertia.ocp.program), the regulator (rsp_inertia.ocp.regulator).
 """
 
 from __future__ import annotations
@@ -12,17 +12,16 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-
-from estimation.balance import mirror_log
-from estimation.energy import check_braking_monotone
-from estimation.smoothing import Smoothed, smooth_log
-from ocp.nominal import fit_nominal
-from ocp.program import OcpSolution, required_torque, solve_program_ocp
-from ocp.reference import Mirror, mirror
-from ocp.regulator import bandwidth, lqr_gains
-from plant.config import Device
-from plant.logs import Log, Program
-from plant.model import ModelParameters, reduced_inertia
+from rsp_inertia.estimation.balance import mirror_log
+from rsp_inertia.estimation.energy import check_braking_monotone
+from rsp_inertia.estimation.smoothing import Smoothed, smooth_log
+from rsp_inertia.ocp.nominal import fit_nominal
+from rsp_inertia.ocp.program import OcpSolution, required_torque, solve_program_ocp
+from rsp_inertia.ocp.reference import Mirror, mirror
+from rsp_inertia.ocp.regulator import bandwidth, lqr_gains
+from rsp_inertia.plant.config import Device
+from rsp_inertia.plant.logs import Log, Program
+from rsp_inertia.plant.model import ModelParameters, reduced_inertia
 
 __all__ = ["START_FADE_BANDWIDTHS", "ProgramResult", "make_program", "start_reference"]
 
@@ -46,7 +45,7 @@ class ProgramResult:
 
 
 START_FADE_BANDWIDTHS = 3.0
-"""Regulator time constants (1 / w, ocp.regulator) over which the reference returns from the
+"""Regulator time constants (1 / w, rsp_inertia.ocp.regulator) over which the reference returns from the
 OCP's start transient to the mirror."""
 
 
@@ -93,7 +92,7 @@ def make_program(
         Use this nominal model instead of fitting one (tests of robustness perturb it).
     direction : {"forward", "backward"}
         A backward braking (phi decreasing) is solved in the mirrored coordinate -phi, where it
-        is a forward one (estimation.balance mirror_log; the spring's zero angle mirrored
+        is a forward one (rsp_inertia.estimation.balance mirror_log; the spring's zero angle mirrored
         with it), and its program mirrored back: phi_ref, omega_ref and the feedforward
         change sign, the gains stay.
     """

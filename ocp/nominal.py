@@ -1,6 +1,6 @@
 """Nominal model of a stage from its braking log, for the program's feedforward.
 
-Lagrange's equation (METHOD.md §3, plant.model) is linear in the harmonic coefficients of
+Lagrange's equation (METHOD.md §3, rsp_inertia.plant.model) is linear in the harmonic coefficients of
 M(phi), the gravity terms and the dissipation coefficients (a1, a2, a3); the spring is
 known from device.toml. Along the smoothed braking pass (phi, Omega > 0, eps) with the
 logged torque u, least squares on
@@ -23,13 +23,11 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from scipy.optimize import lsq_linear
-
-from estimation.smoothing import Smoothed
-from plant.config import Device
-from plant.errors import InputError
-from plant.logs import Log
-from plant.model import (
+from rsp_inertia.estimation.smoothing import Smoothed
+from rsp_inertia.plant.config import Device
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.logs import Log
+from rsp_inertia.plant.model import (
     PARAMETER_NAMES,
     ModelParameters,
     dissipation_regressor,
@@ -37,6 +35,7 @@ from plant.model import (
     mechanical_energy,
     spring_parameters,
 )
+from scipy.optimize import lsq_linear
 
 __all__ = ["UNKNOWN", "fit_energy_windows", "fit_nominal"]
 
@@ -97,7 +96,7 @@ def fit_energy_windows(
     log, sm : Log, Smoothed
         The pass's log (motor work: Stieltjes sum of its torque) and its smoothed states.
     unknowns : sequence of str
-        Names of plant.model.PARAMETER_NAMES to fit, most important first: a pass with fewer
+        Names of rsp_inertia.plant.model.PARAMETER_NAMES to fit, most important first: a pass with fewer
         than _WINDOWS_PER_UNKNOWN windows per unknown fits only the first ones.
     source : str
         The log's name in messages (e.g. "stage 1: braking.csv").
@@ -178,7 +177,7 @@ def fit_nominal(device: Device, stage: int, log: Log, sm: Smoothed) -> ModelPara
     which is linear in p like the equation of motion itself, but needs no acceleration: the
     smoothed acceleration is noisy (quantization through a wide-band smoother), and noise in
     a regressor biases least squares toward zero (errors in variables). The regressors are
-    the Jacobians of the model's own E and D (plant.model); the integral is a trapezoid sum
+    the Jacobians of the model's own E and D (rsp_inertia.plant.model); the integral is a trapezoid sum
     over the samples, the motor work the Stieltjes sum of the log.
     """
     values, _ = fit_energy_windows(device, log, sm, UNKNOWN, f"stage {stage}: braking.csv")

@@ -1,16 +1,16 @@
 """A stage's mean reduced inertia and friction from a pilot run, for experiment planning.
 
 A pilot run (``stageN/pilot.csv``, the log format of braking.csv; the virtual device's
-:func:`plant.virtual.simulate_pilot`) starts at rest, drives the body forward at a constant
+:func:`rsp_inertia.plant.virtual.simulate_pilot`) starts at rest, drives the body forward at a constant
 known torque up to the stage's launch speed (or until a spring stops the speed rising),
 then switches the motor off and lets it coast to rest (or for a while). Its energy balance over windows of the pass (METHOD.md §3),
 
     E(b) - E(a) + integral_a^b D dphi = motor work from a to b,
 
 is fitted by the same windowed least squares as the nominal model of a braking pass
-(:func:`ocp.nominal.fit_energy_windows`). What the pilot adds is a change of torque: in a
+(:func:`rsp_inertia.ocp.nominal.fit_energy_windows`). What the pilot adds is a change of torque: in a
 braking pass the torque is constant, Coulomb friction a1 is a constant torque too, and
-(M, gravity, a2, a3) fit equally well at any common scale (ocp.nominal). In a pilot the
+(M, gravity, a2, a3) fit equally well at any common scale (rsp_inertia.ocp.nominal). In a pilot the
 powered part's known work sets the scale of the kinetic energy, so M0 comes out absolutely,
 and the coast, where only friction works, then separates a1, a2, a3 by how the loss changes
 with the speed. A free spin-down alone (motor off throughout) has the braking's problem in
@@ -30,20 +30,19 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-
-from estimation.energy import torque_noise
-from estimation.smoothing import smooth_log
-from ocp.nominal import fit_energy_windows
-from plant.config import Device
-from plant.errors import InputError
-from plant.logs import Log
-from plant.model import ModelParameters
+from rsp_inertia.estimation.energy import torque_noise
+from rsp_inertia.estimation.smoothing import smooth_log
+from rsp_inertia.ocp.nominal import fit_energy_windows
+from rsp_inertia.plant.config import Device
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.logs import Log
+from rsp_inertia.plant.model import ModelParameters
 
 __all__ = ["PILOT_UNKNOWNS", "PilotFit", "fit_pilot"]
 
 PILOT_UNKNOWNS = ("M0", "a1", "a2", "a3", "Mc2", "Ms2", "Gs", "Gc", "Ms1", "Mc1")
-"""Parameters fitted (names of plant.model.PARAMETER_NAMES), most important first: a pilot
-too short for all of them fits only the first ones (ocp.nominal.fit_energy_windows). The
+"""Parameters fitted (names of rsp_inertia.plant.model.PARAMETER_NAMES), most important first: a pilot
+too short for all of them fits only the first ones (rsp_inertia.ocp.nominal.fit_energy_windows). The
 spring (c, phi0) comes from device.toml."""
 
 POWERED_SIGMAS = 6.0
@@ -85,7 +84,7 @@ class PilotFit:
     a3_std: float
     """N m s^2, std of ``a3``."""
     torque_noise: float
-    """N m, std of the torque log's noise (estimation.energy.torque_noise: the median
+    """N m, std of the torque log's noise (rsp_inertia.estimation.energy.torque_noise: the median
     absolute deviation of the sample-to-sample changes, which the one step at the switch-off
     does not move)."""
     top_speed: float
@@ -95,7 +94,7 @@ class PilotFit:
     duration: float
     """s, from the log's first row to its last."""
     inertia_harmonics: tuple[float, float, float, float, float]
-    """[M0, Mc2, Ms2, Ms1, Mc1], kg m^2: M(phi) in harmonic form (plant.model), 0 if not
+    """[M0, Mc2, Ms2, Ms1, Mc1], kg m^2: M(phi) in harmonic form (rsp_inertia.plant.model), 0 if not
     fitted."""
     gravity_sin: float
     """Gs = m g x_c, N m (0 if not fitted)."""
@@ -124,8 +123,8 @@ class PilotFit:
 def fit_pilot(device: Device, stage: int, log: Log, source: str | None = None) -> PilotFit:
     """Mean reduced inertia and friction of stage ``stage`` from its pilot log.
 
-    The log is smoothed (estimation.smoothing.smooth_log with the encoder's quantum) and the
-    energy balance fitted over windows (:func:`ocp.nominal.fit_energy_windows`) with the
+    The log is smoothed (rsp_inertia.estimation.smoothing.smooth_log with the encoder's quantum) and the
+    energy balance fitted over windows (:func:`rsp_inertia.ocp.nominal.fit_energy_windows`) with the
     unknowns :data:`PILOT_UNKNOWNS`: M0, M's four harmonics, gravity (Gs, Gc) and the
     friction a1, a2, a3, all of them when the log is long enough. M0 and a1-a3 are bounded
     below by 0. The stds are those of ordinary least squares: the residual variance times
@@ -142,8 +141,8 @@ def fit_pilot(device: Device, stage: int, log: Log, source: str | None = None) -
     stage : int
         The stage number, from 1.
     log : Log
-        The pilot log (plant.logs.read_log of ``stageN/pilot.csv``): the powered rows
-        first, then the coast's (the protocol of plant.virtual.simulate_pilot).
+        The pilot log (rsp_inertia.plant.logs.read_log of ``stageN/pilot.csv``): the powered rows
+        first, then the coast's (the protocol of rsp_inertia.plant.virtual.simulate_pilot).
     source : str, optional
         The log's name in messages; default ``stageN/pilot.csv``.
 

@@ -3,14 +3,14 @@
 The braking torque and the launch speed are protocol choices. This module tries a grid of
 them per stage on a nominal model of the stage (a pilot run's fit, or the rough guesses of
 ``device.toml [plan]``), keeps the protocols that every limit below admits, predicts for
-each the standard deviations that ``identify`` will report (estimation.predict: the same
+each the standard deviations that ``identify`` will report (rsp_inertia.estimation.predict: the same
 balances, the same noise model) and picks, over all stages together, the protocols with the
 smallest predicted std of the worst J_k whose total duration fits the user's budget.
 
 Limits, each with its reason:
 
 - **Turns.** Both passes must share at least ``MIN_TURNS`` (2) turns at useful speed past
-  the release (estimation.balance.usable_range): every node then has a whole-turn pair and
+  the release (rsp_inertia.estimation.balance.usable_range): every node then has a whole-turn pair and
   the least squares sees M's pattern repeat. A protocol the balances refuse is infeasible.
 - **Energy loss per turn** at least ``MIN_LOSS_PER_TURN`` of the kinetic energy over the
   first turn: below it the node formula's denominator Omega_a^2 - Omega_b^2 (METHOD.md §5)
@@ -28,7 +28,7 @@ Limits, each with its reason:
   and the step from it to the mirror's first torque, taken at the full torque rate, within
   ``START_STEP_SHARE`` of the pass (the drive rides its rate limit meanwhile).
 - **Program's nominal model.** ``program`` fits its feedforward model to the braking alone
-  (ocp.nominal), where Coulomb friction a1 is a constant torque like the braking torque: it
+  (rsp_inertia.ocp.nominal), where Coulomb friction a1 is a constant torque like the braking torque: it
   cannot tell them apart, and its inertia comes out short by a1 over the known torques that
   fix the model's scale (the braking torque, and the spring's mean |c (phi - phi0)|). That
   share must stay within ``NOMINAL_COULOMB_SHARE``: with a braking torque near a1 the
@@ -41,10 +41,10 @@ Limits, each with its reason:
   stages, within ``max_duration``.
 
 Objective: the smallest predicted worst std over the axes. The runs' noises are independent,
-so each candidate's information matrix is computed once (estimation.predict.run_information)
+so each candidate's information matrix is computed once (rsp_inertia.estimation.predict.run_information)
 and combinations of one candidate per stage are summed and inverted exhaustively. These
 stds are an ideal reverse's, right for ranking protocols; what the chosen plan promises in
-closed loop comes from its rehearsal (ocp.rehearsal).
+closed loop comes from its rehearsal (rsp_inertia.ocp.rehearsal).
 """
 
 from __future__ import annotations
@@ -58,20 +58,19 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
-
-from estimation.balance import MIN_SPEED_FRACTION, MIN_TURNS
-from estimation.predict import (
+from rsp_inertia.estimation.balance import MIN_SPEED_FRACTION, MIN_TURNS
+from rsp_inertia.estimation.predict import (
     PlannedPass,
     axis_stds,
     combine_information,
     predicted_balance,
     run_information,
 )
-from estimation.smoothing import hermite
-from plant.config import Device, Stage
-from plant.errors import InputError
-from plant.geometry import device_design, turns_past_last_node
-from plant.model import (
+from rsp_inertia.estimation.smoothing import hermite
+from rsp_inertia.plant.config import Device, Stage
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.geometry import device_design, turns_past_last_node
+from rsp_inertia.plant.model import (
     ModelParameters,
     acceleration,
     dissipation,
@@ -79,7 +78,7 @@ from plant.model import (
     reduced_inertia,
     static_torque,
 )
-from plant.virtual import MAX_BRAKING_TIME, integrate_to_stop
+from rsp_inertia.plant.virtual import MAX_BRAKING_TIME, integrate_to_stop
 
 __all__ = [
     "MIN_LOSS_PER_TURN",
@@ -205,7 +204,7 @@ class Candidate:
     violations: tuple[str, ...] = ()
     """The limits it breaks, one phrase each (with the numbers)."""
     information: np.ndarray | None = field(default=None, repr=False)
-    """(8, 8) information on the tensor and gravity terms (estimation.predict), all runs."""
+    """(8, 8) information on the tensor and gravity terms (rsp_inertia.estimation.predict), all runs."""
 
     @property
     def feasible(self) -> bool:

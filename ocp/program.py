@@ -5,12 +5,12 @@ so that its rate v = du/dt can be bounded (the motor's torque-rate limit). On a 
 h (a multiple of the encoder's sample period), with v constant over each interval:
 
     minimise   sum_k h [ (Omega_k - Omega'_k)^2 + W_PHI^2 (phi_k - phi'_k)^2 ] + RHO sum_k h v_k^2
-    subject to x_{k+1} = F(x_k, v_k)                (RK4 of the nominal model, plant.model)
+    subject to x_{k+1} = F(x_k, v_k)                (RK4 of the nominal model, rsp_inertia.plant.model)
                x_0 = (phi7, 0, S(phi7))             (at rest where the braking stopped, held)
                |u_k| <= torque_limit,  |v_k| <= torque_rate_limit
 
-with (phi', Omega') the mirror of the braking (ocp.reference). The model is the nominal one
-fitted to the braking log (ocp.nominal), in the reverse direction (Omega < 0, friction
+with (phi', Omega') the mirror of the braking (rsp_inertia.ocp.reference). The model is the nominal one
+fitted to the braking log (rsp_inertia.ocp.nominal), in the reverse direction (Omega < 0, friction
 opposing). Solved by IPOPT through ``nlpsol``, warm-started from the nominal inverse dynamics
 along the mirror.
 
@@ -38,12 +38,11 @@ from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
+from rsp_inertia.ocp.reference import Mirror
+from rsp_inertia.plant.config import Device
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.model import MODEL, ModelParameters, motor_torque, static_torque
 from scipy.ndimage import uniform_filter1d
-
-from ocp.reference import Mirror
-from plant.config import Device
-from plant.errors import InputError
-from plant.model import MODEL, ModelParameters, motor_torque, static_torque
 
 __all__ = ["GRID_STEP", "RHO", "W_PHI", "OcpSolution", "required_torque", "solve_program_ocp"]
 

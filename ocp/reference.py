@@ -5,7 +5,7 @@ In file time (each log from t = 0), with T the braking's rest time:
     phi'(t') = phi(T - t'),   Omega'(t') = -Omega(T - t'),   eps'(t') = eps(T - t')
 
 for 0 <= t' <= T. The braking states come from the UKF/RTS smoother of the identification
-(estimation.smoothing: the same estimates, not a second smoother).
+(rsp_inertia.estimation.smoothing: the same estimates, not a second smoother).
 
 The rest. The braking log ends at the last sample before the speed reaches zero; the rest
 lies less than a sample later. A straight line fitted to the smoothed speed over the last
@@ -27,9 +27,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-
-from estimation.smoothing import Smoothed, hermite
-from plant.errors import InputError
+from rsp_inertia.estimation.smoothing import Smoothed, hermite
+from rsp_inertia.plant.errors import InputError
 
 __all__ = ["REST_COUNTS", "REST_WINDOW", "Mirror", "RestFit", "braking_states_at", "mirror", "rest_fit", "rest_point"]
 

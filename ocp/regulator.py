@@ -1,7 +1,7 @@
 """State-feedback regulator of the reverse pass: LQR gains along the mirror.
 
 Error dynamics, linearised along the reference (phi', Omega') of the nominal model
-(plant.model), e = (phi - phi', Omega - Omega'):
+(rsp_inertia.plant.model), e = (phi - phi', Omega - Omega'):
 
     de/dt = A(t) e + B(t) du,   A = [[0, 1], [d eps/d phi, d eps/d Omega]],   B = [0, 1/M(phi')]
 
@@ -40,10 +40,9 @@ import math
 import casadi as ca
 import numpy as np
 import scipy.linalg
+from rsp_inertia.plant.config import Device
+from rsp_inertia.plant.model import MODEL, ModelParameters, reduced_inertia
 from threadpoolctl import threadpool_limits
-
-from plant.config import Device
-from plant.model import MODEL, ModelParameters, reduced_inertia
 
 __all__ = ["GAIN_STEP", "MAX_BANDWIDTH", "OBSERVER_BANDWIDTH", "bandwidth", "lqr_gains"]
 

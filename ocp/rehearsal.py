@@ -1,15 +1,15 @@
 """Rehearsal of a plan: the chosen experiment run in closed loop on the planner's nominal model.
 
-The planner's prediction (estimation.predict) is that of an ideal reverse: the exact mirror
+The planner's prediction (rsp_inertia.estimation.predict) is that of an ideal reverse: the exact mirror
 of an exact braking, identify's noise model on it. A closed-loop reverse differs in two ways
 that identify sees and the ideal prediction cannot:
 
 - **Tracking mismatch.** identify fits, per run, the two friction slopes of the mismatch
-  delta = |Omega'| - |Omega| (estimation.balance). Their columns take information from the
+  delta = |Omega'| - |Omega| (rsp_inertia.estimation.balance). Their columns take information from the
   tensor in proportion to how much their shape resembles M's harmonics, whatever their size
   (scaling a column leaves a least squares' covariance unchanged), and the shape is set by
   how the regulator follows a feedforward computed from a nominal model that is a few
-  percent off (ocp.nominal cannot see Coulomb friction).
+  percent off (rsp_inertia.ocp.nominal cannot see Coulomb friction).
 - **Closed-loop speed noise.** The regulator's torque steps with every encoder count move
   the body in a way the smoother does not follow; identify measures that as its
   speed-noise scale.
@@ -21,9 +21,9 @@ same logs was within 10% of the prediction on the paper's scenario).
 The rehearsal therefore runs what the experiment will run, with the nominal model as the
 truth: for every stage and direction the braking of the chosen protocol (encoder
 quantization, the torque log's noise of the pilot or the guess; the release where the plan
-puts it, ocp.plan.planned_release), ``program`` from that
+puts it, rsp_inertia.ocp.plan.planned_release), ``program`` from that
 braking log (its own nominal fit, blind to a1 as on the rig), the closed-loop reverse on a
-drive with the regulator's assumed speed observer (ocp.regulator.OBSERVER_BANDWIDTH) and the
+drive with the regulator's assumed speed observer (rsp_inertia.ocp.regulator.OBSERVER_BANDWIDTH) and the
 motor's limits, and identify's least squares on those logs. Its reported stds are the
 prediction. One realisation, seeded: the stds scatter by 3% over four noise seeds (spring
 scenario). What the rehearsal cannot know is how far the program's nominal model will be
@@ -39,17 +39,16 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-
-from estimation.balance import stage_balance
-from estimation.runs import estimate_run
-from estimation.tensor import axis_values, fit_tensor, format_run
-from ocp.make import make_program
-from ocp.plan import Candidate, StageModel, map_stages, planned_release
-from ocp.regulator import OBSERVER_BANDWIDTH
-from plant.config import ControllerSettings, Device, Friction, RunSettings, Virtual
-from plant.geometry import device_design
-from plant.model import ModelParameters, inertia_harmonics
-from plant.virtual import run_program, simulate_braking
+from rsp_inertia.estimation.balance import stage_balance
+from rsp_inertia.estimation.runs import estimate_run
+from rsp_inertia.estimation.tensor import axis_values, fit_tensor, format_run
+from rsp_inertia.ocp.make import make_program
+from rsp_inertia.ocp.plan import Candidate, StageModel, map_stages, planned_release
+from rsp_inertia.ocp.regulator import OBSERVER_BANDWIDTH
+from rsp_inertia.plant.config import ControllerSettings, Device, Friction, RunSettings, Virtual
+from rsp_inertia.plant.geometry import device_design
+from rsp_inertia.plant.model import ModelParameters, inertia_harmonics
+from rsp_inertia.plant.virtual import run_program, simulate_braking
 
 __all__ = ["Rehearsal", "consistent_models", "rehearse"]
 
@@ -60,7 +59,7 @@ def consistent_models(device: Device, models: Sequence[StageModel]) -> list[Mode
     Each stage's pilot is fitted alone, so the stages' harmonics need not come from one tensor,
     nor their gravity terms from one centre of mass; identify fits one of each to all stages
     and would read the difference as a misfit. The harmonics are linear in the tensor
-    (plant.model.inertia_harmonics, METHOD.md §2): least squares over every stage's
+    (rsp_inertia.plant.model.inertia_harmonics, METHOD.md §2): least squares over every stage's
     harmonics gives the tensor, and the harmonics are recomputed from it; Gs and Gc
     (m g x_c, m g y_c, the same for every stage) are averaged. With one stage the model
     stays as it is.
@@ -117,7 +116,7 @@ def rehearse(
     """Simulate the chosen protocols in closed loop on the models and identify them.
 
     The stages are independent until the least squares, so they run in parallel processes
-    (ocp.plan.map_stages); each stage's noise has its own seeded stream.
+    (rsp_inertia.ocp.plan.map_stages); each stage's noise has its own seeded stream.
 
     Raises
     ------

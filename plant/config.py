@@ -7,7 +7,7 @@ run) and fixture, the friction law in each direction of motion, the rig's imperf
 the settings of the simulated runs. Both files are contracts of INTERFACES.md (sections
 "device.toml" and "virtual.toml"); this module is the one place that reads them.
 
-Bad input raises :class:`plant.errors.InputError` with one line that names the file, the
+Bad input raises :class:`rsp_inertia.plant.errors.InputError` with one line that names the file, the
 dotted key and the fault, for example
 ``device.toml: stage[2].gear_ratio: must be >= 0, got -0.5``. Indices in keys count from 1,
 as the ``stage1/``, ``stage2/`` folders of an experiment do. Unknown keys and tables are
@@ -23,8 +23,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-
-from plant.errors import InputError
+from rsp_inertia.plant.errors import InputError
 
 __all__ = [
     "DEFAULT_GRAVITY",
@@ -135,7 +134,7 @@ class Stage:
     """Where the rig releases the body for a forward braking pass, phi in deg (the backward
     pass: its negative); part of the protocol, which ``plan`` predicts for and writes. None
     (not stated): the virtual device releases at virtual.toml's ``[run] release_angle_deg``,
-    and ``plan`` assumes a release ocp.plan.RELEASE_BEFORE_NODE_DEG before the first node."""
+    and ``plan`` assumes a release rsp_inertia.ocp.plan.RELEASE_BEFORE_NODE_DEG before the first node."""
 
     @property
     def nodes(self) -> np.ndarray:
@@ -562,9 +561,9 @@ class Virtual:
     """Explicit friction for backward motion (Omega < 0), from ``[friction_backward]``; None:
     ``friction`` scaled by its ``backward_scale``."""
     models: tuple | None = None
-    """Per stage, the true model given directly (plant.model.ModelParameters, both directions
+    """Per stage, the true model given directly (rsp_inertia.plant.model.ModelParameters, both directions
     of motion) in place of body, fixture, tare and friction: a rehearsal of a plan on its
-    nominal model (ocp.rehearsal). Never read from virtual.toml."""
+    nominal model (rsp_inertia.ocp.rehearsal). Never read from virtual.toml."""
 
     def friction_for(self, direction: float) -> Friction:
         """The friction coefficients while the body moves in ``direction`` (sign of Omega).

@@ -22,8 +22,8 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from plant.config import DIRECTIONS, Device, Virtual, load_device, load_virtual
-from plant.errors import InputError
+from rsp_inertia.plant.config import DIRECTIONS, Device, Virtual, load_device, load_virtual
+from rsp_inertia.plant.errors import InputError
 
 __all__ = ["Experiment", "open_experiment"]
 

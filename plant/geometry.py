@@ -13,9 +13,8 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
+from rsp_inertia.plant.errors import InputError
 from scipy.optimize import minimize_scalar
-
-from plant.errors import InputError
 
 __all__ = [
     "AxisDesign",

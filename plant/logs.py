@@ -4,7 +4,7 @@ A braking or reverse pass is logged as ``t,phi,torque`` (a :class:`Log`); the to
 a reverse pass is ``t,phi_ref,omega_ref,torque_ff,k_phi,k_omega`` (a :class:`Program`).
 Reading checks everything the rest of the package relies on (finite numbers, t from 0 at the
 encoder's sample rate, phi on the encoder grid, the direction of the pass) and turns every
-fault into one :class:`~plant.errors.InputError` line naming the file and the line.
+fault into one :class:`~rsp_inertia.plant.errors.InputError` line naming the file and the line.
 Writing is exact (``repr`` round-trips every float64), deterministic and atomic.
 """
 
@@ -18,9 +18,8 @@ from pathlib import Path
 from typing import Protocol
 
 import numpy as np
-
-from plant.config import DIRECTIONS
-from plant.errors import InputError
+from rsp_inertia.plant.config import DIRECTIONS
+from rsp_inertia.plant.errors import InputError
 
 LOG_COLUMNS = ("t", "phi", "torque")
 
@@ -45,7 +44,7 @@ GRID_TOLERANCE = 1e-3
 
 
 class EncoderLike(Protocol):
-    """What the readers need of an encoder (``plant.config.Encoder`` has it)."""
+    """What the readers need of an encoder (``rsp_inertia.plant.config.Encoder`` has it)."""
 
     @property
     def quantum(self) -> float:
@@ -342,12 +341,12 @@ def read_log(
         absolute angle, its zero must be the spring's reference.
     encoder : encoder-like
         Anything with ``quantum`` (rad, 2 pi / counts_per_rev) and ``sample_rate`` (Hz), such
-        as ``plant.config.Encoder``; ``counts_per_rev`` and ``counter_bits`` for counts.
+        as ``rsp_inertia.plant.config.Encoder``; ``counts_per_rev`` and ``counter_bits`` for counts.
     kind : {"braking", "reverse", "pendulum"}
         Which pass: a forward braking must end at a larger phi than it starts, its reverse at
         a smaller one; a pendulum run may go either way.
     direction : {"forward", "backward"}
-        The direction of the stage's run (``plant.config.DIRECTIONS``): a backward braking
+        The direction of the stage's run (``rsp_inertia.plant.config.DIRECTIONS``): a backward braking
         must end at a smaller phi than it starts, its reverse at a larger one. Pendulum runs
         ignore it.
 
@@ -387,7 +386,7 @@ def read_program(path: str | os.PathLike, encoder: EncoderLike) -> Program:
         The CSV file, header ``t,phi_ref,omega_ref,torque_ff,k_phi,k_omega``.
     encoder : encoder-like
         Anything with ``sample_rate`` (Hz) and ``quantum`` (rad), such as
-        ``plant.config.Encoder``; the program runs at the encoder's sample rate.
+        ``rsp_inertia.plant.config.Encoder``; the program runs at the encoder's sample rate.
 
     Returns
     -------

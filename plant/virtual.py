@@ -1,6 +1,6 @@
 """The virtual device: a simulated gimbal that writes logs as a real rig would (INTERFACES.md).
 
-It integrates the model of :mod:`plant.model` (the true body of ``virtual.toml`` on the gimbal
+It integrates the model of :mod:`rsp_inertia.plant.model` (the true body of ``virtual.toml`` on the gimbal
 of ``device.toml``) with a fixed-step fourth-order Runge-Kutta scheme, sample by sample, the
 motor torque held over each sample (zero-order hold, METHOD.md §4). Stops are events: the
 instant the speed crosses zero inside a sample is found by root-finding on the integrator's
@@ -32,12 +32,10 @@ from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
-from scipy.optimize import brentq
-
-from plant.config import DIRECTIONS, Device, Stage, Virtual
-from plant.errors import InputError
-from plant.logs import Log, Program
-from plant.model import (
+from rsp_inertia.plant.config import DIRECTIONS, Device, Stage, Virtual
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.logs import Log, Program
+from rsp_inertia.plant.model import (
     MODEL,
     PARAMETER_NAMES,
     ModelParameters,
@@ -47,6 +45,7 @@ from plant.model import (
     reduced_inertia,
     static_torque,
 )
+from scipy.optimize import brentq
 
 __all__ = [
     "MAX_BRAKING_TIME",
@@ -199,8 +198,8 @@ def true_parameters(
     the fixture (either may be absent): their tensors, both about O in the body frame, add
     (METHOD.md §2), and so do their gravity terms Gs = sum m g x_c, Gc = sum m g y_c
     (METHOD.md §3). The tare is the rig's true one (``[rig] tare_inertia``, else device.toml's,
-    :meth:`plant.config.Rig.true_tare`); the friction that of the direction of motion
-    (:meth:`plant.config.Virtual.friction_for`).
+    :meth:`rsp_inertia.plant.config.Rig.true_tare`); the friction that of the direction of motion
+    (:meth:`rsp_inertia.plant.config.Virtual.friction_for`).
 
     Parameters
     ----------
@@ -212,7 +211,7 @@ def true_parameters(
     Returns
     -------
     ModelParameters
-        The parameters of :mod:`plant.model`, the same in both directions but for friction;
+        The parameters of :mod:`rsp_inertia.plant.model`, the same in both directions but for friction;
         ``virtual.models``' entry for the stage when it has them.
 
     Raises
@@ -342,7 +341,7 @@ def simulate_braking(
     device, stage, virtual
         The gimbal, the stage number (from 1) and the virtual device's truth.
     direction : {"forward", "backward"}
-        The direction of the run (``plant.config.DIRECTIONS``); each has its own noise stream.
+        The direction of the run (``rsp_inertia.plant.config.DIRECTIONS``); each has its own noise stream.
 
     Returns
     -------
@@ -500,7 +499,7 @@ def run_program(
         pass's noise stream (the motion follows the program, in whichever direction).
     coarse : bool
         One RK4 step per sample instead of SUBSTEPS (4x faster): for a rehearsal on a
-        nominal model (ocp.rehearsal), where the body's motion over a sample, h w ~ 0.01 at
+        nominal model (rsp_inertia.ocp.rehearsal), where the body's motion over a sample, h w ~ 0.01 at
         the 2 Omega harmonic, leaves an RK4 error ~(h w)^5 / 120, far below what the
         model knows.
 
@@ -577,7 +576,7 @@ def ideal_program(
     x_ref(t') = (phi(T - t'), -Omega(T - t')), obtained by integrating the braking's own
     dynamics (its physical torque, the friction of its direction of motion s) with a negative
     step from (phi7, 0), so no interpolation enters. The feedforward is the true model's
-    inverse dynamics along it (:func:`plant.model.motor_torque`, with the friction of the
+    inverse dynamics along it (:func:`rsp_inertia.plant.model.motor_torque`, with the friction of the
     reverse's direction -s), averaged over each sample for the zero-order hold: a physical
     torque, which the ideal drive of :func:`run_program` applies exactly. The gains put both
     closed-loop poles at -IDEAL_BANDWIDTH with the true M(phi_ref).
@@ -770,7 +769,7 @@ def simulate_pilot(device: Device, stage: int, virtual: Virtual) -> SimulatedPas
 
     The short run from which the planner estimates the stage's mean reduced inertia and its
     friction before the experiment (``stageN/pilot.csv``, the log format of braking.csv;
-    ocp.pilot fits it). Protocol, forward only:
+    rsp_inertia.ocp.pilot fits it). Protocol, forward only:
 
     1. The body starts at rest at the release angle (``virtual.run.release_angle_deg``).
     2. Powered part: the drive commands the constant torque PILOT_TORQUE_FRACTION x

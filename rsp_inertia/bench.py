@@ -34,17 +34,17 @@ import tomlkit
 from scipy.optimize import brentq
 from threadpoolctl import threadpool_limits
 
-from estimation.calibration import known_terms
-from estimation.identify import identify_pendulum
-from estimation.pendulum import estimate_pendulum
-from plant.config import load_device
-from plant.errors import InputError
-from plant.experiment import open_experiment
-from plant.logs import Log, read_log, write_atomic, write_log
-from plant.model import ModelParameters, dissipation
-from plant.virtual import true_parameters
 from rsp_inertia.checking import MIN_TURNS_PAST_LAST_NODE
+from rsp_inertia.estimation.calibration import known_terms
+from rsp_inertia.estimation.identify import identify_pendulum
+from rsp_inertia.estimation.pendulum import estimate_pendulum
 from rsp_inertia.pipeline import create_default_experiment, identify, program, simulate
+from rsp_inertia.plant.config import load_device
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.experiment import open_experiment
+from rsp_inertia.plant.logs import Log, read_log, write_atomic, write_log
+from rsp_inertia.plant.model import ModelParameters, dissipation
+from rsp_inertia.plant.virtual import true_parameters
 from rsp_inertia.sensitivity import (
     Perturbation,
     default_perturbations,
@@ -556,7 +556,7 @@ def is_timing(key: str) -> bool:
 
 # --- the sweep ---------------------------------------------------------------------------
 
-PACKAGES = ("plant", "ocp", "estimation", "rsp_inertia")
+PACKAGES = ("plant", "ocp", "estimation", "rsp_inertia")  # folder names
 """The project's packages: where a crash's innermost frame of interest lies."""
 
 
@@ -565,7 +565,7 @@ def code_fingerprint() -> str:
     module, the default experiment): a cached result is reused only under the same code."""
     digest = hashlib.sha256()
     files = []
-    for package in ("plant", "ocp", "estimation"):
+    for package in ("rsp_inertia.plant", "rsp_inertia.ocp", "rsp_inertia.estimation"):
         folder = Path(importlib.import_module(package).__file__).parent
         files += sorted(folder.rglob("*.py")) + sorted(folder.rglob("*.toml"))
     files += [Path(importlib.import_module(m).__file__) for m in ("rsp_inertia.pipeline", __name__)]

@@ -25,12 +25,12 @@ from pathlib import Path
 
 import numpy as np
 
-from estimation.balance import mirror_log
-from estimation.energy import check_braking_monotone
-from plant.errors import InputError
-from plant.experiment import open_experiment
-from plant.geometry import turns_past_last_node
-from plant.logs import read_log
+from rsp_inertia.estimation.balance import mirror_log
+from rsp_inertia.estimation.energy import check_braking_monotone
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.experiment import open_experiment
+from rsp_inertia.plant.geometry import turns_past_last_node
+from rsp_inertia.plant.logs import read_log
 
 __all__ = ["LEVELS", "MIN_TURNS_PAST_LAST_NODE", "CheckReport", "check"]
 
@@ -98,7 +98,7 @@ def check(root: str | Path) -> CheckReport:
     _check_constants(exp, report)
     reference = exp.root / "reference.toml"
     if reference.is_file():
-        from plant.config import load_reference
+        from rsp_inertia.plant.config import load_reference
 
         try:
             load_reference(reference)
@@ -226,7 +226,11 @@ def _check_pendulum(exp, report: CheckReport) -> None:
 
 def _check_constants(exp, report: CheckReport) -> None:
     """What identify will take as known: calibration.toml, or device.toml's stated stds."""
-    from estimation.calibration import CALIBRATION_FILE, calibrated_stiffness, load_calibration
+    from rsp_inertia.estimation.calibration import (
+        CALIBRATION_FILE,
+        calibrated_stiffness,
+        load_calibration,
+    )
 
     device = exp.device
     path = exp.root / CALIBRATION_FILE

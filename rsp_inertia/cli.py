@@ -1,6 +1,6 @@
 """Command line of rsp-inertia: parse arguments, call one library function, print.
 
-Bad input (:class:`plant.errors.InputError`) becomes one line on stderr and exit status 2;
+Bad input (:class:`rsp_inertia.plant.errors.InputError`) becomes one line on stderr and exit status 2;
 argparse's own usage errors exit with 2 as well.
 """
 
@@ -10,7 +10,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from plant.errors import InputError
+from rsp_inertia.plant.errors import InputError
 
 
 def _cmd_demo(args: argparse.Namespace) -> None:
@@ -120,11 +120,25 @@ BENCH_OUT = Path("benchmarks/results")
 """Where ``rsp-inertia bench`` writes by default (relative to the working folder)."""
 
 
+def _version() -> str:
+    """The installed distribution's version (pyproject.toml's ``version``)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("rsp-inertia")
+    except PackageNotFoundError:  # run from a checkout that was never installed
+        return "unknown"
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="rsp-inertia",
         description="Inertia tensor and centre of mass by reverse-symmetrical semi-program "
         "precession (RSP) on a biaxial gimbal.",
+    )
+    parser.add_argument(
+        "--version", action="version", version=f"%(prog)s {_version()}",
+        help="print the installed version and exit",
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 

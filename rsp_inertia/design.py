@@ -1,7 +1,7 @@
 """Presentation of axis designs: a text report and the conditioning figure (paper Fig. 1).
 
 The geometry itself (directions, V, cond(V), the optimum cone) lives in
-:mod:`plant.geometry` (METHOD.md §5 "Axis designs"); this module only formats and draws it.
+:mod:`rsp_inertia.plant.geometry` (METHOD.md §5 "Axis designs"); this module only formats and draws it.
 """
 
 from __future__ import annotations
@@ -14,8 +14,8 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from numpy.typing import ArrayLike
 
-from plant.config import load_device
-from plant.geometry import (
+from rsp_inertia.plant.config import load_device
+from rsp_inertia.plant.geometry import (
     AxisDesign,
     best_cone_opening,
     cone_plus_z_design,
@@ -84,7 +84,7 @@ def design_report(designs: list[AxisDesign]) -> str:
 
     Examples
     --------
-    >>> from plant.geometry import icosahedron_design
+    >>> from rsp_inertia.plant.geometry import icosahedron_design
     >>> "cond(V) = 1.5811" in design_report([icosahedron_design()])
     True
     """
@@ -104,7 +104,7 @@ def plot_cone_conditioning(
 ) -> None:
     """Write the paper's Fig. 1 as a PNG: 1/cond(V) of the cone-plus-z design vs 2 beta.
 
-    The optimum opening (:func:`plant.geometry.best_cone_opening`) is marked and the
+    The optimum opening (:func:`rsp_inertia.plant.geometry.best_cone_opening`) is marked and the
     icosahedron's 1/cond(V) = sqrt(2/5) is drawn as a horizontal reference
     (METHOD.md §5 "Axis designs"). The file is written atomically: to a temporary file in
     the same folder, then renamed over ``path``.

@@ -17,18 +17,18 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from plant.config import DIRECTIONS
-from plant.errors import InputError
-from plant.experiment import Experiment, open_experiment
-from plant.logs import read_log, read_program, write_atomic, write_log, write_program
+from rsp_inertia.plant.config import DIRECTIONS
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.experiment import Experiment, open_experiment
+from rsp_inertia.plant.logs import read_log, read_program, write_atomic, write_log, write_program
 
 # Each command imports what it uses inside its function: ``program`` must not pay for the
 # identification's modules (scipy.stats, the GLS) nor ``identify`` for the OCP's.
 if TYPE_CHECKING:
-    from estimation.calibration import Calibration
-    from estimation.identify import Identification
-    from ocp.make import ProgramResult
-    from plant.virtual import SimulatedPass
+    from rsp_inertia.estimation.calibration import Calibration
+    from rsp_inertia.estimation.identify import Identification
+    from rsp_inertia.ocp.make import ProgramResult
+    from rsp_inertia.plant.virtual import SimulatedPass
 
 __all__ = [
     "DEFAULT_EXPERIMENT",
@@ -93,7 +93,7 @@ def create_default_experiment(root: str | Path) -> Path:
     for name in ("device.toml", "virtual.toml"):
         target = root / name
         if not target.exists():
-            text = resources.files("plant").joinpath("defaults", name).read_text()
+            text = resources.files("rsp_inertia.plant").joinpath("defaults", name).read_text()
             write_atomic(target, text)
     return root
 
@@ -120,7 +120,7 @@ def create_rig_experiment(root: str | Path) -> tuple[Path, Path, Path]:
     sources = [("rig",)] + [("rig", name) for name in CALIBRATION_FOLDERS]
     for folder, source in zip(folders, sources):
         folder.mkdir(parents=True, exist_ok=True)
-        files = resources.files("plant").joinpath("defaults", *source)
+        files = resources.files("rsp_inertia.plant").joinpath("defaults", *source)
         for name in ("device.toml", "virtual.toml", "reference.toml"):
             target = folder / name
             if not target.exists() and files.joinpath(name).is_file():
@@ -139,7 +139,7 @@ def _summary(
     log = sim.log
     past = None
     if part == "braking":
-        from plant.geometry import turns_past_last_node
+        from rsp_inertia.plant.geometry import turns_past_last_node
 
         past = turns_past_last_node(log.phi, exp.device.stages[stage - 1].nodes)
     return PassSummary(
@@ -163,7 +163,7 @@ def _braking_truth(
     rather than storing truth next to the logs, and refuses a braking log it did not write
     with these settings.
     """
-    from plant.virtual import simulate_braking
+    from rsp_inertia.plant.virtual import simulate_braking
 
     braking = simulate_braking(exp.device, stage, virtual, direction)
     path = exp.braking_path(stage, direction)
@@ -218,7 +218,7 @@ def simulate(
         Bad ``part`` or ``direction``, or no selected stage runs ``direction``; and whatever
         the files' readers and the simulator raise.
     """
-    from plant.virtual import (
+    from rsp_inertia.plant.virtual import (
         run_program,
         simulate_braking,
         simulate_ideal_reverse,
@@ -302,7 +302,7 @@ def program(
     Reads only device.toml and the braking log. Nothing is written for a stage whose mirror
     the motor cannot drive (the error says what torque it needs).
     """
-    from ocp.make import make_program
+    from rsp_inertia.ocp.make import make_program
 
     exp = open_experiment(root)
     results = []
@@ -338,8 +338,8 @@ def calibrate(
     Nothing is written when an input is bad (stages that differ from EXP's, a missing or
     unphysical reference.toml, bad logs).
     """
-    from estimation.calibration import CALIBRATION_FILE
-    from estimation.calibration import calibrate as calibrate_rig
+    from rsp_inertia.estimation.calibration import CALIBRATION_FILE
+    from rsp_inertia.estimation.calibration import calibrate as calibrate_rig
 
     exp = open_experiment(root)
     result = calibrate_rig(
@@ -356,7 +356,7 @@ def identify(
     root: str | Path, progress: Callable[[str], None] | None = None
 ) -> Identification:
     """``rsp-inertia identify``: all stages' logs -> EXP/result.json (written atomically)."""
-    from estimation.identify import identify as identify_experiment
+    from rsp_inertia.estimation.identify import identify as identify_experiment
 
     exp = open_experiment(root)
     result = identify_experiment(exp, progress)
@@ -366,8 +366,8 @@ def identify(
 
 def format_identification(result: Identification, truth: np.ndarray | None = None) -> str:
     """A short human table of an identification (optionally against a known tensor)."""
-    from estimation.identify import ENTRY_NAMES
-    from plant.geometry import tensor_from_entries
+    from rsp_inertia.estimation.identify import ENTRY_NAMES
+    from rsp_inertia.plant.geometry import tensor_from_entries
 
     lines = []
     head = f"{'':5} {'RSP least squares':>26} {'RSP node formula':>26}"
@@ -467,10 +467,10 @@ def demo_figures(exp: Experiment, result: Identification) -> list[Path]:
     of the reverse log. Fig. 3 and the error chart use the virtual device's truth.
     """
     # Imported here: only the demo draws, and matplotlib costs the other commands a second.
-    from estimation.smoothing import smooth_log
-    from plant.geometry import tensor_from_entries
-    from plant.virtual import free_motion
     from rsp_inertia.design import plot_cone_conditioning
+    from rsp_inertia.estimation.smoothing import smooth_log
+    from rsp_inertia.plant.geometry import tensor_from_entries
+    from rsp_inertia.plant.virtual import free_motion
     from rsp_inertia.plots import plot_errors, plot_motion, plot_tracking
 
     device, virtual = exp.device, exp.load_virtual()
@@ -534,8 +534,8 @@ def demo(
     (its warnings and error shown); ``calibrate``; the identification, printed
     against the virtual device's true tensor, with figures.
     """
-    from estimation.calibration import CALIBRATION_FILE
-    from plant.geometry import tensor_from_entries
+    from rsp_inertia.estimation.calibration import CALIBRATION_FILE
+    from rsp_inertia.plant.geometry import tensor_from_entries
 
     say = progress or (lambda _text: None)
     root, empty, reference = create_rig_experiment(root)

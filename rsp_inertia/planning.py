@@ -2,7 +2,7 @@
 
 Reads ``EXP/device.toml`` and, per stage, ``stageN/pilot.csv`` when it exists (else the
 guesses of ``device.toml [plan]``), chooses every stage's ``launch_speed`` and
-``braking_torque`` (ocp.plan), writes them, and the release angle the plan assumed
+``braking_torque`` (rsp_inertia.ocp.plan), writes them, and the release angle the plan assumed
 (``release_angle_deg``, kept when device.toml states one), into ``EXP/device.toml`` (atomically, comments
 and key order kept), and draws ``EXP/plan.png``. Nothing is written when a stage has no
 feasible protocol.
@@ -17,13 +17,20 @@ from pathlib import Path
 import numpy as np
 import tomlkit
 
-from ocp.plan import TORQUE_MARGIN, Plan, StageModel, make_plan, map_stages, planned_release
-from ocp.rehearsal import Rehearsal
-from plant.config import Device
-from plant.errors import InputError
-from plant.experiment import open_experiment
-from plant.logs import Log, read_log, write_atomic
-from plant.model import ModelParameters
+from rsp_inertia.ocp.plan import (
+    TORQUE_MARGIN,
+    Plan,
+    StageModel,
+    make_plan,
+    map_stages,
+    planned_release,
+)
+from rsp_inertia.ocp.rehearsal import Rehearsal
+from rsp_inertia.plant.config import Device
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.experiment import open_experiment
+from rsp_inertia.plant.logs import Log, read_log, write_atomic
+from rsp_inertia.plant.model import ModelParameters
 
 __all__ = ["DEFAULT_MAX_DURATION", "PlanReport", "guess_model", "plan", "stage_models"]
 
@@ -39,7 +46,7 @@ def guess_model(device: Device, stage: int) -> tuple[ModelParameters, float]:
 
     M0 = M_tare + (1 + lambda^2) J, J the mean of the guessed principal moments (the axis's
     J_e lies between the extreme ones; METHOD.md §2); no M harmonics (their effect on the
-    mirror's torque cancels, module docstring of ocp.plan); gravity m g r from the mass and
+    mirror's torque cancels, module docstring of rsp_inertia.ocp.plan); gravity m g r from the mass and
     the guessed offset of the centre of mass; friction and spring as given.
     """
     guess = device.plan
@@ -82,7 +89,7 @@ def stage_models(root: str | Path) -> list[StageModel]:
     """Per stage: the pilot run's fit if ``stageN/pilot.csv`` exists, else device.toml's guess.
 
     The pilots are read here (a bad log's error comes before any process starts) and fitted
-    per stage in parallel (ocp.plan.map_stages).
+    per stage in parallel (rsp_inertia.ocp.plan.map_stages).
     """
     exp = open_experiment(root)
     jobs = []
@@ -97,7 +104,7 @@ def _stage_model(device: Device, stage: int, path: Path, log: Log | None) -> Sta
     """One stage's model: its pilot's fit (``log``, read from ``path``), else device.toml's
     guess."""
     if log is not None:
-        from ocp.pilot import fit_pilot
+        from rsp_inertia.ocp.pilot import fit_pilot
 
         fit = fit_pilot(device, stage, log, str(path))
         bound = fit.a1 + 2 * fit.a1_std if np.isfinite(fit.a1_std) else fit.a1
@@ -120,7 +127,7 @@ class PlanReport:
     figure: Path | None
     seconds: float
     rehearsal: Rehearsal | None = None
-    """identify's stds on the plan run in closed loop on the nominal model (ocp.rehearsal);
+    """identify's stds on the plan run in closed loop on the nominal model (rsp_inertia.ocp.rehearsal);
     None when skipped."""
     rehearsal_error: str | None = None
     """Why the rehearsal could not run (what program or identify refused), if it did not."""
@@ -207,7 +214,7 @@ def format_plan(report: PlanReport) -> str:
 
 def _axial_guess(sm: StageModel, device: Device) -> float:
     """kg m^2, the order of J_k on this stage: its nominal mean reduced inertia as J_e."""
-    from estimation.identify import axial_moment
+    from rsp_inertia.estimation.identify import axial_moment
 
     return float(axial_moment(sm.model.inertia_harmonics[0], device.stages[sm.stage - 1]))
 
@@ -221,7 +228,7 @@ def plan(
     """``rsp-inertia plan``: choose, write device.toml and plan.png (module docstring).
 
     ``rehearse``: run the chosen plan in closed loop on the nominal model and predict with
-    identify's stds there (ocp.rehearsal); else the ideal reverse's prediction only.
+    identify's stds there (rsp_inertia.ocp.rehearsal); else the ideal reverse's prediction only.
     """
     import time
 
@@ -255,7 +262,7 @@ def plan(
     write_atomic(path, tomlkit.dumps(doc))
     rehearsal, rehearsal_error = None, None
     if rehearse:
-        from ocp.rehearsal import rehearse as run_rehearsal
+        from rsp_inertia.ocp.rehearsal import rehearse as run_rehearsal
 
         try:
             rehearsal = run_rehearsal(device, models, result.chosen, progress=progress)

@@ -17,9 +17,9 @@ import platform
 from importlib import metadata
 from pathlib import Path
 
-from plant.errors import InputError
-from plant.experiment import open_experiment
-from plant.logs import write_atomic
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.experiment import open_experiment
+from rsp_inertia.plant.logs import write_atomic
 
 __all__ = ["FIGURES", "PACKAGES", "REPORT_FILE", "write_report"]
 

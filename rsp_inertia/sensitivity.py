@@ -30,10 +30,10 @@ import numpy as np
 import tomlkit
 from threadpoolctl import threadpool_limits
 
-from plant.errors import InputError
-from plant.experiment import open_experiment
-from plant.logs import write_atomic
 from rsp_inertia.pipeline import create_default_experiment, identify, program, simulate
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.experiment import open_experiment
+from rsp_inertia.plant.logs import write_atomic
 
 __all__ = [
     "SENSITIVITY_METHODS",

@@ -3,11 +3,10 @@
 from pathlib import Path
 
 import pytest
+import rsp_inertia.plant
+from rsp_inertia.plant.config import Device, Virtual, load_device, load_virtual
 
-import plant
-from plant.config import Device, Virtual, load_device, load_virtual
-
-DEFAULTS = Path(plant.__file__).parent / "defaults"
+DEFAULTS = Path(rsp_inertia.plant.__file__).parent / "defaults"
 """The embedded default experiment: the paper's icosahedron design on a virtual gimbal."""
 
 

@@ -11,14 +11,14 @@ import math
 
 import numpy as np
 import pytest
+from rsp_inertia.estimation.balance import node_formula, stage_balance
+from rsp_inertia.estimation.energy import PassEstimate
+from rsp_inertia.estimation.smoothing import Smoothed
+from rsp_inertia.estimation.tensor import fit_tensor
+from rsp_inertia.plant import virtual as vd
+from rsp_inertia.plant.logs import Log
+from rsp_inertia.plant.model import acceleration, reduced_inertia
 
-from estimation.balance import node_formula, stage_balance
-from estimation.energy import PassEstimate
-from estimation.smoothing import Smoothed
-from estimation.tensor import fit_tensor
-from plant import virtual as vd
-from plant.logs import Log
-from plant.model import acceleration, reduced_inertia
 from tests.estimation.conftest import STAGES, tensor
 
 EXACT_REL = 1e-6

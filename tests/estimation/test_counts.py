@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import numpy as np
+from rsp_inertia.plant.config import load_device
+from rsp_inertia.plant.logs import read_log
 
-from plant.config import load_device
-from plant.logs import read_log
 from rsp_inertia.pipeline import create_default_experiment, identify, simulate
 
 

@@ -5,8 +5,7 @@ import math
 
 import numpy as np
 import pytest
-
-from estimation.energy import (
+from rsp_inertia.estimation.energy import (
     CONSTANCY_TAIL,
     constancy_p_value,
     estimate_pass,
@@ -14,7 +13,8 @@ from estimation.energy import (
     torque_noise,
     work_covariance,
 )
-from plant import virtual as vd
+from rsp_inertia.plant import virtual as vd
+
 from tests.estimation.conftest import STAGES
 
 

@@ -14,9 +14,9 @@ import shutil
 
 import numpy as np
 import pytest
+from rsp_inertia.plant.experiment import open_experiment
+from rsp_inertia.plant.logs import read_log, write_log
 
-from plant.experiment import open_experiment
-from plant.logs import read_log, write_log
 from rsp_inertia.pipeline import create_default_experiment, identify, simulate
 from tests.estimation.conftest import tensor
 
@@ -133,7 +133,7 @@ def test_principal_moments_and_axes_diagonalise_the_tensor(ideal):
 
 
 def test_a_drifting_braking_torque_is_named_in_a_warning(ideal, tmp_path):
-    # The constant-torque model of the braking pass is checked on the log (estimation.energy):
+    # The constant-torque model of the braking pass is checked on the log (rsp_inertia.estimation.energy):
     # a drift of one noise std over stage 1's pass makes identify fall back to row sums and say
     # so. (Only the log drifts here, not the torque the simulator applied, so the log now
     # misstates the work by ~1e-4 of it: the numbers are not checked against the truth.)
@@ -154,7 +154,7 @@ def test_a_drifting_braking_torque_is_named_in_a_warning(ideal, tmp_path):
 
 
 def test_uncertainty_budget_adds_up_to_the_reported_std(ideal):
-    # The sources are independent, so their variances add up to the total (estimation.tensor).
+    # The sources are independent, so their variances add up to the total (rsp_inertia.estimation.tensor).
     _, result, _ = ideal
     assert set(result.std_budget) == {"braking torque log", "reverse torque log", "encoder (speed)"}
     total_axes = sum(part["axes"] ** 2 for part in result.std_budget.values())

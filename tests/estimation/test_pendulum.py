@@ -1,4 +1,4 @@
-"""The torsion-pendulum baseline's best-practice reduction (estimation.pendulum)."""
+"""The torsion-pendulum baseline's best-practice reduction (rsp_inertia.estimation.pendulum)."""
 
 from __future__ import annotations
 
@@ -7,14 +7,14 @@ import math
 
 import numpy as np
 import pytest
+from rsp_inertia.estimation.pendulum import best_practice_inertia, crossing_period, half_cycle_fit
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.geometry import axis_direction, design_matrix, entries_from_tensor
+from rsp_inertia.plant.logs import Log
+from rsp_inertia.plant.model import reduced_inertia, static_torque
+from rsp_inertia.plant.virtual import encoder_reading, pendulum_parameters, simulate_pendulum
 from scipy.optimize import brentq
 
-from estimation.pendulum import best_practice_inertia, crossing_period, half_cycle_fit
-from plant.errors import InputError
-from plant.geometry import axis_direction, design_matrix, entries_from_tensor
-from plant.logs import Log
-from plant.model import reduced_inertia, static_torque
-from plant.virtual import encoder_reading, pendulum_parameters, simulate_pendulum
 from rsp_inertia.cli import main
 from rsp_inertia.pipeline import create_default_experiment
 
@@ -112,7 +112,7 @@ def test_identify_reports_the_best_practice_pendulum(tmp_path, capsys):
     capsys.readouterr()
     result = json.loads((root / "result.json").read_text())
     pend = result["pendulum"]
-    from plant.config import load_device, load_virtual
+    from rsp_inertia.plant.config import load_device, load_virtual
 
     device = load_device(root / "device.toml")
     truth = entries_from_tensor(load_virtual(root / "virtual.toml").body.tensor)

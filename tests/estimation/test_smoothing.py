@@ -21,16 +21,15 @@ import math
 
 import numpy as np
 import pytest
-
-from scipy.integrate import trapezoid
-
-from estimation.smoothing import (
+from rsp_inertia.estimation.smoothing import (
     BANDWIDTH_FACTOR,
     _speed_kernel,
     smooth_log,
     speed_error_autocovariance,
 )
-from plant.logs import Log
+from rsp_inertia.plant.logs import Log
+from scipy.integrate import trapezoid
+
 from tests.estimation.conftest import STAGES
 
 
@@ -169,5 +168,5 @@ def test_speed_error_autocovariance_matches_the_virtual_device(
     # counts per sample (the block filter's Hermite interpolation smooths a little more when
     # w_c T_block approaches 1, and the quantization is not exactly white), 1.2-1.7 below
     # 4 counts per sample. The least squares calibrates the level on its residuals
-    # (estimation.tensor), so the derived value need only be right within a factor 2.
+    # (rsp_inertia.estimation.tensor), so the derived value need only be right within a factor 2.
     assert 0.5 * derived < np.var(err) < 2 * derived

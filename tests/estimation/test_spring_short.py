@@ -10,7 +10,7 @@ block (w_c T = 3.9) the block model biased the speed by kappa j ~ 1e-4 rad/s ove
 pass and aliased the reading noise into low frequencies: J_k errors of 6-18 std (the worst
 axis over eight realisations), the speed noise's calibrated scale 2-3, and the balances'
 closure warnings. With the block length of
-estimation.smoothing (w_c T <= 2) both are gone.
+rsp_inertia.estimation.smoothing (w_c T <= 2) both are gone.
 
 Launch speeds and braking torques: root-finding on the virtual device (the launch speed for
 3.1 turns at a given braking torque, the braking torque for a 2.0 s pass), rounded. Not to a
@@ -26,12 +26,12 @@ import re
 
 import numpy as np
 import pytest
+from rsp_inertia.estimation import smoothing
+from rsp_inertia.estimation.smoothing import block_length, block_speed_bias, smooth_log
+from rsp_inertia.plant.experiment import open_experiment
+from rsp_inertia.plant.logs import Log
+from rsp_inertia.plant.virtual import simulate_braking
 
-from estimation import smoothing
-from estimation.smoothing import block_length, block_speed_bias, smooth_log
-from plant.experiment import open_experiment
-from plant.logs import Log
-from plant.virtual import simulate_braking
 from rsp_inertia.pipeline import create_default_experiment, identify, simulate
 from tests.estimation.conftest import STAGES
 

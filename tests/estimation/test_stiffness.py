@@ -1,5 +1,5 @@
 """The torsion element's stiffness from the calibration folders' pendulum runs
-(estimation.stiffness, the added-known-inertia method)."""
+(rsp_inertia.estimation.stiffness, the added-known-inertia method)."""
 
 from __future__ import annotations
 
@@ -7,11 +7,11 @@ import math
 
 import numpy as np
 import pytest
+from rsp_inertia.estimation.stiffness import _two_period, calibrate_stiffness
+from rsp_inertia.plant.config import load_reference
+from rsp_inertia.plant.experiment import open_experiment
+from rsp_inertia.plant.virtual import true_parameters
 
-from estimation.stiffness import _two_period, calibrate_stiffness
-from plant.config import load_reference
-from plant.experiment import open_experiment
-from plant.virtual import true_parameters
 from rsp_inertia.pipeline import create_rig_experiment, simulate
 
 
@@ -82,7 +82,8 @@ def test_calibrate_writes_the_stiffness_and_identify_uses_it(rig, capsys):
     import json
     import tomllib
 
-    from plant.geometry import tensor_from_entries
+    from rsp_inertia.plant.geometry import tensor_from_entries
+
     from rsp_inertia.cli import main
     from rsp_inertia.pipeline import identify
 

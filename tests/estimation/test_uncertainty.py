@@ -10,9 +10,9 @@ import re
 
 import numpy as np
 import pytest
+from rsp_inertia.plant.experiment import open_experiment
 from scipy.stats import chi2
 
-from plant.experiment import open_experiment
 from rsp_inertia.pipeline import create_default_experiment, identify, simulate
 from tests.estimation.conftest import tensor
 

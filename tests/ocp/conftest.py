@@ -11,12 +11,11 @@ from dataclasses import dataclass
 
 import numpy as np
 import pytest
+from rsp_inertia.estimation.smoothing import Smoothed, smooth_log
+from rsp_inertia.ocp.make import make_program
+from rsp_inertia.plant import virtual as vd
+from rsp_inertia.plant.model import ModelParameters, acceleration
 from scipy.interpolate import CubicHermiteSpline
-
-from estimation.smoothing import Smoothed, smooth_log
-from ocp.make import make_program
-from plant import virtual as vd
-from plant.model import ModelParameters, acceleration
 
 STAGES = (1, 2)
 

@@ -11,14 +11,14 @@ import math
 
 import numpy as np
 import pytest
+from rsp_inertia.estimation.balance import stage_balance
+from rsp_inertia.estimation.energy import estimate_pass
+from rsp_inertia.estimation.tensor import axis_values, fit_tensor
+from rsp_inertia.ocp.make import make_program
+from rsp_inertia.plant import virtual as vd
+from rsp_inertia.plant.geometry import axis_direction
+from rsp_inertia.plant.model import dissipation
 
-from estimation.balance import stage_balance
-from estimation.energy import estimate_pass
-from estimation.tensor import axis_values, fit_tensor
-from ocp.make import make_program
-from plant import virtual as vd
-from plant.geometry import axis_direction
-from plant.model import dissipation
 from tests.ocp.conftest import STAGES, TARGET, node_passages, true_rest
 
 
@@ -107,7 +107,7 @@ def test_identification_corrects_the_tracking_mismatch(
     # The closed loop tracks to a few 1e-4, and friction then does different work on the two
     # passes: ~1e-4 of stage 1's kinetic energy, several times the noise floor. The least
     # squares fits the friction slope D'(Omega) = d1 + d2 Omega where the data ask for it
-    # (estimation.balance, estimation.tensor): stage 1 here. Its axes must then be within
+    # (rsp_inertia.estimation.balance, rsp_inertia.estimation.tensor): stage 1 here. Its axes must then be within
     # 4 reported stds of the truth, and the slope must be the virtual bearing's own
     # (d1 = a2, d2 = 2 a3 for the paper's D), also within 4 stds.
     q = default_device.encoder.quantum

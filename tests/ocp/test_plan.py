@@ -8,20 +8,20 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from estimation.identify import identify
-from estimation.predict import (
+from rsp_inertia.estimation.identify import identify
+from rsp_inertia.estimation.predict import (
     PlannedPass,
     combine_information,
     predict_fit,
     predicted_balance,
     run_information,
 )
-from ocp.plan import NOMINAL_COULOMB_SHARE, TORQUE_MARGIN, StageModel, evaluate
-from plant.config import load_device, load_virtual
-from plant.experiment import open_experiment
-from plant.model import acceleration, dissipation, motor_torque, reduced_inertia
-from plant.virtual import integrate_to_stop, true_parameters
+from rsp_inertia.ocp.plan import NOMINAL_COULOMB_SHARE, TORQUE_MARGIN, StageModel, evaluate
+from rsp_inertia.plant.config import load_device, load_virtual
+from rsp_inertia.plant.experiment import open_experiment
+from rsp_inertia.plant.model import acceleration, dissipation, motor_torque, reduced_inertia
+from rsp_inertia.plant.virtual import integrate_to_stop, true_parameters
+
 from rsp_inertia.cli import main
 from rsp_inertia.pipeline import create_default_experiment, simulate
 
@@ -79,7 +79,7 @@ def test_structured_information_equals_the_least_squares_covariance(paper):
 
 def test_mirror_torque_is_braking_torque_plus_twice_friction(paper):
     """Subtracting the braking's equation of motion from the mirror's at the same angle
-    leaves u' = -(u_b + 2 D(|Omega|)): inertia, gravity and spring cancel (ocp.plan)."""
+    leaves u' = -(u_b + 2 D(|Omega|)): inertia, gravity and spring cancel (rsp_inertia.ocp.plan)."""
     device, virtual = paper
     model = dataclasses.replace(true_parameters(device, 1, virtual, 1.0), stiffness=0.02)
     b, r, _ = _planned(device, 1, model, 10.0, 0.01)
@@ -125,7 +125,7 @@ def test_limits_are_reported_with_numbers(paper):
 
 
 def test_braking_torque_must_dominate_coulomb_friction_for_program(paper):
-    """program's nominal model cannot tell a1 from the braking torque (ocp.nominal), so a
+    """program's nominal model cannot tell a1 from the braking torque (rsp_inertia.ocp.nominal), so a
     braking torque under a1 / NOMINAL_COULOMB_SHARE is refused, naming a1 and the share;
     a spring's known torque fixes the model's scale as well, and the same torque passes."""
     device, virtual = paper
@@ -219,10 +219,10 @@ def test_plan_from_pilot_runs(tmp_path, capsys):
 def test_program_serves_a_two_second_spring_pass(paper):
     """A planned braking against a spring (c = 0.02 N m/rad, 13.8 rad/s, no braking torque):
     2 s, ending at the turning point. The nominal model's windows shorten to the pass
-    (ocp.nominal): M0 within 2%; the program starts from the hold torque there."""
-    from ocp.make import make_program
-    from plant.model import static_torque
-    from plant.virtual import run_program, simulate_braking
+    (rsp_inertia.ocp.nominal): M0 within 2%; the program starts from the hold torque there."""
+    from rsp_inertia.ocp.make import make_program
+    from rsp_inertia.plant.model import static_torque
+    from rsp_inertia.plant.virtual import run_program, simulate_braking
 
     device, virtual = paper
     spring = dataclasses.replace(device.spring, stiffness=0.02)

@@ -9,15 +9,21 @@ import re
 
 import numpy as np
 import pytest
+from rsp_inertia.ocp.make import START_FADE_BANDWIDTHS, make_program
+from rsp_inertia.ocp.program import W_PHI, required_torque, solve_program_ocp
+from rsp_inertia.ocp.regulator import bandwidth
+from rsp_inertia.plant import virtual as vd
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.logs import read_program, write_program
+from rsp_inertia.plant.model import (
+    acceleration,
+    dissipation,
+    motor_torque,
+    reduced_inertia,
+    static_torque,
+)
 from scipy.integrate import solve_ivp
 
-from ocp.make import START_FADE_BANDWIDTHS, make_program
-from ocp.program import W_PHI, required_torque, solve_program_ocp
-from ocp.regulator import bandwidth
-from plant import virtual as vd
-from plant.errors import InputError
-from plant.logs import read_program, write_program
-from plant.model import acceleration, dissipation, motor_torque, reduced_inertia, static_torque
 from rsp_inertia.cli import main
 from rsp_inertia.pipeline import create_default_experiment
 from tests.ocp.conftest import STAGES, TARGET, true_accelerations
@@ -135,7 +141,7 @@ def test_program_is_the_mirror_at_the_sample_rate(
     np.testing.assert_array_equal(prog.t, np.arange(prog.t.size) * dt)
     # The reference is the mirror, but over the start, where the torque steps from the hold
     # at the drive's rate: there it carries the OCP's departure, faded out within
-    # START_FADE_BANDWIDTHS regulator time constants (ocp.make.start_reference).
+    # START_FADE_BANDWIDTHS regulator time constants (rsp_inertia.ocp.make.start_reference).
     stride = round(sol.t[1] / dt)
     late = prog.t > START_FADE_BANDWIDTHS / bandwidth(
         default_device, float(np.max(reduced_inertia(ref.phi, result.nominal)))

@@ -9,9 +9,9 @@ linearisations: at the gain points of each stage, every ``lqr_gains`` value equa
 import numpy as np
 import pytest
 import scipy.linalg
+from rsp_inertia.ocp.regulator import _DIRECTION, _JAC, GAIN_STEP, _riccati, bandwidth, lqr_gains
+from rsp_inertia.plant.model import reduced_inertia
 
-from ocp.regulator import _DIRECTION, _JAC, GAIN_STEP, _riccati, bandwidth, lqr_gains
-from plant.model import reduced_inertia
 from tests.ocp.conftest import STAGES
 
 control = pytest.importorskip("control")

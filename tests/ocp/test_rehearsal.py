@@ -1,4 +1,4 @@
-"""The closed-loop rehearsal of a plan (ocp.rehearsal) and the pieces it stands on."""
+"""The closed-loop rehearsal of a plan (rsp_inertia.ocp.rehearsal) and the pieces it stands on."""
 
 from __future__ import annotations
 
@@ -8,16 +8,16 @@ import math
 
 import numpy as np
 import pytest
+from rsp_inertia.estimation.runs import estimate_run, read_run
+from rsp_inertia.ocp.make import make_program
+from rsp_inertia.ocp.plan import StageModel, map_stages
+from rsp_inertia.ocp.rehearsal import consistent_models
+from rsp_inertia.plant.config import ControllerSettings, Friction, RunSettings, Virtual
+from rsp_inertia.plant.experiment import open_experiment
+from rsp_inertia.plant.geometry import axis_direction, design_matrix, entries_from_tensor
+from rsp_inertia.plant.model import inertia_harmonics
+from rsp_inertia.plant.virtual import integrate_to_stop, simulate_braking, true_parameters
 
-from estimation.runs import estimate_run, read_run
-from ocp.make import make_program
-from ocp.plan import StageModel, map_stages
-from ocp.rehearsal import consistent_models
-from plant.config import ControllerSettings, Friction, RunSettings, Virtual
-from plant.experiment import open_experiment
-from plant.geometry import axis_direction, design_matrix, entries_from_tensor
-from plant.model import inertia_harmonics
-from plant.virtual import integrate_to_stop, simulate_braking, true_parameters
 from rsp_inertia.cli import main
 from rsp_inertia.pipeline import create_default_experiment, simulate
 
@@ -117,7 +117,7 @@ def test_rehearsal_predicts_the_closed_loop_std(tmp_path, capsys):
     ratio = std / report.rehearsal.axis_std
     assert np.all((ratio > 1 / 1.5) & (ratio < 1.5)), ratio
     exp = open_experiment(root)
-    from plant.config import load_virtual
+    from rsp_inertia.plant.config import load_virtual
 
     body = load_virtual(root / "virtual.toml").body
     dirs = [

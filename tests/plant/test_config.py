@@ -4,8 +4,7 @@ import math
 
 import numpy as np
 import pytest
-
-from plant.config import (
+from rsp_inertia.plant.config import (
     ControllerSettings,
     Friction,
     Rig,
@@ -14,7 +13,7 @@ from plant.config import (
     load_device,
     load_virtual,
 )
-from plant.errors import InputError
+from rsp_inertia.plant.errors import InputError
 
 # The example of INTERFACES.md: the paper's icosahedron design, two stages of three nodes.
 DEVICE_TABLE = """\

@@ -6,10 +6,10 @@ import re
 from pathlib import Path
 
 import pytest
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.experiment import open_experiment
+from rsp_inertia.plant.logs import read_log
 
-from plant.errors import InputError
-from plant.experiment import open_experiment
-from plant.logs import read_log
 from rsp_inertia import pipeline
 
 

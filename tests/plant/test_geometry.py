@@ -8,9 +8,8 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
-
-from plant.errors import InputError
-from plant.geometry import (
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.geometry import (
     axis_angles_deg,
     axis_direction,
     best_cone_opening,

@@ -10,9 +10,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
-from plant.errors import InputError
-from plant.logs import (
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.logs import (
     Log,
     Program,
     read_log,
@@ -25,7 +24,7 @@ from plant.logs import (
 
 @dataclass(frozen=True)
 class Encoder:
-    """Stand-in for plant.config.Encoder: the readers only use it duck-typed."""
+    """Stand-in for rsp_inertia.plant.config.Encoder: the readers only use it duck-typed."""
 
     counts_per_rev: int = 65536
     sample_rate: float = 1000.0

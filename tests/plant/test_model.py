@@ -7,8 +7,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
-from plant.model import (
+from rsp_inertia.plant.model import (
     ModelParameters,
     acceleration,
     dissipation,
@@ -79,7 +78,7 @@ def torque_scale(params: ModelParameters, Omega: float, u: float = 0.0) -> float
     )
 
 
-# --- rotations of the gimbal (METHOD.md §1), written independently of plant.model ---------
+# --- rotations of the gimbal (METHOD.md §1), written independently of rsp_inertia.plant.model ---------
 
 
 def rot_z(a: float) -> np.ndarray:

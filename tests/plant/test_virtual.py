@@ -7,17 +7,16 @@ import math
 
 import numpy as np
 import pytest
-from scipy.integrate import solve_ivp
-from scipy.interpolate import CubicSpline
-
-from plant import virtual as vd
-from plant.logs import Program, read_log, write_log
-from plant.model import (
+from rsp_inertia.plant import virtual as vd
+from rsp_inertia.plant.logs import Program, read_log, write_log
+from rsp_inertia.plant.model import (
     acceleration,
     mechanical_energy,
     reduced_inertia,
     static_torque,
 )
+from scipy.integrate import solve_ivp
+from scipy.interpolate import CubicSpline
 
 STAGES = (1, 2)
 
