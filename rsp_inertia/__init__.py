@@ -1,1 +1,92 @@
-"""Command line and experiment pipeline of rsp-inertia (no physics here)."""
+"""rsp-inertia: inertia tensor and centre of mass by reverse-symmetrical semi-program precession.
+
+The Python API (docs/api.md) has one function per command, each taking the experiment
+folder and returning a result object::
+
+    import rsp_inertia
+
+    result = rsp_inertia.identify("bench-A")    # reads the logs, writes bench-A/result.json
+    print(result)                               # the table rsp-inertia identify prints
+    result.tensor, result.tensor_std            # (3, 3) arrays, kg m^2
+
+Functions: :func:`create_experiment`, :func:`simulate`, :func:`program`, :func:`identify`,
+:func:`calibrate`, :func:`plan`, :func:`check`, :func:`write_report`, :func:`demo`. Bad input
+raises :class:`InputError`, with the line the command line prints.
+
+The names are loaded on first use (module ``__getattr__``): ``import rsp_inertia`` imports
+nothing heavy, so the command line starts fast. The layers are subpackages:
+``rsp_inertia.plant`` (device, geometry, virtual device, files), ``rsp_inertia.estimation``
+(identification) and ``rsp_inertia.ocp`` (torque programs, planning).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # for type checkers and IDEs; at run time, __getattr__ below
+    from rsp_inertia.api import (
+        CalibrateResult,
+        CheckResult,
+        IdentifyResult,
+        InputError,
+        PlanResult,
+        ProgramResult,
+        SimulateResult,
+        calibrate,
+        check,
+        create_experiment,
+        demo,
+        identify,
+        plan,
+        program,
+        simulate,
+        write_report,
+    )
+
+__all__ = [
+    "CalibrateResult",
+    "CheckResult",
+    "IdentifyResult",
+    "InputError",
+    "PlanResult",
+    "ProgramResult",
+    "SimulateResult",
+    "__version__",
+    "calibrate",
+    "check",
+    "create_experiment",
+    "demo",
+    "identify",
+    "plan",
+    "program",
+    "simulate",
+    "write_report",
+]
+
+
+def _version() -> str:
+    """The installed distribution's version (pyproject.toml's), "unknown" if not installed."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("rsp-inertia")
+    except PackageNotFoundError:  # a checkout that was never installed
+        return "unknown"
+
+
+def __getattr__(name: str):
+    """Load the API's names on first use (PEP 562) and keep them in the module."""
+    if name == "__version__":
+        value = _version()
+    elif name in __all__:
+        from rsp_inertia import api
+
+        value = getattr(api, name)
+    else:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

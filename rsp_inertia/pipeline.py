@@ -20,7 +20,14 @@ import numpy as np
 from rsp_inertia.plant.config import DIRECTIONS
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import Experiment, open_experiment
-from rsp_inertia.plant.logs import read_log, read_program, write_atomic, write_log, write_program
+from rsp_inertia.plant.logs import (
+    align_counter,
+    read_log,
+    read_program,
+    write_atomic,
+    write_log,
+    write_program,
+)
 
 # Each command imports what it uses inside its function: ``program`` must not pay for the
 # identification's modules (scipy.stats, the GLS) nor ``identify`` for the OCP's.
@@ -33,6 +40,7 @@ if TYPE_CHECKING:
 __all__ = [
     "DEFAULT_EXPERIMENT",
     "PassSummary",
+    "ProgramSummary",
     "calibrate",
     "create_default_experiment",
     "create_rig_experiment",
@@ -40,6 +48,8 @@ __all__ = [
     "format_identification",
     "identify",
     "program",
+    "program_summaries",
+    "result_json",
     "simulate",
 ]
 
@@ -154,6 +164,21 @@ def _summary(
     )
 
 
+def _write_log(exp: Experiment, virtual, path: Path, log) -> None:
+    """A simulated log as the virtual rig's logger writes it: ``t,counts,torque`` with
+    virtual.toml ``[logger] counts`` (device.toml's ``[encoder] counter_bits`` wide), else
+    ``t,phi,torque``."""
+    if not virtual.logger.counts:
+        write_log(path, log)
+        return
+    if exp.device.encoder.counter_bits is None:
+        raise InputError(
+            f"{exp.root / 'virtual.toml'}: logger.counts: the logger writes a counter's counts, "
+            "but device.toml's [encoder] has no counter_bits (the counter's width)"
+        )
+    write_log(path, log, counter=exp.device.encoder)
+
+
 def _braking_truth(
     exp: Experiment, stage: int, virtual, direction: str = "forward"
 ) -> SimulatedPass:
@@ -169,9 +194,18 @@ def _braking_truth(
     path = exp.braking_path(stage, direction)
     if not path.is_file():
         raise InputError(f"{path}: not found: simulate the braking first (--part braking)")
-    on_disk = read_log(path, exp.device.encoder, "braking", direction)
-    same = len(on_disk) == len(braking.log) and all(
-        np.array_equal(getattr(on_disk, c), getattr(braking.log, c)) for c in ("t", "phi", "torque")
+    on_disk = align_counter(  # a counts log is known up to whole ranges of the counter
+        read_log(path, exp.device.encoder, "braking", direction),
+        float(braking.log.phi[0]),
+        exp.device.encoder,
+    )
+    q = exp.device.encoder.quantum
+    same = (
+        len(on_disk) == len(braking.log)
+        and np.array_equal(on_disk.t, braking.log.t)
+        and np.array_equal(on_disk.torque, braking.log.torque)
+        # in counts: a counts log's angle is rebuilt from the counter, not bit for bit
+        and np.array_equal(np.rint(on_disk.phi / q), np.rint(braking.log.phi / q))
     )
     if not same:
         raise InputError(
@@ -215,8 +249,9 @@ def simulate(
     Raises
     ------
     InputError
-        Bad ``part`` or ``direction``, or no selected stage runs ``direction``; and whatever
-        the files' readers and the simulator raise.
+        Bad ``part`` or ``direction``, ``ideal`` with a part other than 'reverse', or no
+        selected stage runs ``direction``; and whatever the files' readers and the simulator
+        raise.
     """
     from rsp_inertia.plant.virtual import (
         run_program,
@@ -228,6 +263,8 @@ def simulate(
 
     if part not in PARTS:
         raise InputError(f"--part: must be one of {', '.join(PARTS)}, got {part!r}")
+    if ideal and part != "reverse":
+        raise InputError("--ideal goes with --part reverse")
     if direction is not None and direction not in DIRECTIONS:
         raise InputError(
             f"--direction: must be one of {', '.join(DIRECTIONS)}, got {direction!r}"
@@ -252,7 +289,7 @@ def simulate(
             for k in range(len(exp.device.stages[st - 1].nodes)):
                 sim = simulate_pendulum(exp.device, st, virtual, k)
                 path = exp.pendulum_path(st, k + 1)
-                write_log(path, sim.log)
+                _write_log(exp, virtual, path, sim.log)
                 summary = _summary(exp, st, f"pendulum at node {k + 1}", path, sim)
                 if progress is not None:
                     progress(summary)
@@ -261,7 +298,7 @@ def simulate(
         if part == "pilot":
             sim = simulate_pilot(exp.device, st, virtual)
             path = exp.pilot_path(st)
-            write_log(path, sim.log)
+            _write_log(exp, virtual, path, sim.log)
             summary = _summary(exp, st, "pilot", path, sim)
             if progress is not None:
                 progress(summary)
@@ -284,10 +321,65 @@ def simulate(
                     sim = run_program(exp.device, st, virtual, program, start, direction=d)
                     label = "reverse"
                 path = exp.reverse_path(st, d)
-            write_log(path, sim.log)
+            _write_log(exp, virtual, path, sim.log)
             summary = _summary(exp, st, label, path, sim, d)
             if progress is not None:
                 progress(summary)
+            summaries.append(summary)
+    return summaries
+
+
+@dataclass(frozen=True)
+class ProgramSummary:
+    """What ``program`` wrote for one run: a stage in one direction."""
+
+    stage: int
+    """Stage number, from 1."""
+    direction: str
+    """'forward' or 'backward'."""
+    path: Path
+    """The program.csv written."""
+    details: ProgramResult
+    """How it was made: the program's arrays, the mirror, the nominal model, the OCP's
+    solution, the smoothed braking, the wall time (rsp_inertia.ocp.make.ProgramResult)."""
+
+    def __str__(self) -> str:
+        prog = self.details.program
+        label = "" if self.direction == "forward" else f" {self.direction}"
+        return (
+            f"stage {self.stage}{label}: program: {len(prog.t)} rows over {prog.t[-1]:.2f} s, "
+            f"peak torque {abs(prog.torque_ff).max():.3f} N m, k_phi "
+            f"{prog.k_phi.mean():.3g} N m/rad, k_omega {prog.k_omega.mean():.3g} "
+            f"N m s/rad, OCP {self.details.ocp.iterations} iterations; "
+            f"{self.details.seconds:.2f} s -> {self.path}"
+        )
+
+
+def program_summaries(
+    root: str | Path,
+    stage: int | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> list[ProgramSummary]:
+    """``rsp-inertia program``: stageN/braking.csv -> stageN/program.csv (written atomically).
+
+    Reads only device.toml and the braking log. Nothing is written for a stage whose mirror
+    the motor cannot drive (the error says what torque it needs). ``progress`` gets each
+    run's summary line as soon as its program is written.
+    """
+    from rsp_inertia.ocp.make import make_program
+
+    exp = open_experiment(root)
+    summaries = []
+    for st in exp.stages(stage):
+        for direction in exp.device.stages[st - 1].directions:
+            path = exp.braking_path(st, direction)
+            braking = read_log(path, exp.device.encoder, "braking", direction)
+            result = make_program(exp.device, st, braking, str(path), direction=direction)
+            out = exp.program_path(st, direction)
+            write_program(out, result.program)
+            summary = ProgramSummary(st, direction, out, result)
+            if progress is not None:
+                progress(str(summary))
             summaries.append(summary)
     return summaries
 
@@ -297,34 +389,8 @@ def program(
     stage: int | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> list[ProgramResult]:
-    """``rsp-inertia program``: stageN/braking.csv -> stageN/program.csv (written atomically).
-
-    Reads only device.toml and the braking log. Nothing is written for a stage whose mirror
-    the motor cannot drive (the error says what torque it needs).
-    """
-    from rsp_inertia.ocp.make import make_program
-
-    exp = open_experiment(root)
-    results = []
-    for st in exp.stages(stage):
-        for direction in exp.device.stages[st - 1].directions:
-            path = exp.braking_path(st, direction)
-            braking = read_log(path, exp.device.encoder, "braking", direction)
-            result = make_program(exp.device, st, braking, str(path), direction=direction)
-            out = exp.program_path(st, direction)
-            write_program(out, result.program)
-            if progress is not None:
-                prog = result.program
-                label = "" if direction == "forward" else f" {direction}"
-                progress(
-                    f"stage {st}{label}: program: {len(prog.t)} rows over {prog.t[-1]:.2f} s, "
-                    f"peak torque {abs(prog.torque_ff).max():.3f} N m, k_phi "
-                    f"{prog.k_phi.mean():.3g} N m/rad, k_omega {prog.k_omega.mean():.3g} "
-                    f"N m s/rad, OCP {result.ocp.iterations} iterations; {result.seconds:.2f} s "
-                    f"-> {out}"
-                )
-            results.append(result)
-    return results
+    """``rsp-inertia program``: :func:`program_summaries`, each run's ProgramResult only."""
+    return [summary.details for summary in program_summaries(root, stage, progress)]
 
 
 def calibrate(
@@ -360,8 +426,13 @@ def identify(
 
     exp = open_experiment(root)
     result = identify_experiment(exp, progress)
-    write_atomic(exp.result_path, json.dumps(result.to_json(), indent=2) + "\n")
+    write_atomic(exp.result_path, result_json(result))
     return result
+
+
+def result_json(result: Identification) -> str:
+    """The text of EXP/result.json: ``result.to_json()`` indented, with a final newline."""
+    return json.dumps(result.to_json(), indent=2) + "\n"
 
 
 def format_identification(result: Identification, truth: np.ndarray | None = None) -> str:
@@ -460,11 +531,18 @@ def format_identification(result: Identification, truth: np.ndarray | None = Non
     return "\n".join(lines)
 
 
-def demo_figures(exp: Experiment, result: Identification) -> list[Path]:
-    """The demo's PNG figures in EXP: Fig. 1, and per stage Fig. 3 and Fig. 4; error chart.
+def demo_figures(
+    exp: Experiment, result: Identification, folder: str | Path | None = None
+) -> list[Path]:
+    """The demo's PNG figures: Fig. 1, and per stage Fig. 3 and Fig. 4; error chart.
 
     Fig. 4 shows what a rig sees: the program's reference speed against the smoothed speed
-    of the reverse log. Fig. 3 and the error chart use the virtual device's truth.
+    of the reverse log (forward runs). Fig. 3 (the free motions) and the error chart need
+    the virtual device's truth, so they are drawn only for a virtual experiment (with
+    virtual.toml; the error chart with its [body]); Fig. 4 only for a stage with a
+    stageN/program.csv (a closed-loop reverse). The demo has all of them and gets every
+    figure. Written into ``folder`` (created if needed; default: the experiment folder);
+    returns the paths written, in that order.
     """
     # Imported here: only the demo draws, and matplotlib costs the other commands a second.
     from rsp_inertia.design import plot_cone_conditioning
@@ -473,33 +551,44 @@ def demo_figures(exp: Experiment, result: Identification) -> list[Path]:
     from rsp_inertia.plant.virtual import free_motion
     from rsp_inertia.plots import plot_errors, plot_motion, plot_tracking
 
-    device, virtual = exp.device, exp.load_virtual()
-    paths = [exp.root / "design.png"]
+    out = exp.root if folder is None else Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    device = exp.device
+    virtual = exp.load_virtual() if exp.virtual_path.is_file() else None
+    paths = [out / "design.png"]
     plot_cone_conditioning(paths[0])
     for st in exp.stages():
+        has_program = exp.program_path(st).is_file()
+        if virtual is None and not has_program:
+            continue
         braking = read_log(exp.braking_path(st), device.encoder, "braking")
         reverse = read_log(exp.reverse_path(st), device.encoder, "reverse")
         sb = smooth_log(braking, device.encoder.quantum)
         sr = smooth_log(reverse, device.encoder.quantum)
-        duration = float(braking.t[-1] + reverse.t[-1])
-        plot_motion(
-            exp.root / f"motion_stage{st}.png",
-            (sb.t, sb.omega),
-            (sr.t, sr.omega),
-            free_motion(device, st, virtual, duration, damped=False)[::2],
-            free_motion(device, st, virtual, duration, damped=True)[::2],
-            f"Stage {st}: RSP motion and free motions (paper Fig. 3)",
-        )
-        prog = read_program(exp.program_path(st), device.encoder)
-        n = min(len(prog.t), len(sr.t))
-        plot_tracking(
-            exp.root / f"tracking_stage{st}.png",
-            prog.t[:n],
-            prog.omega_ref[:n],
-            sr.omega[:n],
-            f"Stage {st}: reverse pass, reference and smoothed output (paper Fig. 4)",
-        )
-        paths += [exp.root / f"motion_stage{st}.png", exp.root / f"tracking_stage{st}.png"]
+        if virtual is not None:
+            duration = float(braking.t[-1] + reverse.t[-1])
+            paths.append(out / f"motion_stage{st}.png")
+            plot_motion(
+                paths[-1],
+                (sb.t, sb.omega),
+                (sr.t, sr.omega),
+                free_motion(device, st, virtual, duration, damped=False)[::2],
+                free_motion(device, st, virtual, duration, damped=True)[::2],
+                f"Stage {st}: RSP motion and free motions (paper Fig. 3)",
+            )
+        if has_program:
+            prog = read_program(exp.program_path(st), device.encoder)
+            n = min(len(prog.t), len(sr.t))
+            paths.append(out / f"tracking_stage{st}.png")
+            plot_tracking(
+                paths[-1],
+                prog.t[:n],
+                prog.omega_ref[:n],
+                sr.omega[:n],
+                f"Stage {st}: reverse pass, reference and smoothed output (paper Fig. 4)",
+            )
+    if virtual is None or virtual.body is None:  # no truth to compare with
+        return paths
     tensor = tensor_from_entries(virtual.body.inertia)
     directions = np.array([a.direction for a in result.axes])
     J_true = np.einsum("ij,jk,ik->i", directions, tensor, directions)
@@ -517,7 +606,7 @@ def demo_figures(exp: Experiment, result: Identification) -> list[Path]:
             J_best_true = np.einsum("ij,jk,ik->i", best_dirs, tensor, best_dirs)
             errors["pendulum best practice"] = pend.J_best / J_best_true - 1
     labels = [f"s{a.stage} {a.phi_deg:g} deg" for a in result.axes]
-    paths.append(exp.root / "errors.png")
+    paths.append(out / "errors.png")
     plot_errors(paths[-1], labels, errors, "Relative error of each axial moment, per method")
     return paths
 
