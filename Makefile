@@ -5,7 +5,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test bench clean
+.PHONY: demo test bench wheel-check clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -23,5 +23,10 @@ test: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/rsp-inertia bench
 
+# The wheel as users install it, in a fresh venv outside the checkout: builds without
+# warnings, holds only rsp_inertia, runs `rsp-inertia --version` and the demo (CI runs it).
+wheel-check:
+	PYTHON=$(PYTHON) .ci/wheel-check
+
 clean:
-	rm -rf $(VENV) build *.egg-info
+	rm -rf $(VENV) build dist *.egg-info

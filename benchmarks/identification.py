@@ -22,17 +22,17 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
+from scipy.interpolate import CubicSpline
+from tables import markdown_table
+
 from rsp_inertia.estimation.balance import stage_balance
 from rsp_inertia.estimation.energy import estimate_pass
 from rsp_inertia.estimation.identify import identify
 from rsp_inertia.estimation.tensor import axis_values, fit_tensor
+from rsp_inertia.pipeline import create_default_experiment, simulate
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.logs import write_atomic
 from rsp_inertia.plant.virtual import simulate_braking, simulate_ideal_reverse
-from scipy.interpolate import CubicSpline
-from tables import markdown_table
-
-from rsp_inertia.pipeline import create_default_experiment, simulate
 
 RESULTS = Path(__file__).parent / "results"
 

@@ -23,14 +23,14 @@ from pathlib import Path
 
 import numpy as np
 import tomlkit
-from rsp_inertia.plant.config import load_device, load_virtual
-from rsp_inertia.plant.experiment import open_experiment
-from rsp_inertia.plant.geometry import axis_direction, design_matrix, entries_from_tensor
-from rsp_inertia.plant.logs import read_log, write_atomic
 from tables import markdown_table
 
 from rsp_inertia.pipeline import identify, program, simulate
 from rsp_inertia.planning import plan
+from rsp_inertia.plant.config import load_device, load_virtual
+from rsp_inertia.plant.experiment import open_experiment
+from rsp_inertia.plant.geometry import axis_direction, design_matrix, entries_from_tensor
+from rsp_inertia.plant.logs import read_log, write_atomic
 
 RESULTS = Path(__file__).parent / "results"
 DEFAULTS = Path(__file__).parents[1] / "plant" / "defaults"

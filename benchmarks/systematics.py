@@ -49,11 +49,11 @@ from pathlib import Path
 
 import numpy as np
 from joblib import Parallel, delayed
-from rsp_inertia.plant.experiment import open_experiment
-from rsp_inertia.plant.geometry import tensor_from_entries
 from tables import markdown_table
 
 from rsp_inertia.pipeline import calibrate, create_default_experiment, identify, simulate
+from rsp_inertia.plant.experiment import open_experiment
+from rsp_inertia.plant.geometry import tensor_from_entries
 
 RESULTS = Path(__file__).parent / "results"
 

@@ -41,6 +41,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.integrate import cumulative_trapezoid
+
 from rsp_inertia.estimation.energy import (
     PassEstimate,
     sample_at,
@@ -49,16 +51,18 @@ from rsp_inertia.estimation.energy import (
 )
 from rsp_inertia.plant.config import Device, Stage
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.logs import Log
+from rsp_inertia.plant.logs import Log, dropped_samples
 from rsp_inertia.plant.model import potential, spring_parameters
-from scipy.integrate import cumulative_trapezoid
 
 __all__ = [
     "EDGE_MARGIN",
     "MIN_SPEED_FRACTION",
+    "NODE_GAP_SAMPLES",
+    "NODE_GAP_WINDOW_DEG",
     "POSITION_SPACING_BANDWIDTHS",
     "NodeEstimate",
     "StageBalance",
+    "check_node_gaps",
     "friction_shape",
     "mirror_log",
     "node_formula",
@@ -77,6 +81,79 @@ POSITION_SPACING_BANDWIDTHS = 1.0
 """Balance angles are spaced by one smoother time constant (1 / w_c) at the top speed.
 Measured on the default experiment (speed noise alone): spacing 3/w_c leaves J_k errors of
 ~1e-5, 1/w_c ~1e-6, 0.3/w_c no better (the smoother's errors are correlated over ~1/w_c)."""
+
+
+NODE_GAP_SAMPLES = 2
+"""Dropped samples in a row that a log may miss near a node (rsp_inertia.plant.logs: a log's
+time stamps are the drive's sampling instants, and a logger may lose rows). A longer gap
+within ``NODE_GAP_WINDOW_DEG`` of a node's passage is refused (:func:`check_node_gaps`): the
+node formula takes the speed there, and over a gap the smoother has only the readings on
+either side. Elsewhere, balance angles within such a gap (widened by one smoother time
+constant 1 / w_c on each side) are left out of the least squares."""
+
+NODE_GAP_WINDOW_DEG = 5.0
+"""deg, how near a node's passage a gap of more than ``NODE_GAP_SAMPLES`` is refused: about
+one smoother time constant's travel at the default stages' top speeds (12 rad/s / 240 rad/s
+= 2.9 deg on stage 1), plus margin."""
+
+
+def _long_gaps(log: Log, sample_rate: float) -> tuple[np.ndarray, np.ndarray]:
+    """Rows k of the log after which more than NODE_GAP_SAMPLES samples are missing, and how
+    many."""
+    missing = dropped_samples(log.t, sample_rate)
+    rows = np.flatnonzero(missing > NODE_GAP_SAMPLES)
+    return rows, missing[rows]
+
+
+def check_node_gaps(
+    device: Device,
+    stage: int,
+    log: Log,
+    source: str,
+    lo: float = -math.inf,
+    hi: float = math.inf,
+    direction: int = 1,
+) -> None:
+    """Refuse a gap of more than NODE_GAP_SAMPLES dropped samples within NODE_GAP_WINDOW_DEG
+    of a node's passage in the balanced range [lo, hi] (rad, the log's coordinate; a
+    backward run's log mirrored by :func:`mirror_log` has its nodes at -node).
+
+    Raises
+    ------
+    InputError
+        Naming ``source`` (the log's file), the line after the gap, its times and the node.
+    """
+    rows, missing = _long_gaps(log, device.encoder.sample_rate)
+    if rows.size == 0:
+        return
+    st = device.stages[stage - 1]
+    window = math.radians(NODE_GAP_WINDOW_DEG)
+    phi, t = log.phi, log.t
+    for k, n in zip(rows.tolist(), missing.tolist()):
+        a = min(phi[k], phi[k + 1]) - window
+        b = max(phi[k], phi[k + 1]) + window
+        if b < lo or a > hi:
+            continue
+        for node_deg, node in zip(st.nodes_deg, direction * st.nodes):
+            passage = node + 2 * math.pi * math.ceil((a - node) / (2 * math.pi))
+            if passage <= b:
+                raise InputError(
+                    f"{source}, line {k + 3}: {n} samples dropped between t = "
+                    f"{float(t[k]):.6g} s and t = {float(t[k + 1]):.6g} s, within "
+                    f"{NODE_GAP_WINDOW_DEG:g} deg of node {node_deg:g} deg (stage {stage}); "
+                    f"near a node at most {NODE_GAP_SAMPLES} samples in a row may be missing"
+                )
+
+
+def _outside_gaps(est: PassEstimate, times: np.ndarray, sample_rate: float) -> np.ndarray:
+    """Which of ``times`` lie outside every gap of more than NODE_GAP_SAMPLES dropped samples,
+    each widened by one smoother time constant on either side (NODE_GAP_SAMPLES)."""
+    rows, _ = _long_gaps(est.log, sample_rate)
+    keep = np.ones(times.shape, dtype=bool)
+    margin = 1.0 / est.smoothed.bandwidth
+    for k in rows.tolist():
+        keep &= (times < est.log.t[k] - margin) | (times > est.log.t[k + 1] + margin)
+    return keep
 
 
 def _spring_potential(phi: np.ndarray, device: Device) -> np.ndarray:
@@ -205,9 +282,17 @@ def stage_balance(
     """
     st: Stage = device.stages[stage - 1]
     lo, hi = usable_range(braking, reverse, stage)
+    rate = device.encoder.sample_rate
+    for est in (braking, reverse):
+        check_node_gaps(device, stage, est.log, est.source, lo, hi, direction)
     phi = np.arange(lo, hi, _balance_spacing(braking, reverse))
     b = sample_at(braking, phi)
     r = sample_at(reverse, phi)
+    keep = _outside_gaps(braking, b.time, rate) & _outside_gaps(reverse, r.time, rate)
+    if not keep.all():  # a logger's longer gaps, away from the nodes: left out
+        phi = phi[keep]
+        b = sample_at(braking, phi)
+        r = sample_at(reverse, phi)
     S = b.omega**2 + r.omega**2
     # cov(S_i, S_j) = 4 Omega_i Omega_j cov(Omega_i, Omega_j) per pass, scaled in place (the
     # matrices are n x n).
@@ -394,6 +479,11 @@ def _combine_pairs(M, num_cov, den, passage_var) -> tuple[float, float]:
     off = -g[:-1] * g[1:] * passage_var[1:-1]
     cov += np.diag(off, 1) + np.diag(off, -1)
     ones = np.ones_like(M)
-    weights = np.linalg.solve(cov, ones)
+    try:
+        weights = np.linalg.solve(cov, ones)
+    except np.linalg.LinAlgError:  # noise-free logs (a synthetic test): no error to weigh
+        weights = np.linalg.pinv(cov) @ ones
     total = float(ones @ weights)
+    if not total > 0.0 or not math.isfinite(total):
+        return float(np.mean(M)), 0.0
     return float(weights @ M / total), float(1 / math.sqrt(total))

@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
 from rsp_inertia.estimation.gls import BalanceFit, Block, ModelTest, model_warnings, solve_blocks
 from rsp_inertia.estimation.runs import run_balances
 from rsp_inertia.estimation.stiffness import StiffnessCalibration, calibrate_stiffness

@@ -41,9 +41,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg
-from rsp_inertia.estimation.balance import StageBalance
 from scipy.optimize import brentq
 from scipy.stats import chi2
+
+from rsp_inertia.estimation.balance import StageBalance
 
 __all__ = [
     "CALIBRATION_SOURCE",

@@ -19,6 +19,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
+
 from rsp_inertia.estimation.balance import NodeEstimate, node_formula
 from rsp_inertia.estimation.calibration import calibrated_stiffness, known_terms
 from rsp_inertia.estimation.gls import ModelTest, model_warnings

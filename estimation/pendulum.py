@@ -50,9 +50,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import curve_fit, least_squares
+
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.logs import Log
-from scipy.optimize import curve_fit, least_squares
 
 __all__ = [
     "BestPractice",

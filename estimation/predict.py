@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
+
 from rsp_inertia.estimation.balance import StageBalance, stage_balance
 from rsp_inertia.estimation.energy import PassEstimate, motor_work
 from rsp_inertia.estimation.gls import JITTER, information

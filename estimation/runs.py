@@ -59,8 +59,10 @@ def estimate_run(
     if direction == "backward":
         braking, reverse = mirror_log(braking, q), mirror_log(reverse, q)
     check_braking_monotone(braking, braking_source)
+    rate = device.encoder.sample_rate
     b_est = estimate_pass(
-        braking, q, braking_source, constant_torque=True, smoothed=braking_smoothed
+        braking, q, braking_source, constant_torque=True, smoothed=braking_smoothed,
+        sample_rate=rate,
     )
     if b_est.torque_mean is None:
         warnings.append(
@@ -70,7 +72,9 @@ def estimate_run(
         )
     # The torque channel's logging noise shows cleanly only in the braking log (constant
     # applied torque); the reverse's own changes are largely real regulator torque.
-    r_est = estimate_pass(reverse, q, reverse_source, sigma_torque=b_est.sigma_torque)
+    r_est = estimate_pass(
+        reverse, q, reverse_source, sigma_torque=b_est.sigma_torque, sample_rate=rate
+    )
     return b_est, r_est
 
 

@@ -55,6 +55,16 @@ harmonic below (1/BANDWIDTH_FACTOR)^6 = 1e-6, far below the target accuracy; a l
 would average more noise out but bias exactly the harmonics that carry the tensor's products.
 Hence q_j = r (2 BANDWIDTH_FACTOR Omega_max)^6, set from the log itself.
 
+Irregular time stamps. A log's time stamps are the drive's sampling instants
+(rsp_inertia.plant.logs.JITTER_LIMIT): they may jitter about the regular grid and skip
+dropped samples. Blocks are B consecutive readings whatever their times; the state lives at
+the mid-time of a block's first and last readings, each reading enters with its own offset
+from there, and each step between block states has its own transition F(T_k) and process
+noise Q(T_k). The RTS pass is then the linear Kalman smoother with those per-step matrices
+(the model is linear; filterpy's UKF smoother would apply one Q to every step). On a regular
+log this is the block smoother above. r keeps the median step: jitter of a fraction of a
+period and one sample dropped in a thousand change the readings' density by less than that.
+
 The smoother's output is returned at every sample of the log by cubic Hermite interpolation
 between block states (phi with its derivative Omega, Omega with its derivative eps).
 
@@ -81,10 +91,11 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
+from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter, rts_smoother
+from scipy.integrate import trapezoid
+
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.logs import Log
-from scipy.integrate import trapezoid
 
 __all__ = [
     "BANDWIDTH_FACTOR",
@@ -217,7 +228,7 @@ def jerk_density(log: Log, quantum: float) -> tuple[float, float]:
     """
     dt = float(np.median(np.diff(log.t)))
     span = min(BLOCK, len(log) - 1)
-    speeds = np.abs(log.phi[span:] - log.phi[:-span]) / (span * dt)
+    speeds = np.abs(log.phi[span:] - log.phi[:-span]) / (log.t[span:] - log.t[:-span])
     omega_max = float(speeds.max()) if speeds.size else 0.0
     bandwidth = smoother_bandwidth(omega_max)
     return noise_density(quantum, dt) * bandwidth**6, bandwidth
@@ -310,7 +321,8 @@ def smooth_log(log: Log, quantum: float, source: str = "log") -> Smoothed:
     Parameters
     ----------
     log : rsp_inertia.plant.logs.Log
-        The encoder log (validated: uniform time steps, angles on the grid).
+        The encoder log (validated: angles on the grid; its time stamps are the sampling
+        instants, which may jitter and miss samples: every step uses the true times).
     quantum : float
         Encoder count q = 2 pi / counts_per_rev, rad.
     source : str
@@ -324,63 +336,70 @@ def smooth_log(log: Log, quantum: float, source: str = "log") -> Smoothed:
     n = len(log)
     if n < 4 * BLOCK:
         raise InputError(f"{source}: {n} rows are too few to smooth (at least {4 * BLOCK})")
-    dt = float(log.t[1] - log.t[0])
+    t = np.asarray(log.t)
+    dt = float(np.median(np.diff(t)))
     q_j, bandwidth = jerk_density(log, quantum)
     block = block_length(bandwidth, dt)
-    T = block * dt
     z_all = log.phi + quantum / 2
     n_blocks = math.ceil(n / block)
-    # State k lives at the mid-time of block k's full span (``block`` samples).
-    centres = log.t[0] + (np.arange(n_blocks) * block + (block - 1) / 2) * dt
-    offsets = (np.arange(block) - (block - 1) / 2) * dt
-    basis = np.column_stack([np.ones(block), offsets, offsets**2 / 2])  # readings = basis @ x
+    # State k lives at the mid-time of block k's span: of its first and last readings' time
+    # stamps (jittered or with dropped samples: the true instants), and for a last, shorter
+    # block of ``block`` nominal periods from its first reading.
+    first = t[::block]
+    last = t[block - 1 :: block]
+    centres = first + (block - 1) / 2 * dt
+    centres[: last.size] = (first[: last.size] + last) / 2
+    steps = np.diff(centres)
     variance = quantum * quantum / 12.0
 
-    F = _transition(T)
-
-    def fx(x, _dt):
-        return F @ x
-
-    def make_hx(rows):
-        H = basis[:rows]
+    def hx_for(k: int):
+        tau = t[k * block : (k + 1) * block] - centres[k]
+        H = np.column_stack([np.ones(tau.size), tau, tau**2 / 2])  # readings = H @ x
         return lambda x: H @ x
+
+    def fx(x, T):
+        return _transition(T) @ x
 
     points = MerweScaledSigmaPoints(3, alpha=0.5, beta=2.0, kappa=0.0, sqrt_method=_sqrt)
     ukf = UnscentedKalmanFilter(
-        dim_x=3, dim_z=block, dt=T, hx=make_hx(block), fx=fx, points=points
+        dim_x=3, dim_z=block, dt=float(np.median(steps)), hx=hx_for(0), fx=fx, points=points
     )
-    ukf.Q = _process_noise(T, q_j)
     # Start from a least-squares fit of the first blocks' kinematics with its own covariance
     # (readings' variance times (H^T H)^-1), widened for the model's error over those blocks.
     # A fixed wide P0 spans 13 orders of magnitude on a 20-bit encoder (q^2 ~ 4e-11 against
     # 100 rad^2/s^4) and rounding then breaks its positive definiteness.
     m = min(3 * block, n)
-    tau = log.t[:m] - centres[0]
+    tau = t[:m] - centres[0]
     H = np.column_stack([np.ones(m), tau, tau**2 / 2])
     x0, *_ = np.linalg.lstsq(H, z_all[:m], rcond=None)
     ukf.x = x0
     ukf.P = 100.0 * variance * np.linalg.inv(H.T @ H)
 
+    # The transition and process noise of each step between block states (one per distinct
+    # step length: regular blocks share theirs).
+    lengths, which = np.unique(steps, return_inverse=True)
+    F_of = [_transition(T) for T in lengths]
+    Q_of = [_process_noise(T, q_j) for T in lengths]
     means = np.empty((n_blocks, 3))
     covs = np.empty((n_blocks, 3, 3))
     full_R = np.eye(block) * variance
-    full_hx = make_hx(block)
     for k in range(n_blocks):
         z = z_all[k * block : (k + 1) * block]
-        rows = len(z)
         if k > 0:
-            ukf.predict()
-        if rows == block:
-            ukf.update(z, R=full_R, hx=full_hx)
-        else:  # the last, shorter block (filterpy accepts a measurement of another size)
-            ukf.update(z, R=np.eye(rows) * variance, hx=make_hx(rows))
+            ukf.Q = Q_of[which[k - 1]]
+            ukf.predict(dt=steps[k - 1])
+        R = full_R if len(z) == block else np.eye(len(z)) * variance
+        ukf.update(z, R=R, hx=hx_for(k))  # filterpy accepts a measurement of another size
         ukf.P = (ukf.P + ukf.P.T) / 2
         means[k] = ukf.x
         covs[k] = ukf.P
-    xs, ps, _ = ukf.rts_smoother(means, covs)
+    # The model is linear, so the RTS smoother is the Kalman one, with each step's own
+    # transition and process noise (filterpy's UKF smoother would apply one Q to every step).
+    Fs = [F_of[j] for j in which] + [np.eye(3)]
+    Qs = [Q_of[j] for j in which] + [np.zeros((3, 3))]
+    xs, ps, _, _ = rts_smoother(means, covs, Fs, Qs)
 
     # Every sample from the block states (Hermite between neighbours, Taylor outside).
-    t = np.asarray(log.t)
     k = np.clip(np.searchsorted(centres, t, side="right") - 1, 0, n_blocks - 2)
     t0, t1 = centres[k], centres[k + 1]
     a, b = xs[k], xs[k + 1]

@@ -31,6 +31,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+
 from rsp_inertia.estimation.pendulum import (
     best_practice_inertia,
     crossing_period,

@@ -26,6 +26,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
 from rsp_inertia.estimation.balance import StageBalance
 from rsp_inertia.estimation.gls import NOISE_SOURCES, Block, ModelTest, solve_blocks
 from rsp_inertia.plant.geometry import axis_direction, design_matrix, tensor_from_entries
@@ -344,7 +345,9 @@ def axis_values(entries: np.ndarray, cov: np.ndarray, directions: np.ndarray):
     """J_k = e_k^T J e_k for unit directions, with standard deviations (METHOD.md §5 (8))."""
     V = design_matrix(directions)
     values = V @ entries
-    stds = np.sqrt(np.einsum("ij,jk,ik->i", V, cov, V))
+    # v^T C v of a covariance is >= 0; a source that leaves an axis untouched (a tare std of
+    # 0 on its stage) gives 0, which rounding can turn into -1e-30 (a NaN std otherwise).
+    stds = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", V, cov, V), 0.0))
     return values, stds
 
 

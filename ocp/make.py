@@ -12,6 +12,7 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+
 from rsp_inertia.estimation.balance import mirror_log
 from rsp_inertia.estimation.energy import check_braking_monotone
 from rsp_inertia.estimation.smoothing import Smoothed, smooth_log

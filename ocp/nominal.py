@@ -23,6 +23,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+from scipy.optimize import lsq_linear
+
 from rsp_inertia.estimation.smoothing import Smoothed
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
@@ -35,7 +37,6 @@ from rsp_inertia.plant.model import (
     mechanical_energy,
     spring_parameters,
 )
-from scipy.optimize import lsq_linear
 
 __all__ = ["UNKNOWN", "fit_energy_windows", "fit_nominal"]
 
@@ -118,7 +119,7 @@ def fit_energy_windows(
     """
     unknowns = tuple(unknowns)
     spring = spring_parameters(device.spring.stiffness, device.spring.zero_angle)
-    dt = sm.t[1] - sm.t[0]
+    dt = float(np.median(np.diff(sm.t)))  # the sample period (time stamps may jitter)
     moving = np.nonzero(sm.omega > _MIN_SPEED_FRACTION * sm.omega.max())[0]
     rows = np.arange(moving[0], moving[-1] + 1) if moving.size else moving
     duration = rows.size * dt

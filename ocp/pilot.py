@@ -30,6 +30,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+
 from rsp_inertia.estimation.energy import torque_noise
 from rsp_inertia.estimation.smoothing import smooth_log
 from rsp_inertia.ocp.nominal import fit_energy_windows

@@ -58,6 +58,7 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
+
 from rsp_inertia.estimation.balance import MIN_SPEED_FRACTION, MIN_TURNS
 from rsp_inertia.estimation.predict import (
     PlannedPass,

@@ -38,11 +38,12 @@ from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
+from scipy.ndimage import uniform_filter1d
+
 from rsp_inertia.ocp.reference import Mirror
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.model import MODEL, ModelParameters, motor_torque, static_torque
-from scipy.ndimage import uniform_filter1d
 
 __all__ = ["GRID_STEP", "RHO", "W_PHI", "OcpSolution", "required_torque", "solve_program_ocp"]
 

@@ -27,6 +27,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+
 from rsp_inertia.estimation.smoothing import Smoothed, hermite
 from rsp_inertia.plant.errors import InputError
 
@@ -89,7 +90,7 @@ class RestFit:
 
 def rest_fit(sm: Smoothed, source: str, quantum: float) -> RestFit:
     """The deceleration to rest fitted over the braking's end (module docstring)."""
-    dt = sm.t[1] - sm.t[0]
+    dt = float(np.median(np.diff(sm.t)))  # the sample period (time stamps may jitter)
     n = max(round(REST_WINDOW / dt), 3)
     moved = sm.phi[-1] - sm.phi  # distance still to go at each sample
     enough = np.nonzero(moved >= REST_COUNTS * quantum)[0]
@@ -129,12 +130,11 @@ def braking_states_at(sm: Smoothed, times: np.ndarray, rest: tuple[float, float]
     """
     times = np.asarray(times, dtype=float)
     t = sm.t
-    dt = t[1] - t[0]
-    k = np.clip(np.floor((times - t[0]) / dt).astype(int), 0, len(t) - 2)
+    k = np.clip(np.searchsorted(t, times, side="right") - 1, 0, len(t) - 2)
     at = np.maximum(times, t[k])
     phi = hermite(t[k], t[k + 1], sm.phi[k], sm.omega[k], sm.phi[k + 1], sm.omega[k + 1], at)
     omega = hermite(t[k], t[k + 1], sm.omega[k], sm.eps[k], sm.omega[k + 1], sm.eps[k + 1], at)
-    s = np.minimum((at - t[k]) / dt, 1.0)
+    s = np.minimum((at - t[k]) / (t[k + 1] - t[k]), 1.0)
     eps = sm.eps[k] + (sm.eps[k + 1] - sm.eps[k]) * s
     tail = times > t[-1]
     if np.any(tail):

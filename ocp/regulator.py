@@ -40,9 +40,10 @@ import math
 import casadi as ca
 import numpy as np
 import scipy.linalg
+from threadpoolctl import threadpool_limits
+
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.model import MODEL, ModelParameters, reduced_inertia
-from threadpoolctl import threadpool_limits
 
 __all__ = ["GAIN_STEP", "MAX_BANDWIDTH", "OBSERVER_BANDWIDTH", "bandwidth", "lqr_gains"]
 

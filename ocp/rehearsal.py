@@ -39,6 +39,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+
 from rsp_inertia.estimation.balance import stage_balance
 from rsp_inertia.estimation.runs import estimate_run
 from rsp_inertia.estimation.tensor import axis_values, fit_tensor, format_run

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
 from rsp_inertia.plant.errors import InputError
 
 __all__ = [
@@ -34,6 +35,7 @@ __all__ = [
     "Device",
     "Encoder",
     "Friction",
+    "LoggerSettings",
     "Motor",
     "Pendulum",
     "PlanGuess",
@@ -502,6 +504,27 @@ class RunSettings:
 
 
 @dataclass(frozen=True)
+class LoggerSettings:
+    """How the virtual rig's drive samples and logs (a real drive's timing imperfections).
+
+    The drive's loop reads the encoder, sets the torque and writes a log row at each of its
+    sampling instants; the log's time stamps are those instants (rsp_inertia.plant.logs).
+    """
+
+    time_jitter: float = 0.0
+    """Each sampling instant is off the regular grid k / sample_rate by a uniform random
+    amount within +- this fraction of a period, 0 <= time_jitter <= 0.25 (the logs' limit,
+    rsp_inertia.plant.logs.JITTER_LIMIT); the first row stays at t = 0."""
+    dropped_fraction: float = 0.0
+    """Fraction of the rows the logger loses at random (the drive still acts at those
+    instants), 0 <= dropped_fraction < 0.5; the first and last rows are always kept."""
+    counts: bool = False
+    """Write ``t,counts,torque`` with integer counts of the drive's position counter
+    (device.toml ``[encoder] counter_bits``, which must then be set: the counts wrap there)
+    instead of ``t,phi,torque``."""
+
+
+@dataclass(frozen=True)
 class ControllerSettings:
     """The virtual device's controller."""
 
@@ -560,6 +583,9 @@ class Virtual:
     friction_backward: Friction | None = None
     """Explicit friction for backward motion (Omega < 0), from ``[friction_backward]``; None:
     ``friction`` scaled by its ``backward_scale``."""
+    logger: LoggerSettings = LoggerSettings()
+    """The drive's sampling and logging; regular and lossless when the file has no
+    ``[logger]``."""
     models: tuple | None = None
     """Per stage, the true model given directly (rsp_inertia.plant.model.ModelParameters, both directions
     of motion) in place of body, fixture, tare and friction: a rehearsal of a plan on its
@@ -628,7 +654,7 @@ def _virtual(doc: dict[str, Any]) -> Virtual:
     _known(
         doc,
         "",
-        {"body", "fixture", "friction", "friction_backward", "rig", "run", "controller"},
+        {"body", "fixture", "friction", "friction_backward", "rig", "run", "controller", "logger"},
     )
     body = _true_body(doc, "body")
     fixture = _true_body(doc, "fixture")
@@ -695,7 +721,28 @@ def _virtual(doc: dict[str, Any]) -> Virtual:
             bound="> 0",
         ),
     )
-    return Virtual(body, friction, run, controller, fixture, rig, friction_backward)
+    return Virtual(
+        body, friction, run, controller, fixture, rig, friction_backward, _logger(doc)
+    )
+
+
+def _logger(doc: dict[str, Any]) -> LoggerSettings:
+    table = _table(
+        doc, "logger", {"time_jitter", "dropped_fraction", "counts"}, required=False
+    ) or {}
+    default = LoggerSettings()
+    jitter = _get(table, "logger", "time_jitter", float, default=default.time_jitter, bound=">= 0")
+    if jitter > 0.25:
+        raise _ContentError("logger.time_jitter", f"must be <= 0.25 (of a period), got {jitter!r}")
+    dropped = _get(
+        table, "logger", "dropped_fraction", float, default=default.dropped_fraction, bound=">= 0"
+    )
+    if not dropped < 0.5:
+        raise _ContentError("logger.dropped_fraction", f"must be < 0.5, got {dropped!r}")
+    counts = table.get("counts", default.counts)
+    if not isinstance(counts, bool):
+        raise _ContentError("logger.counts", f"must be a boolean, got {_describe(counts)}")
+    return LoggerSettings(time_jitter=jitter, dropped_fraction=dropped, counts=counts)
 
 
 def load_reference(path: str | os.PathLike) -> TrueBody:

@@ -13,8 +13,9 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
-from rsp_inertia.plant.errors import InputError
 from scipy.optimize import minimize_scalar
+
+from rsp_inertia.plant.errors import InputError
 
 __all__ = [
     "AxisDesign",

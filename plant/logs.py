@@ -18,14 +18,15 @@ from pathlib import Path
 from typing import Protocol
 
 import numpy as np
+
 from rsp_inertia.plant.config import DIRECTIONS
 from rsp_inertia.plant.errors import InputError
 
 LOG_COLUMNS = ("t", "phi", "torque")
+"""Header of braking.csv and reverse.csv."""
 
 COUNT_COLUMNS = ("t", "counts", "torque")
 """A drive logger's alternative header: integer encoder counts instead of phi in rad."""
-"""Header of braking.csv and reverse.csv."""
 
 PROGRAM_COLUMNS = ("t", "phi_ref", "omega_ref", "torque_ff", "k_phi", "k_omega")
 """Header of program.csv."""
@@ -37,7 +38,22 @@ T0_TOLERANCE = 1e-9
 """s, how far from 0 the first time stamp may be."""
 
 RATE_TOLERANCE = 1e-3
-"""Relative tolerance on every time step against 1 / sample_rate."""
+"""Relative tolerance on every time step of a program against 1 / sample_rate."""
+
+JITTER_LIMIT = 0.25
+"""Fraction of a sample period by which a log's time stamp may be off the regular grid.
+
+A log's time stamps are the instants at which the drive read the encoder and set the torque
+(the torque of row k acts over [t_k, t_k+1)); they need not be regular. With every stamp
+within +-JITTER_LIMIT of a period of its grid instant, a step of one sample lies between
+1 - 2 JITTER_LIMIT = 0.5 and 1.5 periods, and a step of about n periods (n >= 2) is a gap of
+n - 1 samples the logger dropped (:func:`dropped_samples`). A step shorter than half a
+period is refused (a repeated row, or a sample rate that is not device.toml's)."""
+
+MEAN_RATE_TOLERANCE = 0.01
+"""Relative tolerance on a log's mean sample period (its duration over the periods its steps
+count, dropped samples included) against 1 / sample_rate; jitter moves it by at most
+2 JITTER_LIMIT / periods."""
 
 GRID_TOLERANCE = 1e-3
 """Counts, how far phi / q may be from a whole number."""
@@ -85,7 +101,8 @@ class Log:
     """
 
     t: np.ndarray  # s, shape (n,)
-    """Time from 0, strictly increasing, at the encoder's sample rate."""
+    """Time from 0, strictly increasing: the drive's sampling instants, about one per period
+    of the encoder's sample rate (jitter and dropped samples: :data:`JITTER_LIMIT`)."""
     phi: np.ndarray  # rad, shape (n,)
     """Encoder angle, unwrapped, a whole multiple of q = 2 pi / counts_per_rev."""
     torque: np.ndarray  # N m, shape (n,)
@@ -211,8 +228,11 @@ def _read_table(path: str | os.PathLike, columns: Sequence[str]) -> np.ndarray:
     return values
 
 
-def _check_time(path: str | os.PathLike, t: np.ndarray, encoder: EncoderLike) -> None:
-    """t from 0, strictly increasing, one step per encoder sample."""
+def _check_time(
+    path: str | os.PathLike, t: np.ndarray, encoder: EncoderLike, regular: bool = True
+) -> None:
+    """t from 0, strictly increasing; ``regular``: one step per encoder sample (a program),
+    else a log's sampling instants (:data:`JITTER_LIMIT`: jitter and dropped samples)."""
     if abs(t[0]) > T0_TOLERANCE:
         raise InputError(f"{path}, line 2: t = {float(t[0])!r} s, the first row must be at t = 0")
     steps = np.diff(t)
@@ -225,6 +245,29 @@ def _check_time(path: str | os.PathLike, t: np.ndarray, encoder: EncoderLike) ->
             "t must be strictly increasing"
         )
     rate = float(encoder.sample_rate)
+    if not regular:
+        median = float(np.median(steps))
+        if median * rate >= 1.0 + 2 * JITTER_LIMIT:
+            raise InputError(
+                f"{path}: median time step {median:.6g} s, expected {1.0 / rate:.6g} s "
+                f"(encoder sample rate {rate:g} Hz)"
+            )
+        short = np.flatnonzero(steps * rate < 1.0 - 2 * JITTER_LIMIT)
+        if short.size:
+            k = short[0]
+            raise InputError(
+                f"{path}, line {k + 3}: time step {steps[k]:.6g} s at t = {float(t[k + 1])!r} s "
+                f"is less than half the sample period {1.0 / rate:.6g} s (time stamps may be "
+                f"off the sampling grid by at most {JITTER_LIMIT:g} of a period)"
+            )
+        periods = int(np.rint(steps * rate).sum())
+        mean = float(t[-1] - t[0]) / periods
+        if abs(mean * rate - 1.0) > MEAN_RATE_TOLERANCE:
+            raise InputError(
+                f"{path}: mean sample period {mean:.6g} s over {periods} periods, expected "
+                f"{1.0 / rate:.6g} s (encoder sample rate {rate:g} Hz)"
+            )
+        return
     off_rate = np.flatnonzero(np.abs(steps * rate - 1.0) > RATE_TOLERANCE)
     if off_rate.size:
         k = off_rate[0]
@@ -232,6 +275,30 @@ def _check_time(path: str | os.PathLike, t: np.ndarray, encoder: EncoderLike) ->
             f"{path}, line {k + 3}: time step {steps[k]:.6g} s, expected {1.0 / rate:.6g} s "
             f"(encoder sample rate {rate:g} Hz)"
         )
+
+
+def dropped_samples(t: np.ndarray, sample_rate: float) -> np.ndarray:
+    """Samples missing after each row of a log: round(step x sample_rate) - 1 (see
+    :data:`JITTER_LIMIT`), 0 where the step is a single jittered period.
+
+    Parameters
+    ----------
+    t : np.ndarray, shape (n,), s
+        The log's time stamps, strictly increasing.
+    sample_rate : float
+        Hz, the encoder's.
+
+    Returns
+    -------
+    np.ndarray, shape (n - 1,), int
+        Entry k counts the samples dropped between rows k and k + 1.
+
+    Examples
+    --------
+    >>> dropped_samples(np.array([0.0, 0.0011, 0.0019, 0.0041]), 1000.0)
+    array([0, 0, 1])
+    """
+    return np.maximum(np.rint(np.diff(t) * sample_rate).astype(np.int64) - 1, 0)
 
 
 def _header(path: str | os.PathLike) -> list[str] | None:
@@ -360,7 +427,8 @@ def read_log(
     InputError
         One line naming the file, the line and the fault: a missing or empty file, a wrong
         header, a malformed or non-finite number, fewer than 2 rows, t not from 0, not strictly
-        increasing or not at the sample rate, phi off the encoder grid, the wrong direction.
+        increasing, a step shorter than half a sample period or a median step off the sample
+        rate (:data:`JITTER_LIMIT`), phi off the encoder grid, the wrong direction.
     """
     if kind not in LOG_KINDS:
         raise ValueError(f"kind must be one of {LOG_KINDS}, got {kind!r}")
@@ -371,7 +439,7 @@ def read_log(
         phi = _unwrap_counts(path, counts, encoder) * float(encoder.quantum)
     else:
         t, phi, torque = _read_table(path, LOG_COLUMNS).T
-    _check_time(path, t, encoder)
+    _check_time(path, t, encoder, regular=False)
     _check_grid(path, phi, encoder)
     _check_direction(path, phi, kind, direction)
     return Log(t=t, phi=phi, torque=torque)
@@ -420,7 +488,7 @@ def _format_table(columns: Sequence[str], arrays: Sequence[np.ndarray]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_log(path: str | os.PathLike, log: Log) -> None:
+def write_log(path: str | os.PathLike, log: Log, counter: EncoderLike | None = None) -> None:
     """Write a log as braking.csv / reverse.csv (header ``t,phi,torque``), atomically.
 
     Numbers are written as Python ``repr``, so :func:`read_log` returns exactly these values
@@ -432,8 +500,23 @@ def write_log(path: str | os.PathLike, log: Log) -> None:
         Target file; its folder must exist.
     log : Log
         Finite values (else ValueError).
+    counter : encoder-like, optional
+        Write ``t,counts,torque`` instead, as a drive's position counter of
+        ``counter.counter_bits`` bits gives them: counts = phi / quantum modulo
+        2**counter_bits (phi must be on the encoder grid). :func:`read_log` unwraps them to
+        phi up to whole ranges of the counter.
     """
-    write_atomic(path, _format_table(LOG_COLUMNS, [log.t, log.phi, log.torque]))
+    if counter is None:
+        write_atomic(path, _format_table(LOG_COLUMNS, [log.t, log.phi, log.torque]))
+        return
+    bits = getattr(counter, "counter_bits", None)
+    if bits is None:
+        raise ValueError("a counts log needs an encoder with counter_bits")
+    counts = np.rint(log.phi / float(counter.quantum)).astype(np.int64) % (2**bits)
+    rows = zip(log.t.tolist(), counts.tolist(), log.torque.tolist(), strict=True)
+    lines = [",".join(COUNT_COLUMNS)]
+    lines.extend(f"{t!r},{c},{u!r}" for t, c, u in rows)
+    write_atomic(path, "\n".join(lines) + "\n")
 
 
 def write_program(path: str | os.PathLike, program: Program) -> None:

@@ -32,6 +32,8 @@ from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
+from scipy.optimize import brentq
+
 from rsp_inertia.plant.config import DIRECTIONS, Device, Stage, Virtual
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.logs import Log, Program
@@ -45,7 +47,6 @@ from rsp_inertia.plant.model import (
     reduced_inertia,
     static_torque,
 )
-from scipy.optimize import brentq
 
 __all__ = [
     "MAX_BRAKING_TIME",
@@ -102,6 +103,10 @@ _STREAM_PENDULUM = 2
 _STREAM_BRAKING_BACKWARD = 3
 _STREAM_REVERSE_BACKWARD = 4
 _STREAM_PILOT = 5
+_STREAM_CLOCK = 100
+"""Added to a pass's stream for its sampling instants' jitter (``[logger] time_jitter``)."""
+_STREAM_DROPS = 200
+"""Added to a pass's stream for the rows its logger drops (``[logger] dropped_fraction``)."""
 
 _COULOMB = PARAMETER_NAMES.index("a1")
 """Index of a1 in the parameter vector: the static friction at rest."""
@@ -324,6 +329,78 @@ def _make_log(t, phi_true, torque, quantum, noise, rng) -> Log:
     return Log(t=np.asarray(t), phi=encoder_reading(phi_true, quantum), torque=np.asarray(logged))
 
 
+def sampling_instants(virtual: Virtual, seed: tuple, n: int, dt: float) -> np.ndarray:
+    """s, the drive's first ``n`` sampling instants (k + d_k) dt, d_0 = 0 and d_k uniform
+    within +-``[logger] time_jitter`` (a fraction of the period); k dt exactly without jitter.
+
+    ``seed`` names the pass's random stream (the same instants for the same pass).
+    """
+    jitter = virtual.logger.time_jitter
+    k = np.arange(n, dtype=float)
+    if jitter == 0.0 or n == 0:
+        return k * dt
+    offsets = np.random.default_rng([virtual.run.seed, *seed]).uniform(-jitter, jitter, n)
+    offsets[0] = 0.0
+    return (k + offsets) * dt
+
+
+def _resample(truth: PassTruth, pair: _Pair, instants: np.ndarray) -> PassTruth:
+    """The pass ``truth`` (states on the regular grid, the physical torque held over each
+    grid sample) at the drive's sampling ``instants`` (within [0, end_time)).
+
+    Exact for the passes whose torque is constant between the grid's samples and the
+    instants (braking, pendulum: one torque throughout; a pilot's switch-off is a grid
+    sample, so its one row around the switch carries the command of the grid sample before
+    it). Each state advances from the grid sample before it, stops and static friction
+    included (:func:`_advance`).
+    """
+    if np.array_equal(instants, truth.t):
+        return truth
+    g = np.clip(np.searchsorted(truth.t, instants, side="right") - 1, 0, truth.t.size - 1)
+    states = np.array(
+        [
+            _advance(np.array([truth.phi[j], truth.omega[j]]), truth.torque[j], h, pair)
+            for j, h in zip(g.tolist(), (instants - truth.t[g]).tolist())
+        ]
+    )
+    return dataclasses.replace(
+        truth, t=instants, phi=states[:, 0], omega=states[:, 1], torque=truth.torque[g]
+    )
+
+
+def _jittered(
+    truth: PassTruth, pair: _Pair, virtual: Virtual, seed: tuple, dt: float
+) -> PassTruth:
+    """``truth`` at the drive's jittered sampling instants before its end_time."""
+    if virtual.logger.time_jitter == 0.0:
+        return truth
+    instants = sampling_instants(virtual, seed, truth.t.size + 2, dt)
+    return _resample(truth, pair, instants[instants < truth.end_time])
+
+
+def _logged(
+    truth: PassTruth, command: np.ndarray, virtual: Virtual, seed: tuple, quantum: float
+) -> SimulatedPass:
+    """What the logger writes of a pass: encoder readings and the command plus noise at
+    every sampling instant (noise drawn on the stream ``seed``), less the rows it drops
+    (``[logger] dropped_fraction``: at random, never the first or the last); ``truth`` is
+    cut to the rows kept."""
+    rng = np.random.default_rng([virtual.run.seed, *seed])
+    log = _make_log(truth.t, truth.phi, command, quantum, virtual.run.torque_noise, rng)
+    fraction = virtual.logger.dropped_fraction
+    if fraction > 0.0:
+        drop_seed = (seed[0], seed[1] + _STREAM_DROPS, *seed[2:])
+        lost = np.random.default_rng([virtual.run.seed, *drop_seed]).random(len(log)) < fraction
+        lost[0] = lost[-1] = False
+        keep = ~lost
+        log = Log(t=log.t[keep], phi=log.phi[keep], torque=log.torque[keep])
+        truth = dataclasses.replace(
+            truth, t=truth.t[keep], phi=truth.phi[keep], omega=truth.omega[keep],
+            torque=truth.torque[keep],
+        )
+    return SimulatedPass(log=log, truth=truth)
+
+
 def simulate_braking(
     device: Device, stage: int, virtual: Virtual, direction: str = "forward"
 ) -> SimulatedPass:
@@ -367,20 +444,20 @@ def simulate_braking(
             "raise braking_torque or lower launch_speed in device.toml"
         )
     t, traj, end_time, end_phi = stop
-    torque = np.full(len(t), u)
-    rng = _rng(virtual, stage, _STREAM_BRAKING if s > 0 else _STREAM_BRAKING_BACKWARD)
     truth = PassTruth(
         t=t,
         phi=traj[:, 0],
         omega=traj[:, 1],
-        torque=torque,
+        torque=np.full(len(t), u),
         end_time=end_time,
         end_phi=end_phi,
         end_omega=0.0,
     )
-    logged = np.full(len(t), command)
-    log = _make_log(t, traj[:, 0], logged, device.encoder.quantum, virtual.run.torque_noise, rng)
-    return SimulatedPass(log=log, truth=truth)
+    stream = _STREAM_BRAKING if s > 0 else _STREAM_BRAKING_BACKWARD
+    pair = _true_pair(device, stage, virtual)
+    truth = _jittered(truth, pair, virtual, (stage, stream + _STREAM_CLOCK), dt)
+    command = np.full(len(truth.t), command)
+    return _logged(truth, command, virtual, (stage, stream), device.encoder.quantum)
 
 
 class SpeedObserver:
@@ -406,18 +483,26 @@ class SpeedObserver:
         self.omega = omega0
         self.acc = 0.0
         self.dt = dt
+        self.bandwidth = bandwidth
         self.l1 = 3.0 * bandwidth * dt
         self.l2 = 3.0 * bandwidth**2 * dt
         self.l3 = bandwidth**3 * dt
 
-    def update(self, y: float) -> float:
-        """Take the encoder reading of this sample; return the speed estimate, rad/s."""
-        dt = self.dt
+    def update(self, y: float, dt: float | None = None) -> float:
+        """Take the encoder reading of this sample, ``dt`` s after the previous one (default:
+        the nominal period; a jittered drive knows its own); return the speed estimate, rad/s.
+        """
+        if dt is None or dt == self.dt:
+            l1, l2, l3 = self.l1, self.l2, self.l3
+            dt = self.dt
+        else:
+            w = self.bandwidth
+            l1, l2, l3 = 3.0 * w * dt, 3.0 * w * w * dt, w**3 * dt
         predicted = self.phi + self.omega * dt + self.acc * dt * dt / 2
         error = y - predicted
-        self.phi = predicted + self.l1 * error
-        self.omega += self.acc * dt + self.l2 * error
-        self.acc += self.l3 * error
+        self.phi = predicted + l1 * error
+        self.omega += self.acc * dt + l2 * error
+        self.acc += l3 * error
         return self.omega
 
 
@@ -471,13 +556,15 @@ def run_program(
 ) -> SimulatedPass:
     """Execute ``program`` in closed loop on the virtual device (INTERFACES.md, program.csv).
 
-    Every sample the controller reads the encoder, updates its speed estimate
-    (:class:`SpeedObserver`), computes
+    At each of its sampling instants (regular, or jittered by ``[logger] time_jitter``:
+    :func:`sampling_instants`; the program interpolated there) the controller reads the
+    encoder, updates its speed estimate (:class:`SpeedObserver`), computes
 
         u = clip(torque_ff - k_phi (phi - phi_ref) - k_omega (omega - omega_ref), +-torque_limit)
 
-    limits the change from the previous sample to torque_rate_limit dt, and holds u over the
-    sample. u is the drive's command: the log records it (plus noise), the body receives
+    limits the change from the previous sample to torque_rate_limit times the step, and holds
+    u until its next instant; with a wrapping position counter (``counter_bits``) phi - phi_ref
+    is taken modulo the counter's range. u is the drive's command: the log records it (plus noise), the body receives
     u / torque_gain (``[rig]``). Before the program the motor holds the body at rest, so the
     rate limiter starts from the command that held it there (torque_gain times the static
     torque at the start angle).
@@ -515,8 +602,18 @@ def run_program(
     dt = enc.dt
     q = enc.quantum
     n = len(program.t)
+    stream = _STREAM_REVERSE if s > 0 else _STREAM_REVERSE_BACKWARD
+    # The drive's sampling instants (jittered: ``[logger] time_jitter``), one more for the
+    # end of the last sample; it applies program.csv at each, interpolated in time.
+    instants = sampling_instants(virtual, (stage, stream + _STREAM_CLOCK), n + 1, dt)
+    # Without jitter every step is the period itself (differences of k dt are off by ulps).
+    steps = np.diff(instants) if virtual.logger.time_jitter else np.full(n, dt)
+    # A drive whose position counter wraps (device.toml counter_bits) knows phi only modulo
+    # the counter's range, as its logs do: program.csv, made from such a log, may be whole
+    # ranges off the true angle, and the drive takes the position error modulo the range.
+    span = None if enc.counter_bits is None else 2**enc.counter_bits * q
     u_max = math.inf if ideal else device.motor.torque_limit
-    du_max = math.inf if ideal else device.motor.torque_rate_limit * dt
+    rate_max = math.inf if ideal else device.motor.torque_rate_limit
 
     x = np.array(start, dtype=float)
     held = float(static_torque(x[0], pair[0]))
@@ -528,34 +625,47 @@ def run_program(
     omega_true = np.empty(n)
     applied = np.empty(n)
     commands = np.empty(n)
-    ff, kp, kw = program.torque_ff, program.k_phi, program.k_omega
-    ref_phi, ref_omega = program.phi_ref, program.omega_ref
+    at = instants[:-1]
+    if np.array_equal(at, program.t):
+        columns = (program.torque_ff, program.k_phi, program.k_omega)
+        ref_columns = (program.phi_ref, program.omega_ref)
+    else:
+        columns = tuple(
+            np.interp(at, program.t, c) for c in (program.torque_ff, program.k_phi, program.k_omega)
+        )
+        ref_columns = tuple(np.interp(at, program.t, c) for c in (program.phi_ref, program.omega_ref))
+    ff, kp, kw = columns
+    ref_phi, ref_omega = ref_columns
+    h_prev = dt
     for k in range(n):
         phi_true[k], omega_true[k] = x
         y = math.floor(x[0] / q) * q
-        omega_hat = observer.update(y)
+        omega_hat = observer.update(y, h_prev)
         if ideal:
             y, omega_hat = x
-        u = ff[k] - kp[k] * (y - ref_phi[k]) - kw[k] * (omega_hat - ref_omega[k])
+        error = y - ref_phi[k]
+        if span is not None:  # a counter's position error, modulo its range
+            error -= span * round(error / span)
+        u = ff[k] - kp[k] * error - kw[k] * (omega_hat - ref_omega[k])
         u = min(max(u, -u_max), u_max)
+        du_max = rate_max * h_prev
         u = min(max(u, u_prev - du_max), u_prev + du_max)
         physical = u if ideal else u / gain
         applied[k] = physical
         commands[k] = u * gain if ideal else u
         u_prev = u
-        x = _advance(x, physical, dt, pair, _COARSE_STEP if coarse else _STEP)
+        h_prev = float(steps[k])
+        x = _advance(x, physical, h_prev, pair, _COARSE_STEP if coarse else _STEP)
     truth = PassTruth(
-        t=np.asarray(program.t, dtype=float),
+        t=at,
         phi=phi_true,
         omega=omega_true,
         torque=applied,
-        end_time=float(program.t[-1] + dt),
+        end_time=float(instants[-1]),
         end_phi=float(x[0]),
         end_omega=float(x[1]),
     )
-    rng = _rng(virtual, stage, _STREAM_REVERSE if s > 0 else _STREAM_REVERSE_BACKWARD)
-    log = _make_log(truth.t, phi_true, commands, q, virtual.run.torque_noise, rng)
-    return SimulatedPass(log=log, truth=truth)
+    return _logged(truth, commands, virtual, (stage, stream), q)
 
 
 IDEAL_BANDWIDTH = 5.0
@@ -727,19 +837,21 @@ def simulate_pendulum(device: Device, stage: int, virtual: Virtual, node: int) -
     x0 = np.array([params.zero_angle + math.radians(device.pendulum.amplitude_deg), 0.0])
     traj = _free_motion(x0, pair, n, dt)
     t = np.arange(n) * dt
-    torque = np.zeros(n)
     truth = PassTruth(
         t=t,
         phi=traj[:, 0],
         omega=traj[:, 1],
-        torque=torque,
+        torque=np.zeros(n),
         end_time=float(t[-1]),
         end_phi=float(traj[-1, 0]),
         end_omega=float(traj[-1, 1]),
     )
-    rng = np.random.default_rng([virtual.run.seed, stage, _STREAM_PENDULUM, node])
-    log = _make_log(t, traj[:, 0], torque, device.encoder.quantum, virtual.run.torque_noise, rng)
-    return SimulatedPass(log=log, truth=truth)
+    # The run is logged for ``duration``: its last instant is the grid's last sample.
+    clock = (stage, _STREAM_PENDULUM + _STREAM_CLOCK, node)
+    instants = sampling_instants(virtual, clock, n, dt)
+    truth = _resample(truth, pair, np.append(instants[instants < t[-1]], t[-1]))
+    seed = (stage, _STREAM_PENDULUM, node)
+    return _logged(truth, np.zeros(len(truth.t)), virtual, seed, device.encoder.quantum)
 
 
 def free_motion(
@@ -866,6 +978,6 @@ def simulate_pilot(device: Device, stage: int, virtual: Virtual) -> SimulatedPas
         end_phi=float(end_phi),
         end_omega=float(end_omega),
     )
-    rng = _rng(virtual, stage, _STREAM_PILOT)
-    log = _make_log(t, traj[:, 0], commands, device.encoder.quantum, virtual.run.torque_noise, rng)
-    return SimulatedPass(log=log, truth=truth)
+    truth = _jittered(truth, pair, virtual, (stage, _STREAM_PILOT + _STREAM_CLOCK), dt)
+    commands = np.where(truth.t < switch * dt, command, 0.0)
+    return _logged(truth, commands, virtual, (stage, _STREAM_PILOT), device.encoder.quantum)

@@ -11,7 +11,8 @@ missing for the next step and what looks wrong, without stopping at the first pr
 - ``suspicious``: what identify accepts but a test engineer would want to know before the
   run: a braking that covers few turns past its last node, a logged braking torque that is
   not device.toml's, a program older than the braking it mirrors, a reverse much shorter or
-  longer than its braking, constants that identify will take as exact and warn about.
+  longer than its braking, constants that identify will take as exact and warn about, a gap
+  of dropped samples near a node.
 - ``ok``: what is in place.
 
 The folder is ready for identify when no line is ``error`` or ``missing``.
@@ -25,12 +26,12 @@ from pathlib import Path
 
 import numpy as np
 
-from rsp_inertia.estimation.balance import mirror_log
+from rsp_inertia.estimation.balance import NODE_GAP_SAMPLES, check_node_gaps, mirror_log
 from rsp_inertia.estimation.energy import check_braking_monotone
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.geometry import turns_past_last_node
-from rsp_inertia.plant.logs import read_log
+from rsp_inertia.plant.logs import dropped_samples, read_log
 
 __all__ = ["LEVELS", "MIN_TURNS_PAST_LAST_NODE", "CheckReport", "check"]
 
@@ -117,6 +118,36 @@ def _try_read(report: CheckReport, path: Path, encoder, kind: str, direction: st
         return None
 
 
+def _check_timing(exp, stage: int, direction: str, path: Path, log, report: CheckReport) -> None:
+    """A log's sampling: dropped samples and jitter (a line when there are any), and a gap
+    near a node that identify would refuse (rsp_inertia.estimation.balance.check_node_gaps;
+    ``suspicious`` here: identify refuses it only where the node's passage lies in the range
+    it balances, which needs the smoothed passes)."""
+    rate = exp.device.encoder.sample_rate
+    periods = np.diff(log.t) * rate
+    missing = dropped_samples(log.t, rate)
+    jitter = float(np.max(np.abs(periods - np.rint(periods)))) if periods.size else 0.0
+    if missing.any() or jitter > 1e-6:
+        gaps = int(np.count_nonzero(missing))
+        report.add(
+            "ok",
+            f"{path}: {int(missing.sum())} sample(s) dropped in {gaps} gap(s) (longest "
+            f"{int(missing.max())}); time steps off whole periods by up to {jitter:.2f} of a "
+            "period",
+        )
+    if missing.max(initial=0) <= NODE_GAP_SAMPLES:
+        return
+    forward = log if direction == "forward" else mirror_log(log, exp.device.encoder.quantum)
+    sign = 1 if direction == "forward" else -1
+    try:
+        check_node_gaps(exp.device, stage, forward, str(path), direction=sign)
+    except InputError as error:
+        report.add(
+            "suspicious",
+            f"{error} (identify refuses it if that passage is in the range it balances)",
+        )
+
+
 def _check_run(exp, stage: int, direction: str, report: CheckReport) -> None:
     """One stage in one direction: braking, program, reverse."""
     device = exp.device
@@ -134,6 +165,7 @@ def _check_run(exp, stage: int, direction: str, report: CheckReport) -> None:
     else:
         braking = _try_read(report, b_path, device.encoder, "braking", direction)
     if braking is not None:
+        _check_timing(exp, stage, direction, b_path, braking, report)
         forward = braking if direction == "forward" else mirror_log(braking, device.encoder.quantum)
         try:
             check_braking_monotone(forward, str(b_path))
@@ -191,6 +223,7 @@ def _check_run(exp, stage: int, direction: str, report: CheckReport) -> None:
     reverse = _try_read(report, r_path, device.encoder, "reverse", direction)
     if reverse is None:
         return
+    _check_timing(exp, stage, direction, r_path, reverse, report)
     duration = float(reverse.t[-1] - reverse.t[0])
     if braking is not None:
         b_duration = float(braking.t[-1] - braking.t[0])

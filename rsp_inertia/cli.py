@@ -10,6 +10,7 @@ import argparse
 import sys
 from pathlib import Path
 
+import rsp_inertia
 from rsp_inertia.plant.errors import InputError
 
 
@@ -22,8 +23,6 @@ def _cmd_demo(args: argparse.Namespace) -> None:
 def _cmd_simulate(args: argparse.Namespace) -> None:
     from rsp_inertia.pipeline import simulate
 
-    if args.ideal and args.part != "reverse":
-        raise InputError("--ideal goes with --part reverse")
     simulate(
         args.exp,
         args.stage,
@@ -120,16 +119,6 @@ BENCH_OUT = Path("benchmarks/results")
 """Where ``rsp-inertia bench`` writes by default (relative to the working folder)."""
 
 
-def _version() -> str:
-    """The installed distribution's version (pyproject.toml's ``version``)."""
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("rsp-inertia")
-    except PackageNotFoundError:  # run from a checkout that was never installed
-        return "unknown"
-
-
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="rsp-inertia",
@@ -137,7 +126,7 @@ def _parser() -> argparse.ArgumentParser:
         "precession (RSP) on a biaxial gimbal.",
     )
     parser.add_argument(
-        "--version", action="version", version=f"%(prog)s {_version()}",
+        "--version", action="version", version=f"%(prog)s {rsp_inertia.__version__}",
         help="print the installed version and exit",
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")

@@ -3,6 +3,7 @@
 from pathlib import Path
 
 import pytest
+
 import rsp_inertia.plant
 from rsp_inertia.plant.config import Device, Virtual, load_device, load_virtual
 

@@ -21,10 +21,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from rsp_inertia.plant.config import load_device
 
 import rsp_inertia
 from rsp_inertia.cli import main
+from rsp_inertia.plant.config import load_device
 
 DOCS = Path(__file__).parents[1] / "docs" / "api.md"
 

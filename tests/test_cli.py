@@ -6,11 +6,11 @@ import math
 
 import numpy as np
 import pytest
-from rsp_inertia.plant.config import load_device
-from rsp_inertia.plant.logs import read_log
 
 from rsp_inertia.cli import main
 from rsp_inertia.pipeline import create_default_experiment
+from rsp_inertia.plant.config import load_device
+from rsp_inertia.plant.logs import read_log
 
 
 @pytest.fixture

@@ -5,10 +5,9 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from rsp_inertia.plant.geometry import best_cone_opening, cone_plus_z_design, icosahedron_design
-
 from rsp_inertia.cli import main
 from rsp_inertia.design import design_report, plot_cone_conditioning
+from rsp_inertia.plant.geometry import best_cone_opening, cone_plus_z_design, icosahedron_design
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 

@@ -31,12 +31,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import rsp_inertia.plant
 import tomlkit
+
+import rsp_inertia.plant
+from rsp_inertia.cli import _parser, main
 from rsp_inertia.plant import config
 from rsp_inertia.plant.errors import InputError
-
-from rsp_inertia.cli import _parser, main
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"

@@ -6,6 +6,7 @@ virtual body really did, never with numbers from an earlier run (STYLE.md, princ
 
 import numpy as np
 import pytest
+
 from rsp_inertia.plant import virtual as vd
 
 STAGES = (1, 2)

@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 import pytest
+
 from rsp_inertia.estimation.balance import node_formula, stage_balance
 from rsp_inertia.estimation.energy import PassEstimate
 from rsp_inertia.estimation.smoothing import Smoothed
@@ -18,7 +19,6 @@ from rsp_inertia.estimation.tensor import fit_tensor
 from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.logs import Log
 from rsp_inertia.plant.model import acceleration, reduced_inertia
-
 from tests.estimation.conftest import STAGES, tensor
 
 EXACT_REL = 1e-6

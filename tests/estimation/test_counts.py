@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
-from rsp_inertia.plant.config import load_device
-from rsp_inertia.plant.logs import read_log
 
 from rsp_inertia.pipeline import create_default_experiment, identify, simulate
+from rsp_inertia.plant.config import load_device
+from rsp_inertia.plant.logs import read_log
 
 
 def test_wrapped_counts_identify_like_the_angles(tmp_path):

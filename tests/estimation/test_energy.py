@@ -5,6 +5,7 @@ import math
 
 import numpy as np
 import pytest
+
 from rsp_inertia.estimation.energy import (
     CONSTANCY_TAIL,
     constancy_p_value,
@@ -14,7 +15,6 @@ from rsp_inertia.estimation.energy import (
     work_covariance,
 )
 from rsp_inertia.plant import virtual as vd
-
 from tests.estimation.conftest import STAGES
 
 

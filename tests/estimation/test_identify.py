@@ -14,10 +14,10 @@ import shutil
 
 import numpy as np
 import pytest
-from rsp_inertia.plant.experiment import open_experiment
-from rsp_inertia.plant.logs import read_log, write_log
 
 from rsp_inertia.pipeline import create_default_experiment, identify, simulate
+from rsp_inertia.plant.experiment import open_experiment
+from rsp_inertia.plant.logs import read_log, write_log
 from tests.estimation.conftest import tensor
 
 ENTRY_NAMES = ("Jx", "Jy", "Jz", "Jxy", "Jyz", "Jxz")

@@ -7,16 +7,16 @@ import math
 
 import numpy as np
 import pytest
+from scipy.optimize import brentq
+
+from rsp_inertia.cli import main
 from rsp_inertia.estimation.pendulum import best_practice_inertia, crossing_period, half_cycle_fit
+from rsp_inertia.pipeline import create_default_experiment
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.geometry import axis_direction, design_matrix, entries_from_tensor
 from rsp_inertia.plant.logs import Log
 from rsp_inertia.plant.model import reduced_inertia, static_torque
 from rsp_inertia.plant.virtual import encoder_reading, pendulum_parameters, simulate_pendulum
-from scipy.optimize import brentq
-
-from rsp_inertia.cli import main
-from rsp_inertia.pipeline import create_default_experiment
 
 Q = 2 * math.pi / 65536
 

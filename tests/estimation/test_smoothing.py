@@ -21,6 +21,8 @@ import math
 
 import numpy as np
 import pytest
+from scipy.integrate import trapezoid
+
 from rsp_inertia.estimation.smoothing import (
     BANDWIDTH_FACTOR,
     _speed_kernel,
@@ -28,8 +30,6 @@ from rsp_inertia.estimation.smoothing import (
     speed_error_autocovariance,
 )
 from rsp_inertia.plant.logs import Log
-from scipy.integrate import trapezoid
-
 from tests.estimation.conftest import STAGES
 
 

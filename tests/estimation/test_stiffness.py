@@ -7,12 +7,12 @@ import math
 
 import numpy as np
 import pytest
+
 from rsp_inertia.estimation.stiffness import _two_period, calibrate_stiffness
+from rsp_inertia.pipeline import create_rig_experiment, simulate
 from rsp_inertia.plant.config import load_reference
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.virtual import true_parameters
-
-from rsp_inertia.pipeline import create_rig_experiment, simulate
 
 
 def test_two_period_formula_is_the_textbook_one_without_gravity():
@@ -82,10 +82,9 @@ def test_calibrate_writes_the_stiffness_and_identify_uses_it(rig, capsys):
     import json
     import tomllib
 
-    from rsp_inertia.plant.geometry import tensor_from_entries
-
     from rsp_inertia.cli import main
     from rsp_inertia.pipeline import identify
+    from rsp_inertia.plant.geometry import tensor_from_entries
 
     empty, reference = rig
     root = empty.root.parent.parent

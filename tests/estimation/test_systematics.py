@@ -12,15 +12,15 @@ import shutil
 
 import numpy as np
 import pytest
+
+from rsp_inertia.cli import main
 from rsp_inertia.estimation.balance import mirror_log, stage_balance
 from rsp_inertia.estimation.energy import estimate_pass
 from rsp_inertia.estimation.tensor import axis_values, fit_tensor
+from rsp_inertia.pipeline import create_default_experiment, identify, simulate
 from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.geometry import axis_direction, tensor_from_entries
-
-from rsp_inertia.cli import main
-from rsp_inertia.pipeline import create_default_experiment, identify, simulate
 from tests.estimation.test_uncertainty import honest_band
 
 ASYMMETRY = 1.02

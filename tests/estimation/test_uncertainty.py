@@ -10,10 +10,10 @@ import re
 
 import numpy as np
 import pytest
-from rsp_inertia.plant.experiment import open_experiment
 from scipy.stats import chi2
 
 from rsp_inertia.pipeline import create_default_experiment, identify, simulate
+from rsp_inertia.plant.experiment import open_experiment
 from tests.estimation.conftest import tensor
 
 RELEASE_JITTER_DEG = 0.5

@@ -11,11 +11,12 @@ from dataclasses import dataclass
 
 import numpy as np
 import pytest
+from scipy.interpolate import CubicHermiteSpline
+
 from rsp_inertia.estimation.smoothing import Smoothed, smooth_log
 from rsp_inertia.ocp.make import make_program
 from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.model import ModelParameters, acceleration
-from scipy.interpolate import CubicHermiteSpline
 
 STAGES = (1, 2)
 

@@ -11,13 +11,13 @@ import math
 
 import numpy as np
 import pytest
+
 from rsp_inertia.ocp.pilot import PILOT_UNKNOWNS, fit_pilot
 from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.logs import Log, read_log, write_log
 from rsp_inertia.plant.model import dissipation
-
 from tests.conftest import DEFAULTS
 
 STAGES = (1, 2)

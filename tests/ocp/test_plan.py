@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+from rsp_inertia.cli import main
 from rsp_inertia.estimation.identify import identify
 from rsp_inertia.estimation.predict import (
     PlannedPass,
@@ -17,13 +19,11 @@ from rsp_inertia.estimation.predict import (
     run_information,
 )
 from rsp_inertia.ocp.plan import NOMINAL_COULOMB_SHARE, TORQUE_MARGIN, StageModel, evaluate
+from rsp_inertia.pipeline import create_default_experiment, simulate
 from rsp_inertia.plant.config import load_device, load_virtual
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.model import acceleration, dissipation, motor_torque, reduced_inertia
 from rsp_inertia.plant.virtual import integrate_to_stop, true_parameters
-
-from rsp_inertia.cli import main
-from rsp_inertia.pipeline import create_default_experiment, simulate
 
 DEFAULTS = Path(__file__).parents[2] / "plant" / "defaults"
 

@@ -9,9 +9,13 @@ import re
 
 import numpy as np
 import pytest
+from scipy.integrate import solve_ivp
+
+from rsp_inertia.cli import main
 from rsp_inertia.ocp.make import START_FADE_BANDWIDTHS, make_program
 from rsp_inertia.ocp.program import W_PHI, required_torque, solve_program_ocp
 from rsp_inertia.ocp.regulator import bandwidth
+from rsp_inertia.pipeline import create_default_experiment
 from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.logs import read_program, write_program
@@ -22,10 +26,6 @@ from rsp_inertia.plant.model import (
     reduced_inertia,
     static_torque,
 )
-from scipy.integrate import solve_ivp
-
-from rsp_inertia.cli import main
-from rsp_inertia.pipeline import create_default_experiment
 from tests.ocp.conftest import STAGES, TARGET, true_accelerations
 
 IPOPT_TOLERANCE = 1e-6

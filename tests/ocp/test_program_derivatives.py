@@ -7,6 +7,7 @@ the same NLP, at any point and multipliers.
 
 import casadi as ca
 import numpy as np
+
 from rsp_inertia.ocp.program import RHO, W_PHI, _nlp_derivatives, _step_derivatives
 
 

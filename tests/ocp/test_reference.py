@@ -10,11 +10,11 @@ import math
 
 import numpy as np
 import pytest
+
 from rsp_inertia.estimation.smoothing import Smoothed
 from rsp_inertia.ocp.reference import braking_states_at, mirror, rest_fit, rest_point
 from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.errors import InputError
-
 from tests.ocp.conftest import (
     NODE_SPEED_FRACTION,
     STAGES,

@@ -9,9 +9,9 @@ linearisations: at the gain points of each stage, every ``lqr_gains`` value equa
 import numpy as np
 import pytest
 import scipy.linalg
+
 from rsp_inertia.ocp.regulator import _DIRECTION, _JAC, GAIN_STEP, _riccati, bandwidth, lqr_gains
 from rsp_inertia.plant.model import reduced_inertia
-
 from tests.ocp.conftest import STAGES
 
 control = pytest.importorskip("control")
@@ -52,12 +52,20 @@ def test_gains_are_python_controls_dlqr(stage, default_device, programs):
         np.testing.assert_allclose([k_phi[i], k_omega[i]], expected, rtol=1e-9, atol=0)
 
 
+def _residual(a, b, q, x) -> tuple[float, np.ndarray]:
+    """Relative residual of the discrete Riccati equation at X = x (R = 1), and its gain."""
+    gain = np.linalg.solve(1 + b.T @ x @ b, b.T @ x @ a)
+    residual = a.T @ x @ a - a.T @ x @ b @ gain + q - x
+    return float(np.abs(residual).max() / np.abs(x).max()), gain
+
+
 def test_riccati_solves_the_equation_for_a_stack():
     # Random stabilisable 2x2 problems, some far from the regulator's (open loop unstable,
-    # weak inputs): each stacked solution satisfies the Riccati equation and gives dlqr's
-    # gains. Where the draw is ill-conditioned (X up to 1e9) the two differ by up to ~2e-7,
-    # with the doubling's residual the smaller (25x smaller than scipy's on the worst draw):
-    # hence the looser tolerance here than on the regulator's own problems above.
+    # weak inputs): each stacked solution satisfies the Riccati equation to 1e-9 and at least
+    # as well as python-control's; where dlqr's own solution does too, the gains agree to
+    # 1e-6. On ill-conditioned draws (X up to 1e9, cond 1e6) dlqr's solution is the less
+    # exact one: scipy 1.17's leaves a residual of 4e-8 where the doubling leaves 3e-10, and
+    # the gains then differ by 1.3e-6, which is dlqr's error, not the regulator's.
     rng = np.random.default_rng(1)
     n = 20
     A = np.eye(2) + 0.05 * rng.standard_normal((n, 2, 2))
@@ -66,10 +74,15 @@ def test_riccati_solves_the_equation_for_a_stack():
     Q[:, 0, 0] = rng.uniform(0.1, 1e4, n)
     Q[:, 1, 1] = rng.uniform(0.0, 1.0, n)
     X = _riccati(A, B @ np.swapaxes(B, 1, 2), Q)
+    compared = 0
     for k in range(n):
-        a, b, x = A[k], B[k], X[k]
-        gain = np.linalg.solve(1 + b.T @ x @ b, b.T @ x @ a)
-        residual = a.T @ x @ a - a.T @ x @ b @ gain + Q[k] - x
-        assert np.abs(residual).max() <= 1e-9 * np.abs(x).max()
-        K, _, _ = control.dlqr(a, b, Q[k], np.eye(1))
-        np.testing.assert_allclose(gain, K, rtol=1e-6, atol=0)
+        a, b = A[k], B[k]
+        ours, gain = _residual(a, b, Q[k], X[k])
+        K, S, _ = control.dlqr(a, b, Q[k], np.eye(1))
+        theirs, _ = _residual(a, b, Q[k], S)
+        assert ours <= 1e-9
+        assert ours <= max(theirs, 1e-12)
+        if theirs <= 1e-9:
+            np.testing.assert_allclose(gain, K, rtol=1e-6, atol=0)
+            compared += 1
+    assert compared >= n - 2  # the comparison is not vacuous

@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+
 from rsp_inertia.plant.config import (
     ControllerSettings,
     Friction,
@@ -322,7 +323,35 @@ VIRTUAL_FAULTS = [
         "must be > 0",
         id="zero bandwidth",
     ),
+    pytest.param(
+        "bandwidth = 150",
+        "bandwidth = 150\n[logger]\ntime_jitter = 0.3",
+        "logger.time_jitter",
+        "must be <= 0.25",
+        id="jitter beyond the logs' limit",
+    ),
+    pytest.param(
+        "bandwidth = 150",
+        "bandwidth = 150\n[logger]\ndropped_fraction = 0.5",
+        "logger.dropped_fraction",
+        "must be < 0.5",
+        id="half the rows dropped",
+    ),
+    pytest.param(
+        "bandwidth = 150",
+        "bandwidth = 150\n[logger]\ncounts = 1",
+        "logger.counts",
+        "must be a boolean",
+        id="counts not a boolean",
+    ),
 ]
+
+
+def test_logger_settings_are_read(tmp_path):
+    text = VIRTUAL_TOML + "\n[logger]\ntime_jitter = 0.2\ndropped_fraction = 0.001\ncounts = true\n"
+    logger = load_virtual(write(tmp_path, "virtual.toml", text)).logger
+    assert (logger.time_jitter, logger.dropped_fraction, logger.counts) == (0.2, 0.001, True)
+    assert load_virtual(write(tmp_path, "v.toml", VIRTUAL_TOML)).logger.time_jitter == 0.0
 
 
 @pytest.mark.parametrize("old, new, key, fault", VIRTUAL_FAULTS)

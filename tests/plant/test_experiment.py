@@ -6,11 +6,11 @@ import re
 from pathlib import Path
 
 import pytest
+
+from rsp_inertia import pipeline
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.logs import read_log
-
-from rsp_inertia import pipeline
 
 
 def short_experiment(root: Path, directions: str) -> Path:

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.geometry import (
     axis_angles_deg,

@@ -8,13 +8,14 @@ import math
 
 import numpy as np
 import pytest
+from scipy.integrate import simpson
+from scipy.interpolate import CubicSpline
+
 from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.config import Friction, Rig, TrueBody
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.logs import Program, read_log, write_log
 from rsp_inertia.plant.model import dissipation, mechanical_energy, static_torque
-from scipy.integrate import simpson
-from scipy.interpolate import CubicSpline
 
 DIRECTIONS = ("forward", "backward")
 

@@ -7,6 +7,9 @@ import math
 
 import numpy as np
 import pytest
+from scipy.integrate import solve_ivp
+from scipy.interpolate import CubicSpline
+
 from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.logs import Program, read_log, write_log
 from rsp_inertia.plant.model import (
@@ -15,8 +18,6 @@ from rsp_inertia.plant.model import (
     reduced_inertia,
     static_torque,
 )
-from scipy.integrate import solve_ivp
-from scipy.interpolate import CubicSpline
 
 STAGES = (1, 2)
 
@@ -514,3 +515,68 @@ def test_a_stage_release_angle_overrides_the_virtual_rigs(default_device, defaul
     )
     assert moved.truth.omega[0] == default.truth.omega[0] == sign * stage.launch_speed
     assert vd.release_angle(stage, default_virtual) == angle
+
+
+# --- the drive's logger: jittered sampling, dropped rows ------------------------------------
+
+
+def _jittery(virtual, jitter=0.2, dropped=0.0):
+    return dataclasses.replace(
+        virtual,
+        logger=dataclasses.replace(virtual.logger, time_jitter=jitter, dropped_fraction=dropped),
+    )
+
+
+@pytest.mark.parametrize("stage", STAGES)
+def test_jittered_braking_samples_the_same_motion(default_device, default_virtual, brakings, stage):
+    """A drive sampling at jittered instants sees the same braking: the states at its
+    instants lie on the regular run's trajectory (Omega^2 as a cubic spline of phi, an
+    independent interpolation), the stamps stay within the jitter, and the torque noise is
+    the same stream's."""
+    regular = brakings[stage]
+    sim = vd.simulate_braking(default_device, stage, _jittery(default_virtual))
+    dt = default_device.encoder.dt
+    t = sim.log.t
+    k = np.rint(t / dt)
+    assert t[0] == 0.0 and np.all(np.diff(k) == 1)
+    assert 0.15 < np.abs(t / dt - k).max() <= 0.2
+    assert t[-1] < regular.truth.end_time
+    on_path = braking_speed_at(regular, sim.truth.phi)
+    np.testing.assert_allclose(sim.truth.omega, on_path, rtol=0, atol=1e-8)
+    np.testing.assert_array_equal(sim.log.phi, vd.encoder_reading(sim.truth.phi, default_device.encoder.quantum))
+    n = min(len(sim.log), len(regular.log))
+    np.testing.assert_array_equal(sim.log.torque[:n], regular.log.torque[:n])
+
+
+def test_the_logger_drops_rows_but_the_drive_acts(default_device, default_virtual, brakings):
+    """With 1% of the rows dropped, about 1% are missing (binomial), never the first or the
+    last; the rows kept are the full log's rows, bit for bit."""
+    full = vd.simulate_braking(default_device, 1, _jittery(default_virtual, 0.2))
+    sim = vd.simulate_braking(default_device, 1, _jittery(default_virtual, 0.2, 0.01))
+    n = len(full.log)
+    lost = n - len(sim.log)
+    assert abs(lost - 0.01 * n) < 4 * math.sqrt(0.01 * n)
+    kept = np.isin(full.log.t, sim.log.t)
+    assert kept[0] and kept[-1] and kept.sum() == len(sim.log)
+    for name in ("t", "phi", "torque"):
+        np.testing.assert_array_equal(getattr(full.log, name)[kept], getattr(sim.log, name))
+    np.testing.assert_array_equal(full.truth.omega[kept], sim.truth.omega)
+
+
+def test_a_jittered_drive_keeps_its_rate_limit_per_actual_step(default_device, default_virtual):
+    """The closed loop at jittered instants: the torque's change from one instant to the next
+    stays within torque_rate_limit times that step, and the run still ends one period after
+    its last instant on average."""
+    motor = default_device.motor
+    dt = default_device.encoder.dt
+    n = 200
+    request = np.where(np.arange(n) < 100, 2.0, -2.0) * motor.torque_limit
+    program = dataclasses.replace(constant_program(n, dt), torque_ff=request)
+    run = vd.run_program(default_device, 1, _jittery(default_virtual), program, (0.7, 0.0))
+    held = static_torque(0.7, vd.true_parameters(default_device, 1, default_virtual))
+    steps = np.diff(np.concatenate([[held], run.truth.torque]))
+    h = np.diff(np.concatenate([run.truth.t, [run.truth.end_time]]))
+    allowed = motor.torque_rate_limit * np.concatenate([[dt], h[:-1]])
+    assert np.all(np.abs(steps) <= allowed + 1e-12)
+    assert np.any(np.abs(np.abs(steps) - allowed) < 1e-12)  # it does ride the limit
+    assert np.abs(run.truth.t / dt - np.arange(n)).max() <= 0.2

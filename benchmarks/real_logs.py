@@ -1,0 +1,196 @@
+"""Logs as a drive's logger writes them, against clean logs -> benchmarks/results/real_logs.md.
+
+Each case runs an experiment end to end on the virtual device twice with the same seed:
+once with clean logs (regular time stamps, every row, phi in rad) and once as a drive's
+logger writes them (virtual.toml ``[logger]``: sampling instants jittered by up to 0.2 of a
+period, one row in a thousand dropped at random, integer counts of a 16-bit counter that
+wraps, device.toml ``[encoder] counter_bits = 16``). The drive's loop runs at the jittered
+instants (its torque held between them), so the logs keep the zero-order-hold contract.
+
+- ``default``: the default experiment (paper's body, icosahedron stages), braking,
+  ``program``, closed-loop reverse, ``identify``, over several seeds;
+- ``demo``: the whole ``rsp-inertia demo`` (the virtual rig with its imperfections, both
+  directions, the empty-fixture and reference-body calibration, the pendulum runs).
+
+Per case: the worst J_k / tensor-entry error relative to the largest principal moment, the
+worst |err|/std, the warnings, and the std of the least sure entry; then the ratio of the
+real logs' error to the clean logs' (RMS over the seeds' entries: one seed's ratio is mostly
+the two noise draws'). Target (issue 12): within 1.5x.
+
+    .venv/bin/python benchmarks/real_logs.py [--seeds N] [--no-demo] [--jobs N]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import tomlkit
+from joblib import Parallel, delayed
+from tables import markdown_table
+
+from rsp_inertia.pipeline import (
+    create_default_experiment,
+    create_rig_experiment,
+    demo,
+    identify,
+    program,
+    simulate,
+)
+from rsp_inertia.plant.config import load_virtual
+
+RESULTS = Path(__file__).parent / "results"
+LOGGER = {"time_jitter": 0.2, "dropped_fraction": 0.001, "counts": True}
+"""virtual.toml [logger] of the real logs."""
+COUNTER_BITS = 16
+
+
+def _edit(path: Path, edit) -> None:
+    doc = tomlkit.parse(path.read_text())
+    edit(doc)
+    path.write_text(tomlkit.dumps(doc))
+
+
+def _make_real(folder: Path) -> None:
+    """A folder's virtual rig logs as a drive's logger does (module docstring)."""
+    _edit(folder / "device.toml", lambda d: d["encoder"].__setitem__("counter_bits", COUNTER_BITS))
+    _edit(folder / "virtual.toml", lambda d: d.__setitem__("logger", dict(LOGGER)))
+
+
+def _seed(folder: Path, seed: int) -> None:
+    def edit(doc):
+        doc.setdefault("run", tomlkit.table())["seed"] = seed
+
+    _edit(folder / "virtual.toml", edit)
+
+
+def _score(result, root: Path) -> dict:
+    true = np.asarray(load_virtual(root / "virtual.toml").body.inertia)
+    scale = float(np.linalg.eigvalsh(_tensor(true)).max())
+    err = result.entries - true
+    std = np.sqrt(np.diag(result.entries_cov))
+    return {
+        "err": err / scale,
+        "max_err": float(np.abs(err).max() / scale),
+        "max_z": float(np.abs(err / std).max()),
+        "max_std": float(std.max() / scale),
+        "warnings": len(result.warnings),
+        "warning_text": list(result.warnings),
+    }
+
+
+def _tensor(e) -> np.ndarray:
+    Jx, Jy, Jz, Jxy, Jyz, Jxz = e
+    return np.array([[Jx, Jxy, Jxz], [Jxy, Jy, Jyz], [Jxz, Jyz, Jz]])
+
+
+def _dropped(root: Path) -> tuple[int, int]:
+    """Rows dropped and rows kept over the folder's braking and reverse logs."""
+    lost = kept = 0
+    for path in sorted(root.glob("stage*/*.csv")):
+        if path.stem.startswith(("braking", "reverse")):
+            t = np.loadtxt(path, delimiter=",", skiprows=1, usecols=0)
+            steps = np.rint(np.diff(t) * 1000.0)
+            lost += int(steps.sum() - steps.size)
+            kept += t.size
+    return lost, kept
+
+
+def run_default(seed: int, real: bool) -> dict:
+    with tempfile.TemporaryDirectory() as tmp:
+        root = create_default_experiment(Path(tmp) / "exp")
+        _seed(root, seed)
+        if real:
+            _make_real(root)
+        start = time.perf_counter()
+        simulate(root, part="braking")
+        program(root)
+        simulate(root, part="reverse")
+        result = identify(root)
+        row = _score(result, root)
+        row["dropped"], row["rows"] = _dropped(root)
+        row["seconds"] = time.perf_counter() - start
+    return {"case": "default", "seed": seed, "logs": "real" if real else "clean", **row}
+
+
+def run_demo(real: bool) -> dict:
+    with tempfile.TemporaryDirectory() as tmp:
+        root, empty, reference = create_rig_experiment(Path(tmp) / "demo")
+        if real:
+            for folder in (root, empty, reference):
+                _make_real(folder)
+        start = time.perf_counter()
+        result = demo(root, progress=None)
+        row = _score(result, root)
+        row["dropped"], row["rows"] = _dropped(root)
+        row["seconds"] = time.perf_counter() - start
+    return {"case": "demo", "seed": 0, "logs": "real" if real else "clean", **row}
+
+
+def _ratio(rows: list[dict], case: str) -> tuple[float, float]:
+    """RMS error of the real logs over the clean logs' (all seeds and entries), and the same
+    for the worst std."""
+    def pick(logs, key):
+        return [r[key] for r in rows if r["case"] == case and r["logs"] == logs]
+
+    rms = {logs: float(np.sqrt(np.mean(np.square(pick(logs, "err"))))) for logs in ("real", "clean")}
+    stds = {logs: float(np.mean(pick(logs, "max_std"))) for logs in ("real", "clean")}
+    return rms["real"] / rms["clean"], stds["real"] / stds["clean"]
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seeds", type=int, default=6, help="seeds of the default case")
+    parser.add_argument("--no-demo", action="store_true", help="skip the demo case (2 x 3 min)")
+    parser.add_argument("--jobs", type=int, default=-1, help="processes (default: one per core)")
+    args = parser.parse_args(argv)
+    jobs = [delayed(run_default)(seed, real) for seed in range(args.seeds) for real in (False, True)]
+    if not args.no_demo:
+        jobs += [delayed(run_demo)(real) for real in (False, True)]
+    start = time.perf_counter()
+    rows = Parallel(n_jobs=args.jobs, verbose=5)(jobs)
+    elapsed = time.perf_counter() - start
+
+    command = "python benchmarks/real_logs.py " + " ".join(sys.argv[1:] if argv is None else argv)
+    lines = [
+        "# Real logs: jittered stamps, dropped rows, wrapped counts",
+        "",
+        f"Made by `{command.strip()}` ({elapsed / 60:.1f} min on this machine).",
+        "",
+        (
+            "Real logs: virtual.toml `[logger]` time_jitter = 0.2 (of a period), "
+            "dropped_fraction = 0.001, counts = true with a 16-bit counter; clean logs: none "
+            "of it. Errors and stds relative to the largest principal moment; z = |err| / std."
+        ),
+        "",
+    ]
+    keys = ["case", "seed", "logs", "max_err", "max_z", "max_std", "warnings", "dropped", "rows",
+            "seconds"]
+    def spec(key: str) -> str:
+        return {"max_err": ".2e", "max_z": ".2f", "max_std": ".2e", "seconds": ".0f"}.get(key, "")
+
+    lines += markdown_table(rows, keys, spec)
+    lines += ["", "## Real over clean", ""]
+    for case in ("default", "demo"):
+        if any(r["case"] == case for r in rows):
+            err, std = _ratio(rows, case)
+            lines.append(
+                f"- {case}: RMS error ratio {err:.2f} (target <= 1.5), worst-std ratio {std:.2f}"
+            )
+    warned = [(r["case"], r["seed"], r["logs"], w) for r in rows for w in r["warning_text"]]
+    if warned:
+        lines += ["", "## Warnings", ""]
+        lines += [f"- {c} seed {s} {logs}: {w}" for c, s, logs, w in warned]
+    RESULTS.mkdir(exist_ok=True)
+    out = RESULTS / "real_logs.md"
+    out.write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+    print(f"-> {out}")
+
+
+if __name__ == "__main__":
+    main()
