@@ -427,8 +427,8 @@ def read_log(
     InputError
         One line naming the file, the line and the fault: a missing or empty file, a wrong
         header, a malformed or non-finite number, fewer than 2 rows, t not from 0, not strictly
-        increasing, a step shorter than half a sample period or a median step off the sample
-        rate (:data:`JITTER_LIMIT`), phi off the encoder grid, the wrong direction.
+        increasing, a step shorter than half a sample period, a median or mean step off the
+        sample rate (:data:`JITTER_LIMIT`), phi off the encoder grid, the wrong direction.
     """
     if kind not in LOG_KINDS:
         raise ValueError(f"kind must be one of {LOG_KINDS}, got {kind!r}")

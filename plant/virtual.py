@@ -346,7 +346,8 @@ def sampling_instants(virtual: Virtual, seed: tuple, n: int, dt: float) -> np.nd
 
 def _resample(truth: PassTruth, pair: _Pair, instants: np.ndarray) -> PassTruth:
     """The pass ``truth`` (states on the regular grid, the physical torque held over each
-    grid sample) at the drive's sampling ``instants`` (within [0, end_time)).
+    grid sample) at the drive's sampling ``instants`` (from 0; an instant past the grid's
+    last sample advances from that sample).
 
     Exact for the passes whose torque is constant between the grid's samples and the
     instants (braking, pendulum: one torque throughout; a pilot's switch-off is a grid
@@ -846,10 +847,12 @@ def simulate_pendulum(device: Device, stage: int, virtual: Virtual, node: int) -
         end_phi=float(traj[-1, 0]),
         end_omega=float(traj[-1, 1]),
     )
-    # The run is logged for ``duration``: its last instant is the grid's last sample.
+    # The drive's n instants of the run (the last may fall a fraction of a period past the
+    # grid's last sample: _resample advances from there).
     clock = (stage, _STREAM_PENDULUM + _STREAM_CLOCK, node)
-    instants = sampling_instants(virtual, clock, n, dt)
-    truth = _resample(truth, pair, np.append(instants[instants < t[-1]], t[-1]))
+    truth = _resample(truth, pair, sampling_instants(virtual, clock, n, dt))
+    end = dict(end_phi=float(truth.phi[-1]), end_omega=float(truth.omega[-1]))
+    truth = dataclasses.replace(truth, end_time=float(truth.t[-1]), **end)
     seed = (stage, _STREAM_PENDULUM, node)
     return _logged(truth, np.zeros(len(truth.t)), virtual, seed, device.encoder.quantum)
 

@@ -27,7 +27,7 @@ import math
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 from rsp_inertia.plant.errors import InputError
 
@@ -61,6 +61,25 @@ __all__ = [
 
 Progress = Callable[[str], None]
 """A callable that receives each progress line (str) as the command line would print it."""
+
+
+class _Records:
+    """Iterating, ``len``, indexing and ``str`` of a result over its records (the field
+    named by ``_records``), one printed line each."""
+
+    _records: ClassVar[str]
+
+    def __iter__(self) -> Iterator:
+        return iter(getattr(self, self._records))
+
+    def __len__(self) -> int:
+        return len(getattr(self, self._records))
+
+    def __getitem__(self, index: int):
+        return getattr(self, self._records)[index]
+
+    def __str__(self) -> str:
+        return "\n".join(str(record) for record in getattr(self, self._records))
 
 
 def _plain(value: Any) -> Any:
@@ -334,7 +353,7 @@ def demo(
 
 
 @dataclass(frozen=True)
-class SimulateResult:
+class SimulateResult(_Records):
     """The logs the virtual device wrote: one summary per pass, in the order written.
 
     Returned by :func:`simulate`. Iterating, ``len`` and indexing go over ``passes``.
@@ -358,18 +377,7 @@ class SimulateResult:
 
     passes: tuple[PassSummary, ...]
     experiment: Path
-
-    def __iter__(self) -> Iterator[PassSummary]:
-        return iter(self.passes)
-
-    def __len__(self) -> int:
-        return len(self.passes)
-
-    def __getitem__(self, index: int) -> PassSummary:
-        return self.passes[index]
-
-    def __str__(self) -> str:
-        return "\n".join(str(summary) for summary in self.passes)
+    _records: ClassVar[str] = "passes"
 
     def to_json(self) -> str:
         """The passes as JSON.
@@ -453,7 +461,7 @@ def simulate(
 
 
 @dataclass(frozen=True)
-class ProgramResult:
+class ProgramResult(_Records):
     """The torque programs written, one per run (a stage in one direction).
 
     Returned by :func:`program`. Iterating, ``len`` and indexing go over ``runs``.
@@ -477,18 +485,7 @@ class ProgramResult:
 
     runs: tuple[ProgramSummary, ...]
     experiment: Path
-
-    def __iter__(self) -> Iterator[ProgramSummary]:
-        return iter(self.runs)
-
-    def __len__(self) -> int:
-        return len(self.runs)
-
-    def __getitem__(self, index: int) -> ProgramSummary:
-        return self.runs[index]
-
-    def __str__(self) -> str:
-        return "\n".join(str(run) for run in self.runs)
+    _records: ClassVar[str] = "runs"
 
     def to_json(self) -> str:
         """The programs' summaries as JSON (not their arrays: those are in program.csv).
