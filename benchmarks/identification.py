@@ -26,8 +26,8 @@ from scipy.interpolate import CubicSpline
 from tables import markdown_table
 
 from rsp_inertia.estimation.balance import stage_balance
-from rsp_inertia.estimation.energy import estimate_pass
 from rsp_inertia.estimation.identify import identify
+from rsp_inertia.estimation.passes import estimate_pass
 from rsp_inertia.estimation.tensor import axis_values, fit_tensor
 from rsp_inertia.pipeline import create_default_experiment, simulate
 from rsp_inertia.plant.experiment import open_experiment

@@ -23,8 +23,8 @@ from tables import markdown_table
 
 from rsp_inertia.estimation.identify import identify
 from rsp_inertia.estimation.smoothing import smooth_log
-from rsp_inertia.ocp.make import make_program
 from rsp_inertia.ocp.nominal import fit_nominal
+from rsp_inertia.ocp.program import make_program
 from rsp_inertia.pipeline import create_default_experiment
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.logs import write_atomic, write_log, write_program

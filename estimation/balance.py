@@ -43,7 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import cumulative_trapezoid
 
-from rsp_inertia.estimation.energy import (
+from rsp_inertia.estimation.passes import (
     PassEstimate,
     sample_at,
     speed_error_covariance,
@@ -215,7 +215,7 @@ class StageBalance:
     """W(phi) = A(release->phi) + A'(phi7->phi) minus 2 Pi_spring(phi), J."""
     braking_work_cov: np.ndarray
     """(n, n) covariance of the braking pass's share of ``work`` (its torque log's noise,
-    rsp_inertia.estimation.energy), J^2."""
+    rsp_inertia.estimation.passes), J^2."""
     reverse_work_cov: np.ndarray
     """(n, n) the same for the reverse pass, J^2."""
     direction: int = 1
@@ -362,7 +362,7 @@ def node_formula(
     over whole turns; dPi is the spring's. Pairs are combined by generalised least squares
     (:func:`_combine_pairs`): speed noise from the smoothers' derived error variance times
     ``speed_noise_scale`` (the calibration that the least squares finds on its residuals,
-    rsp_inertia.estimation.tensor), and work noise from the torque logs (rsp_inertia.estimation.energy).
+    rsp_inertia.estimation.tensor), and work noise from the torque logs (rsp_inertia.estimation.passes).
     ``direction`` -1: a backward run's passes, mirrored by :func:`mirror_log`; its node phi
     sits at -phi in the mirrored coordinate. ``work_scale``: h = 1 / torque gain, the factor
     that makes the logged motor work physical (a calibration's, rsp_inertia.estimation.calibration).

@@ -7,7 +7,7 @@ torque gain (rsp_inertia.estimation.calibration). Both build :class:`Block` s, n
 right-hand side, and this module solves them the same way:
 
 - **weights**: the covariance of a run's equations is the motor work's (the torque logs'
-  own noise, rsp_inertia.estimation.energy) plus the speed noise's, 1/4 M_i M_j cov(S_i, S_j), M from a
+  own noise, rsp_inertia.estimation.passes) plus the speed noise's, 1/4 M_i M_j cov(S_i, S_j), M from a
   first unweighted pass and cov(S) from the smoothers' derived error autocovariance;
 - **speed-noise scale**: the derived speed part of each run is scaled by the factor that makes
   that run's own fit reach chi^2/dof = 1 (a real encoder adds line errors, a closed loop its

@@ -1,7 +1,7 @@
 """Identification of an experiment: every stage's logs in, tensor and centre of mass out.
 
 Reads only what a rig produces (device.toml and the logs), never virtual.toml. Steps, each in
-its own function elsewhere: smoothing and motor work (rsp_inertia.estimation.energy), balances and the node
+its own function elsewhere: smoothing and motor work (rsp_inertia.estimation.passes), balances and the node
 formula (rsp_inertia.estimation.balance), least squares and the tensor (rsp_inertia.estimation.tensor).
 
 Two estimates of the tensor are reported:

@@ -5,7 +5,7 @@ its exact time mirror. From it this module builds the balance equations exactly 
 ``identify`` does (rsp_inertia.estimation.balance, rsp_inertia.estimation.tensor), with the same noise model:
 
 - the torque log's white noise of std sigma: the braking's constant torque estimated as the
-  mean of the log (rsp_inertia.estimation.energy), the reverse's work as the sample-by-sample sum;
+  mean of the log (rsp_inertia.estimation.passes), the reverse's work as the sample-by-sample sum;
 - the encoder's quantization through the smoother: the derived speed-error autocovariance
   R(tau) = r w_c^3 g(w_c tau) (rsp_inertia.estimation.smoothing), with w_c from the pass's top speed by
   the smoother's own rule (``smoother_bandwidth``) and r = (q^2/12) dt.
@@ -29,8 +29,8 @@ import numpy as np
 import scipy.linalg
 
 from rsp_inertia.estimation.balance import StageBalance, stage_balance
-from rsp_inertia.estimation.energy import PassEstimate, motor_work
 from rsp_inertia.estimation.gls import JITTER, information
+from rsp_inertia.estimation.passes import PassEstimate, motor_work
 from rsp_inertia.estimation.smoothing import Smoothed, noise_density, smoother_bandwidth
 from rsp_inertia.estimation.tensor import (
     ENTRY_KEYS,

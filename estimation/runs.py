@@ -8,7 +8,7 @@ braking log and its reverse log. A backward run is mirrored into the forward coo
 from __future__ import annotations
 
 from rsp_inertia.estimation.balance import StageBalance, mirror_log, stage_balance
-from rsp_inertia.estimation.energy import PassEstimate, check_braking_monotone, estimate_pass
+from rsp_inertia.estimation.passes import PassEstimate, check_braking_monotone, estimate_pass
 from rsp_inertia.estimation.smoothing import Smoothed
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.experiment import Experiment
@@ -54,7 +54,7 @@ def estimate_run(
 ) -> tuple[PassEstimate, PassEstimate]:
     """Both passes of one run from their logs in memory, checked and estimated (a backward
     run mirrored); the sources name the logs in messages. ``braking_smoothed``: the
-    (mirrored) braking log's smoothed states when already computed (rsp_inertia.ocp.make's)."""
+    (mirrored) braking log's smoothed states when already computed (rsp_inertia.ocp.program's)."""
     q = device.encoder.quantum
     if direction == "backward":
         braking, reverse = mirror_log(braking, q), mirror_log(reverse, q)

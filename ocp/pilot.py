@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rsp_inertia.estimation.energy import torque_noise
+from rsp_inertia.estimation.passes import torque_noise
 from rsp_inertia.estimation.smoothing import smooth_log
 from rsp_inertia.ocp.nominal import fit_energy_windows
 from rsp_inertia.plant.config import Device
@@ -85,7 +85,7 @@ class PilotFit:
     a3_std: float
     """N m s^2, std of ``a3``."""
     torque_noise: float
-    """N m, std of the torque log's noise (rsp_inertia.estimation.energy.torque_noise: the median
+    """N m, std of the torque log's noise (rsp_inertia.estimation.passes.torque_noise: the median
     absolute deviation of the sample-to-sample changes, which the one step at the switch-off
     does not move)."""
     top_speed: float

@@ -1,299 +1,143 @@
-"""The torque program of the reverse pass: an optimal-control problem in CasADi (METHOD.md §4).
+"""From a braking log to the reverse pass's program (the ``program`` command's library call).
 
-States x = (phi, Omega, u): the body's angle and speed and the motor torque, which is a state
-so that its rate v = du/dt can be bounded (the motor's torque-rate limit). On a grid of step
-h (a multiple of the encoder's sample period), with v constant over each interval:
-
-    minimise   sum_k h [ (Omega_k - Omega'_k)^2 + W_PHI^2 (phi_k - phi'_k)^2 ] + RHO sum_k h v_k^2
-    subject to x_{k+1} = F(x_k, v_k)                (RK4 of the nominal model, rsp_inertia.plant.model)
-               x_0 = (phi7, 0, S(phi7))             (at rest where the braking stopped, held)
-               |u_k| <= torque_limit,  |v_k| <= torque_rate_limit
-
-with (phi', Omega') the mirror of the braking (rsp_inertia.ocp.reference). The model is the nominal one
-fitted to the braking log (rsp_inertia.ocp.nominal), in the reverse direction (Omega < 0, friction
-opposing). Solved by IPOPT through ``nlpsol``, warm-started from the nominal inverse dynamics
-along the mirror.
-
-Derivatives. The constraints are N copies of one RK4 step, each touching only its own
-interval's (x_k, v_k, x_{k+1}); the cost is a sum of squares. So the constraint Jacobian and
-the Lagrangian's Hessian are assembled from per-interval blocks: the step's 3x4 Jacobian and
-the 4x4 Hessian of lam_k . F(x_k, v_k), both SX functions (built once per step length h and
-cached) mapped over the N intervals, plus the cost's own constant Hessian. The same numbers
-as CasADi's automatic MX derivatives of the whole NLP (to rounding; tests/ocp/
-test_program_derivatives.py), at less than half the time: those colour the NLP's sparsity
-and sweep the mapped step several times per evaluation (measured on the default stage 2,
-1105 intervals: 40 ms per Hessian and 22 ms per Jacobian against 20 and 8 ms here, and
-0.15 s to build the solver against 0.03 s), while an expanded SX graph of the whole NLP
-takes seconds to differentiate.
-
-Before the OCP, the mirror's torque is checked against the motor: if the nominal model
-needs more than ``torque_limit`` anywhere, the mirror is impossible and nothing is written.
+Steps, each in its own module: smoothing (rsp_inertia.estimation.smoothing, the identification's own
+smoother), the mirror (rsp_inertia.ocp.reference), the nominal model (rsp_inertia.ocp.nominal), the OCP
+(rsp_inertia.ocp.feedforward), the regulator (rsp_inertia.ocp.regulator).
 """
 
 from __future__ import annotations
 
-import functools
+import dataclasses
 import time
 from dataclasses import dataclass
 
-import casadi as ca
 import numpy as np
-from scipy.ndimage import uniform_filter1d
 
-from rsp_inertia.ocp.reference import Mirror
+from rsp_inertia.estimation.balance import mirror_log
+from rsp_inertia.estimation.passes import check_braking_monotone
+from rsp_inertia.estimation.smoothing import Smoothed, smooth_log
+from rsp_inertia.ocp.feedforward import OcpSolution, required_torque, solve_program_ocp
+from rsp_inertia.ocp.nominal import fit_nominal
+from rsp_inertia.ocp.reference import Mirror, mirror
+from rsp_inertia.ocp.regulator import bandwidth, lqr_gains
 from rsp_inertia.plant.config import Device
-from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.model import MODEL, ModelParameters, motor_torque, static_torque
+from rsp_inertia.plant.logs import Log, Program
+from rsp_inertia.plant.model import ModelParameters, reduced_inertia
 
-__all__ = ["GRID_STEP", "RHO", "W_PHI", "OcpSolution", "required_torque", "solve_program_ocp"]
-
-W_PHI = 2.0
-"""1/s: weight of the angle error against the speed error (an angle error of 1 rad costs
-as much as a speed error of 2 rad/s)."""
-
-RHO = 1e-4
-"""s^2 ... weight of the torque rate (N m/s)^2 against speed errors (rad/s)^2: a smoothness
-term small enough not to bend the tracking (a 1 N m/s rate costs as a 0.01 rad/s error)."""
-
-GRID_STEP = 0.02
-"""s, the OCP's interval (rounded to whole encoder samples): 50 intervals per second resolve
-the torque's variation within a turn (at 12 rad/s a turn lasts ~0.5 s)."""
-
-FEASIBILITY_WINDOW = 0.1
-"""s over which the needed torque is averaged before it is compared with the motor's limit.
-
-Measured on a 12-bit encoder (rsp-inertia bench, friction x10, stage 2): where the body moves
-about one count per sample the quantization stops being white and the smoothed acceleration
-shows isolated bumps; averaged over 50 ms the needed torque then peaked at 0.66 N m, over
-100 ms at 0.24 N m, against a true need of about 0.3 N m. 100 ms still follows the fastest
-physical change, the 2 Omega harmonic of stage 1 (period 0.26 s at 12 rad/s, kept to 77%)."""
-
-_DIRECTION = -1.0
-"""The reverse pass runs backwards: friction's sign term is that of a negative speed."""
+__all__ = ["START_FADE_BANDWIDTHS", "ProgramResult", "make_program", "start_reference"]
 
 
 @dataclass(frozen=True)
-class OcpSolution:
-    """The optimal torque on the OCP grid, and how the solve went."""
+class ProgramResult:
+    """A program and how it was made."""
 
-    t: np.ndarray
-    """s, OCP grid from 0."""
-    phi: np.ndarray
-    """rad, the nominal model's angle under the optimal torque."""
-    omega: np.ndarray
-    """rad/s."""
-    torque: np.ndarray
-    """N m, u at the grid points (linear in between)."""
-    iterations: int
-    """IPOPT iterations."""
-    success: bool
-    """IPOPT's verdict."""
-    solve_time: float
-    """s, build plus solve."""
+    program: Program
+    """What program.csv holds."""
+    mirror: Mirror
+    """The reference."""
+    nominal: ModelParameters
+    """The nominal model fitted to the braking."""
+    ocp: OcpSolution
+    """The OCP's solution on its grid."""
+    smoothed: Smoothed
+    """The braking log's smoothed states (of the mirrored log for a backward run)."""
+    seconds: float
+    """Wall time of the whole generation."""
 
 
-def required_torque(mirror: Mirror, nominal: ModelParameters) -> np.ndarray:
-    """Motor torque that the nominal model needs to follow the mirror exactly (inverse dynamics)."""
-    return motor_torque(
-        mirror.phi, mirror.omega, mirror.eps, nominal, direction=np.full(mirror.t.size, _DIRECTION)
-    )
+START_FADE_BANDWIDTHS = 3.0
+"""Regulator time constants (1 / w, rsp_inertia.ocp.regulator) over which the reference returns from the
+OCP's start transient to the mirror."""
 
 
-def _step_function(h: float) -> ca.Function:
-    """F(x, v, p): one RK4 step of length h of (phi, Omega, u) with du/dt = v."""
-    x = ca.SX.sym("x", 3)
-    v = ca.SX.sym("v")
-    f = MODEL.state_derivative()
+def start_reference(
+    device: Device, ref: Mirror, sol: OcpSolution, model: ModelParameters
+) -> tuple[np.ndarray, np.ndarray]:
+    """The regulator's reference (phi, Omega) at the program's samples.
 
-    def rhs(z):
-        return ca.vertcat(f(z[:2], z[2], _DIRECTION, MODEL.p), v)
-
-    k1 = rhs(x)
-    k2 = rhs(x + h / 2 * k1)
-    k3 = rhs(x + h / 2 * k2)
-    k4 = rhs(x + h * k3)
-    return ca.Function("F", [x, v, MODEL.p], [x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
-
-
-@dataclass(frozen=True)
-class _StepDerivatives:
-    """One RK4 step and its per-interval derivative blocks (see the module docstring)."""
-
-    F: ca.Function
-    """F(x, v, p) -> x+."""
-    jacobian: ca.Function
-    """(x, v, p) -> the structural nonzeros of dF/d(x, v), 3x4, column by column."""
-    jacobian_nz: tuple[np.ndarray, np.ndarray]
-    """(row, column) of each of those nonzeros; columns 0-2 are x, column 3 is v."""
-    hessian: ca.Function
-    """(x, v, p, lam) -> the nonzeros of the upper triangle of d^2(-lam . F)/d(x, v)^2."""
-    hessian_nz: tuple[np.ndarray, np.ndarray]
-    """(row, column) of each of those nonzeros, in (x, v) as above."""
-
-
-@functools.lru_cache(maxsize=4)
-def _step_derivatives(h: float) -> _StepDerivatives:
-    """The step of length h and its derivative blocks, built once per h (~20 ms)."""
-    F = _step_function(h)
-    x = ca.SX.sym("x", 3)
-    v = ca.SX.sym("v")
-    lam = ca.SX.sym("lam", 3)
-    z = ca.vertcat(x, v)
-    step = F(x, v, MODEL.p)
-    jac = ca.jacobian(step, z)
-    # The constraint is x_{k+1} - F(x_k, v_k): its second derivatives are those of -F.
-    hess = ca.triu(ca.hessian(-ca.dot(lam, step), z)[0])
-    opts = {"cse": True}
-    return _StepDerivatives(
-        F=F,
-        jacobian=ca.Function("F_jac", [x, v, MODEL.p], [ca.vertcat(*jac.nonzeros())], opts),
-        jacobian_nz=tuple(np.array(a, dtype=int) for a in jac.sparsity().get_triplet()),
-        hessian=ca.Function(
-            "F_hess", [x, v, MODEL.p, lam], [ca.vertcat(*hess.nonzeros())], opts
-        ),
-        hessian_nz=tuple(np.array(a, dtype=int) for a in hess.sparsity().get_triplet()),
-    )
-
-
-def _block_matrix(rows, cols, shape, values: ca.MX) -> ca.MX:
-    """The sparse MX with ``values[i]`` at (rows[i], cols[i]) (no position twice)."""
-    order = np.lexsort((rows, cols))  # CasADi stores nonzeros column by column
-    sparsity = ca.Sparsity.triplet(*shape, rows[order].tolist(), cols[order].tolist())
-    if sparsity.nnz() != len(rows):
-        raise ValueError("a position of the block matrix is given twice")
-    return ca.sparsity_cast(values[order.tolist()], sparsity)
-
-
-def _nlp_derivatives(
-    blocks: _StepDerivatives, X: ca.MX, V: ca.MX, p: np.ndarray, cost: ca.MX, w: ca.MX, g: ca.MX
-) -> dict[str, ca.Function]:
-    """nlpsol's "jac_g" and "hess_lag" for g = vec(X[:, 1:] - F(X[:, :-1], V)), from blocks.
-
-    Variables w = (vec X, V): x_k is w[3k:3k+3], v_k is w[3(N+1)+k]. Row 3k+i of g is the
-    step of interval k.
+    The mirror, except over the start: there the torque must step from the hold to the
+    mirror's first torque at the drive's rate (the OCP's bound), so the body cannot follow the
+    mirror, and the OCP's trajectory departs from it. Regulating onto the bare mirror there
+    would fight the feedforward (on a spring's 2 s pass the drive then rode its rate limit
+    on 4.6% of the samples). So the reference carries the OCP's departure (linear between
+    its grid points) for the step's duration |u'(0) - hold| / torque_rate_limit, then fades
+    it out with a half cosine over START_FADE_BANDWIDTHS / w, w the regulator's bandwidth.
+    Not beyond: after the start the OCP tracks the mirror only to its cost's tolerance (up to
+    6e-4 of the top speed on the default stages), which the regulator removes; carrying that
+    departure all along made the 12-bit closed loops' errors 1.3-2.7x larger.
     """
-    N = V.numel()
-    k = np.arange(N)[:, None]
-
-    def position(z):  # index in (x, v) of the step -> index in w, per interval
-        return np.where(z < 3, 3 * k + z, 3 * (N + 1) + k)
-
-    # dg/dw: -dF/d(x_k, v_k), and the identity on x_{k+1}.
-    jr, jc = blocks.jacobian_nz
-    eye = np.arange(3)
-    rows = np.concatenate([(3 * k + jr).ravel(), (3 * k + eye).ravel()])
-    cols = np.concatenate([position(jc).ravel(), (3 * (k + 1) + eye).ravel()])
-    jac_values = ca.vertcat(-ca.vec(blocks.jacobian.map(N)(X[:, :-1], V, p)), ca.DM.ones(3 * N))
-    jac = _block_matrix(rows, cols, (3 * N, w.numel()), jac_values)
-    # Hessian of lam_f f + lam_g . g: the steps' blocks plus the cost's.
-    lam_f = ca.MX.sym("lam_f")
-    lam_g = ca.MX.sym("lam_g", 3, N)
-    hr, hc = blocks.hessian_nz
-    hess_values = ca.vec(blocks.hessian.map(N)(X[:, :-1], V, p, lam_g))
-    steps = _block_matrix(position(hr).ravel(), position(hc).ravel(), (w.numel(),) * 2, hess_values)
-    hess = steps + lam_f * ca.triu(ca.hessian(cost, w)[0])
-    none = ca.MX.sym("p", 0, 1)  # the NLP has no parameters
-    return {
-        "jac_g": ca.Function("jac_g", [w, none], [g, jac], ["x", "p"], ["g", "jac_g_x"]),
-        "hess_lag": ca.Function(
-            "hess_lag",
-            [w, none, lam_f, ca.vec(lam_g)],
-            [hess],
-            ["x", "p", "lam_f", "lam_g"],
-            ["triu_hess_gamma_x_x"],
-        ),
-    }
+    need = float(required_torque(ref, model)[0])
+    step = abs(need - float(sol.torque[0])) / device.motor.torque_rate_limit
+    w = bandwidth(device, float(np.max(reduced_inertia(ref.phi, model))))
+    fade = START_FADE_BANDWIDTHS / w
+    s = np.clip((ref.t - step) / fade, 0.0, 1.0)
+    weight = 0.5 * (1.0 + np.cos(np.pi * s))
+    phi_dev = np.interp(ref.t, sol.t, sol.phi - np.interp(sol.t, ref.t, ref.phi))
+    omega_dev = np.interp(ref.t, sol.t, sol.omega - np.interp(sol.t, ref.t, ref.omega))
+    return ref.phi + weight * phi_dev, ref.omega + weight * omega_dev
 
 
-def solve_program_ocp(
-    device: Device, stage: int, mirror: Mirror, nominal: ModelParameters
-) -> OcpSolution:
-    """Solve the reverse pass's OCP (module docstring).
+def make_program(
+    device: Device,
+    stage: int,
+    braking: Log,
+    source: str = "braking.csv",
+    nominal: ModelParameters | None = None,
+    direction: str = "forward",
+) -> ProgramResult:
+    """The torque program that drives stage ``stage`` back along the mirror of its braking.
 
-    Raises
-    ------
-    InputError
-        When the mirror needs more torque than the motor has.
+    Parameters
+    ----------
+    nominal : ModelParameters, optional
+        Use this nominal model instead of fitting one (tests of robustness perturb it).
+    direction : {"forward", "backward"}
+        A backward braking (phi decreasing) is solved in the mirrored coordinate -phi, where it
+        is a forward one (rsp_inertia.estimation.balance mirror_log; the spring's zero angle mirrored
+        with it), and its program mirrored back: phi_ref, omega_ref and the feedforward
+        change sign, the gains stay.
     """
-    start = time.perf_counter()
-    motor = device.motor
-    needed = required_torque(mirror, nominal)
-    # The check reads the needed torque averaged over FEASIBILITY_WINDOW: the smoothed
-    # acceleration carries the encoder's noise (0.1 N m peaks on a 12-bit encoder), which is
-    # not torque the motor must deliver; the OCP's smoothness term ignores it as well.
-    dt = mirror.t[1] - mirror.t[0]
-    width = max(round(FEASIBILITY_WINDOW / dt), 1)
-    average = uniform_filter1d(needed, width, mode="nearest")  # ends held, not zero-padded
-    peak = float(np.max(np.abs(average)))
-    if peak > motor.torque_limit:
-        k = int(np.argmax(np.abs(average)))
-        raise InputError(
-            f"stage {stage}: the mirror of the braking needs {peak:.4g} N m at t = "
-            f"{mirror.t[k]:.2f} s of the reverse, the motor has {motor.torque_limit:g} N m "
-            "(device.toml motor.torque_limit): lower launch_speed or braking_torque"
+    if direction == "backward":
+        spring = dataclasses.replace(device.spring, zero_angle=-device.spring.zero_angle)
+        result = make_program(
+            dataclasses.replace(device, spring=spring),
+            stage,
+            mirror_log(braking, device.encoder.quantum),
+            source,
+            nominal,
         )
-    m = max(round(GRID_STEP / dt), 1)
-    idx = np.arange(0, mirror.t.size, m)
-    N = idx.size - 1
-    h = m * dt
-    blocks = _step_derivatives(h)
-    p = nominal.vector
-
-    # MX around a mapped SX step: one symbolic call, N evaluations; derivatives from the
-    # step's blocks (module docstring).
-    X = ca.MX.sym("X", 3, N + 1)
-    V = ca.MX.sym("V", 1, N)
-    ref_phi = mirror.phi[idx]
-    ref_omega = mirror.omega[idx]
-    shoot = blocks.F.map(N)(X[:, :-1], V, p)
-    err = ca.vertcat(X[1, :] - ref_omega[None, :], W_PHI * (X[0, :] - ref_phi[None, :]))
-    cost = h * ca.sumsqr(err) + RHO * h * ca.sumsqr(V)
-    w = ca.vertcat(ca.vec(X), ca.vec(V))
-    g = ca.vec(X[:, 1:] - shoot)
-    nlp = {"x": w, "f": cost, "g": g}
-    solver = ca.nlpsol(
-        "ocp",
-        "ipopt",
-        nlp,
-        {
-            "ipopt.print_level": 0,
-            "print_time": False,
-            "ipopt.sb": "yes",
-            "ipopt.max_iter": 300,
-            **_nlp_derivatives(blocks, X, V, p, cost, w, g),
-        },
+        prog = result.program
+        program = Program(
+            t=prog.t,
+            phi_ref=-prog.phi_ref,
+            omega_ref=-prog.omega_ref,
+            torque_ff=-prog.torque_ff,
+            k_phi=prog.k_phi,
+            k_omega=prog.k_omega,
+        )
+        return dataclasses.replace(result, program=program)
+    start = time.perf_counter()
+    check_braking_monotone(braking, source)
+    sm = smooth_log(braking, device.encoder.quantum, source)
+    ref = mirror(sm, device.encoder.sample_rate, device.encoder.quantum, source)
+    model = nominal if nominal is not None else fit_nominal(device, stage, braking, sm)
+    sol = solve_program_ocp(device, stage, ref, model)
+    torque = np.interp(ref.t, sol.t, sol.torque)  # u is linear between grid points
+    phi_ref, omega_ref = start_reference(device, ref, sol, model)
+    k_phi, k_omega = lqr_gains(device, ref.t, phi_ref, omega_ref, torque, model)
+    program = Program(
+        t=ref.t,
+        phi_ref=phi_ref,
+        omega_ref=omega_ref,
+        torque_ff=torque,
+        k_phi=k_phi,
+        k_omega=k_omega,
     )
-
-    # Bounds: the start is fixed (at rest, held); torque and rate within the motor's limits.
-    hold = float(static_torque(mirror.rest_angle, nominal))
-    lbx = np.tile([-np.inf, -np.inf, -motor.torque_limit], N + 1)
-    ubx = np.tile([np.inf, np.inf, motor.torque_limit], N + 1)
-    lbx[:3] = ubx[:3] = [mirror.rest_angle, 0.0, hold]
-    lbv = np.full(N, -motor.torque_rate_limit)
-    ubv = np.full(N, motor.torque_rate_limit)
-    # Warm start: the mirror and its torque, rate-limited.
-    u0 = np.clip(needed[idx], -motor.torque_limit, motor.torque_limit)
-    u0[0] = hold
-    v0 = np.clip(np.diff(u0) / h, lbv, ubv)
-    u0 = np.concatenate([[hold], hold + np.cumsum(v0) * h])
-    x0 = np.column_stack([ref_phi, ref_omega, u0]).ravel()
-    sol = solver(
-        x0=np.concatenate([x0, v0]),
-        lbx=np.concatenate([lbx, lbv]),
-        ubx=np.concatenate([ubx, ubv]),
-        lbg=0,
-        ubg=0,
+    return ProgramResult(
+        program=program,
+        mirror=ref,
+        nominal=model,
+        ocp=sol,
+        smoothed=sm,
+        seconds=time.perf_counter() - start,
     )
-    stats = solver.stats()
-    z = np.asarray(sol["x"]).ravel()
-    states = z[: 3 * (N + 1)].reshape(N + 1, 3)
-    return OcpSolution(
-        t=mirror.t[idx],
-        phi=states[:, 0],
-        omega=states[:, 1],
-        torque=states[:, 2],
-        iterations=int(stats.get("iter_count", -1)),
-        success=bool(stats.get("success", False)),
-        solve_time=time.perf_counter() - start,
-    )
-

@@ -43,8 +43,8 @@ import numpy as np
 from rsp_inertia.estimation.balance import stage_balance
 from rsp_inertia.estimation.runs import estimate_run
 from rsp_inertia.estimation.tensor import axis_values, fit_tensor, format_run
-from rsp_inertia.ocp.make import make_program
 from rsp_inertia.ocp.plan import Candidate, StageModel, map_stages, planned_release
+from rsp_inertia.ocp.program import make_program
 from rsp_inertia.ocp.regulator import OBSERVER_BANDWIDTH
 from rsp_inertia.plant.config import ControllerSettings, Device, Friction, RunSettings, Virtual
 from rsp_inertia.plant.geometry import device_design

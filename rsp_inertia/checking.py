@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from rsp_inertia.estimation.balance import NODE_GAP_SAMPLES, check_node_gaps, mirror_log
-from rsp_inertia.estimation.energy import check_braking_monotone
+from rsp_inertia.estimation.passes import check_braking_monotone
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.geometry import turns_past_last_node

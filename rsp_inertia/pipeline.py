@@ -34,7 +34,7 @@ from rsp_inertia.plant.logs import (
 if TYPE_CHECKING:
     from rsp_inertia.estimation.calibration import Calibration
     from rsp_inertia.estimation.identify import Identification
-    from rsp_inertia.ocp.make import ProgramResult
+    from rsp_inertia.ocp.program import ProgramResult
     from rsp_inertia.plant.virtual import SimulatedPass
 
 __all__ = [
@@ -341,7 +341,7 @@ class ProgramSummary:
     """The program.csv written."""
     details: ProgramResult
     """How it was made: the program's arrays, the mirror, the nominal model, the OCP's
-    solution, the smoothed braking, the wall time (rsp_inertia.ocp.make.ProgramResult)."""
+    solution, the smoothed braking, the wall time (rsp_inertia.ocp.program.ProgramResult)."""
 
     def __str__(self) -> str:
         prog = self.details.program
@@ -366,7 +366,7 @@ def program_summaries(
     the motor cannot drive (the error says what torque it needs). ``progress`` gets each
     run's summary line as soon as its program is written.
     """
-    from rsp_inertia.ocp.make import make_program
+    from rsp_inertia.ocp.program import make_program
 
     exp = open_experiment(root)
     summaries = []

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from rsp_inertia.estimation.balance import node_formula, stage_balance
-from rsp_inertia.estimation.energy import PassEstimate
+from rsp_inertia.estimation.passes import PassEstimate
 from rsp_inertia.estimation.smoothing import Smoothed
 from rsp_inertia.estimation.tensor import fit_tensor
 from rsp_inertia.plant import virtual as vd

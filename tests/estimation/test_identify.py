@@ -133,7 +133,7 @@ def test_principal_moments_and_axes_diagonalise_the_tensor(ideal):
 
 
 def test_a_drifting_braking_torque_is_named_in_a_warning(ideal, tmp_path):
-    # The constant-torque model of the braking pass is checked on the log (rsp_inertia.estimation.energy):
+    # The constant-torque model of the braking pass is checked on the log (rsp_inertia.estimation.passes):
     # a drift of one noise std over stage 1's pass makes identify fall back to row sums and say
     # so. (Only the log drifts here, not the torque the simulator applied, so the log now
     # misstates the work by ~1e-4 of it: the numbers are not checked against the truth.)

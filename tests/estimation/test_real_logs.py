@@ -2,7 +2,7 @@
 
 The time stamps are the drive's sampling instants (rsp_inertia.plant.logs.JITTER_LIMIT): the
 smoother and the work sums use them as they are, a gap's missing torques are interpolated
-with their uncertainty (rsp_inertia.estimation.energy.gap_work), and a longer gap near a
+with their uncertainty (rsp_inertia.estimation.passes.gap_work), and a longer gap near a
 node is refused (rsp_inertia.estimation.balance.check_node_gaps). Against the virtual truth,
 never against an earlier run's numbers.
 """
@@ -16,7 +16,7 @@ import pytest
 import tomlkit
 
 from rsp_inertia.estimation.balance import NODE_GAP_SAMPLES, check_node_gaps
-from rsp_inertia.estimation.energy import gap_work
+from rsp_inertia.estimation.passes import gap_work
 from rsp_inertia.estimation.smoothing import Smoothed
 from rsp_inertia.pipeline import create_default_experiment, identify, simulate
 from rsp_inertia.plant.config import load_virtual

@@ -15,7 +15,7 @@ import pytest
 
 from rsp_inertia.cli import main
 from rsp_inertia.estimation.balance import mirror_log, stage_balance
-from rsp_inertia.estimation.energy import estimate_pass
+from rsp_inertia.estimation.passes import estimate_pass
 from rsp_inertia.estimation.tensor import axis_values, fit_tensor
 from rsp_inertia.pipeline import create_default_experiment, identify, simulate
 from rsp_inertia.plant import virtual as vd

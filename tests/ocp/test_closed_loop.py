@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from rsp_inertia.estimation.balance import stage_balance
-from rsp_inertia.estimation.energy import estimate_pass
+from rsp_inertia.estimation.passes import estimate_pass
 from rsp_inertia.estimation.tensor import axis_values, fit_tensor
-from rsp_inertia.ocp.make import make_program
+from rsp_inertia.ocp.program import make_program
 from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.geometry import axis_direction
 from rsp_inertia.plant.model import dissipation

@@ -220,7 +220,7 @@ def test_program_serves_a_two_second_spring_pass(paper):
     """A planned braking against a spring (c = 0.02 N m/rad, 13.8 rad/s, no braking torque):
     2 s, ending at the turning point. The nominal model's windows shorten to the pass
     (rsp_inertia.ocp.nominal): M0 within 2%; the program starts from the hold torque there."""
-    from rsp_inertia.ocp.make import make_program
+    from rsp_inertia.ocp.program import make_program
     from rsp_inertia.plant.model import static_torque
     from rsp_inertia.plant.virtual import run_program, simulate_braking
 

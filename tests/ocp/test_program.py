@@ -1,4 +1,4 @@
-"""The reverse pass's OCP and the program it becomes (ocp/program.py, ocp/make.py).
+"""The reverse pass's OCP and the program it becomes (ocp/feedforward.py, ocp/program.py).
 
 The OCP drives the nominal model along the mirror within the motor's limits; its solution,
 interpolated to the sample rate with the LQR gains, is program.csv (INTERFACES.md).
@@ -12,8 +12,8 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from rsp_inertia.cli import main
-from rsp_inertia.ocp.make import START_FADE_BANDWIDTHS, make_program
-from rsp_inertia.ocp.program import W_PHI, required_torque, solve_program_ocp
+from rsp_inertia.ocp.feedforward import W_PHI, required_torque, solve_program_ocp
+from rsp_inertia.ocp.program import START_FADE_BANDWIDTHS, make_program
 from rsp_inertia.ocp.regulator import bandwidth
 from rsp_inertia.pipeline import create_default_experiment
 from rsp_inertia.plant import virtual as vd
@@ -141,7 +141,7 @@ def test_program_is_the_mirror_at_the_sample_rate(
     np.testing.assert_array_equal(prog.t, np.arange(prog.t.size) * dt)
     # The reference is the mirror, but over the start, where the torque steps from the hold
     # at the drive's rate: there it carries the OCP's departure, faded out within
-    # START_FADE_BANDWIDTHS regulator time constants (rsp_inertia.ocp.make.start_reference).
+    # START_FADE_BANDWIDTHS regulator time constants (rsp_inertia.ocp.program.start_reference).
     stride = round(sol.t[1] / dt)
     late = prog.t > START_FADE_BANDWIDTHS / bandwidth(
         default_device, float(np.max(reduced_inertia(ref.phi, result.nominal)))

@@ -11,8 +11,8 @@ import pytest
 
 from rsp_inertia.cli import main
 from rsp_inertia.estimation.runs import estimate_run, read_run
-from rsp_inertia.ocp.make import make_program
 from rsp_inertia.ocp.plan import StageModel, map_stages
+from rsp_inertia.ocp.program import make_program
 from rsp_inertia.ocp.rehearsal import consistent_models
 from rsp_inertia.pipeline import create_default_experiment, simulate
 from rsp_inertia.plant.config import ControllerSettings, Friction, RunSettings, Virtual

@@ -1,4 +1,4 @@
-"""Work-energy balances of the two passes of a stage (METHOD.md §3-5).
+"""A pass (braking or reverse) ready for work-energy balances (METHOD.md §3-5).
 
 A pass is turned into functions of the angle: the speed (smoothed), the motor work from the
 start of the pass (Stieltjes sum of the logged torque over encoder increments), and the

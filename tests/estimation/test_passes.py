@@ -1,4 +1,4 @@
-"""Motor work and torque noise of a pass (estimation/energy.py, METHOD.md §3-4)."""
+"""Motor work and torque noise of a pass (estimation/passes.py, METHOD.md §3-4)."""
 
 import dataclasses
 import math
@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from rsp_inertia.estimation.energy import (
+from rsp_inertia.estimation.passes import (
     CONSTANCY_TAIL,
     constancy_p_value,
     estimate_pass,

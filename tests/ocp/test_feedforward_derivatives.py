@@ -1,4 +1,4 @@
-"""The OCP's assembled derivatives against CasADi's automatic ones (ocp/program.py).
+"""The OCP's assembled derivatives against CasADi's automatic ones (ocp/feedforward.py).
 
 solve_program_ocp hands IPOPT a constraint Jacobian and a Lagrangian Hessian assembled from
 per-interval blocks of the RK4 step; they must be the derivatives CasADi itself computes for
@@ -8,7 +8,7 @@ the same NLP, at any point and multipliers.
 import casadi as ca
 import numpy as np
 
-from rsp_inertia.ocp.program import RHO, W_PHI, _nlp_derivatives, _step_derivatives
+from rsp_inertia.ocp.feedforward import RHO, W_PHI, _nlp_derivatives, _step_derivatives
 
 
 def test_block_derivatives_are_casadis(programs):
