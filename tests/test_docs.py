@@ -20,7 +20,6 @@ What is parsed, so that a doc edit keeps it parseable:
 from __future__ import annotations
 
 import argparse
-import ast
 import functools
 import importlib
 import json
@@ -35,8 +34,9 @@ import tomlkit
 
 import rsp_inertia.plant
 from rsp_inertia.cli import _parser, main
-from rsp_inertia.plant import config
+from rsp_inertia.plant import config, virtual_config
 from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.toml_schema import accepted_keys
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
@@ -228,8 +228,6 @@ LOADERS = {
     "virtual.toml": config.load_virtual,
     "reference.toml": config.load_reference,
 }
-ENTRY_POINTS = {"device.toml": "load_device", "virtual.toml": "load_virtual",
-                "reference.toml": "load_reference"}
 BASES = {
     "device.toml": DEFAULTS / "device.toml",
     "virtual.toml": DEFAULTS / "virtual.toml",
@@ -237,57 +235,22 @@ BASES = {
 }
 
 
+FILE_CLASSES = {
+    "device.toml": config.Device,
+    "virtual.toml": config.Virtual,
+    "reference.toml": virtual_config._ReferenceFile,
+}
+"""The config class each loader reads a whole file into (reference.toml: its [body] holder)."""
+
+
 @functools.cache
 def _accepted() -> dict[str, dict[str, set[str]]]:
     """Per file, per table ("" for the top level), the keys rsp_inertia.plant.config accepts.
 
-    Read off config.py: the key sets passed to its ``_table`` and ``_known`` checks in every
-    function a loader calls, the table names bound through the calls' constant arguments.
+    Read off the config classes' fields: the key sets its reader checks unknown keys against
+    (rsp_inertia.plant.toml_schema.layout, through accepted_keys).
     """
-    tree = ast.parse(Path(config.__file__).read_text(encoding="utf-8"))
-    functions = {node.name: node for node in tree.body if isinstance(node, ast.FunctionDef)}
-
-    def name_of(node, binding):
-        if isinstance(node, ast.Constant) and isinstance(node.value, str):
-            return node.value
-        if isinstance(node, ast.Name):
-            return binding.get(node.id)
-        if isinstance(node, ast.JoinedStr) and node.values:  # f"stage[{k}]" -> "stage"
-            first = node.values[0]
-            if isinstance(first, ast.Constant):
-                return str(first.value).split("[")[0]
-        return None
-
-    def walk(function: str, binding: dict, out: dict, seen: set) -> None:
-        for call in ast.walk(functions[function]):
-            if not (isinstance(call, ast.Call) and isinstance(call.func, ast.Name)):
-                continue
-            callee = call.func.id
-            if callee in ("_table", "_known") and len(call.args) >= 3:
-                keys = call.args[2]
-                if isinstance(keys, ast.Set) and all(
-                    isinstance(e, ast.Constant) for e in keys.elts
-                ):
-                    table = name_of(call.args[1], binding)
-                    if table is not None:
-                        out.setdefault(table, set()).update(e.value for e in keys.elts)
-            elif callee in functions:
-                params = [a.arg for a in functions[callee].args.args]
-                bound = {
-                    p: name_of(arg, binding) for p, arg in zip(params, call.args)
-                    if name_of(arg, binding) is not None
-                }
-                key = (callee, tuple(sorted(bound.items())))
-                if key not in seen:
-                    seen.add(key)
-                    walk(callee, bound, out, seen)
-
-    accepted = {}
-    for file, entry in ENTRY_POINTS.items():
-        out: dict[str, set[str]] = {}
-        walk(entry, {}, out, set())
-        accepted[file] = out
-    return accepted
+    return {file: accepted_keys(cls) for file, cls in FILE_CLASSES.items()}
 
 
 def _documented(file: str) -> dict[str, list[str]]:

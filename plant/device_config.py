@@ -1,0 +1,373 @@
+"""``device.toml``: the gimbal and the protocol run on it, read and written.
+
+The file describes the gimbal's spring, motor and encoder, the stages (one gear ratio each,
+with the nodes where the tensor is sampled) and, optionally, the body's mass, the
+torsion-pendulum baseline and guesses for planning; docs/files.md documents every key. The
+config classes below declare the keys (rsp_inertia.plant.toml_schema): each field's name is
+its key, with its unit, bounds, default and doc.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.toml_schema import (
+    Bound,
+    ContentError,
+    config_class,
+    key,
+    read_file,
+    read_table,
+    write_file,
+)
+
+DEFAULT_GRAVITY = 9.80665
+"""Standard gravity, m/s^2: used when ``[device]`` has no ``gravity``."""
+
+REQUIRED_AXES = 6
+"""Distinct axes needed over all stages: the tensor has six entries (docs/method.md §5)."""
+
+DIRECTIONS = ("forward", "backward")
+"""Directions of a stage's run: forward, phi increases during the braking pass and decreases
+during its reverse pass; backward, the other way round."""
+
+
+def _distinct_nodes(nodes: tuple[float, ...], key: str) -> None:
+    if not nodes:
+        raise ContentError(key, "must have at least one node")
+    if len(set(nodes)) < len(nodes):
+        duplicate = next(node for node in nodes if nodes.count(node) > 1)
+        raise ContentError(key, f"duplicate node {duplicate!r}")
+
+
+def _distinct_directions(directions: tuple[str, ...], key: str) -> None:
+    if not directions:
+        raise ContentError(key, "must name at least one direction")
+    if len(set(directions)) < len(directions):
+        duplicate = next(name for name in directions if directions.count(name) > 1)
+        raise ContentError(key, f"duplicate direction {duplicate!r}")
+
+
+@config_class
+class Spring:
+    """Torsion element of the device, reduced to the phi coordinate (``[spring]``)."""
+
+    stiffness: float = key(0.0, unit="N m/rad", bound=">= 0", doc="c; 0 = no spring.")
+    zero_angle: float = key(0.0, unit="rad", doc="phi0, the angle where the spring is relaxed.")
+
+
+@config_class
+class Motor:
+    """Limits of the drive, reduced to the phi coordinate (``[motor]``)."""
+
+    torque_limit: float = key(
+        unit="N m", bound="> 0", doc="Largest torque magnitude: |u| <= torque_limit."
+    )
+    torque_rate_limit: float = key(
+        unit="N m/s", bound="> 0", doc="Largest torque rate magnitude: |du/dt| <= this."
+    )
+    torque_gain_std: float | None = key(
+        None,
+        unit="relative",
+        bound=">= 0",
+        doc="Relative standard deviation of the logged torque's scale (torque constant), as "
+        "the user knows it; None (not stated) makes identify warn unless a calibration.toml "
+        "fixes it.",
+    )
+
+
+@config_class
+class Encoder:
+    """Angle encoder on phi (``[encoder]``)."""
+
+    counts_per_rev: int = key(bound="> 0", doc="Counts per revolution.")
+    sample_rate: float = key(unit="Hz", bound="> 0", doc="The drive's sampling rate.")
+    counter_bits: int | None = key(
+        None,
+        unit="bits",
+        bound=("> 0", Bound("at most 64", lambda bits: bits <= 64)),
+        doc="Width of the drive's position counter, when logs give integer ``counts`` that "
+        "wrap around at 2**counter_bits; None: counts never wrap.",
+    )
+
+    @property
+    def quantum(self) -> float:
+        """One count, rad: 2 pi / counts_per_rev."""
+        return 2.0 * math.pi / self.counts_per_rev
+
+    @property
+    def dt(self) -> float:
+        """Sampling period, s: 1 / sample_rate."""
+        return 1.0 / self.sample_rate
+
+
+@config_class
+class Stage:
+    """One gear ratio of the gimbal and the protocol run with it (``[[stage]]``;
+    docs/method.md §1, §4)."""
+
+    gear_ratio: float = key(
+        bound=">= 0", doc="lambda = tan(beta); 0 = outer frame locked, spin about z."
+    )
+    tare_inertia: float = key(
+        absent=0.0,
+        unit="kg m^2",
+        bound=">= 0",
+        doc="M_tare(lambda), reduced to phi (from an empty-fixture run).",
+    )
+    nodes_deg: tuple[float, ...] = key(
+        unit="deg",
+        bound=Bound("in [0, 360)", lambda node: 0.0 <= node < 360.0),
+        check=_distinct_nodes,
+        doc="Angles phi where the tensor is sampled: distinct, at least one.",
+    )
+    launch_speed: float = key(
+        unit="rad/s", bound="> 0", doc="Speed Omega at the release of the braking pass."
+    )
+    braking_torque: float = key(
+        unit="N m", bound=">= 0", doc="Motor torque against the motion during the braking pass."
+    )
+    directions: tuple[str, ...] = key(
+        ("forward",),
+        bound=Bound(
+            "one of " + ", ".join(repr(name) for name in DIRECTIONS),
+            lambda name: name in DIRECTIONS,
+        ),
+        check=_distinct_directions,
+        doc="Directions the stage is run in, distinct, at least one: forward (phi increases "
+        "while braking), backward (phi decreases while braking), or both.",
+    )
+    tare_inertia_std: float | None = key(
+        None,
+        unit="kg m^2",
+        bound=">= 0",
+        doc="Standard deviation of ``tare_inertia``, as the user knows it; None (not stated) "
+        "makes identify warn unless a calibration.toml replaces the tare.",
+    )
+    release_angle_deg: float | None = key(
+        None,
+        unit="deg",
+        doc="Where the rig releases the body for a forward braking pass (the backward pass: "
+        "its negative); part of the protocol, which ``plan`` predicts for and writes. None: "
+        "the virtual device releases at virtual.toml's ``[run] release_angle_deg``, and "
+        "``plan`` assumes a release rsp_inertia.ocp.plan.RELEASE_BEFORE_NODE_DEG before the "
+        "first node.",
+    )
+
+    @property
+    def nodes(self) -> np.ndarray:
+        """The nodes in radians, shape (n_nodes,)."""
+        return np.radians(np.asarray(self.nodes_deg, dtype=float))
+
+
+@config_class
+class Body:
+    """What the device file knows of the body under test (``[body]``)."""
+
+    mass: float = key(
+        unit="kg", bound="> 0", doc="Mass; with it, identify reports the centre of mass."
+    )
+
+
+@config_class
+class Pendulum:
+    """Torsion-pendulum baseline runs: the torsion element attached for them, motor off
+    (``[pendulum]``)."""
+
+    stiffness: float = key(
+        unit="N m/rad",
+        bound="> 0",
+        doc="c, reduced to phi: the spring is zeroed at the node for each run.",
+    )
+    amplitude_deg: float = key(
+        5.0, unit="deg", bound="> 0", doc="Initial deflection from the node."
+    )
+    duration: float = key(30.0, unit="s", bound="> 0", doc="Logged time per run.")
+    stiffness_std: float | None = key(
+        None,
+        unit="N m/rad",
+        bound=">= 0",
+        doc="Std of ``stiffness``, as the user knows it; the best-practice pendulum reduction "
+        "carries it into its stds. None (not stated): taken as exact, and identify warns "
+        "unless calibration.toml has the stiffness from pendulum runs of the calibration "
+        "folders.",
+    )
+
+
+@config_class
+class PlanGuess:
+    """Rough knowledge of the body and the rig for ``rsp-inertia plan`` (``[plan]``).
+
+    A pilot run of a stage (stageN/pilot.csv) replaces these guesses for that stage.
+    """
+
+    inertia: tuple[float, float, float] | None = key(
+        None,
+        unit="kg m^2",
+        bound=">= 0",
+        names=("I1", "I2", "I3"),
+        doc="Approximate principal moments of the body, any order.",
+    )
+    box: tuple[float, float, float] | None = key(
+        None,
+        unit="m",
+        bound=">= 0",
+        names=("a", "b", "c"),
+        doc="Or the body's bounding box: a solid block of ``[body] mass`` with these sides.",
+    )
+    friction: tuple[float, float, float] = key(
+        (0.0, 0.0, 0.0),
+        unit="N m, N m s, N m s^2",
+        bound=">= 0",
+        names=("a1", "a2", "a3"),
+        doc="Guessed dissipation [a1, a2, a3] (docs/method.md §3).",
+    )
+    com_offset: float = key(
+        0.0,
+        unit="m",
+        bound=">= 0",
+        doc="Guessed distance of the centre of mass from the rotation axis.",
+    )
+    torque_noise: float | None = key(
+        None, unit="N m", bound=">= 0", doc="Std of the torque log's noise (else a pilot run's)."
+    )
+    max_duration: float | None = key(
+        None,
+        unit="s",
+        bound="> 0",
+        doc="Default of ``plan --max-duration``: the whole experiment's motion time.",
+    )
+
+    def principal_moments(self, mass: float | None) -> tuple[float, float, float] | None:
+        """The body's approximate principal moments, kg m^2 (from ``box`` with ``mass``)."""
+        if self.inertia is not None:
+            return self.inertia
+        if self.box is None or mass is None:
+            return None
+        a, b, c = self.box
+        return (mass * (b * b + c * c) / 12, mass * (a * a + c * c) / 12, mass * (a * a + b * b) / 12)
+
+
+@config_class
+class Device:
+    """The gimbal as described by ``device.toml``."""
+
+    name: str = key(table="device", doc="Name of the device, free text.")
+    gravity: float = key(
+        absent=DEFAULT_GRAVITY,
+        table="device",
+        unit="m/s^2",
+        bound="> 0",
+        doc="Gravitational acceleration.",
+    )
+    spring: Spring = key(doc="Torsion element; no ``[spring]``: stiffness 0.")
+    motor: Motor = key(doc="Drive limits.")
+    encoder: Encoder = key(doc="Angle encoder.")
+    stages: tuple[Stage, ...] = key(
+        name="stage",
+        doc="The ``[[stage]]`` tables in file order; stage k lives in the folder stage{k}/.",
+    )
+    body: Body | None = key(doc="The optional ``[body]`` table.")
+    pendulum: Pendulum | None = key(
+        None, doc="The optional ``[pendulum]`` table (torsion-pendulum baseline)."
+    )
+    plan: PlanGuess | None = key(
+        None, doc="The optional ``[plan]`` table (guesses for experiment planning)."
+    )
+
+    @property
+    def n_axes(self) -> int:
+        """Number of distinct instantaneous axes over all stages.
+
+        A stage with gear ratio 0 turns about z whatever its nodes, so it gives one axis;
+        any other stage gives one axis per node (docs/method.md §1: e depends on lambda and
+        phi).
+        """
+        axes: set[tuple[float, float]] = set()
+        for stage in self.stages:
+            if stage.gear_ratio == 0.0:
+                axes.add((0.0, 0.0))
+            else:
+                axes.update((stage.gear_ratio, node) for node in stage.nodes_deg)
+        return len(axes)
+
+
+def load_device(path: str | os.PathLike) -> Device:
+    """Read a ``device.toml`` file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file; its name as given appears in error messages.
+
+    Returns
+    -------
+    Device
+        The gimbal, with the fields' defaults for the keys and tables the file leaves out.
+
+    Raises
+    ------
+    InputError
+        The file is missing or is not TOML; a key is missing, unknown, of the wrong type
+        or out of range; ``[plan]`` gives both ``inertia`` and ``box``, or ``box`` without
+        ``[body]``; or the stages give fewer than six distinct axes.
+
+    Examples
+    --------
+    >>> device = load_device("EXP/device.toml")  # doctest: +SKIP
+    >>> device.n_axes, device.stages[0].gear_ratio  # doctest: +SKIP
+    (6, 0.7639320225)
+    """
+    doc = read_file(path)
+    try:
+        return _device(doc)
+    except ContentError as error:
+        raise InputError(f"{path}: {error}") from None
+
+
+def write_device(path: str | os.PathLike, device: Device) -> None:
+    """Write ``device`` to ``path`` as a ``device.toml`` that :func:`load_device` reads back
+    equal; atomically (rsp_inertia.plant.logs.write_atomic).
+
+    Every key whose value is not None is written, in the order of the fields, with its unit
+    as a comment.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file; its folder must exist.
+    device : Device
+        The gimbal, e.g. a loaded one changed by ``dataclasses.replace``.
+
+    Raises
+    ------
+    ValueError
+        ``device`` breaks a rule of device.toml; the message is load_device's (with ``path``
+        in front), and nothing is written.
+
+    Examples
+    --------
+    >>> device = load_device("EXP/device.toml")  # doctest: +SKIP
+    >>> encoder = dataclasses.replace(device.encoder, counts_per_rev=4096)  # doctest: +SKIP
+    >>> write_device("EXP/device.toml", dataclasses.replace(device, encoder=encoder))  # doctest: +SKIP
+    """
+    write_file(path, device, "device.toml: written by rsp_inertia.plant.config.write_device", _device)
+
+
+def _device(doc: dict) -> Device:
+    """The Device of a parsed device.toml, with the rules that join its tables."""
+    device = read_table(Device, doc)
+    if device.plan is not None:
+        if device.plan.inertia is not None and device.plan.box is not None:
+            raise ContentError("plan", "give either inertia or box, not both")
+        if device.plan.box is not None and device.body is None:
+            raise ContentError("plan.box", "needs the body's mass ([body] mass)")
+    if device.n_axes < REQUIRED_AXES:
+        raise ContentError(
+            "stage", f"the stages give {device.n_axes} distinct axes, {REQUIRED_AXES} are needed"
+        )
+    return device

@@ -1,0 +1,516 @@
+"""TOML tables read into frozen dataclasses and written back, both driven by the fields.
+
+A config class is a frozen dataclass made by :func:`config_class`; each field that a TOML
+file holds is made by :func:`key`, and that field is the whole contract of its key:
+
+- the TOML key is the field's name (``name=`` where the file spells it otherwise);
+- the type is the annotation: ``float`` (integers accepted), ``int``, ``str``, ``bool``;
+  ``tuple[float, ...]``, ``tuple[str, ...]`` or ``np.ndarray`` for an array (``names=``
+  fixes its length and names its entries in messages); another config class for a table;
+  ``tuple[C, ...]`` for an array of tables; ``X | None`` for a key whose absence means
+  None;
+- the default is the field's default, or ``absent=`` for a field the constructor requires
+  while the file may leave it out; a table whose class has a default for every key may
+  be left out, and so may a table typed ``C | None``;
+- the metadata holds the unit, the bounds (:class:`Bound`, checked on a number or on each
+  entry of an array), a ``check`` of the whole value for semantics beyond bounds, and the
+  doc (which :func:`config_class` puts into the class docstring's Attributes section).
+
+:func:`read_table` walks a class's fields to read a table (unknown keys are errors, types
+converted, bounds checked) and :func:`write_text` walks them to write the instance back.
+A fault is a :class:`ContentError` naming the dotted key; the file readers prefix the path
+and raise :class:`rsp_inertia.plant.errors.InputError`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import inspect
+import math
+import operator
+import os
+import re
+import textwrap
+import tomllib
+import types
+import typing
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import tomlkit
+
+from rsp_inertia.plant.errors import InputError
+
+REQUIRED: Any = dataclasses.MISSING
+"""The default of a key the file must give."""
+
+
+class ContentError(Exception):
+    """A fault at a dotted key of a file; the file readers prefix the file's name."""
+
+    def __init__(self, key: str, fault: str) -> None:
+        super().__init__(f"{key}: {fault}")
+
+
+@dataclasses.dataclass(frozen=True)
+class Bound:
+    """A condition a value must meet; its fault reads ``must be {text}, got {value!r}``.
+
+    ``holds`` tests a value; without it, ``text`` is a comparison with a number, such as
+    ``"> 0"``, ``">= 0"`` or ``"< 0.5"``, optionally followed by a note in the message
+    (``"<= 0.25 (of a period)"``).
+    """
+
+    text: str
+    holds: Callable[[Any], bool] | None = None
+
+    def __post_init__(self) -> None:
+        if self.holds is None:
+            match = re.fullmatch(r"(>=|<=|>|<) (\S+)( .*)?", self.text)
+            if match is None:
+                raise ValueError(f"Bound {self.text!r} needs a test (holds=)")
+            compare = {">": operator.gt, ">=": operator.ge, "<": operator.lt, "<=": operator.le}
+            test, limit = compare[match.group(1)], float(match.group(2))
+            object.__setattr__(self, "holds", lambda value: test(value, limit))
+
+    def check(self, value: Any, key: str) -> None:
+        """Raise ContentError at ``key`` unless ``value`` meets the bound."""
+        if not self.holds(value):  # type: ignore[misc]
+            raise ContentError(key, f"must be {self.text}, got {value!r}")
+
+
+def key(
+    default: Any = REQUIRED,
+    *,
+    doc: str,
+    unit: str = "",
+    bound: str | Bound | tuple[str | Bound, ...] = (),
+    names: tuple[str, ...] | None = None,
+    check: Callable[[Any, str], None] | None = None,
+    absent: Any = REQUIRED,
+    name: str | None = None,
+    table: str | None = None,
+    without: tuple[str, ...] = (),
+) -> Any:
+    """A dataclass field that a TOML file holds.
+
+    Parameters
+    ----------
+    default : optional
+        The field's default, which is also the value when the file leaves the key out.
+    doc : str
+        What the key means.
+    unit : str
+        Its unit, as the docs and the written files' comments give it ('' for none).
+    bound : str or Bound or tuple of them
+        Conditions on the value (on each entry of an array), checked in order.
+    names : tuple of str, optional
+        An array's entries: it must have exactly these many.
+    check : callable, optional
+        ``check(value, dotted_key)`` raises ContentError where the value means nothing.
+    absent : optional
+        The value when the file leaves the key out, for a field without a default.
+    name : str, optional
+        The TOML key when it is not the field's name.
+    table : str, optional
+        The table ``[table]`` that holds this key of a whole file's class.
+    without : tuple of str
+        For a table: keys of its class that this table does not hold (they keep their
+        defaults).
+    """
+    bounds = (bound,) if isinstance(bound, (str, Bound)) else bound
+    metadata = {
+        "doc": doc,
+        "unit": unit,
+        "bounds": tuple(b if isinstance(b, Bound) else Bound(b) for b in bounds),
+        "names": names,
+        "check": check,
+        "absent": absent,
+        "name": name,
+        "table": table,
+        "without": without,
+    }
+    return dataclasses.field(default=default, metadata=metadata)
+
+
+@typing.dataclass_transform(frozen_default=True, field_specifiers=(key, dataclasses.field))
+def config_class(cls: type) -> type:
+    """Make ``cls`` a frozen dataclass and document its keys in an Attributes section."""
+    cls = dataclasses.dataclass(frozen=True)(cls)
+    lines = []
+    for field in dataclasses.fields(cls):
+        meta = field.metadata
+        if "doc" not in meta:
+            continue
+        facts = [f"unit {meta['unit']}"] if meta["unit"] else []
+        if meta["bounds"]:
+            facts.append("must be " + " and ".join(bound.text for bound in meta["bounds"]))
+        default = field.default if field.default is not REQUIRED else meta["absent"]
+        if default is not REQUIRED and not dataclasses.is_dataclass(default):
+            facts.append(f"default {default!r}")
+        text = meta["doc"] + (f" ({'; '.join(facts)})" if facts else "")
+        lines.append(f"{field.name} : {field.type}")
+        lines += textwrap.wrap(text, 88, initial_indent="    ", subsequent_indent="    ")
+    if lines:
+        doc = inspect.cleandoc(cls.__doc__ or "")
+        cls.__doc__ = doc + "\n\nAttributes\n----------\n" + "\n".join(lines) + "\n"
+    return cls
+
+
+# --- the keys of a class --------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class Key:
+    """One key of a config class, as :func:`key` declared it and the annotation types it."""
+
+    field: str
+    name: str
+    kind: type
+    """float, int, str, bool, or a config class (a table)."""
+    array: bool
+    default: Any
+    """The value when the file leaves the key out; REQUIRED when it must be there."""
+    meta: typing.Mapping[str, Any]
+
+
+@functools.cache
+def keys(cls: type) -> tuple[Key, ...]:
+    """The keys of config class ``cls`` in field order."""
+    hints = typing.get_type_hints(cls)
+    found = []
+    for field in dataclasses.fields(cls):
+        if "doc" not in field.metadata:
+            continue
+        kind, array, optional = _kind(hints[field.name])
+        meta = field.metadata
+        default = field.default if field.default is not REQUIRED else meta["absent"]
+        if default is REQUIRED and optional:
+            default = None
+        if default is REQUIRED and _is_table(kind) and not array and _all_defaults(kind):
+            default = kind()
+        found.append(Key(field.name, meta["name"] or field.name, kind, array, default, meta))
+    return tuple(found)
+
+
+def layout(cls: type, without: tuple[str, ...] = ()) -> dict[str, Key | tuple[Key, ...]]:
+    """The entries of a table of class ``cls``, in field order, by their TOML name: a key
+    (a value, a table or an array of tables), or the keys a ``[table]`` groups (``key(table=)``);
+    the keys named in ``without`` left out."""
+    out: dict[str, Any] = {}
+    for entry in keys(cls):
+        if entry.name in without:
+            continue
+        group = entry.meta["table"]
+        if group is None:
+            out[entry.name] = entry
+        else:
+            out[group] = (*out.get(group, ()), entry)
+    return out
+
+
+def accepted_keys(cls: type) -> dict[str, set[str]]:
+    """Per table of a file of class ``cls`` ('' for the top level), the keys its reader
+    accepts; tables named as in the file (``stage`` for ``[[stage]]``)."""
+    out: dict[str, set[str]] = {"": set(layout(cls))}
+    for name, entry in layout(cls).items():
+        if isinstance(entry, tuple):
+            out[name] = {member.name for member in entry}
+        elif _is_table(entry.kind):
+            out[name] = set(layout(entry.kind, entry.meta["without"]))
+    return out
+
+
+def _kind(hint: Any) -> tuple[type, bool, bool]:
+    """(entry type, is an array, may be None) of a field's annotation."""
+    optional = False
+    if isinstance(hint, types.UnionType) or typing.get_origin(hint) is typing.Union:
+        args = [arg for arg in typing.get_args(hint) if arg is not type(None)]
+        optional, (hint,) = True, args
+    if hint is np.ndarray:
+        return float, True, optional
+    if typing.get_origin(hint) is tuple:
+        (entry,) = set(typing.get_args(hint)) - {Ellipsis}
+        return entry, True, optional
+    return hint, False, optional
+
+
+def _is_table(kind: type) -> bool:
+    return dataclasses.is_dataclass(kind)
+
+
+def _all_defaults(cls: type) -> bool:
+    return all(entry.default is not REQUIRED for entry in keys(cls))
+
+
+# --- reading ----------------------------------------------------------------------------------
+
+
+def read_file(path: str | os.PathLike) -> dict[str, Any]:
+    """Parse a TOML file; every failure becomes a one-line InputError."""
+    try:
+        with open(path, "rb") as file:
+            return tomllib.load(file)
+    except FileNotFoundError:
+        raise InputError(f"{path}: file not found") from None
+    except OSError as error:
+        raise InputError(f"{path}: cannot read: {error.strerror or error}") from None
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: not UTF-8 text") from None
+    except tomllib.TOMLDecodeError as error:
+        raise InputError(f"{path}: invalid TOML: {' '.join(str(error).split())}") from None
+
+
+def read_table(cls: type, table: dict[str, Any], where: str = "", without=()) -> Any:
+    """An instance of config class ``cls`` from ``table`` (a whole file when ``where`` is
+    ''), leaving out the keys in ``without``.
+
+    Raises
+    ------
+    ContentError
+        An unknown key or table, a missing required one, a wrong type, a value out of its
+        bounds or failing its check.
+    """
+    entries = layout(cls, without)
+    _known(table, where, set(entries))
+    values = {}
+    for name, entry in entries.items():
+        if isinstance(entry, Key):
+            values[entry.field] = _value(table, where, entry)
+            continue
+        dotted = _dotted(where, name)
+        holder = _table(table, dotted, any(member.default is REQUIRED for member in entry)) or {}
+        _known(holder, dotted, {member.name for member in entry})
+        values |= {member.field: _value(holder, dotted, member) for member in entry}
+    return cls(**values)
+
+
+def _value(table: dict[str, Any], where: str, entry: Key) -> Any:
+    dotted = _dotted(where, entry.name)
+    if _is_table(entry.kind):
+        if entry.array:
+            return tuple(
+                read_table(entry.kind, holder, f"{dotted}[{k}]")
+                for k, holder in enumerate(_tables(table, dotted, entry.name), 1)
+            )
+        holder = _table(table, dotted, entry.default is REQUIRED, entry.name)
+        if holder is None:
+            return entry.default
+        return read_table(entry.kind, holder, dotted, entry.meta["without"])
+    if entry.name not in table:
+        if entry.default is REQUIRED:
+            raise ContentError(dotted, "missing required key")
+        return entry.default
+    raw = table[entry.name]
+    if entry.array:
+        value = _array(raw, dotted, entry)
+    else:
+        value = _convert(raw, entry.kind, dotted)
+        for bound in entry.meta["bounds"]:
+            bound.check(value, dotted)
+    if entry.meta["check"] is not None:
+        entry.meta["check"](value, dotted)
+    return value
+
+
+def _array(values: Any, dotted: str, entry: Key) -> tuple:
+    """An array's entries, each converted and checked against the key's bounds."""
+    noun = "strings" if entry.kind is str else "numbers"
+    if not isinstance(values, list):
+        raise ContentError(dotted, f"must be an array of {noun}, got {_describe(values)}")
+    names = entry.meta["names"]
+    if names is not None and len(values) != len(names):
+        raise ContentError(
+            dotted, f"must have {len(names)} entries [{', '.join(names)}], got {len(values)}"
+        )
+    out = []
+    for k, value in enumerate(values, 1):
+        value = _convert(value, entry.kind, f"{dotted}[{k}]")
+        for bound in entry.meta["bounds"]:
+            bound.check(value, f"{dotted}[{k}]")
+        out.append(value)
+    return tuple(out)
+
+
+def _table(
+    table: dict[str, Any], dotted: str, required: bool, name: str | None = None
+) -> dict[str, Any] | None:
+    """The table at ``table[name]`` (default: the last part of ``dotted``); None if it may be
+    left out and is."""
+    name = name or dotted.rsplit(".", 1)[-1]
+    if name not in table:
+        if required:
+            raise ContentError(dotted, f"missing required table [{dotted}]")
+        return None
+    holder = table[name]
+    if not isinstance(holder, dict):
+        raise ContentError(dotted, f"must be a table, got {_describe(holder)}")
+    return holder
+
+
+def _tables(table: dict[str, Any], dotted: str, name: str) -> list[dict[str, Any]]:
+    """The array of tables ``[[name]]``: at least one, each a table."""
+    if name not in table:
+        raise ContentError(dotted, f"missing required [[{dotted}]] array")
+    holders = table[name]
+    if not isinstance(holders, list):
+        raise ContentError(
+            dotted, f"must be an array of tables ([[{dotted}]]), got {_describe(holders)}"
+        )
+    if not holders:
+        raise ContentError(dotted, f"must have at least one [[{dotted}]]")
+    for k, holder in enumerate(holders, 1):
+        if not isinstance(holder, dict):
+            raise ContentError(f"{dotted}[{k}]", f"must be a table, got {_describe(holder)}")
+    return holders
+
+
+def _known(table: dict[str, Any], where: str, allowed: set[str]) -> None:
+    """Reject keys the contract does not define (typos would otherwise become defaults)."""
+    for name, value in table.items():
+        if name not in allowed:
+            kind = "table" if not where and isinstance(value, (dict, list)) else "key"
+            raise ContentError(_dotted(where, name), f"unknown {kind}")
+
+
+def _convert(value: Any, kind: type, key: str) -> Any:
+    """Check the TOML type of ``value``; integers are accepted as floats, booleans never."""
+    if kind is str:
+        if not isinstance(value, str):
+            raise ContentError(key, f"must be a string, got {_describe(value)}")
+        return value
+    if kind is bool:
+        if not isinstance(value, bool):
+            raise ContentError(key, f"must be a boolean, got {_describe(value)}")
+        return value
+    if kind is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ContentError(key, f"must be an integer, got {_describe(value)}")
+        return value
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ContentError(key, f"must be a number, got {_describe(value)}")
+    value = float(value)
+    if not math.isfinite(value):
+        raise ContentError(key, f"must be finite, got {value!r}")
+    return value
+
+
+def _describe(value: Any) -> str:
+    """A short phrase for a TOML value of the wrong type, for messages."""
+    if isinstance(value, bool):
+        return f"a boolean ({str(value).lower()})"
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, str):
+        return f"a string ({value!r})"
+    if isinstance(value, list):
+        return "an array"
+    if isinstance(value, dict):
+        return "a table"
+    return f"a {type(value).__name__}"
+
+
+def _dotted(where: str, name: str) -> str:
+    return f"{where}.{name}" if where else name
+
+
+# --- writing ----------------------------------------------------------------------------------
+
+
+def write_text(value: Any, header: str) -> str:
+    """The TOML text of config instance ``value``: ``header`` as a comment, then every key
+    that is not None, in field order, with its unit as a comment."""
+    doc = tomlkit.document()
+    for line in header.splitlines():
+        doc.add(tomlkit.comment(line))
+    doc.add(tomlkit.nl())
+    _fill(doc, value)
+    return tomlkit.dumps(doc)
+
+
+def _fill(container: Any, value: Any, without: tuple[str, ...] = ()) -> None:
+    for name, entry in layout(type(value), without).items():
+        if isinstance(entry, Key):
+            _put(container, entry, getattr(value, entry.field))
+            continue
+        table = tomlkit.table()
+        for member in entry:
+            _put(table, member, getattr(value, member.field))
+        container.add(name, table)
+
+
+def _put(container: Any, entry: Key, value: Any) -> None:
+    if value is None:
+        return
+    if _is_table(entry.kind):
+        if entry.array:
+            tables = tomlkit.aot()
+            for element in value:
+                table = tomlkit.table()
+                _fill(table, element)
+                tables.append(table)
+            container.add(entry.name, tables)
+        else:
+            table = tomlkit.table()
+            _fill(table, value, entry.meta["without"])
+            container.add(entry.name, table)
+        return
+    plain = [entry.kind(v) for v in value] if entry.array else entry.kind(value)
+    item = tomlkit.item(plain)
+    if entry.meta["unit"]:
+        item.comment(entry.meta["unit"])
+        item.trivia.comment_ws = "  "
+    container.add(entry.name, item)
+
+
+def write_file(
+    path: str | os.PathLike, value: Any, header: str, read: Callable[[dict[str, Any]], Any]
+) -> None:
+    """Write config instance ``value`` to ``path`` atomically, after checking that ``read``
+    (the file's reader, from the parsed document) gives ``value`` back.
+
+    Raises
+    ------
+    ValueError
+        ``value`` breaks a rule of its file (the reader's one-line message, the path in
+        front) or holds something the file cannot (a key the table does not have, a field
+        no file holds).
+    """
+    text = write_text(value, header)
+    try:
+        back = read(tomllib.loads(text))
+    except ContentError as error:
+        raise ValueError(f"{path}: {error}") from None
+    fault = difference(value, back)
+    if fault is not None:
+        raise ValueError(f"{path}: {fault}")
+    # Imported here: rsp_inertia.plant.logs imports the config module that imports this one.
+    from rsp_inertia.plant.logs import write_atomic
+
+    write_atomic(path, text)
+
+
+def difference(written: Any, read: Any, where: str = "") -> str | None:
+    """Where config instance ``written`` and its file's reading ``read`` first differ
+    (dotted field: both values), or None when they are equal (arrays entry by entry)."""
+    if dataclasses.is_dataclass(written) and type(written) is type(read):
+        for field in dataclasses.fields(written):
+            found = difference(
+                getattr(written, field.name), getattr(read, field.name), _dotted(where, field.name)
+            )
+            if found is not None:
+                return found
+        return None
+    arrays = (tuple, list, np.ndarray)
+    if isinstance(written, arrays) or isinstance(read, arrays):
+        same = (
+            isinstance(written, arrays)
+            and isinstance(read, arrays)
+            and len(written) == len(read)
+            and all(difference(a, b) is None for a, b in zip(written, read, strict=True))
+        )
+    else:
+        same = written == read
+    return None if same else f"{where}: {written!r} would be read back as {read!r}"

@@ -1,0 +1,372 @@
+"""``virtual.toml`` and ``reference.toml``: the virtual device's truth, read and written.
+
+``virtual.toml`` exists only for a virtual device: the true body (absent for an
+empty-fixture run) and fixture, the friction law in each direction of motion, the rig's
+imperfections and the settings of the simulated runs. ``reference.toml`` holds a reference
+body's certified data, the ``[body]`` keys of virtual.toml. docs/files.md documents every
+key; the config classes below declare them (rsp_inertia.plant.toml_schema).
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from rsp_inertia.plant.device_config import Device
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.toml_schema import (
+    ContentError,
+    config_class,
+    key,
+    read_file,
+    read_table,
+    write_file,
+)
+
+_INERTIA_NAMES = ("Jx", "Jy", "Jz", "Jxy", "Jyz", "Jxz")
+
+
+def _physical_inertia(inertia: tuple[float, ...], key: str) -> None:
+    """Refuse an inertia that is not the tensor of a physical body (docs/method.md §2)."""
+    for name, value in zip(_INERTIA_NAMES[:3], inertia[:3], strict=True):
+        if not value > 0.0:
+            raise ContentError(key, f"{name} must be > 0, got {value!r}")
+    jx, jy, jz, jxy, jyz, jxz = inertia
+    moments = np.linalg.eigvalsh([[jx, jxy, jxz], [jxy, jy, jyz], [jxz, jyz, jz]])
+    # Ascending order: only the smallest can be <= 0 and only the largest can exceed the
+    # sum of the others. A flat plate has I3 = I1 + I2 exactly, hence the rounding margin.
+    if moments[0] <= 0.0 or moments[2] > moments[0] + moments[1] + 1e-12 * moments.sum():
+        listed = ", ".join(f"{moment:.6g}" for moment in moments)
+        fault = (
+            "not positive definite"
+            if moments[0] <= 0.0
+            else "the largest exceeds the sum of the other two (triangle inequality)"
+        )
+        raise ContentError(
+            key, f"not a physical inertia tensor: principal moments [{listed}] kg m^2, {fault}"
+        )
+
+
+@config_class
+class TrueBody:
+    """A rigid part a virtual device carries on its shaft: the body under test (the truth
+    that identification should recover) or the fixture that holds it.
+
+    Two bodies are equal when their mass and arrays are."""
+
+    mass: float = key(unit="kg", bound="> 0", doc="Mass.")
+    inertia: np.ndarray = key(
+        unit="kg m^2",
+        names=_INERTIA_NAMES,
+        check=_physical_inertia,
+        doc="[Jx, Jy, Jz, Jxy, Jyz, Jxz] about O in the body frame, products as tensor "
+        "entries (Jxy = -integral of x y dm); shape (6,), read-only.",
+    )
+    com: np.ndarray = key(
+        unit="m",
+        names=("x", "y", "z"),
+        doc="Centre of mass [x, y, z] in the body frame; shape (3,), read-only.",
+    )
+
+    def __post_init__(self) -> None:
+        # Own read-only copies, so that a frozen body stays frozen however it was built.
+        for name, size in (("inertia", 6), ("com", 3)):
+            array = np.array(getattr(self, name), dtype=float)
+            if array.shape != (size,):
+                raise ValueError(f"TrueBody.{name} must have shape ({size},), got {array.shape}")
+            array.flags.writeable = False
+            object.__setattr__(self, name, array)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, TrueBody):
+            return NotImplemented
+        return (
+            self.mass == other.mass
+            and np.array_equal(self.inertia, other.inertia)
+            and np.array_equal(self.com, other.com)
+        )
+
+    @property
+    def tensor(self) -> np.ndarray:
+        """The inertia tensor J, kg m^2, shape (3, 3) (docs/method.md §2)."""
+        jx, jy, jz, jxy, jyz, jxz = self.inertia
+        return np.array([[jx, jxy, jxz], [jxy, jy, jyz], [jxz, jyz, jz]])
+
+
+@config_class
+class Friction:
+    """Dissipation D = (a1 + a3 W^2) sign W + a2 W, reduced to phi (docs/method.md §3)."""
+
+    coulomb: float = key(unit="N m", bound=">= 0", doc="a1; also the static friction at rest.")
+    viscous: float = key(unit="N m s", bound=">= 0", doc="a2.")
+    quadratic: float = key(unit="N m s^2", bound=">= 0", doc="a3.")
+    backward_scale: float = key(
+        1.0,
+        bound=">= 0",
+        doc="Factor on a1, a2 and a3 while the body moves backward (Omega < 0); 1 = the same "
+        "friction in both directions.",
+    )
+
+
+@config_class
+class RunSettings:
+    """How the virtual device runs and logs a stage (``[run]``)."""
+
+    release_angle_deg: float = key(
+        -30.0, unit="deg", doc="Angle phi where the braking pass starts, any real."
+    )
+    torque_noise: float = key(
+        0.0,
+        unit="N m",
+        bound=">= 0",
+        doc="Standard deviation of the noise added to the logged torque.",
+    )
+    seed: int = key(0, bound=">= 0", doc="Seed of the random generator.")
+
+
+@config_class
+class LoggerSettings:
+    """How the virtual rig's drive samples and logs: a real drive's timing imperfections
+    (``[logger]``).
+
+    The drive's loop reads the encoder, sets the torque and writes a log row at each of its
+    sampling instants; the log's time stamps are those instants (rsp_inertia.plant.logs).
+    """
+
+    time_jitter: float = key(
+        0.0,
+        unit="fraction of a period",
+        bound=(">= 0", "<= 0.25 (of a period)"),
+        doc="Each sampling instant is off the regular grid k / sample_rate by a uniform random "
+        "amount within +- this fraction of a period (the logs' limit is "
+        "rsp_inertia.plant.logs.JITTER_LIMIT); the first row stays at t = 0.",
+    )
+    dropped_fraction: float = key(
+        0.0,
+        bound=(">= 0", "< 0.5"),
+        doc="Fraction of the rows the logger loses at random (the drive still acts at those "
+        "instants); the first and last rows are always kept.",
+    )
+    counts: bool = key(
+        False,
+        doc="Write ``t,counts,torque`` with integer counts of the drive's position counter "
+        "(device.toml ``[encoder] counter_bits``, which must then be set: the counts wrap "
+        "there) instead of ``t,phi,torque``.",
+    )
+
+
+@config_class
+class ControllerSettings:
+    """The virtual device's controller (``[controller]``)."""
+
+    speed_observer_bandwidth: float = key(
+        100.0,
+        unit="rad/s",
+        bound="> 0",
+        doc="Bandwidth of the speed estimate the controller forms from the encoder.",
+    )
+
+
+@config_class
+class Rig:
+    """Imperfections of the virtual rig: what the real one does differently from its file
+    (``[rig]``)."""
+
+    torque_gain: float = key(
+        1.0,
+        bound="> 0",
+        doc="Logged torque over the torque physically applied; 1 = exact.",
+    )
+    tare_inertia: tuple[float, ...] | None = key(
+        None,
+        unit="kg m^2",
+        bound=">= 0",
+        doc="True M_tare of each stage, one per [[stage]] of device.toml (which only "
+        "approximates them); None: device.toml's values are exact.",
+    )
+    pendulum_stiffness: float | None = key(
+        None,
+        unit="N m/rad",
+        bound="> 0",
+        doc="True stiffness of the pendulum's torsion element (device.toml's ``[pendulum] "
+        "stiffness`` only approximates it); None: device.toml's is exact.",
+    )
+
+    def true_tare(self, device: Device, stage: int, source: str = "virtual.toml") -> float:
+        """The true M_tare of stage ``stage`` (1-based), kg m^2 (docs/method.md §2).
+
+        Raises
+        ------
+        InputError
+            ``tare_inertia`` does not have one entry per stage of ``device``; the message
+            names ``source`` (the virtual.toml file) and the key.
+        """
+        if self.tare_inertia is None:
+            return device.stages[stage - 1].tare_inertia
+        if len(self.tare_inertia) != len(device.stages):
+            raise InputError(
+                f"{source}: rig.tare_inertia: must have one entry per [[stage]] of device.toml "
+                f"({len(device.stages)}), got {len(self.tare_inertia)}"
+            )
+        return self.tare_inertia[stage - 1]
+
+
+@config_class
+class Virtual:
+    """The virtual device as described by ``virtual.toml``.
+
+    ``models`` is no key of the file: per stage, the true model given directly
+    (rsp_inertia.plant.model.ModelParameters, both directions of motion) in place of body,
+    fixture, tare and friction, for a rehearsal of a plan on its nominal model
+    (rsp_inertia.ocp.rehearsal); None otherwise.
+    """
+
+    body: TrueBody | None = key(
+        doc="The true body; None for an empty-fixture run (no ``[body]``)."
+    )
+    friction: Friction = key(
+        doc="The true friction law; forward motion always uses its coefficients."
+    )
+    run: RunSettings = key(doc="Run settings.")
+    controller: ControllerSettings = key(doc="Controller settings.")
+    fixture: TrueBody | None = key(
+        None, doc="The mounting plate, rigidly on the shaft with the body; None: none."
+    )
+    rig: Rig = key(Rig(), doc="The rig's imperfections; an exact rig by default.")
+    friction_backward: Friction | None = key(
+        None,
+        without=("backward_scale",),
+        doc="Explicit friction for backward motion (Omega < 0); None: ``friction`` scaled by "
+        "its ``backward_scale``.",
+    )
+    logger: LoggerSettings = key(
+        LoggerSettings(),
+        doc="The drive's sampling and logging; regular and lossless by default.",
+    )
+    models: tuple | None = None
+
+    def friction_for(self, direction: float) -> Friction:
+        """The friction coefficients while the body moves in ``direction`` (sign of Omega).
+
+        Forward (+1) motion uses ``[friction]``; backward (-1) motion ``[friction_backward]``
+        if given, else ``[friction]``'s coefficients times its ``backward_scale``.
+        """
+        if direction > 0:
+            return self.friction
+        if self.friction_backward is not None:
+            return self.friction_backward
+        scale = self.friction.backward_scale
+        if scale == 1.0:
+            return self.friction
+        return Friction(
+            coulomb=self.friction.coulomb * scale,
+            viscous=self.friction.viscous * scale,
+            quadratic=self.friction.quadratic * scale,
+        )
+
+
+@config_class
+class _ReferenceFile:
+    """``reference.toml``: the reference body's certified data."""
+
+    body: TrueBody = key(doc="The reference body, with the keys of virtual.toml's ``[body]``.")
+
+
+def load_virtual(path: str | os.PathLike) -> Virtual:
+    """Read a ``virtual.toml`` file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file; its name as given appears in error messages.
+
+    Returns
+    -------
+    Virtual
+        The true body and fixture, the friction law, the rig's imperfections and the run,
+        controller and logger settings, with the fields' defaults for the optional tables
+        and keys the file leaves out.
+
+    Raises
+    ------
+    InputError
+        The file is missing or is not TOML; a key is missing, unknown, of the wrong type
+        or out of range; an inertia is not that of a physical body (a diagonal entry
+        <= 0, not positive definite, or principal moments breaking the triangle inequality);
+        or both ``friction.backward_scale`` and ``[friction_backward]`` are given.
+        (``rig.tare_inertia``'s length is checked against the device by
+        :meth:`Rig.true_tare`.)
+
+    Examples
+    --------
+    >>> virtual = load_virtual("EXP/virtual.toml")  # doctest: +SKIP
+    >>> virtual.body.tensor.shape  # doctest: +SKIP
+    (3, 3)
+    """
+    doc = read_file(path)
+    try:
+        return _virtual(doc)
+    except ContentError as error:
+        raise InputError(f"{path}: {error}") from None
+
+
+def write_virtual(path: str | os.PathLike, virtual: Virtual) -> None:
+    """Write ``virtual`` to ``path`` as a ``virtual.toml`` that :func:`load_virtual` reads
+    back equal; atomically (rsp_inertia.plant.logs.write_atomic).
+
+    Every key whose value is not None is written, in the order of the fields, with its unit
+    as a comment.
+
+    Raises
+    ------
+    ValueError
+        ``virtual`` breaks a rule of virtual.toml (load_virtual's message, with ``path`` in
+        front), or holds what the file cannot: ``models``, or a ``friction_backward`` with a
+        ``backward_scale``. Nothing is written.
+    """
+    header = "virtual.toml: written by rsp_inertia.plant.config.write_virtual"
+    write_file(path, virtual, header, _virtual)
+
+
+def _virtual(doc: dict) -> Virtual:
+    """The Virtual of a parsed virtual.toml, with the rule that joins its friction tables."""
+    virtual = read_table(Virtual, doc)
+    if virtual.friction_backward is not None and virtual.friction.backward_scale != 1.0:
+        raise ContentError(
+            "friction_backward",
+            "give either friction.backward_scale or [friction_backward], not both",
+        )
+    return virtual
+
+
+def load_reference(path: str | os.PathLike) -> TrueBody:
+    """Read a calibration's ``reference.toml``: the reference body's ``[body]`` table.
+
+    The same keys as virtual.toml's ``[body]``: ``mass`` (kg), ``inertia = [Jx, Jy, Jz, Jxy,
+    Jyz, Jxz]`` (kg m^2, body frame about O) and ``com = [x, y, z]`` (m).
+
+    Raises
+    ------
+    InputError
+        The file is missing or is not TOML; a key is missing, unknown or out of range; the
+        inertia is not that of a physical body.
+    """
+    doc = read_file(path)
+    try:
+        return read_table(_ReferenceFile, doc).body
+    except ContentError as error:
+        raise InputError(f"{path}: {error}") from None
+
+
+def write_reference(path: str | os.PathLike, body: TrueBody) -> None:
+    """Write ``body`` to ``path`` as a ``reference.toml`` that :func:`load_reference` reads
+    back equal; atomically.
+
+    Raises
+    ------
+    ValueError
+        ``body`` is no physical body (load_reference's message, with ``path`` in front).
+    """
+    header = "reference.toml: written by rsp_inertia.plant.config.write_reference"
+    write_file(path, _ReferenceFile(body), header, lambda doc: read_table(_ReferenceFile, doc))
