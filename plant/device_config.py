@@ -249,7 +249,11 @@ class PlanGuess:
         if self.box is None or mass is None:
             return None
         a, b, c = self.box
-        return (mass * (b * b + c * c) / 12, mass * (a * a + c * c) / 12, mass * (a * a + b * b) / 12)
+        return (
+            mass * (b * b + c * c) / 12,
+            mass * (a * a + c * c) / 12,
+            mass * (a * a + b * b) / 12,
+        )
 
 
 @config_class
@@ -353,9 +357,11 @@ def write_device(path: str | os.PathLike, device: Device) -> None:
     --------
     >>> device = load_device("EXP/device.toml")  # doctest: +SKIP
     >>> encoder = dataclasses.replace(device.encoder, counts_per_rev=4096)  # doctest: +SKIP
-    >>> write_device("EXP/device.toml", dataclasses.replace(device, encoder=encoder))  # doctest: +SKIP
+    >>> changed = dataclasses.replace(device, encoder=encoder)  # doctest: +SKIP
+    >>> write_device("EXP/device.toml", changed)  # doctest: +SKIP
     """
-    write_file(path, device, "device.toml: written by rsp_inertia.plant.config.write_device", _device)
+    header = "device.toml: written by rsp_inertia.plant.config.write_device"
+    write_file(path, device, header, _device)
 
 
 def _device(doc: dict) -> Device:

@@ -1,22 +1,42 @@
-"""device.toml and virtual.toml: the examples of INTERFACES.md load, bad input is one line."""
+"""device.toml, virtual.toml and reference.toml: the documented examples load, bad input is
+one line, and whatever the writers write reads back equal."""
 
+import dataclasses
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
 
+import rsp_inertia.plant
 from rsp_inertia.plant.config import (
+    Body,
     ControllerSettings,
+    Device,
+    Encoder,
     Friction,
+    LoggerSettings,
+    Motor,
+    Pendulum,
+    PlanGuess,
     Rig,
     RunSettings,
+    Spring,
+    Stage,
     TrueBody,
+    Virtual,
     load_device,
+    load_reference,
     load_virtual,
+    write_device,
+    write_reference,
+    write_virtual,
 )
 from rsp_inertia.plant.errors import InputError
 
-# The example of INTERFACES.md: the paper's icosahedron design, two stages of three nodes.
+# The example of docs/files.md: the paper's icosahedron design, two stages of three nodes.
 DEVICE_TABLE = """\
 [device]
 name = "bench-A"
@@ -545,3 +565,332 @@ def test_stage_release_angle_is_optional(tmp_path):
     wrong = edited(DEVICE_TOML, STAGE_1_END, STAGE_1_END + 'release_angle_deg = "early"\n')
     with pytest.raises(InputError, match=r"stage\[1\]\.release_angle_deg: must be a number"):
         load_device(write(tmp_path, "device.toml", wrong))
+
+
+# --- writing: every file reads back equal -----------------------------------------------------
+
+DEFAULTS = Path(rsp_inertia.plant.__file__).parent / "defaults"
+DEFAULT_DEVICES = sorted(DEFAULTS.rglob("device.toml"))
+DEFAULT_VIRTUALS = sorted(DEFAULTS.rglob("virtual.toml"))
+
+
+def test_every_default_file_is_found():
+    assert len(DEFAULT_DEVICES) == len(DEFAULT_VIRTUALS) == 4
+    assert (DEFAULTS / "rig" / "reference" / "reference.toml").exists()
+
+
+@pytest.mark.parametrize("source", DEFAULT_DEVICES, ids=lambda p: str(p.relative_to(DEFAULTS)))
+def test_default_devices_round_trip(tmp_path, source):
+    device = load_device(source)
+    write_device(tmp_path / "device.toml", device)
+    assert load_device(tmp_path / "device.toml") == device
+
+
+@pytest.mark.parametrize("source", DEFAULT_VIRTUALS, ids=lambda p: str(p.relative_to(DEFAULTS)))
+def test_default_virtuals_round_trip(tmp_path, source):
+    virtual = load_virtual(source)
+    write_virtual(tmp_path / "virtual.toml", virtual)
+    assert load_virtual(tmp_path / "virtual.toml") == virtual
+
+
+def test_reference_round_trips(tmp_path):
+    body = load_reference(DEFAULTS / "rig" / "reference" / "reference.toml")
+    write_reference(tmp_path / "reference.toml", body)
+    assert load_reference(tmp_path / "reference.toml") == body
+
+
+EVERY_DEVICE_KEY = (
+    DEVICE_TOML.replace(
+        "torque_rate_limit = 20.0     # N m/s, |du/dt| <= this\n",
+        "torque_rate_limit = 20.0\ntorque_gain_std = 0.002\n",
+    )
+    .replace("sample_rate = 1000.0         # Hz\n", "sample_rate = 1000.0\ncounter_bits = 32\n")
+    .replace(
+        STAGE_1_END,
+        STAGE_1_END + 'directions = ["backward", "forward"]\ntare_inertia_std = 4e-5\n'
+        "release_angle_deg = -45.5\n",
+    )
+) + """
+[pendulum]
+stiffness = 2.0
+stiffness_std = 0.004
+amplitude_deg = 4.0
+duration = 20.0
+
+[plan]
+box = [0.2, 0.1, 0.05]
+friction = [1e-4, 1e-4, 1e-3]
+com_offset = 0.003
+torque_noise = 1e-4
+max_duration = 120.0
+"""
+
+EVERY_VIRTUAL_KEY = VIRTUAL_TOML + FIXTURE + RIG + "pendulum_stiffness = 2.01\n" + (
+    "\n[logger]\ntime_jitter = 0.1\ndropped_fraction = 0.001\ncounts = true\n"
+) + BACKWARD_TABLE
+
+
+def test_every_optional_key_round_trips(tmp_path):
+    device = load_device(write(tmp_path, "in-device.toml", EVERY_DEVICE_KEY))
+    assert None not in (device.motor.torque_gain_std, device.encoder.counter_bits, device.plan)
+    write_device(tmp_path / "device.toml", device)
+    assert load_device(tmp_path / "device.toml") == device
+    inertia = dataclasses.replace(device.plan, box=None, inertia=(0.02, 0.025, 0.03))
+    device = dataclasses.replace(device, body=None, plan=inertia)
+    write_device(tmp_path / "device.toml", device)
+    assert load_device(tmp_path / "device.toml") == device
+
+    virtual = load_virtual(write(tmp_path, "in-virtual.toml", EVERY_VIRTUAL_KEY))
+    assert None not in (virtual.fixture, virtual.friction_backward, virtual.rig.tare_inertia)
+    assert virtual.logger.counts and virtual.rig.pendulum_stiffness == 2.01
+    write_virtual(tmp_path / "virtual.toml", virtual)
+    assert load_virtual(tmp_path / "virtual.toml") == virtual
+
+
+def test_a_variation_is_a_replaced_field_written_back(tmp_path):
+    """What the benchmarks do: load, change a field with dataclasses.replace, write."""
+    path = write(tmp_path, "device.toml", DEVICE_TOML)
+    device = load_device(path)
+    encoder = dataclasses.replace(device.encoder, counts_per_rev=4096)
+    write_device(path, dataclasses.replace(device, encoder=encoder))
+    assert load_device(path).encoder.counts_per_rev == 4096
+    assert dataclasses.replace(load_device(path), encoder=device.encoder) == device
+
+    path = write(tmp_path, "virtual.toml", VIRTUAL_TOML)
+    virtual = load_virtual(path)
+    friction = virtual.friction
+    scaled = dataclasses.replace(
+        friction, coulomb=2 * friction.coulomb, viscous=2 * friction.viscous
+    )
+    body = dataclasses.replace(virtual.body, com=[0.0, 0.0, 0.02])
+    changed = dataclasses.replace(
+        virtual,
+        friction=scaled,
+        body=body,
+        run=dataclasses.replace(virtual.run, seed=12),
+        logger=dataclasses.replace(virtual.logger, time_jitter=0.2),
+        rig=Rig(torque_gain=1.01, tare_inertia=(0.004, 0.085)),
+    )
+    write_virtual(path, changed)
+    assert load_virtual(path) == changed
+    assert load_virtual(path) != virtual
+
+
+def test_written_files_are_deterministic_and_commented_with_units(tmp_path):
+    device = load_device(DEFAULTS / "device.toml")
+    write_device(tmp_path / "a.toml", device)
+    write_device(tmp_path / "b.toml", load_device(tmp_path / "a.toml"))
+    text = (tmp_path / "a.toml").read_text()
+    assert text == (tmp_path / "b.toml").read_text()
+    assert "gravity = 9.80665  # m/s^2\n" in text
+    assert "counter_bits" not in text and "[plan]" not in text  # None is not written
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.toml", "b.toml"]
+
+
+def test_writing_what_the_loader_refuses_raises_and_writes_nothing(tmp_path):
+    path = write(tmp_path, "device.toml", DEVICE_TOML)
+    device = load_device(path)
+    bad = [
+        (
+            dataclasses.replace(
+                device, encoder=dataclasses.replace(device.encoder, counts_per_rev=0)
+            ),
+            "encoder.counts_per_rev: must be > 0, got 0",
+        ),
+        (dataclasses.replace(device, stages=device.stages[:1]), "3 distinct axes, 6 are needed"),
+        (
+            dataclasses.replace(
+                device, stages=(dataclasses.replace(device.stages[0], nodes_deg=(0.0, 360.0)),)
+            ),
+            "stage[1].nodes_deg[2]: must be in [0, 360), got 360.0",
+        ),
+    ]
+    for value, fault in bad:
+        with pytest.raises(ValueError) as error:
+            write_device(path, value)
+        assert_one_line(error, f"{path}: ", fault)
+    assert path.read_text() == DEVICE_TOML
+
+    path = write(tmp_path, "virtual.toml", VIRTUAL_TOML)
+    virtual = load_virtual(path)
+    scaled = dataclasses.replace(virtual.friction, backward_scale=2.0)
+    bad = [
+        (
+            dataclasses.replace(virtual, friction=scaled, friction_backward=virtual.friction),
+            "friction_backward: give either friction.backward_scale or [friction_backward]",
+        ),
+        (
+            dataclasses.replace(virtual, friction_backward=scaled),
+            "friction_backward.backward_scale: 2.0 would be read back as 1.0",
+        ),
+        (dataclasses.replace(virtual, models=("a model",)), "models: ('a model',)"),
+        (dataclasses.replace(virtual, run=RunSettings(seed=-1)), "run.seed: must be >= 0, got -1"),
+    ]
+    for value, fault in bad:
+        with pytest.raises(ValueError) as error:
+            write_virtual(path, value)
+        assert_one_line(error, f"{path}: ", fault)
+    assert path.read_text() == VIRTUAL_TOML
+    with pytest.raises(ValueError, match="not a physical inertia tensor"):
+        write_reference(tmp_path / "reference.toml", TrueBody(1.0, [1, 1, 3, 0, 0, 0], [0, 0, 0]))
+    assert not (tmp_path / "reference.toml").exists()
+
+
+def test_true_bodies_compare_by_value():
+    body = TrueBody(mass=1.0, inertia=[1, 2, 2, 0, 0, 0], com=[0, 0, 0])
+    assert body == TrueBody(mass=1.0, inertia=(1.0, 2.0, 2.0, 0.0, 0.0, 0.0), com=(0, 0, 0))
+    assert body != TrueBody(mass=1.0, inertia=[1, 2, 2, 0, 0, 0], com=[0, 0, 1e-9])
+    assert body != TrueBody(mass=2.0, inertia=[1, 2, 2, 0, 0, 0], com=[0, 0, 0])
+
+
+# Property: any valid Device, Virtual or reference body reads back equal.
+
+finite = st.floats(allow_nan=False, allow_infinity=False)
+non_negative = st.floats(min_value=0.0, allow_infinity=False)
+positive = non_negative.filter(lambda x: x > 0)
+
+
+def maybe(values):
+    return st.none() | values
+
+
+def triples(values):
+    return st.tuples(values, values, values)
+
+
+@st.composite
+def stages(draw):
+    """One to three stages whose nodes give at least six axes."""
+    count = draw(st.integers(1, 3))
+    ratios = draw(st.lists(non_negative, min_size=count, max_size=count, unique=True))
+    result = []
+    for k, ratio in enumerate(ratios):
+        nodes = draw(
+            st.lists(
+                st.floats(min_value=0.0, max_value=360.0, exclude_max=True),
+                min_size=6 if k == 0 else 1,
+                max_size=8,
+                unique=True,
+            )
+        )
+        result.append(
+            Stage(
+                gear_ratio=ratio,
+                tare_inertia=draw(non_negative),
+                nodes_deg=tuple(nodes),
+                launch_speed=draw(positive),
+                braking_torque=draw(non_negative),
+                directions=draw(
+                    st.sampled_from([("forward",), ("backward",), ("backward", "forward")])
+                ),
+                tare_inertia_std=draw(maybe(non_negative)),
+                release_angle_deg=draw(maybe(finite)),
+            )
+        )
+    return tuple(result)
+
+
+@st.composite
+def devices(draw):
+    body = draw(maybe(st.builds(Body, mass=positive)))
+    shape = draw(st.sampled_from(["none", "inertia"] + (["box"] if body else [])))
+    plan = draw(
+        maybe(
+            st.builds(
+                PlanGuess,
+                inertia=triples(non_negative) if shape == "inertia" else st.none(),
+                box=triples(non_negative) if shape == "box" else st.none(),
+                friction=triples(non_negative),
+                com_offset=non_negative,
+                torque_noise=maybe(non_negative),
+                max_duration=maybe(positive),
+            )
+        )
+    )
+    return Device(
+        name=draw(st.text()),
+        gravity=draw(positive),
+        spring=Spring(stiffness=draw(non_negative), zero_angle=draw(finite)),
+        motor=Motor(draw(positive), draw(positive), draw(maybe(non_negative))),
+        encoder=Encoder(
+            draw(st.integers(1, 2**62)), draw(positive), draw(maybe(st.integers(1, 64)))
+        ),
+        stages=draw(stages()),
+        body=body,
+        pendulum=draw(
+            maybe(st.builds(Pendulum, positive, positive, positive, maybe(non_negative)))
+        ),
+        plan=plan,
+    )
+
+
+@st.composite
+def true_bodies(draw):
+    """A physical body: principal moments obeying the triangle inequality, turned."""
+    m1, m2 = draw(st.floats(1e-3, 10.0)), draw(st.floats(1e-3, 10.0))
+    m3 = abs(m1 - m2) + draw(st.floats(0.05, 0.95)) * (m1 + m2 - abs(m1 - m2))
+    quaternion = np.array(draw(st.tuples(*[st.floats(-1, 1)] * 4)))
+    assume(np.linalg.norm(quaternion) > 0.1)
+    w, x, y, z = quaternion / np.linalg.norm(quaternion)
+    turn = np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+    tensor = draw(st.floats(1e-4, 1e2)) * turn @ np.diag([m1, m2, m3]) @ turn.T
+    inertia = [tensor[0, 0], tensor[1, 1], tensor[2, 2], tensor[0, 1], tensor[1, 2], tensor[0, 2]]
+    return TrueBody(mass=draw(positive), inertia=inertia, com=draw(triples(finite)))
+
+
+@st.composite
+def virtuals(draw):
+    friction = st.builds(Friction, non_negative, non_negative, non_negative)
+    scaled = draw(st.builds(Friction, non_negative, non_negative, non_negative, non_negative))
+    backward = draw(maybe(friction))
+    return Virtual(
+        body=draw(maybe(true_bodies())),
+        friction=dataclasses.replace(scaled, backward_scale=1.0) if backward else scaled,
+        run=RunSettings(draw(finite), draw(non_negative), draw(st.integers(0, 2**63 - 1))),
+        controller=ControllerSettings(draw(positive)),
+        fixture=draw(maybe(true_bodies())),
+        rig=Rig(
+            torque_gain=draw(positive),
+            tare_inertia=draw(maybe(st.lists(non_negative, max_size=4).map(tuple))),
+            pendulum_stiffness=draw(maybe(positive)),
+        ),
+        friction_backward=backward,
+        logger=LoggerSettings(
+            draw(st.floats(0.0, 0.25)),
+            draw(st.floats(0.0, 0.5, exclude_max=True)),
+            draw(st.booleans()),
+        ),
+    )
+
+
+ROUND_TRIPS = settings(
+    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+
+
+@ROUND_TRIPS
+@given(device=devices())
+def test_any_device_round_trips(tmp_path, device):
+    assume(device.n_axes >= 6)
+    write_device(tmp_path / "device.toml", device)
+    assert load_device(tmp_path / "device.toml") == device
+
+
+@ROUND_TRIPS
+@given(virtual=virtuals())
+def test_any_virtual_round_trips(tmp_path, virtual):
+    write_virtual(tmp_path / "virtual.toml", virtual)
+    assert load_virtual(tmp_path / "virtual.toml") == virtual
+
+
+@ROUND_TRIPS
+@given(body=true_bodies())
+def test_any_reference_body_round_trips(tmp_path, body):
+    write_reference(tmp_path / "reference.toml", body)
+    assert load_reference(tmp_path / "reference.toml") == body
