@@ -6,13 +6,14 @@ each, with the nodes where the tensor is sampled) and, optionally, the body's ma
 torsion-pendulum baseline and guesses for planning. ``virtual.toml`` exists only for a
 virtual device: the true body and fixture, the friction law, the rig's imperfections and
 the settings of the simulated runs. ``reference.toml`` holds a reference body's certified
-data. docs/files.md documents every key; this module is the one place that reads and
-writes these files.
+data. docs/files.md documents every key. This module is the public home of their config
+classes, readers and writers, which live in rsp_inertia.plant.device_config and
+rsp_inertia.plant.virtual_config; nothing else reads or writes these files.
 
 Each file is a frozen config class (:class:`Device`, :class:`Virtual`; :class:`TrueBody` for
 reference.toml) whose fields declare the keys: name, type, unit, bounds, default and doc
-(rsp_inertia.plant.toml_schema). The classes live in rsp_inertia.plant.device_config and
-rsp_inertia.plant.virtual_config; this module is their public home.
+(rsp_inertia.plant.toml_schema). A writer writes every key whose value is not None, reads
+the text back and refuses (ValueError) what its loader would refuse or not give back equal.
 
 Bad input raises :class:`rsp_inertia.plant.errors.InputError` with one line that names the
 file, the dotted key and the fault, for example

@@ -22,8 +22,8 @@ from rsp_inertia.plant.toml_schema import (
     key,
     read_file,
     read_table,
-    write_file,
 )
+from rsp_inertia.plant.toml_writer import write_file
 
 DEFAULT_GRAVITY = 9.80665
 """Standard gravity, m/s^2: used when ``[device]`` has no ``gravity``."""
@@ -221,7 +221,7 @@ class PlanGuess:
     )
     friction: tuple[float, float, float] = key(
         (0.0, 0.0, 0.0),
-        unit="N m, N m s, N m s^2",
+        unit="[N m, N m s, N m s^2]",
         bound=">= 0",
         names=("a1", "a2", "a3"),
         doc="Guessed dissipation [a1, a2, a3] (docs/method.md §3).",

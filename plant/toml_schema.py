@@ -16,10 +16,11 @@ file holds is made by :func:`key`, and that field is the whole contract of its k
   entry of an array), a ``check`` of the whole value for semantics beyond bounds, and the
   doc (which :func:`config_class` puts into the class docstring's Attributes section).
 
-:func:`read_table` walks a class's fields to read a table (unknown keys are errors, types
-converted, bounds checked) and :func:`write_text` walks them to write the instance back.
-A fault is a :class:`ContentError` naming the dotted key; the file readers prefix the path
-and raise :class:`rsp_inertia.plant.errors.InputError`.
+:func:`read_table` walks a class's fields to read a table: unknown keys are errors, types
+are converted, bounds and checks applied. A fault is a :class:`ContentError` naming the
+dotted key; the file readers prefix the path and raise
+:class:`rsp_inertia.plant.errors.InputError`. rsp_inertia.plant.toml_writer walks the same
+fields to write an instance back.
 """
 
 from __future__ import annotations
@@ -39,7 +40,6 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-import tomlkit
 
 from rsp_inertia.plant.errors import InputError
 
@@ -189,7 +189,7 @@ def keys(cls: type) -> tuple[Key, ...]:
         default = field.default if field.default is not REQUIRED else meta["absent"]
         if default is REQUIRED and optional:
             default = None
-        if default is REQUIRED and _is_table(kind) and not array and _all_defaults(kind):
+        if default is REQUIRED and is_table(kind) and not array and _all_defaults(kind):
             default = kind()
         found.append(Key(field.name, meta["name"] or field.name, kind, array, default, meta))
     return tuple(found)
@@ -218,7 +218,7 @@ def accepted_keys(cls: type) -> dict[str, set[str]]:
     for name, entry in layout(cls).items():
         if isinstance(entry, tuple):
             out[name] = {member.name for member in entry}
-        elif _is_table(entry.kind):
+        elif is_table(entry.kind):
             out[name] = set(layout(entry.kind, entry.meta["without"]))
     return out
 
@@ -237,7 +237,8 @@ def _kind(hint: Any) -> tuple[type, bool, bool]:
     return hint, False, optional
 
 
-def _is_table(kind: type) -> bool:
+def is_table(kind: type) -> bool:
+    """Whether ``kind`` is a config class (a TOML table)."""
     return dataclasses.is_dataclass(kind)
 
 
@@ -281,7 +282,8 @@ def read_table(cls: type, table: dict[str, Any], where: str = "", without=()) ->
             values[entry.field] = _value(table, where, entry)
             continue
         dotted = _dotted(where, name)
-        holder = _table(table, dotted, any(member.default is REQUIRED for member in entry)) or {}
+        required = any(member.default is REQUIRED for member in entry)
+        holder = _table(table, name, dotted, required) or {}
         _known(holder, dotted, {member.name for member in entry})
         values |= {member.field: _value(holder, dotted, member) for member in entry}
     return cls(**values)
@@ -289,13 +291,13 @@ def read_table(cls: type, table: dict[str, Any], where: str = "", without=()) ->
 
 def _value(table: dict[str, Any], where: str, entry: Key) -> Any:
     dotted = _dotted(where, entry.name)
-    if _is_table(entry.kind):
+    if is_table(entry.kind):
         if entry.array:
             return tuple(
                 read_table(entry.kind, holder, f"{dotted}[{k}]")
                 for k, holder in enumerate(_tables(table, dotted, entry.name), 1)
             )
-        holder = _table(table, dotted, entry.default is REQUIRED, entry.name)
+        holder = _table(table, entry.name, dotted, entry.default is REQUIRED)
         if holder is None:
             return entry.default
         return read_table(entry.kind, holder, dotted, entry.meta["without"])
@@ -334,12 +336,9 @@ def _array(values: Any, dotted: str, entry: Key) -> tuple:
     return tuple(out)
 
 
-def _table(
-    table: dict[str, Any], dotted: str, required: bool, name: str | None = None
-) -> dict[str, Any] | None:
-    """The table at ``table[name]`` (default: the last part of ``dotted``); None if it may be
-    left out and is."""
-    name = name or dotted.rsplit(".", 1)[-1]
+def _table(table: dict[str, Any], name: str, dotted: str, required: bool) -> dict | None:
+    """The table ``table[name]`` (at ``dotted`` in the file); None if it may be left out and
+    is."""
     if name not in table:
         if required:
             raise ContentError(dotted, f"missing required table [{dotted}]")
@@ -414,103 +413,3 @@ def _describe(value: Any) -> str:
 
 def _dotted(where: str, name: str) -> str:
     return f"{where}.{name}" if where else name
-
-
-# --- writing ----------------------------------------------------------------------------------
-
-
-def write_text(value: Any, header: str) -> str:
-    """The TOML text of config instance ``value``: ``header`` as a comment, then every key
-    that is not None, in field order, with its unit as a comment."""
-    doc = tomlkit.document()
-    for line in header.splitlines():
-        doc.add(tomlkit.comment(line))
-    doc.add(tomlkit.nl())
-    _fill(doc, value)
-    return tomlkit.dumps(doc)
-
-
-def _fill(container: Any, value: Any, without: tuple[str, ...] = ()) -> None:
-    for name, entry in layout(type(value), without).items():
-        if isinstance(entry, Key):
-            _put(container, entry, getattr(value, entry.field))
-            continue
-        table = tomlkit.table()
-        for member in entry:
-            _put(table, member, getattr(value, member.field))
-        container.add(name, table)
-
-
-def _put(container: Any, entry: Key, value: Any) -> None:
-    if value is None:
-        return
-    if _is_table(entry.kind):
-        if entry.array:
-            tables = tomlkit.aot()
-            for element in value:
-                table = tomlkit.table()
-                _fill(table, element)
-                tables.append(table)
-            container.add(entry.name, tables)
-        else:
-            table = tomlkit.table()
-            _fill(table, value, entry.meta["without"])
-            container.add(entry.name, table)
-        return
-    plain = [entry.kind(v) for v in value] if entry.array else entry.kind(value)
-    item = tomlkit.item(plain)
-    if entry.meta["unit"]:
-        item.comment(entry.meta["unit"])
-        item.trivia.comment_ws = "  "
-    container.add(entry.name, item)
-
-
-def write_file(
-    path: str | os.PathLike, value: Any, header: str, read: Callable[[dict[str, Any]], Any]
-) -> None:
-    """Write config instance ``value`` to ``path`` atomically, after checking that ``read``
-    (the file's reader, from the parsed document) gives ``value`` back.
-
-    Raises
-    ------
-    ValueError
-        ``value`` breaks a rule of its file (the reader's one-line message, the path in
-        front) or holds something the file cannot (a key the table does not have, a field
-        no file holds).
-    """
-    text = write_text(value, header)
-    try:
-        back = read(tomllib.loads(text))
-    except ContentError as error:
-        raise ValueError(f"{path}: {error}") from None
-    fault = difference(value, back)
-    if fault is not None:
-        raise ValueError(f"{path}: {fault}")
-    # Imported here: rsp_inertia.plant.logs imports the config module that imports this one.
-    from rsp_inertia.plant.logs import write_atomic
-
-    write_atomic(path, text)
-
-
-def difference(written: Any, read: Any, where: str = "") -> str | None:
-    """Where config instance ``written`` and its file's reading ``read`` first differ
-    (dotted field: both values), or None when they are equal (arrays entry by entry)."""
-    if dataclasses.is_dataclass(written) and type(written) is type(read):
-        for field in dataclasses.fields(written):
-            found = difference(
-                getattr(written, field.name), getattr(read, field.name), _dotted(where, field.name)
-            )
-            if found is not None:
-                return found
-        return None
-    arrays = (tuple, list, np.ndarray)
-    if isinstance(written, arrays) or isinstance(read, arrays):
-        same = (
-            isinstance(written, arrays)
-            and isinstance(read, arrays)
-            and len(written) == len(read)
-            and all(difference(a, b) is None for a, b in zip(written, read, strict=True))
-        )
-    else:
-        same = written == read
-    return None if same else f"{where}: {written!r} would be read back as {read!r}"

@@ -21,8 +21,8 @@ from rsp_inertia.plant.toml_schema import (
     key,
     read_file,
     read_table,
-    write_file,
 )
+from rsp_inertia.plant.toml_writer import write_file
 
 _INERTIA_NAMES = ("Jx", "Jy", "Jz", "Jxy", "Jyz", "Jxz")
 
@@ -136,7 +136,7 @@ class LoggerSettings:
 
     time_jitter: float = key(
         0.0,
-        unit="fraction of a period",
+        unit="fraction of a sample period",
         bound=(">= 0", "<= 0.25 (of a period)"),
         doc="Each sampling instant is off the regular grid k / sample_rate by a uniform random "
         "amount within +- this fraction of a period (the logs' limit is "
@@ -144,6 +144,7 @@ class LoggerSettings:
     )
     dropped_fraction: float = key(
         0.0,
+        unit="fraction of rows",
         bound=(">= 0", "< 0.5"),
         doc="Fraction of the rows the logger loses at random (the drive still acts at those "
         "instants); the first and last rows are always kept.",

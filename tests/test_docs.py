@@ -36,7 +36,7 @@ import rsp_inertia.plant
 from rsp_inertia.cli import _parser, main
 from rsp_inertia.plant import config, virtual_config
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.toml_schema import accepted_keys
+from rsp_inertia.plant.toml_schema import Key, accepted_keys, is_table, layout
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
@@ -283,6 +283,31 @@ def test_documented_toml_keys_are_the_ones_config_accepts(file):
     )
     tables = {k.split(".")[0] for k in documented - pending}
     assert tables <= accepted[""], f"{file}: unknown tables {sorted(tables - accepted[''])}"
+
+
+def _fields(file: str) -> dict[str, Key]:
+    """Dotted key -> the config field that declares it, for every key of ``file``."""
+    out = {}
+    for name, entry in layout(FILE_CLASSES[file]).items():
+        if isinstance(entry, tuple):
+            out |= {f"{name}.{member.name}": member for member in entry}
+        elif is_table(entry.kind):
+            members = layout(entry.kind, entry.meta["without"])
+            out |= {f"{name}.{key}": member for key, member in members.items()}
+    return out
+
+
+@pytest.mark.parametrize("file", list(LOADERS))
+def test_documented_units_are_the_fields_units(file):
+    """The unit column starts with the unit the field declares (and the writer comments)."""
+    fields = _fields(file)
+    assert set(fields) == {f"{t}.{k}" for t, keys in _accepted()[file].items() if t for k in keys}
+    faults = []
+    for dotted, row in _documented(file).items():
+        unit = fields[dotted].meta["unit"] if dotted in fields else ""
+        if unit and not (row[2] == unit or row[2].startswith(unit + ",")):
+            faults.append(f"{dotted}: documented unit {row[2]!r}, the field's is {unit!r}")
+    assert not faults, "\n".join(faults)
 
 
 def _examples(file: str) -> list[dict]:

@@ -131,7 +131,7 @@ def test_example_device_loads(tmp_path):
     assert device.encoder.quantum == 2 * math.pi / 65536
     assert device.encoder.dt == 1e-3
     assert [s.gear_ratio for s in device.stages] == [0.7639320225, 5.2360679775]
-    # The icosahedron gear ratios are 3 -+ sqrt 5 (METHOD.md §5).
+    # The icosahedron gear ratios are 3 -+ sqrt 5 (docs/method.md §5).
     assert device.stages[0].gear_ratio == pytest.approx(3 - math.sqrt(5), abs=1e-10)
     assert device.stages[1].gear_ratio == pytest.approx(3 + math.sqrt(5), abs=1e-10)
     assert device.stages[0].nodes_deg == (0.0, 120.0, 240.0)
@@ -160,7 +160,7 @@ def test_integers_are_accepted_as_floats(tmp_path):
 
 
 def test_cone_plus_z_design_has_six_axes(tmp_path):
-    # Five nodes on one cone and a lambda = 0 stage (METHOD.md §5). The z stage gives one
+    # Five nodes on one cone and a lambda = 0 stage (docs/method.md §5). The z stage gives one
     # axis whatever its nodes, and a second z stage adds none.
     cone = edited(STAGE_1, "[0.0, 120.0, 240.0]", "[0.0, 72.0, 144.0, 216.0, 288.0]")
     z_axis = edited(STAGE_2, "gear_ratio = 5.2360679775", "gear_ratio = 0.0")
