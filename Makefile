@@ -19,9 +19,12 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
 
-# Accuracy and speed sweep -> benchmarks/results/ (cases/*.json made by the same code are reused).
+# Accuracy and speed sweep -> benchmarks/results/ (cases/*.json made by the same code are reused;
+# options through BENCH_ARGS, e.g. make bench BENCH_ARGS='--quick --out /tmp/bq'); the other
+# benchmarks: python -m benchmarks.<name> (benchmarks/__init__.py lists them).
+BENCH_ARGS ?=
 bench: $(STAMP)
-	$(BIN)/rsp-inertia bench
+	$(BIN)/python -m benchmarks.sweep $(BENCH_ARGS)
 
 # The wheel as users install it, in a fresh venv outside the checkout: builds without
 # warnings, holds only rsp_inertia, runs `rsp-inertia --version` and the demo (CI runs it).

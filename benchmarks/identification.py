@@ -2,65 +2,39 @@
 
 Scenarios: the paper's (friction a = [1e-4, 1e-4, 1e-3], 16-bit encoder at 1 kHz, torque
 noise 1e-4 N m) and the same with the bearing friction (a1, a2) 30 times larger; a few seeds
-each (see _scale_friction for why a3 is not scaled). For every run:
+each, the release angle jittered by the seed (benchmarks.experiments.scale_friction says why
+a3 is not scaled; at 30x it would take 99.98% of stage 1's energy every turn). For every run:
 worst relative J_k error (least squares and node formula), worst tensor-entry error over the
 largest principal moment, centre-of-mass error, and the torsion-pendulum errors on the same
 device. Writes benchmarks/results/identification.md with the command that made it.
 
-    .venv/bin/python benchmarks/identification.py [--seeds 3]
+    python -m benchmarks.identification [--seeds 3]
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
-import re
 import sys
 import tempfile
 import time
-import tomllib
 from pathlib import Path
 
 import numpy as np
 from scipy.interpolate import CubicSpline
-from tables import markdown_table
 
+from benchmarks import RESULTS
+from benchmarks.experiments import default_experiment, scale_friction, seeded
+from benchmarks.tables import command_line, markdown_table
+from benchmarks.truth import tensor_error, true_moments
 from rsp_inertia.estimation.balance import stage_balance
 from rsp_inertia.estimation.identify import identify
 from rsp_inertia.estimation.passes import estimate_pass
 from rsp_inertia.estimation.tensor import axis_values, fit_tensor
-from rsp_inertia.pipeline import create_default_experiment, simulate
+from rsp_inertia.pipeline import simulate
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.logs import write_atomic
 from rsp_inertia.plant.virtual import simulate_braking, simulate_ideal_reverse
-
-RESULTS = Path(__file__).parent / "results"
-
-
-def _scale_friction(root: Path, factor: float, seed: int) -> None:
-    """Rewrite virtual.toml of a fresh experiment: bearing friction times ``factor``, seed.
-
-    The Coulomb and viscous coefficients (a1, a2) are scaled; the quadratic one (a3) keeps
-    the paper's value: quadratic drag takes the fraction 1 - exp(-4 pi a3 / M) of the kinetic
-    energy every turn whatever the speed, 25% on stage 1 at the paper's a3, 95% at 10x and
-    99.98% at 30x, so no multi-turn braking pass (and no reverse within the motor's torque)
-    exists there.
-    """
-    path = root / "virtual.toml"
-    doc = tomllib.loads(path.read_text())
-    text = path.read_text()
-    for key in ("coulomb", "viscous"):
-        value = doc["friction"][key] * factor
-        text = re.sub(rf"(?m)^{key}\s*=\s*\S+", f"{key} = {value!r}", text)
-    text = re.sub(r"(?m)^seed\s*=\s*\S+", f"seed = {seed}", text)
-    # A release angle jittered by the seed changes the encoder's quantization pattern too
-    # (the torque-noise seed alone leaves it identical from run to run).
-    release = doc["run"]["release_angle_deg"] + np.random.default_rng(seed).uniform(-1, 1)
-    text = re.sub(r"(?m)^release_angle_deg\s*=\s*\S+", f"release_angle_deg = {release!r}", text)
-    path.unlink()
-    write_atomic(path, text)
-    check = tomllib.loads(path.read_text())
-    assert check["friction"]["coulomb"] == doc["friction"]["coulomb"] * factor
 
 
 def _std_with_exact_speeds(exp, virtual, directions: np.ndarray) -> np.ndarray:
@@ -97,9 +71,9 @@ def _ascending(phi: np.ndarray, values: np.ndarray):
 def run_case(factor: float, seed: int) -> dict:
     """One experiment end to end on the ideal reverse; errors against the truth."""
     with tempfile.TemporaryDirectory() as tmp:
-        root = Path(tmp)
-        create_default_experiment(root)
-        _scale_friction(root, factor, seed)
+        root = default_experiment(
+            Path(tmp), virtual=lambda v: seeded(scale_friction(v, factor), seed)
+        )
         start = time.perf_counter()
         simulate(root, part="braking")
         simulate(root, part="reverse", ideal=True)
@@ -111,10 +85,7 @@ def run_case(factor: float, seed: int) -> dict:
         identified = time.perf_counter() - start
         truth = exp.load_virtual()
         exact_std = _std_with_exact_speeds(exp, truth, np.array([a.direction for a in result.axes]))
-    J = truth.body.tensor
-    scale = np.linalg.eigvalsh(J).max()
-    axes = np.array([a.direction for a in result.axes])
-    J_true = np.einsum("ij,jk,ik->i", axes, J, axes)
+    J_true = true_moments([a.direction for a in result.axes], truth.body.tensor)
     J_ls = np.array([a.J for a in result.axes])
     J_ls_std = np.array([a.J_std for a in result.axes])
     J_node = np.array([a.J_node for a in result.axes])
@@ -132,8 +103,8 @@ def run_case(factor: float, seed: int) -> dict:
         "std, exact speeds": float(np.max(exact_std / J_true)),
         "J_k LS max z": float(np.max(np.abs(J_ls - J_true) / J_ls_std)),
         "J_k node": float(np.max(np.abs(J_node / J_true - 1))),
-        "tensor LS": float(np.max(np.abs(result.entries - truth.body.inertia)) / scale),
-        "tensor node": float(np.max(np.abs(result.node_entries - truth.body.inertia)) / scale),
+        "tensor LS": tensor_error(result.entries, truth.body),
+        "tensor node": tensor_error(result.node_entries, truth.body),
         "com [mm]": com_err * 1e3,
         "J_k pendulum": float(np.max(np.abs(pend.J_classic / J_true - 1))),
         "J_k pendulum damped": float(np.max(np.abs(pend.J_damped / J_true - 1))),
@@ -150,8 +121,10 @@ def _column_format(key: str) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", type=int, default=3)
+    parser = argparse.ArgumentParser(
+        prog="python -m benchmarks.identification", description=__doc__.splitlines()[0]
+    )
+    parser.add_argument("--seeds", type=int, default=3, help="seeds per scenario (default 3)")
     args = parser.parse_args(argv)
     rows = []
     cases = [(f, s) for f in (1.0, 30.0) for s in range(args.seeds)]
@@ -164,17 +137,19 @@ def main(argv: list[str] | None = None) -> int:
     lines = [
         "# Identification accuracy, ideal reverse",
         "",
-        f"Command: `.venv/bin/python benchmarks/identification.py --seeds {args.seeds}`",
+        f"Command: `{command_line('identification', ['--seeds', str(args.seeds)])}`",
         "",
-        "Errors against the virtual device's truth: J_k relative (worst axis), tensor entries "
-        "over the largest principal moment (worst entry), centre of mass in mm. Targets "
-        "(issue 3): J_k and tensor <= 2e-5 at the paper's friction, < 1e-4 at 30x; com < 0.1 mm. "
-        "'friction x' scales the Coulomb and viscous coefficients; the quadratic one stays at "
-        "the paper's 1e-3 (at 30x it would take 99.98% of stage 1's energy every turn). "
-        "'J_k LS std': the largest reported relative std over the axes; 'max z' the largest "
-        "|error| / std; 'std: <source>' the share of each noise source (identify's uncertainty "
-        "budget, largest over the axes); 'std, exact speeds': the same least squares fed the "
-        "simulator's true speeds, i.e. what the torque logs' noise alone allows.",
+        (
+            "Errors against the virtual device's truth: J_k relative (worst axis), tensor entries "
+            "over the largest principal moment (worst entry), centre of mass in mm. Targets "
+            "(issue 3): J_k and tensor <= 2e-5 at the paper's friction, < 1e-4 at 30x; com < 0.1 mm. "
+            "'friction x' scales the Coulomb and viscous coefficients; the quadratic one stays at "
+            "the paper's 1e-3 (at 30x it would take 99.98% of stage 1's energy every turn). "
+            "'J_k LS std': the largest reported relative std over the axes; 'max z' the largest "
+            "|error| / std; 'std: <source>' the share of each noise source (identify's uncertainty "
+            "budget, largest over the axes); 'std, exact speeds': the same least squares fed the "
+            "simulator's true speeds, i.e. what the torque logs' noise alone allows."
+        ),
         "",
     ]
     lines += markdown_table(rows, keys, _column_format)

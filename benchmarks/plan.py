@@ -9,7 +9,7 @@ scenario, the plan's predicted worst std against the default protocol's at the s
 duration, and how the predicted std falls with the top speed (why the default is near the
 best this motor allows).
 
-    .venv/bin/python benchmarks/plan.py [--scenarios paper spring ...]
+    python -m benchmarks.plan [--scenarios paper spring ...]
 """
 
 from __future__ import annotations
@@ -19,21 +19,22 @@ import json
 import math
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-import tomlkit
-from tables import markdown_table
 
+from benchmarks import RESULTS
+from benchmarks.experiments import default_experiment, scale_friction, with_stage
+from benchmarks.tables import command_line, markdown_table
+from benchmarks.truth import true_moments
 from rsp_inertia.pipeline import identify, program, simulate
 from rsp_inertia.planning import plan
-from rsp_inertia.plant.config import load_device, load_virtual
+from rsp_inertia.plant.config import Device, Virtual, load_device, load_virtual
 from rsp_inertia.plant.experiment import open_experiment
-from rsp_inertia.plant.geometry import axis_direction, design_matrix, entries_from_tensor
+from rsp_inertia.plant.geometry import axis_direction
 from rsp_inertia.plant.logs import read_log, write_atomic
 
-RESULTS = Path(__file__).parent / "results"
-DEFAULTS = Path(__file__).parents[1] / "plant" / "defaults"
 SCENARIOS = ("paper", "spring", "heavy-friction", "com-offset", "cone-z")
 CONE_OPENING = 140.0
 """deg, the one-cone-plus-z design's opening (METHOD.md §5: cond(V) least near 140 deg)."""
@@ -45,28 +46,33 @@ def _tare(lam: float) -> float:
 
 
 def build(root: Path, scenario: str) -> None:
-    """device.toml and virtual.toml of a scenario, edited from the defaults (tomlkit)."""
-    root.mkdir(parents=True, exist_ok=True)
-    device = tomlkit.parse((DEFAULTS / "device.toml").read_text())
-    virtual = tomlkit.parse((DEFAULTS / "virtual.toml").read_text())
+    """A scenario's experiment in ``root``: the default one with the scenario's changes."""
+    default_experiment(
+        root,
+        device=lambda d: _scenario_device(d, scenario),
+        virtual=lambda v: _scenario_virtual(v, scenario),
+    )
+
+
+def _scenario_device(device: Device, scenario: str) -> Device:
     if scenario == "spring":
-        device["spring"]["stiffness"] = 0.02
-    elif scenario == "heavy-friction":
-        virtual["friction"]["coulomb"] = 30 * 1.0e-4
-        virtual["friction"]["viscous"] = 30 * 1.0e-4
-    elif scenario == "com-offset":
-        virtual["body"]["com"] = [0.010, -0.004, 0.002]
-    elif scenario == "cone-z":
+        return replace(device, spring=replace(device.spring, stiffness=0.02))
+    if scenario == "cone-z":
         lam = math.tan(math.radians(CONE_OPENING) / 2)
-        cone, z = device["stage"][0], device["stage"][1]
-        cone["gear_ratio"] = round(lam, 10)
-        cone["tare_inertia"] = round(_tare(lam), 10)
-        cone["nodes_deg"] = [0.0, 72.0, 144.0, 216.0, 288.0]
-        z["gear_ratio"] = 0.0
-        z["tare_inertia"] = _tare(0.0)
-        z["nodes_deg"] = [0.0]
-    write_atomic(root / "device.toml", tomlkit.dumps(device))
-    write_atomic(root / "virtual.toml", tomlkit.dumps(virtual))
+        device = with_stage(
+            device, 1, gear_ratio=round(lam, 10), tare_inertia=round(_tare(lam), 10),
+            nodes_deg=(0.0, 72.0, 144.0, 216.0, 288.0),
+        )
+        return with_stage(device, 2, gear_ratio=0.0, tare_inertia=_tare(0.0), nodes_deg=(0.0,))
+    return device
+
+
+def _scenario_virtual(virtual: Virtual, scenario: str) -> Virtual:
+    if scenario == "heavy-friction":
+        return scale_friction(virtual, 30.0)
+    if scenario == "com-offset":
+        return replace(virtual, body=replace(virtual.body, com=(0.010, -0.004, 0.002)))
+    return virtual
 
 
 def truth_axes(root: Path) -> np.ndarray:
@@ -77,7 +83,7 @@ def truth_axes(root: Path) -> np.ndarray:
     for st in device.stages:
         nodes = [0.0] if st.gear_ratio == 0.0 else st.nodes_deg
         dirs += [axis_direction(math.radians(n), st.gear_ratio) for n in nodes]
-    return design_matrix(np.array(dirs)) @ entries_from_tensor(body.tensor)
+    return true_moments(dirs, body.tensor)
 
 
 def saturation(root: Path, noise: float) -> tuple[float, float]:
@@ -160,10 +166,15 @@ def run(scenario: str, tmp: Path) -> dict:
     return row
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scenarios", nargs="+", default=list(SCENARIOS), choices=SCENARIOS)
-    args = parser.parse_args()
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(
+        prog="python -m benchmarks.plan", description=__doc__.splitlines()[0]
+    )
+    parser.add_argument(
+        "--scenarios", nargs="+", default=list(SCENARIOS), choices=SCENARIOS,
+        help="the scenarios to run (default: all)",
+    )
+    args = parser.parse_args(argv)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for k, scenario in enumerate(args.scenarios, 1):
@@ -188,7 +199,7 @@ def main() -> None:
     lines = [
         "# Experiment planning, end to end",
         "",
-        "Command: `.venv/bin/python benchmarks/plan.py`",
+        f"Command: `{command_line('plan', argv)}`",
         "",
         ("Per scenario: `simulate --part pilot`, `plan` (budget 120 s of motion), braking, "
         "`program`, closed-loop reverse, `identify`, on the virtual device (16-bit encoder, "

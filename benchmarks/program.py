@@ -7,11 +7,12 @@ braking speed above 20% of its top), and identification from the closed-loop rev
 (not the ideal reverse). Writes benchmarks/results/program.md and the tracking figures
 (the paper's Fig. 4) with the command that made them.
 
-    .venv/bin/python benchmarks/program.py
+    python -m benchmarks.program
 """
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import math
 import sys
@@ -19,8 +20,10 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from tables import markdown_table
 
+from benchmarks import RESULTS
+from benchmarks.tables import command_line, markdown_table
+from benchmarks.truth import tensor_error, true_moments
 from rsp_inertia.estimation.identify import identify
 from rsp_inertia.estimation.smoothing import smooth_log
 from rsp_inertia.ocp.nominal import fit_nominal
@@ -31,7 +34,6 @@ from rsp_inertia.plant.logs import write_atomic, write_log, write_program
 from rsp_inertia.plant.virtual import run_program, simulate_braking
 from rsp_inertia.plots import plot_tracking
 
-RESULTS = Path(__file__).parent / "results"
 CASES = [(1.0, 1.0), (1.3, 1.5), (1.3, 0.5), (0.7, 1.5), (0.7, 0.5)]
 """(inertia factor, friction factor) applied to the fitted nominal model."""
 
@@ -89,20 +91,21 @@ def run_case(inertia: float, friction: float, figures: bool) -> dict:
                     f"Stage {stage}: reverse pass in closed loop (paper Fig. 4)",
                 )
         result = identify(exp)
-        J = virtual.body.tensor
-        axes = np.array([a.direction for a in result.axes])
-        J_true = np.einsum("ij,jk,ik->i", axes, J, axes)
-        scale = np.linalg.eigvalsh(J).max()
+        J_true = true_moments([a.direction for a in result.axes], virtual.body.tensor)
         row["J_k LS"] = float(np.max(np.abs(np.array([a.J for a in result.axes]) / J_true - 1)))
         row["J_k node"] = float(
             np.max(np.abs(np.array([a.J_node for a in result.axes]) / J_true - 1))
         )
-        row["tensor LS"] = float(np.max(np.abs(result.entries - virtual.body.inertia)) / scale)
+        row["tensor LS"] = tensor_error(result.entries, virtual.body)
         row["mismatch median"] = float(np.median(np.concatenate(mismatches)))
     return row
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m benchmarks.program", description=__doc__.splitlines()[0]
+    )
+    parser.parse_args(argv)
     RESULTS.mkdir(exist_ok=True)
     rows = []
     for i, (inertia, friction) in enumerate(CASES, 1):
@@ -117,14 +120,16 @@ def main() -> int:
     lines = [
         "# Torque program and closed loop",
         "",
-        "Command: `.venv/bin/python benchmarks/program.py`",
+        f"Command: `{command_line('program', [])}`",
         "",
-        "Default experiment (paper scenario). The nominal model fitted to each braking log is "
-        "scaled by the factors shown (inertia harmonics; viscous and quadratic friction) before "
-        "the program is made. Mismatch: |true reverse speed / true braking speed - 1| at every "
-        "passage of a node at a braking speed above 20% of the top (max per stage, median over "
-        "both). Identification from the closed-loop reverse logs. Targets (issue 4): program "
-        "< 2 s per stage; mismatch < 1e-3; J_k within 1e-4, also with the model errors.",
+        (
+            "Default experiment (paper scenario). The nominal model fitted to each braking log is "
+            "scaled by the factors shown (inertia harmonics; viscous and quadratic friction) before "
+            "the program is made. Mismatch: |true reverse speed / true braking speed - 1| at every "
+            "passage of a node at a braking speed above 20% of the top (max per stage, median over "
+            "both). Identification from the closed-loop reverse logs. Targets (issue 4): program "
+            "< 2 s per stage; mismatch < 1e-3; J_k within 1e-4, also with the model errors."
+        ),
         "",
     ]
     lines += markdown_table(

@@ -17,22 +17,24 @@ worst |err|/std, the warnings, and the std of the least sure entry; then the rat
 real logs' error to the clean logs' (RMS over the seeds' entries: one seed's ratio is mostly
 the two noise draws'). Target (issue 12): within 1.5x.
 
-    .venv/bin/python benchmarks/real_logs.py [--seeds N] [--no-demo] [--jobs N]
+    python -m benchmarks.real_logs [--seeds N] [--no-demo] [--jobs N]
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-import tomlkit
 from joblib import Parallel, delayed
-from tables import markdown_table
 
+from benchmarks import RESULTS
+from benchmarks.experiments import seeded, vary
+from benchmarks.tables import command_line, markdown_table
+from benchmarks.truth import principal_scale
 from rsp_inertia.pipeline import (
     create_default_experiment,
     create_rig_experiment,
@@ -41,37 +43,27 @@ from rsp_inertia.pipeline import (
     program,
     simulate,
 )
-from rsp_inertia.plant.config import load_virtual
+from rsp_inertia.plant.config import LoggerSettings, load_virtual
+from rsp_inertia.plant.logs import write_atomic
 
-RESULTS = Path(__file__).parent / "results"
-LOGGER = {"time_jitter": 0.2, "dropped_fraction": 0.001, "counts": True}
+LOGGER = LoggerSettings(time_jitter=0.2, dropped_fraction=0.001, counts=True)
 """virtual.toml [logger] of the real logs."""
 COUNTER_BITS = 16
 
 
-def _edit(path: Path, edit) -> None:
-    doc = tomlkit.parse(path.read_text())
-    edit(doc)
-    path.write_text(tomlkit.dumps(doc))
-
-
 def _make_real(folder: Path) -> None:
     """A folder's virtual rig logs as a drive's logger does (module docstring)."""
-    _edit(folder / "device.toml", lambda d: d["encoder"].__setitem__("counter_bits", COUNTER_BITS))
-    _edit(folder / "virtual.toml", lambda d: d.__setitem__("logger", dict(LOGGER)))
-
-
-def _seed(folder: Path, seed: int) -> None:
-    def edit(doc):
-        doc.setdefault("run", tomlkit.table())["seed"] = seed
-
-    _edit(folder / "virtual.toml", edit)
+    vary(
+        folder,
+        device=lambda d: replace(d, encoder=replace(d.encoder, counter_bits=COUNTER_BITS)),
+        virtual=lambda v: replace(v, logger=LOGGER),
+    )
 
 
 def _score(result, root: Path) -> dict:
-    true = np.asarray(load_virtual(root / "virtual.toml").body.inertia)
-    scale = float(np.linalg.eigvalsh(_tensor(true)).max())
-    err = result.entries - true
+    body = load_virtual(root / "virtual.toml").body
+    scale = principal_scale(body.tensor)
+    err = result.entries - np.asarray(body.inertia)
     std = np.sqrt(np.diag(result.entries_cov))
     return {
         "err": err / scale,
@@ -82,11 +74,6 @@ def _score(result, root: Path) -> dict:
         "warnings": len(result.warnings),
         "warning_text": list(result.warnings),
     }
-
-
-def _tensor(e) -> np.ndarray:
-    Jx, Jy, Jz, Jxy, Jyz, Jxz = e
-    return np.array([[Jx, Jxy, Jxz], [Jxy, Jy, Jyz], [Jxz, Jyz, Jz]])
 
 
 def _dropped(root: Path) -> tuple[int, int]:
@@ -104,7 +91,7 @@ def _dropped(root: Path) -> tuple[int, int]:
 def run_default(seed: int, real: bool) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         root = create_default_experiment(Path(tmp) / "exp")
-        _seed(root, seed)
+        vary(root, virtual=lambda v: seeded(v, seed, jitter=False))
         if real:
             _make_real(root)
         start = time.perf_counter()
@@ -152,7 +139,9 @@ def _honesty(rows: list[dict], case: str, logs: str) -> str:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(
+        prog="python -m benchmarks.real_logs", description=__doc__.split("\n\n")[0]
+    )
     parser.add_argument("--seeds", type=int, default=6, help="seeds of the default case")
     parser.add_argument("--no-demo", action="store_true", help="skip the demo case (2 x 3 min)")
     parser.add_argument("--jobs", type=int, default=-1, help="processes (default: one per core)")
@@ -164,11 +153,11 @@ def main(argv: list[str] | None = None) -> None:
     rows = Parallel(n_jobs=args.jobs, verbose=5)(jobs)
     elapsed = time.perf_counter() - start
 
-    command = "python benchmarks/real_logs.py " + " ".join(sys.argv[1:] if argv is None else argv)
+    command = command_line("real_logs", argv)
     lines = [
         "# Real logs: jittered stamps, dropped rows, wrapped counts",
         "",
-        f"Made by `{command.strip()}` ({elapsed / 60:.1f} min on this machine).",
+        f"Made by `{command}` ({elapsed / 60:.1f} min on this machine).",
         "",
         (
             "Real logs: virtual.toml `[logger]` time_jitter = 0.2 (of a period), "
@@ -197,7 +186,7 @@ def main(argv: list[str] | None = None) -> None:
         lines += [f"- {c} seed {s} {logs}: {w}" for c, s, logs, w in warned]
     RESULTS.mkdir(exist_ok=True)
     out = RESULTS / "real_logs.md"
-    out.write_text("\n".join(lines) + "\n")
+    write_atomic(out, "\n".join(lines) + "\n")
     print("\n".join(lines))
     print(f"-> {out}")
 

@@ -3,7 +3,7 @@
 Every run is the default experiment (plant/defaults/) on the virtual device: braking passes,
 then the IDEAL reverse (the exact mirror of the braking on an ideal drive), then identify.
 Each scenario runs over ``--seeds`` seeds (torque-noise seed and a release angle jittered by
-+-1 deg, as in benchmarks/identification.py, so the encoder's quantization changes too).
++-1 deg, benchmarks.experiments.seeded, so the encoder's quantization changes too).
 
 Scenarios and targets:
 
@@ -24,8 +24,8 @@ Scenarios and targets:
    worst rel error, worst |err|/std, calibration's share of the std (largest over the axes
    of std_budget["calibration"] / J_std) and warning fraction. The same EXP identified
    WITHOUT calibration.toml (row 'calib-none') shows what the imperfections cost
-   uncorrected, and whether identify warns. device.toml's tare_inertia_std and
-   torque_gain_std lines are removed in these folders (a rig's tare is not exact), and
+   uncorrected, and whether identify warns. device.toml states no tare_inertia_std and
+   torque_gain_std in these folders (a rig's tare is not exact) and has no pendulum, and
    EMPTY's stage-2 braking torque is 0.03 N m so its (light) braking covers enough turns.
 
 5. spring -- a torsion spring c = 0.02 N m/rad, each stage launched so that its braking
@@ -34,43 +34,45 @@ Scenarios and targets:
 
 Writes ``--out`` (default benchmarks/results/systematics.md) with the command that made it.
 
-    .venv/bin/python benchmarks/systematics.py [--seeds 5] [--jobs 2]
+    python -m benchmarks.systematics [--seeds 5] [--jobs 2]
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import re
-import sys
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 from joblib import Parallel, delayed
-from tables import markdown_table
 
-from rsp_inertia.pipeline import calibrate, create_default_experiment, identify, simulate
+from benchmarks import RESULTS
+from benchmarks.experiments import (
+    default_experiment,
+    load,
+    seeded,
+    vary,
+    with_stage,
+    with_stages,
+)
+from benchmarks.tables import command_line, markdown_table
+from benchmarks.truth import true_moments
+from rsp_inertia.pipeline import calibrate, identify, simulate
+from rsp_inertia.plant.config import Device, Rig, TrueBody, Virtual, write_reference
 from rsp_inertia.plant.experiment import open_experiment
-from rsp_inertia.plant.geometry import tensor_from_entries
+from rsp_inertia.plant.logs import write_atomic
 
-RESULTS = Path(__file__).parent / "results"
-
-QUADRATIC = 1.0e-3            # the default virtual.toml's [friction] quadratic
 BACKWARD_SCALE = 1.02
-TARE = (0.0037507764, 0.0842492235)   # device.toml's stage tares
-FIXTURE = """
-[fixture]
-mass = 0.8
-inertia = [0.004, 0.0045, 0.006, 0.0002, -0.0001, 0.00015]
-com = [0.001, 0.0005, 0.0]
-"""
-REF_BODY = """[body]
-mass = 3.0
-inertia = [0.03, 0.03, 0.02, 0.0, 0.0, 0.0]
-com = [0.0, 0.0, 0.0]
-"""
+TARE_ERROR = 1.02
+"""The rig's true tares over device.toml's in scenario 4."""
+FIXTURE = TrueBody(
+    mass=0.8, inertia=(0.004, 0.0045, 0.006, 0.0002, -0.0001, 0.00015), com=(0.001, 0.0005, 0.0)
+)
+REF_BODY = TrueBody(mass=3.0, inertia=(0.03, 0.03, 0.02, 0.0, 0.0, 0.0), com=(0.0, 0.0, 0.0))
+"""Scenario 4's reference body: REF's true body and its reference.toml."""
 
 SCENARIOS = ("clean", "asym-1dir", "asym-2dir", "calib", "spring")
 
@@ -84,59 +86,59 @@ SPRING_PROTOCOL = ((19.56, 0.0131), (19.74, 7.716))
 # --- folder builders -------------------------------------------------------------------
 
 
-def _replace(text: str, old: str, new: str) -> str:
-    """``text.replace(old, new)`` that insists ``old`` is there (the defaults may change)."""
-    if old not in text:
-        raise RuntimeError(f"expected line not found: {old!r}")
-    return text.replace(old, new)
-
-
-def _set_seed(text: str, seed: int) -> str:
-    """virtual.toml: ``[run] seed`` and a release angle jittered by the seed (+-1 deg)."""
-    release = -30.0 + np.random.default_rng(seed).uniform(-1.0, 1.0)
-    text = _replace(text, "seed = 0\n", f"seed = {seed}\n")
-    return _replace(text, "release_angle_deg = -30.0\n", f"release_angle_deg = {release!r}\n")
-
-
 def _default_folder(root: Path, seed: int, backward_scale: float = 1.0, both: bool = False) -> Path:
-    root = create_default_experiment(root)
-    v = _set_seed((root / "virtual.toml").read_text(), seed)
-    if backward_scale != 1.0:
-        v = _replace(v, "quadratic = 1.0e-3           # N m s^2\n",
-                     f"quadratic = 1.0e-3           # N m s^2\nbackward_scale = {backward_scale!r}\n")
-    (root / "virtual.toml").write_text(v)
-    if both:
-        d = (root / "device.toml").read_text()
-        d = re.sub(r"(?m)^(braking_torque = .*\n)", r'\1directions = ["forward", "backward"]\n', d)
-        assert d.count("directions = ") == 2
-        (root / "device.toml").write_text(d)
-    return root
+    """The default experiment, seeded, with the backward friction scaled and, with ``both``,
+    every stage run in both directions."""
+
+    def device(d: Device) -> Device:
+        if not both:
+            return d
+        return with_stages(d, lambda st: replace(st, directions=("forward", "backward")))
+
+    def virtual(v: Virtual) -> Virtual:
+        v = seeded(v, seed)
+        if backward_scale == 1.0:
+            return v
+        return replace(v, friction=replace(v.friction, backward_scale=backward_scale))
+
+    return default_experiment(root, device, virtual)
 
 
 def _calibration_folder(root: Path, kind: str, seed: int) -> Path:
-    """EXP / EMPTY / REF of scenario 4 (kind 'exp', 'empty', 'ref'); see /tmp/mk.py's recipe."""
-    root = create_default_experiment(root)
-    d = (root / "device.toml").read_text()
-    d = re.sub(r"(?m)^tare_inertia_std = 0\.0.*\n", "", d)
-    d = re.sub(r"(?m)^torque_gain_std = 0\.0.*\n", "", d)
-    if kind == "empty":
-        d = _replace(d, "braking_torque = 0.12 ", "braking_torque = 0.03 ")
-    if kind != "exp":
-        d = re.sub(r"(?m)^\[body\]\nmass = .*\n", "", d)
-    d = re.sub(r"\[pendulum\].*", "", d, flags=re.DOTALL)
-    (root / "device.toml").write_text(d)
+    """EXP / EMPTY / REF of scenario 4 (kind 'exp', 'empty', 'ref')."""
+    root = default_experiment(root)
+    stated, _ = load(root)
+    tare = tuple(float(f"{st.tare_inertia * TARE_ERROR:.10f}") for st in stated.stages)
 
-    v = (root / "virtual.toml").read_text()
-    body = {"exp": None, "empty": "", "ref": REF_BODY}[kind]
-    if body is not None:
-        v = re.sub(r"\[body\].*?\n\n", body + "\n" if body else "", v, flags=re.DOTALL)
-    v = _set_seed(v, seed)
-    tare = ", ".join(f"{t * 1.02:.10f}" for t in TARE)
-    v += FIXTURE + f"\n[rig]\ntorque_gain = 1.005\ntare_inertia = [{tare}]   # 2% above device.toml's\n"
-    (root / "virtual.toml").write_text(v)
+    def device(d: Device) -> Device:
+        d = replace(
+            d,
+            motor=replace(d.motor, torque_gain_std=None),
+            body=d.body if kind == "exp" else None,
+            pendulum=None,
+        )
+        d = with_stages(d, lambda st: replace(st, tare_inertia_std=None))
+        return with_stage(d, 2, braking_torque=0.03) if kind == "empty" else d
+
+    def virtual(v: Virtual) -> Virtual:
+        body = {"exp": v.body, "empty": None, "ref": REF_BODY}[kind]
+        return replace(
+            seeded(v, seed), body=body, fixture=FIXTURE,
+            rig=Rig(torque_gain=1.005, tare_inertia=tare),
+        )
+
+    vary(root, device, virtual)
     if kind == "ref":
-        (root / "reference.toml").write_text(REF_BODY)
+        write_reference(root / "reference.toml", REF_BODY)
     return root
+
+
+def _spring_device(device: Device) -> Device:
+    """Scenario 5: the torsion spring SPRING, each stage launched as SPRING_PROTOCOL says."""
+    device = replace(device, spring=replace(device.spring, stiffness=SPRING))
+    for stage, (speed, torque) in enumerate(SPRING_PROTOCOL, 1):
+        device = with_stage(device, stage, launch_speed=speed, braking_torque=torque)
+    return device
 
 
 def _simulate(root: Path) -> None:
@@ -150,12 +152,11 @@ def _simulate(root: Path) -> None:
 def _score(root: Path) -> dict:
     """Errors of result.json against the virtual truth."""
     exp = open_experiment(root)
-    truth = tensor_from_entries(exp.load_virtual().body.inertia)
+    body = exp.load_virtual().body
     r = json.loads((exp.root / "result.json").read_text())
-    e = np.array([a["direction"] for a in r["axes"]])
     J = np.array([a["J"] for a in r["axes"]])
     s = np.array([a["J_std"] for a in r["axes"]])
-    J_true = np.einsum("ij,jk,ik->i", e, truth, e)
+    J_true = true_moments([a["direction"] for a in r["axes"]], body.tensor)
     budget = r["least_squares"].get("std_budget", {})
     cal_share = (
         float(np.max(np.array(budget["calibration"]["axes_J_std"]) / s)) if "calibration" in budget else float("nan")
@@ -163,7 +164,7 @@ def _score(root: Path) -> dict:
     names = ("Jx", "Jy", "Jz", "Jxy", "Jyz", "Jxz")
     entries = np.array([r["tensor"][n] for n in names])
     entries_std = np.array([r["tensor_std"][n] for n in names])
-    true_entries = np.asarray(exp.load_virtual().body.inertia)
+    true_entries = np.asarray(body.inertia)
     return {
         "z2": float(np.mean(((J - J_true) / s) ** 2)),
         "z2_tensor": float(np.mean(((entries - true_entries) / entries_std) ** 2)),
@@ -197,14 +198,7 @@ def run_case(scenario: str, seed: int) -> list[dict]:
                 rows.append({"scenario": "calib-none", **_score(exp)})
             elif scenario == "spring":
                 root = _default_folder(tmp / "exp", seed)
-                d = (root / "device.toml").read_text()
-                d = _replace(d, "stiffness = 0.0 ", f"stiffness = {SPRING!r} ")
-                for (speed, torque), old in zip(
-                    SPRING_PROTOCOL, (("12.0 ", "0.005 "), ("3.5 ", "0.12 "))
-                ):
-                    d = _replace(d, f"launch_speed = {old[0]}", f"launch_speed = {speed!r} ")
-                    d = _replace(d, f"braking_torque = {old[1]}", f"braking_torque = {torque!r} ")
-                (root / "device.toml").write_text(d)
+                vary(root, device=_spring_device)
                 _simulate(root)
                 identify(root)
                 rows = [{"scenario": scenario, **_score(root)}]
@@ -217,7 +211,7 @@ def run_case(scenario: str, seed: int) -> list[dict]:
                 _simulate(root)
                 identify(root)
                 rows = [{"scenario": scenario, **_score(root)}]
-        except Exception as err:  # a failed run is a result too
+        except Exception as err:  # noqa: BLE001 - a failed run is a result too
             rows = [{"scenario": scenario, "error": f"{type(err).__name__}: {err}"[:300]}]
     for row in rows:
         row.update(seed=seed, seconds=time.perf_counter() - t0)
@@ -266,14 +260,18 @@ def write_report(rows: list[dict], seeds: str, command: str, seconds: float, out
         "",
         f"Command: `{command}`",
         "",
-        f"{seeds} seeds per scenario; wall time {seconds:.0f} s. See the docstring of "
-        "benchmarks/systematics.py for the scenarios. 'worst rel err': the largest |J_k - true| / "
-        "true over axes and seeds; 'worst |err|/std': the largest |J_k - true| / J_std; 'max rel std': "
-        "the largest reported J_std / true; 'warned': seeds with any entry in result.json `warnings`; "
-        "'cal share of std': the largest over axes and seeds of std_budget['calibration'] / J_std.",
+        (
+            f"{seeds} seeds per scenario; wall time {seconds:.0f} s. See the docstring of "
+            "benchmarks/systematics.py for the scenarios. 'worst rel err': the largest |J_k - true| / "
+            "true over axes and seeds; 'worst |err|/std': the largest |J_k - true| / J_std; 'max rel std': "
+            "the largest reported J_std / true; 'warned': seeds with any entry in result.json `warnings`; "
+            "'cal share of std': the largest over axes and seeds of std_budget['calibration'] / J_std."
+        ),
         "",
-        "Targets: asym-1dir warned >= 19/20 of the seeds; asym-2dir worst rel err <= 1e-4 and "
-        "worst |err|/std <= 3; asym-2dir friction_asymmetry e3 near 0.02 x 1e-3 = 2e-5.",
+        (
+            "Targets: asym-1dir warned >= 19/20 of the seeds; asym-2dir worst rel err <= 1e-4 and "
+            "worst |err|/std <= 3; asym-2dir friction_asymmetry e3 near 0.02 x 1e-3 = 2e-5."
+        ),
         "",
         "## Summary",
         "",
@@ -311,11 +309,13 @@ def write_report(rows: list[dict], seeds: str, command: str, seconds: float, out
             lines += [f"- {w}" for w in texts[:8]]
             lines.append("")
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text("\n".join(lines))
+    write_atomic(out, "\n".join(lines))
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(
+        prog="python -m benchmarks.systematics", description=__doc__.split("\n")[0]
+    )
     parser.add_argument("--seeds", type=int, default=5, help="seeds per scenario (default 5)")
     parser.add_argument(
         "--slow-seeds", type=int, default=None,
@@ -323,7 +323,10 @@ def main(argv: list[str] | None = None) -> None:
     )
     parser.add_argument("--jobs", type=int, default=2, help="parallel processes (default 2)")
     parser.add_argument("--scenarios", default=",".join(SCENARIOS), help="comma-separated subset")
-    parser.add_argument("--out", type=Path, default=RESULTS / "systematics.md")
+    parser.add_argument(
+        "--out", type=Path, default=RESULTS / "systematics.md",
+        help="the report (default benchmarks/results/systematics.md)",
+    )
     args = parser.parse_args(argv)
     scenarios = [s for s in args.scenarios.split(",") if s]
     t0 = time.perf_counter()
@@ -338,8 +341,10 @@ def main(argv: list[str] | None = None) -> None:
     results = Parallel(n_jobs=args.jobs)(delayed(run_case)(s, seed) for s, seed in cases)
     rows = [row for rs in results for row in rs]
     rows.sort(key=lambda r: (r["scenario"], r["seed"]))
-    command = ".venv/bin/python benchmarks/systematics.py " + " ".join(sys.argv[1:] if argv is None else argv)
-    write_report(rows, f"{args.seeds} ({slow} for calib and asym-2dir)", command.strip(), time.perf_counter() - t0, args.out)
+    write_report(
+        rows, f"{args.seeds} ({slow} for calib and asym-2dir)", command_line("systematics", argv),
+        time.perf_counter() - t0, args.out,
+    )
     print(args.out.read_text())
 
 

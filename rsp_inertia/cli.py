@@ -90,35 +90,6 @@ def _cmd_design(args: argparse.Namespace) -> None:
     print(run_design(args.exp, args.plot))
 
 
-def _cmd_bench(args: argparse.Namespace) -> None:
-    from rsp_inertia.bench import bench
-
-    command = "rsp-inertia bench" + (" --quick" if args.quick else f" --seeds {args.seeds}")
-    if args.out != BENCH_OUT:
-        command += f" --out {args.out}"
-    report = bench(
-        seeds=args.seeds,
-        quick=args.quick,
-        scheduler=args.scheduler,
-        jobs=args.jobs,
-        out=args.out,
-        command=command,
-    )
-    print(report.table)
-    print("results -> " + ", ".join(str(path) for path in report.paths))
-    if report.crashed:
-        print(
-            f"rsp-inertia: {len(report.crashed)} case(s) crashed (bugs, see accuracy.md; not "
-            f"cached): {', '.join(report.crashed)}",
-            file=sys.stderr,
-        )
-        raise SystemExit(1)
-
-
-BENCH_OUT = Path("benchmarks/results")
-"""Where ``rsp-inertia bench`` writes by default (relative to the working folder)."""
-
-
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="rsp-inertia",
@@ -226,28 +197,6 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(run=_cmd_design)
 
-    p = sub.add_parser(
-        "bench", help="accuracy and speed sweep (friction x encoder bits x seeds) -> OUT"
-    )
-    p.add_argument("--seeds", type=int, default=2, metavar="N", help="seeds per cell (default 2)")
-    p.add_argument(
-        "--quick", action="store_true", help="friction x1 and x10, 16 bits, one seed"
-    )
-    p.add_argument(
-        "--scheduler", metavar="ADDRESS",
-        help="run the cases on a Dask cluster (tcp://host:8786; needs the 'cluster' extra) "
-        "instead of local processes",
-    )
-    p.add_argument(
-        "--jobs", type=int, default=-1, metavar="N",
-        help="local processes (default -1: one per core; 1: in this process)",
-    )
-    p.add_argument(
-        "--out", type=Path, default=BENCH_OUT, metavar="DIR",
-        help="results folder: cases/*.json (reused: an interrupted sweep resumes), "
-        "accuracy.md, accuracy.png, speed.md (default: ./benchmarks/results)",
-    )
-    p.set_defaults(run=_cmd_bench)
     return parser
 
 

@@ -1,20 +1,43 @@
-"""Batch benchmarks: a case end to end, the same rows on local processes and on a Dask cluster,
-an interrupted sweep resumes from its files, and the report and the command line."""
+"""The benchmarks package (benchmarks/): a sweep case end to end, the same rows on local
+processes and on a Dask cluster, an interrupted sweep resumes from its files, the report and
+the sweep's command line, experiment variants through the config dataclasses, and every
+program's command line."""
 
 from __future__ import annotations
 
+import importlib
 import json
 import math
+import subprocess
 import sys
+from dataclasses import replace
+from pathlib import Path
 
 import pytest
 
-from rsp_inertia import bench
-from rsp_inertia.bench import Case, is_timing, run_sweep, write_report
-from rsp_inertia.cli import main
+from benchmarks import cases, sweep
+from benchmarks.cases import DEFAULT_COM_MM, Case, default_cases, is_timing
+from benchmarks.experiments import (
+    default_experiment,
+    load,
+    scale_friction,
+    seeded,
+    vary,
+    with_stage,
+)
+from benchmarks.protocol import mirror_torque
+from benchmarks.report import write_report
+from benchmarks.scheduling import run_sweep
+from benchmarks.truth import METHODS
+from rsp_inertia.plant.model import dissipation
+from rsp_inertia.plant.virtual import true_parameters
+
+ROOT = Path(__file__).parents[1]
 
 PAPER = Case(friction_factor=1.0, encoder_bits=16, seed=0)
 """The cheapest case of the default grid: the paper's friction on the default encoder."""
+
+PROGRAMS = ("sweep", "identification", "program", "plan", "systematics", "real_logs")
 
 
 def without_timings(row: dict) -> dict:
@@ -33,7 +56,7 @@ def test_a_case_runs_end_to_end(swept):
     out, row = swept
     assert row["error"] is None, row["error"]
     assert row["case"] == PAPER.name == "friction1_bits16_com3_seed0"
-    errors = [row[f"err_{kind}_{key}"] for kind in ("Jk", "tensor") for key in bench.METHODS]
+    errors = [row[f"err_{kind}_{key}"] for kind in ("Jk", "tensor") for key in METHODS]
     assert all(math.isfinite(e) for e in [*errors, row["com_error_mm"]])
     # Issue 5's target at the paper's friction is 1e-4; the torsion pendulum, which ignores
     # the off-centre mass's gravity stiffness and the friction, is off by about 4%.
@@ -78,7 +101,7 @@ def test_an_interrupted_sweep_resumes_from_its_files(swept, monkeypatch):
         raise RuntimeError(f"{case.name} was run")
 
     # jobs=1 runs the cases in this process, where the patched function is the one called.
-    monkeypatch.setattr(bench, "run_case", crash)
+    monkeypatch.setattr(cases, "run_case", crash)
     other = Case(10.0, 16, 0)
     rows = run_sweep([other, PAPER], out, jobs=1, progress=False)
     assert rows[0] == row  # cached: not run again, and sorted first (friction 1 < 10)
@@ -93,9 +116,18 @@ def test_a_result_made_by_other_code_is_run_again(swept, tmp_path, monkeypatch):
     (tmp_path / "cases").mkdir()
     stale = {**row, "code": "another version"}
     (tmp_path / "cases" / f"{PAPER.name}.json").write_text(json.dumps(stale))
-    monkeypatch.setattr(bench, "run_case", lambda case: {**row, "err_Jk_ls": -1.0})
+    monkeypatch.setattr(cases, "run_case", lambda case: {**row, "err_Jk_ls": -1.0})
     (fresh,) = run_sweep([PAPER], tmp_path, jobs=1, progress=False)
     assert fresh["err_Jk_ls"] == -1.0
+
+
+def test_the_fingerprint_covers_the_benchmark_modules_that_compute_a_case():
+    for name in ("benchmarks.cases", "benchmarks.protocol", "benchmarks.experiments",
+                 "benchmarks.truth", "benchmarks.sensitivity", "rsp_inertia.pipeline"):
+        assert name in cases.FINGERPRINT_MODULES
+    for name in cases.FINGERPRINT_MODULES:
+        importlib.import_module(name)
+    assert len(cases.code_fingerprint()) == 16
 
 
 def test_bad_input_gives_an_error_row_and_is_cached(tmp_path):
@@ -112,48 +144,110 @@ def test_report_and_command_line(swept, tmp_path, monkeypatch, capsys):
         return {**row, "case": case.name, "friction_factor": case.friction_factor,
                 "encoder_bits": case.encoder_bits, "seed": case.seed, "com_mm": case.com_mm}
 
-    monkeypatch.setattr(bench, "run_case", like_paper)
-    assert main(["bench", "--quick", "--jobs", "1", "--out", str(tmp_path)]) == 0
+    monkeypatch.setattr(cases, "run_case", like_paper)
+    assert sweep.main(["--quick", "--jobs", "1", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "| 1 | 16 | 3 | 1/1 |" in out and "| 10 | 16 | 3 | 1/1 |" in out
     assert "**Headline.**" in (tmp_path / "accuracy.md").read_text()
     for name in ("accuracy.md", "accuracy.png", "speed.md"):
         assert (tmp_path / name).stat().st_size > 0
-    command = f"rsp-inertia bench --quick --out {tmp_path}"
+    command = f"python -m benchmarks.sweep --quick --out {tmp_path}"
     assert f"`{command}`" in (tmp_path / "accuracy.md").read_text()
     assert f"`{command}`" in (tmp_path / "speed.md").read_text()
     assert len(list((tmp_path / "cases").glob("*.json"))) == 2
 
     # The same rows give the same tables.
-    rows = bench.run_sweep(bench.default_cases(quick=True), tmp_path, jobs=1, progress=False)
+    rows = run_sweep(default_cases(quick=True), tmp_path, jobs=1, progress=False)
     before = (tmp_path / "accuracy.md").read_text()
     write_report(rows, tmp_path, command)
     assert (tmp_path / "accuracy.md").read_text() == before
 
 
+def test_a_crash_sets_the_exit_status(tmp_path, monkeypatch, capsys):
+    def crash(case):
+        raise RuntimeError("boom")
+
+    monkeypatch.setattr(cases, "run_case", crash)
+    assert sweep.main(["--quick", "--jobs", "1", "--out", str(tmp_path)]) == 1
+    err = capsys.readouterr().err
+    assert "2 case(s) crashed" in err and PAPER.name in err
+
+
 def test_scheduler_without_dask_is_one_line(tmp_path, monkeypatch, capsys):
     monkeypatch.setitem(sys.modules, "dask.distributed", None)  # import fails as if absent
-    assert main(["bench", "--quick", "--scheduler", "tcp://x:1", "--out", str(tmp_path)]) == 2
+    assert sweep.main(["--quick", "--scheduler", "tcp://x:1", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "dask.distributed is not installed" in err, err
 
 
 def test_bad_arguments_are_one_line(tmp_path, capsys):
-    assert main(["bench", "--seeds", "0", "--out", str(tmp_path)]) == 2
+    assert sweep.main(["--seeds", "0", "--out", str(tmp_path)]) == 2
     assert "--seeds: must be >= 1" in capsys.readouterr().err
 
 
 def test_the_default_grid_covers_friction_encoder_offset_and_seeds():
-    cases = bench.default_cases(seeds=2)
-    assert cases == sorted(cases) and len(set(cases)) == len(cases)
-    main_grid = {(c.friction_factor, c.encoder_bits, c.seed) for c in cases
-                 if c.com_mm == bench.DEFAULT_COM_MM}
+    grid = default_cases(seeds=2)
+    assert grid == sorted(grid) and len(set(grid)) == len(grid)
+    main_grid = {(c.friction_factor, c.encoder_bits, c.seed) for c in grid
+                 if c.com_mm == DEFAULT_COM_MM}
     assert len(main_grid) == 4 * 3 * 2
-    offsets = {(c.friction_factor, c.encoder_bits, c.com_mm) for c in cases}
-    for com in bench.COM_OFFSETS_MM:
-        for bits in bench.ENCODER_BITS:
+    offsets = {(c.friction_factor, c.encoder_bits, c.com_mm) for c in grid}
+    for com in cases.COM_OFFSETS_MM:
+        for bits in cases.ENCODER_BITS:
             assert (1.0, bits, com) in offsets and (10.0, bits, com) in offsets
-    assert {c.name for c in cases} >= {"friction0_bits12_com3_seed1", "friction10_bits20_com0_seed0"}
+    assert {c.name for c in grid} >= {"friction0_bits12_com3_seed1", "friction10_bits20_com0_seed0"}
+
+
+def test_variants_are_written_through_the_config_dataclasses(tmp_path):
+    """What a benchmark varies reaches the loaded files, and nothing else changes."""
+    root = default_experiment(tmp_path / "exp")
+    device, virtual = load(root)
+    new_device, _ = vary(
+        root,
+        device=lambda d: with_stage(d, 2, launch_speed=3.25, braking_torque=0.06),
+        virtual=lambda v: seeded(scale_friction(v, 10.0), 3),
+    )
+    assert load(root)[0] == new_device
+    assert new_device == replace(device, stages=(
+        device.stages[0], replace(device.stages[1], launch_speed=3.25, braking_torque=0.06)
+    ))
+    friction = load(root)[1].friction
+    assert (friction.coulomb, friction.viscous) == (
+        virtual.friction.coulomb * 10, virtual.friction.viscous * 10
+    )
+    assert friction.quadratic == virtual.friction.quadratic
+    run = load(root)[1].run
+    assert run.seed == 3 and abs(run.release_angle_deg - virtual.run.release_angle_deg) <= 1.0
+    assert load(root)[1].body.mass == virtual.body.mass
+
+
+def test_the_mirror_needs_the_braking_torque_and_twice_the_friction(default_device,
+                                                                    default_virtual):
+    """The one home of the reverse pass's torque (rsp_inertia.ocp.feedforward) gives what
+    the time reversal of a braking pass predicts, b + 2 D(Omega), at any speed."""
+    for stage in (1, 2):
+        params = true_parameters(default_device, stage, default_virtual)
+        for speed, braking in ((1e-9, 0.0), (3.5, 0.12), (12.0, 0.005)):
+            expected = braking + 2.0 * float(dissipation(speed, params))
+            assert mirror_torque(params, speed, braking) == pytest.approx(expected, rel=1e-12)
+
+
+@pytest.mark.parametrize("name", PROGRAMS)
+def test_every_program_has_a_command_line(name, capsys):
+    module = importlib.import_module(f"benchmarks.{name}")
+    with pytest.raises(SystemExit) as stop:
+        module.main(["--help"])
+    assert stop.value.code == 0
+    assert f"python -m benchmarks.{name}" in capsys.readouterr().out
+
+
+def test_the_programs_run_as_modules_from_the_repository_root():
+    done = subprocess.run(
+        [sys.executable, "-m", "benchmarks.sweep", "--help"],
+        cwd=ROOT, capture_output=True, text=True, timeout=120, check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "--scheduler" in done.stdout
 
 
 @pytest.mark.slow
@@ -162,7 +256,7 @@ def test_sensitivity_each_method_depends_on_its_own_constants():
     never uses it); stated as the stiffness' std, the best practice's |err|/std is within 3.
     A 1% torque-gain error moves RSP by about 1% and the pendulum (motor off) only through
     the gravity terms it takes from RSP."""
-    from rsp_inertia.sensitivity import Perturbation, run_perturbation
+    from benchmarks.sensitivity import Perturbation, run_perturbation
 
     base = run_perturbation(Perturbation("none", 0.0))
     stiff = run_perturbation(Perturbation("stiffness", 0.01))

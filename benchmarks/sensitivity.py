@@ -1,9 +1,8 @@
 """Sensitivity study: each method's error against the errors of the constants it takes as known.
 
-Every method leans on constants a rig knows only to some accuracy, and the sweep
-(rsp_inertia.bench) gives both methods exact ones. Here the default experiment (paper's
-friction, 16-bit encoder, 3 mm centre-of-mass offset, seed 0) is run with one constant off
-at a time:
+Every method leans on constants a rig knows only to some accuracy, and the sweep's cases
+give both methods exact ones. Here the default case (paper's friction, 16-bit encoder, 3 mm
+centre-of-mass offset, seed 0) is run with one constant off at a time:
 
 - ``stiffness``: device.toml's ``[pendulum] stiffness`` (1 + e) times the true one. Only the
   pendulum uses it (M = c / w^2: an error e gives e in M).
@@ -16,24 +15,28 @@ Each perturbed experiment is identified twice: with the constants stated as exac
 the user's belief) and with the error's size stated as their std (``stiffness_std``,
 ``torque_gain_std``, ``tare_inertia_std``), which the best-practice pendulum and RSP carry
 into their stds (the naive pendulum has no such term). The rows give each method's worst
-relative J_k error and worst |err|/std; :func:`sensitivity_report` the Markdown section and the
-PNG.
+relative J_k error and worst |err|/std; :func:`sensitivity_table` and
+:func:`sensitivity_figure` show them.
 """
 
 from __future__ import annotations
 
 import tempfile
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
-import tomlkit
 from threadpoolctl import threadpool_limits
 
+from benchmarks.cases import Case, code_fingerprint, configure
+from benchmarks.experiments import vary, with_stages
+from benchmarks.protocol import fit_protocol
+from benchmarks.tables import fmt, new_figure, table_lines
+from benchmarks.truth import relative_errors
 from rsp_inertia.pipeline import create_default_experiment, identify, program, simulate
+from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
-from rsp_inertia.plant.logs import write_atomic
 
 __all__ = [
     "SENSITIVITY_METHODS",
@@ -58,7 +61,10 @@ SENSITIVITY_METHODS = {
     "node": "RSP node formula",
     "ls": "RSP least squares",
 }
-"""The methods compared (row-key suffixes of rsp_inertia.bench)."""
+"""The methods compared (row-key suffixes of benchmarks.truth.METHODS)."""
+
+BASE_CASE = Case(1.0, 16, 0)
+"""The case every perturbation starts from."""
 
 
 @dataclass(frozen=True, order=True)
@@ -81,19 +87,10 @@ def default_perturbations() -> list[Perturbation]:
     ]
 
 
-def _edit(path: Path, edit) -> None:
-    doc = tomlkit.parse(path.read_text())
-    edit(doc)
-    write_atomic(path, tomlkit.dumps(doc))
-
-
 def run_perturbation(p: Perturbation) -> dict:
-    """The default experiment with one constant off (module docstring), identified with the
+    """The default case with one constant off (module docstring), identified with the
     constants stated exact (keys ``<kind>_Jk_<method>``) and with their errors stated as stds
-    (``<kind>_Jk_<method>_stated``), kinds err, std, z as in rsp_inertia.bench."""
-    # Imported here: rsp_inertia.bench imports this module for its report.
-    from rsp_inertia.bench import code_fingerprint
-
+    (``<kind>_Jk_<method>_stated``), kinds err, std, z as in benchmarks.truth."""
     if p.source not in ("none", *SIZES):
         raise InputError(f"sensitivity: unknown source {p.source!r}")
     row: dict = {"case": p.name, **asdict(p), "code": code_fingerprint(), "error": None}
@@ -106,53 +103,57 @@ def run_perturbation(p: Perturbation) -> dict:
 
 def _run(p: Perturbation, row: dict) -> None:
     """:func:`run_perturbation`'s work, into ``row``."""
-    from rsp_inertia.bench import Case, _configure, _fit_protocol, _relative_errors
-
     with threadpool_limits(limits=1), tempfile.TemporaryDirectory(prefix="rsp-sens-") as tmp:
         root = Path(tmp) / p.name
         create_default_experiment(root)
-        _configure(root, Case(1.0, 16, 0))
+        configure(root, BASE_CASE)
         if p.source == "torque_gain":
-            _edit(root / "virtual.toml",
-                  lambda doc: doc.add("rig", tomlkit.table().add("torque_gain", 1.0 + p.size)))
+            vary(root, virtual=lambda v: replace(v, rig=replace(v.rig, torque_gain=1.0 + p.size)))
         stages = open_experiment(root).stages()
         for stage in stages:
-            _fit_protocol(root, stage)
+            fit_protocol(root, stage)
             program(root, stage)
             simulate(root, stage, "reverse")
         simulate(root, part="pendulum")
-        if p.source == "stiffness":
-            _edit(root / "device.toml",
-                  lambda doc: doc["pendulum"].__setitem__(
-                      "stiffness", doc["pendulum"]["stiffness"] * (1.0 + p.size)))
-        if p.source == "tare":
-            def scale_tares(doc):
-                for table in doc["stage"]:
-                    table["tare_inertia"] = table["tare_inertia"] * (1.0 + p.size)
-            _edit(root / "device.toml", scale_tares)
+        if p.source in ("stiffness", "tare"):
+            vary(root, device=lambda d: _stated_off(d, p))
         for suffix in ("", "_stated"):
             if suffix:
-                _edit(root / "device.toml", lambda doc: _state_stds(doc, p))
+                vary(root, device=lambda d: _stated_stds(d, p))
             exp = open_experiment(root)
             result = identify(root)
-            errors = _relative_errors(result, exp.load_virtual(), exp.device)
+            errors = relative_errors(result, exp.load_virtual().body, exp.device)
             row.update({f"{k}{suffix}": v for k, v in errors.items()
                         if k.endswith(tuple(SENSITIVITY_METHODS))})
             row[f"warnings{suffix}"] = "; ".join(result.warnings)
 
 
-def _state_stds(doc, p: Perturbation) -> None:
+def _stated_off(device: Device, p: Perturbation) -> Device:
+    """device.toml's pendulum stiffness or tares (1 + size) times the true ones (the runs are
+    made: only what identify reads changes)."""
+    if p.source == "stiffness":
+        pendulum = device.pendulum
+        return replace(device, pendulum=replace(
+            pendulum, stiffness=pendulum.stiffness * (1.0 + p.size)
+        ))
+    return with_stages(device, lambda st: replace(
+        st, tare_inertia=st.tare_inertia * (1.0 + p.size)
+    ))
+
+
+def _stated_stds(device: Device, p: Perturbation) -> Device:
     """device.toml's std keys set to the perturbation's size (0 for the other constants)."""
     size = {source: (p.size if source == p.source else 0.0) for source in SIZES}
-    doc["pendulum"]["stiffness_std"] = size["stiffness"] * doc["pendulum"]["stiffness"]
-    doc["motor"]["torque_gain_std"] = size["torque_gain"]
-    for table in doc["stage"]:
-        # The true tare is the stated one over (1 + e): its error is e / (1 + e) of the stated.
-        table["tare_inertia_std"] = size["tare"] / (1.0 + size["tare"]) * table["tare_inertia"]
-
-
-def _fmt(value, spec=".1e") -> str:
-    return "-" if value is None else format(value, spec)
+    pendulum = device.pendulum
+    device = replace(
+        device,
+        pendulum=replace(pendulum, stiffness_std=size["stiffness"] * pendulum.stiffness),
+        motor=replace(device.motor, torque_gain_std=size["torque_gain"]),
+    )
+    # The true tare is the stated one over (1 + e): its error is e / (1 + e) of the stated.
+    return with_stages(device, lambda st: replace(
+        st, tare_inertia_std=size["tare"] / (1.0 + size["tare"]) * st.tare_inertia
+    ))
 
 
 def sensitivity_table(rows: list[dict]) -> str:
@@ -161,15 +162,15 @@ def sensitivity_table(rows: list[dict]) -> str:
     head = ["constant off", "by"]
     head += [f"{name} J_k err" for name in SENSITIVITY_METHODS.values()]
     head += [f"{name} err/std (exact / std stated)" for name in SENSITIVITY_METHODS.values()]
-    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    lines = table_lines(head, [])
     for row in sorted(rows, key=lambda r: (r["source"] != "none", r["source"], r["size"])):
         if row.get("error"):
             lines.append(f"| {row['source']} | {row['size']:.1%} | failed: {row['error']} |")
             continue
         cells = [row["source"], f"{row['size']:.1%}"]
-        cells += [_fmt(row.get(f"err_Jk_{k}")) for k in SENSITIVITY_METHODS]
+        cells += [fmt(row.get(f"err_Jk_{k}")) for k in SENSITIVITY_METHODS]
         cells += [
-            f"{_fmt(row.get(f'z_Jk_{k}'), '.1f')} / {_fmt(row.get(f'z_Jk_{k}_stated'), '.1f')}"
+            f"{fmt(row.get(f'z_Jk_{k}'), '.1f')} / {fmt(row.get(f'z_Jk_{k}_stated'), '.1f')}"
             for k in SENSITIVITY_METHODS
         ]
         lines.append("| " + " | ".join(cells) + " |")
@@ -178,16 +179,11 @@ def sensitivity_table(rows: list[dict]) -> str:
 
 def sensitivity_figure(rows: list[dict], path: Path, command: str) -> None:
     """PNG: per constant, each method's worst J_k error against the constant's error."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
     from rsp_inertia.plots import save_figure
 
     ok = [r for r in rows if not r.get("error")]
     base = next((r for r in ok if r["source"] == "none"), None)
-    fig = Figure(figsize=(4.2 * len(SIZES) + 1.0, 4.2), layout="constrained")
-    FigureCanvasAgg(fig)
-    axes = fig.subplots(1, len(SIZES), sharey=True, squeeze=False)[0]
+    fig, axes = new_figure(len(SIZES), 4.2)
     labels = {"stiffness": "pendulum stiffness", "torque_gain": "torque gain", "tare": "tare"}
     for ax, source in zip(axes, SIZES, strict=True):
         mine = sorted((r for r in ok if r["source"] == source), key=lambda r: r["size"])

@@ -1,0 +1,30 @@
+"""Benchmarks of rsp-inertia on its virtual device, run from the repository root.
+
+Programs (``python -m benchmarks.<name>``; each writes its results into benchmarks/results/
+with the command that made it):
+
+- ``sweep``: accuracy and speed of RSP against the torsion pendulum over friction x encoder
+  bits x centre-of-mass offsets x seeds, and the sensitivity to calibration errors
+  (``make bench``) -> accuracy.md, accuracy.png, speed.md, sensitivity.png;
+- ``identification``: identification alone, on the ideal reverse -> identification.md;
+- ``program``: torque program and closed loop under model errors -> program.md;
+- ``plan``: pilot, plan, program, closed loop, identify -> plan.md;
+- ``systematics``: rig imperfections, before and after calibration -> systematics.md;
+- ``real_logs``: jittered, lossy, wrapping logs against clean ones -> real_logs.md.
+
+Shared modules: :mod:`benchmarks.experiments` (variants of the default experiment through
+the config dataclasses), :mod:`benchmarks.truth` (errors against the virtual device's
+truth), :mod:`benchmarks.tables` (Markdown tables, figures, command lines). The sweep's own
+parts: :mod:`benchmarks.cases` (one case end to end), :mod:`benchmarks.protocol` (a case's
+launch speed and braking torque), :mod:`benchmarks.sensitivity`, :mod:`benchmarks.scheduling`
+(local processes or Dask, resumable case files), :mod:`benchmarks.accuracy` and
+:mod:`benchmarks.report` (its tables and files).
+
+This package is not part of the installed ``rsp_inertia``: it imports the library, never the
+other way round.
+"""
+
+from pathlib import Path
+
+RESULTS = Path(__file__).parent / "results"
+"""benchmarks/results/: where every program writes by default."""
