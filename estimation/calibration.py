@@ -30,17 +30,14 @@ cancels within each run).
 
 from __future__ import annotations
 
-import hashlib
 import math
-import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
 from rsp_inertia.estimation.gls import BalanceFit, Block, ModelTest, model_warnings, solve_blocks
-from rsp_inertia.estimation.runs import run_balances
+from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs
 from rsp_inertia.estimation.stiffness import StiffnessCalibration, calibrate_stiffness
 from rsp_inertia.estimation.tensor import (
     KnownTerms,
@@ -49,27 +46,18 @@ from rsp_inertia.estimation.tensor import (
     run_columns,
     run_label,
 )
-from rsp_inertia.plant.config import Device, TrueBody, load_reference
+from rsp_inertia.plant.config import Device, TrueBody
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.experiment import Experiment
 from rsp_inertia.plant.model import inertia_basis, inertia_harmonics
 
 __all__ = [
-    "CALIBRATION_FILE",
-    "REFERENCE_FILE",
     "Calibration",
-    "calibrate",
-    "calibrated_stiffness",
-    "check_same_stages",
-    "known_terms",
-    "load_calibration",
+    "calibrate_logs",
+    "device_known_terms",
+    "fit_calibration",
+    "known_terms_from_toml",
+    "stiffness_from_toml",
 ]
-
-CALIBRATION_FILE = "calibration.toml"
-"""Written into the experiment folder by ``rsp-inertia calibrate``, read by identify."""
-
-REFERENCE_FILE = "reference.toml"
-"""The reference body's known data, in the reference experiment's folder."""
 
 STIFFNESS_CHI2_WARN = 4.0
 """chi^2/dof of the nodes' pendulum stiffnesses above which calibrate warns."""
@@ -201,33 +189,6 @@ def _toml_list(values) -> str:
     return "[" + ", ".join(repr(float(v)) for v in values) + "]"
 
 
-def check_same_stages(exp: Experiment, other: Experiment, role: str) -> None:
-    """Raise InputError unless ``other`` has ``exp``'s stages (gear ratios and nodes)."""
-    mine, theirs = exp.device.stages, other.device.stages
-    where = other.root / "device.toml"
-    if len(theirs) != len(mine):
-        raise InputError(
-            f"{where}: the {role} experiment has {len(theirs)} stage(s), {exp.root} has "
-            f"{len(mine)}: calibration runs need the same stages"
-        )
-    for k, (a, b) in enumerate(zip(mine, theirs), 1):
-        if not math.isclose(a.gear_ratio, b.gear_ratio, rel_tol=1e-9, abs_tol=1e-12):
-            raise InputError(
-                f"{where}: stage[{k}].gear_ratio = {b.gear_ratio!r} differs from "
-                f"{exp.root / 'device.toml'}'s {a.gear_ratio!r}"
-            )
-        if tuple(a.nodes_deg) != tuple(b.nodes_deg):
-            raise InputError(
-                f"{where}: stage[{k}].nodes_deg = {list(b.nodes_deg)} differs from "
-                f"{exp.root / 'device.toml'}'s {list(a.nodes_deg)}"
-            )
-    if other.device.encoder.counts_per_rev != exp.device.encoder.counts_per_rev:
-        raise InputError(
-            f"{where}: encoder.counts_per_rev differs from {exp.root / 'device.toml'}'s: "
-            "calibration runs must be made on the same device"
-        )
-
-
 def _blocks(device: Device, balances, role: str, reference: TrueBody | None, has_gain: bool):
     """The calibration equations of one experiment's runs (module docstring)."""
     both = both_directions(balances)
@@ -310,58 +271,41 @@ def fit_calibration(
     return known, fit
 
 
-def _sha256(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
-
-
-def calibrate(
-    exp: Experiment,
-    empty: Experiment,
-    reference: Experiment | None = None,
+def calibrate_logs(
+    device: Device,
+    empty: ExperimentLogs,
+    reference: ExperimentLogs | None = None,
+    reference_body: TrueBody | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> Calibration:
-    """Calibrate ``exp``'s rig from the empty-fixture and reference experiments.
+    """Calibrate the rig of ``device`` from the empty-fixture and reference experiments' logs.
+
+    ``reference_body``: the reference experiment's known body (reference.toml), with
+    ``reference``. The torsion stiffness comes from the nodes with a pendulum log in both.
+    ``inputs`` is left empty: the reader of the files records them.
 
     Raises
     ------
     InputError
-        A calibration folder whose stages differ from ``exp``'s, a missing or unphysical
-        reference.toml, bad logs.
+        Bad logs; a pendulum run the best-practice fit cannot take.
     """
-    check_same_stages(exp, empty, "empty")
-    body = None
-    if reference is not None:
-        check_same_stages(exp, reference, "reference")
-        body = load_reference(reference.root / REFERENCE_FILE)
     warnings: list[str] = []
-    empty_bal, _ = run_balances(empty, warnings, progress)
+    empty_bal, _ = balance_runs(empty, warnings, progress)
     ref_bal = None
     if reference is not None:
-        ref_bal, _ = run_balances(reference, warnings, progress)
-    known, fit = fit_calibration(exp.device, empty_bal, ref_bal, body)
+        ref_bal, _ = balance_runs(reference, warnings, progress)
+    known, fit = fit_calibration(device, empty_bal, ref_bal, reference_body)
     warnings += model_warnings(fit.tests, fit.scales, fit.labels)
     stiffness = None
     if reference is not None:
         stiffness = calibrate_stiffness(
-            empty, reference, body, known.gravity, known.cov[-2:, -2:], known.inertia
+            empty, reference, reference_body, known.gravity, known.cov[-2:, -2:], known.inertia
         )
         if stiffness is not None and stiffness.chi2_dof > STIFFNESS_CHI2_WARN:
             warnings.append(
                 f"pendulum stiffness: the nodes' values disagree beyond their stds (chi2/dof "
                 f"{stiffness.chi2_dof:.1f}); its std is scaled up to their scatter"
             )
-    inputs = {}
-    for folder in [empty] + ([reference] if reference is not None else []):
-        files = [folder.root / "device.toml"]
-        if folder is reference:
-            files.append(folder.root / REFERENCE_FILE)
-        for stage, st in enumerate(folder.device.stages, 1):
-            for direction in st.directions:
-                files += [folder.braking_path(stage, direction), folder.reverse_path(stage, direction)]
-        inputs.update({str(path): _sha256(path) for path in files})
-    if stiffness is not None:
-        inputs.update({path: _sha256(Path(path)) for path in stiffness.paths})
-    device = exp.device
     return Calibration(
         device_name=device.name,
         counts_per_rev=device.encoder.counts_per_rev,
@@ -369,7 +313,6 @@ def calibrate(
         nodes_deg=tuple(tuple(st.nodes_deg) for st in device.stages),
         known=known,
         reference=reference is not None,
-        inputs=inputs,
         chi2_dof=fit.chi2_dof,
         tests=fit.tests,
         warnings=warnings,
@@ -377,23 +320,16 @@ def calibrate(
     )
 
 
-def load_calibration(exp: Experiment) -> KnownTerms | None:
-    """``EXP/calibration.toml`` as KnownTerms, checked to be made for this device; None if absent.
+def known_terms_from_toml(doc: dict, device: Device, source: str) -> KnownTerms:
+    """A calibration.toml document (parsed TOML) as KnownTerms, checked to be made for
+    ``device``; ``source`` names the file in messages.
 
     Raises
     ------
     InputError
-        A malformed file, or one made for another device (name, encoder or stages differ).
+        A malformed document, or one made for another device (name, encoder or stages differ).
     """
-    path = exp.root / CALIBRATION_FILE
-    if not path.is_file():
-        return None
-    try:
-        with open(path, "rb") as file:
-            doc = tomllib.load(file)
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as error:
-        raise InputError(f"{path}: cannot read as TOML: {' '.join(str(error).split())}") from None
-    device = exp.device
+    path = source
     try:
         head = doc["calibration"]
         stages = doc["stage"]
@@ -436,35 +372,35 @@ def load_calibration(exp: Experiment) -> KnownTerms | None:
     return KnownTerms(1.0 / gain, inertia, gravity, cov, calibrated=True)
 
 
-def calibrated_stiffness(exp: Experiment) -> tuple[float, float] | None:
-    """(c, std), N m/rad, of calibration.toml's ``[pendulum]`` when it has one (checked to be
-    made for this device, :func:`load_calibration`); None otherwise."""
-    if load_calibration(exp) is None:
-        return None
-    path = exp.root / CALIBRATION_FILE
-    with open(path, "rb") as file:
-        table = tomllib.load(file).get("pendulum")
+def stiffness_from_toml(doc: dict, source: str) -> tuple[float, float] | None:
+    """(c, std), N m/rad, of a calibration.toml document's ``[pendulum]``; None without one.
+
+    Raises
+    ------
+    InputError
+        A malformed ``[pendulum]`` table (``source`` names the file).
+    """
+    table = doc.get("pendulum")
     if table is None:
         return None
     try:
         c, std = float(table["stiffness"]), float(table["stiffness_std"])
     except (KeyError, TypeError, ValueError) as error:
-        raise InputError(f"{path}: pendulum: malformed ({error!r})") from None
+        raise InputError(f"{source}: pendulum: malformed ({error!r})") from None
     if not (c > 0 and std >= 0):
-        raise InputError(f"{path}: pendulum: stiffness must be > 0 and its std >= 0")
+        raise InputError(f"{source}: pendulum: stiffness must be > 0 and its std >= 0")
     return c, std
 
 
-def known_terms(exp: Experiment) -> tuple[KnownTerms, list[str]]:
-    """The rig's known terms for identify: calibration.toml, else device.toml's tares.
+def device_known_terms(
+    device: Device, calibration_source: str = "calibration.toml"
+) -> tuple[KnownTerms, list[str]]:
+    """The rig's known terms without a calibration: device.toml's tares and a torque gain of 1.
 
-    Without a calibration the tares are taken as exact and the torque gain as 1, unless
-    device.toml states their uncertainty; the warnings say when neither is the case.
+    They are taken as exact unless device.toml states their uncertainty
+    (``tare_inertia_std`` of every stage and ``torque_gain_std``); the warning, naming the
+    missing calibration ``calibration_source``, says when it does not.
     """
-    calibrated = load_calibration(exp)
-    if calibrated is not None:
-        return calibrated, []
-    device = exp.device
     known = KnownTerms.from_tares([st.tare_inertia for st in device.stages])
     tare_std = [st.tare_inertia_std for st in device.stages]
     gain_std = device.motor.torque_gain_std
@@ -476,8 +412,18 @@ def known_terms(exp: Experiment) -> tuple[KnownTerms, list[str]]:
         stated = any(v > 0 for v in tare_std) or gain_std > 0
         return KnownTerms(1.0, known.inertia, known.gravity, cov, calibrated=stated), []
     warning = (
-        f"{exp.root / CALIBRATION_FILE}: not found, and device.toml states no tare_inertia_std "
+        f"{calibration_source}: not found, and device.toml states no tare_inertia_std "
         "and torque_gain_std: the tares of device.toml and a torque gain of 1 are taken as "
         "exact, and their errors are not in the stds (calibrate with rsp-inertia calibrate)"
     )
     return known, [warning]
+
+
+def __getattr__(name: str):
+    """``known_terms``, the known terms of an experiment folder, is
+    rsp_inertia.estimation.reading's; benchmarks/cases.py still imports it from here."""
+    if name == "known_terms":
+        from rsp_inertia.estimation.reading import known_terms
+
+        return known_terms
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

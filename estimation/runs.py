@@ -1,20 +1,65 @@
-"""The runs of an experiment: which (stage, direction) pairs it has, and their passes read.
+"""The runs of an experiment: which (stage, direction) pairs it has, and their passes estimated.
 
 A run is one stage in one direction of rotation (device.toml ``[[stage]] directions``): its
 braking log and its reverse log. A backward run is mirrored into the forward coordinate
 (rsp_inertia.estimation.balance mirror_log), so everything downstream treats it as a forward run.
+
+The estimators take an experiment's logs in memory (:class:`ExperimentLogs`), named for their
+messages by :class:`Sources`; rsp_inertia.estimation.reading reads them from a folder.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 
 from rsp_inertia.estimation.balance import StageBalance, mirror_log, stage_balance
 from rsp_inertia.estimation.passes import PassEstimate, check_braking_monotone, estimate_pass
 from rsp_inertia.estimation.smoothing import Smoothed
 from rsp_inertia.plant.config import Device
-from rsp_inertia.plant.experiment import Experiment
-from rsp_inertia.plant.logs import Log, align_counter, read_log
+from rsp_inertia.plant.logs import Log
 
-__all__ = ["estimate_run", "read_run", "run_balances", "runs"]
+__all__ = ["ExperimentLogs", "Sources", "balance_runs", "estimate_run", "runs"]
+
+
+@dataclass(frozen=True)
+class Sources:
+    """What the messages call an experiment's inputs: a reader's file paths, or labels."""
+
+    experiment: str | None = None
+    """The experiment's name, prefixing the progress line of each run (None: no prefix)."""
+    device: str = "device.toml"
+    """The device description."""
+    runs: Mapping[tuple[int, str], tuple[str, str]] = field(default_factory=dict)
+    """(stage, direction) -> the braking log's and the reverse log's names."""
+    pendulum: Mapping[tuple[int, int], str] = field(default_factory=dict)
+    """(stage, node from 1) -> the torsion-pendulum log's name."""
+
+    def run(self, stage: int, direction: str) -> tuple[str, str]:
+        """The names of one run's braking and reverse logs ("stage N direction braking" and
+        "... reverse" when not given)."""
+        label = f"stage {stage} {direction}"
+        return self.runs.get((stage, direction), (f"{label} braking", f"{label} reverse"))
+
+    def pendulum_log(self, stage: int, node: int) -> str:
+        """The name of the pendulum log of ``stage`` at node ``node`` (from 1)."""
+        return self.pendulum.get((stage, node), f"stage {stage} pendulum at node {node}")
+
+
+@dataclass(frozen=True)
+class ExperimentLogs:
+    """An experiment's logs in memory: what the estimators take instead of a folder."""
+
+    device: Device
+    """The device (device.toml)."""
+    runs: Mapping[tuple[int, str], tuple[Log, Log]]
+    """(stage, direction) -> (braking log, reverse log) of every run of the device, as logged
+    (a backward run not mirrored; the reverse's counter continuing the braking's,
+    rsp_inertia.plant.logs.align_counter)."""
+    pendulum: Mapping[tuple[int, int], Log] = field(default_factory=dict)
+    """(stage, node from 1) -> torsion-pendulum log, for the nodes that have one."""
+    sources: Sources = field(default_factory=Sources)
+    """The names messages give the inputs."""
 
 
 def runs(device: Device) -> list[tuple[int, str]]:
@@ -24,22 +69,6 @@ def runs(device: Device) -> list[tuple[int, str]]:
         for stage, st in enumerate(device.stages, 1)
         for direction in st.directions
     ]
-
-
-def read_run(
-    exp: Experiment, stage: int, direction: str, warnings: list[str]
-) -> tuple[PassEstimate, PassEstimate]:
-    """Both passes of one run, read, checked and estimated (a backward run mirrored)."""
-    device = exp.device
-    b_path = exp.braking_path(stage, direction)
-    r_path = exp.reverse_path(stage, direction)
-    braking = read_log(b_path, device.encoder, "braking", direction)
-    # The reverse starts where the braking stopped: one counter, one angle.
-    reverse = align_counter(
-        read_log(r_path, device.encoder, "reverse", direction), float(braking.phi[-1]),
-        device.encoder,
-    )
-    return estimate_run(device, braking, reverse, direction, warnings, str(b_path), str(r_path))
 
 
 def estimate_run(
@@ -78,20 +107,39 @@ def estimate_run(
     return b_est, r_est
 
 
-def run_balances(
-    exp: Experiment, warnings: list[str], progress=None
+def balance_runs(
+    logs: ExperimentLogs,
+    warnings: list[str],
+    progress: Callable[[str], None] | None = None,
 ) -> tuple[list[StageBalance], list[tuple[int, int, PassEstimate, PassEstimate]]]:
-    """Every run's balance equations (rsp_inertia.estimation.balance), and its passes for the node formula
-    as (stage, sign, braking, reverse), sign +1 forward and -1 backward."""
+    """Every run's balance equations (rsp_inertia.estimation.balance), in the device's order of
+    runs, and its passes for the node formula as (stage, sign, braking, reverse), sign +1
+    forward and -1 backward.
+
+    Raises
+    ------
+    ValueError
+        ``logs.runs`` lacks a run of the device or has one the device does not make.
+    """
+    device = logs.device
+    expected = runs(device)
+    if set(logs.runs) != set(expected):
+        raise ValueError(
+            f"the runs given {sorted(logs.runs)} are not the device's {expected}"
+        )
+    prefix = "" if logs.sources.experiment is None else f"{logs.sources.experiment}: "
     balances, passes = [], []
-    for stage, direction in runs(exp.device):
-        b_est, r_est = read_run(exp, stage, direction, warnings)
+    for stage, direction in expected:
+        braking, reverse = logs.runs[stage, direction]
+        b_est, r_est = estimate_run(
+            device, braking, reverse, direction, warnings, *logs.sources.run(stage, direction)
+        )
         sign = 1 if direction == "forward" else -1
-        balances.append(stage_balance(exp.device, stage, b_est, r_est, sign))
+        balances.append(stage_balance(device, stage, b_est, r_est, sign))
         passes.append((stage, sign, b_est, r_est))
         if progress is not None:
             progress(
-                f"{exp.root}: stage {stage} {direction}: {len(b_est.log)} + {len(r_est.log)} "
+                f"{prefix}stage {stage} {direction}: {len(b_est.log)} + {len(r_est.log)} "
                 "rows smoothed and balanced"
             )
     return balances, passes

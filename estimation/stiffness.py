@@ -38,10 +38,9 @@ from rsp_inertia.estimation.pendulum import (
     gravity_stiffness,
     half_cycle_fit,
 )
+from rsp_inertia.estimation.runs import ExperimentLogs
 from rsp_inertia.plant.config import TrueBody
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.experiment import Experiment
-from rsp_inertia.plant.logs import read_log
 from rsp_inertia.plant.model import inertia_basis, inertia_harmonics
 
 __all__ = ["StiffnessCalibration", "calibrate_stiffness"]
@@ -60,16 +59,15 @@ class StiffnessCalibration:
     chi2_dof: float
     """Of the nodes' c about their mean (NaN with one node)."""
     paths: list[str]
-    """The pendulum logs used."""
+    """The pendulum logs used (their names, rsp_inertia.estimation.runs.Sources)."""
 
 
-def _frequency(exp: Experiment, stage: int, k: int) -> tuple[float, float, float]:
-    """(w_n, its std, the equilibrium phi) of ``exp``'s pendulum run at node k (1-based)."""
-    device = exp.device
-    path = exp.pendulum_path(stage, k)
-    log = read_log(path, device.encoder, "pendulum")
-    period, _ = crossing_period(log, str(path))
-    fit = half_cycle_fit(log, period, device.encoder.quantum, str(path))
+def _frequency(logs: ExperimentLogs, stage: int, k: int) -> tuple[float, float, float]:
+    """(w_n, its std, the equilibrium phi) of the pendulum run at node k (1-based) of ``logs``."""
+    log = logs.pendulum[stage, k]
+    source = logs.sources.pendulum_log(stage, k)
+    period, _ = crossing_period(log, source)
+    fit = half_cycle_fit(log, period, logs.device.encoder.quantum, source)
     # The best practice's relative budget of M = 1 / w^2 (unit stiffness, no gravity): a
     # frequency's relative std is half of it.
     b = best_practice_inertia(fit, 1.0, 0.0, fit.centre, np.zeros(2), np.zeros((2, 2)))
@@ -88,15 +86,15 @@ def _two_period(w_e, w_r, Gf, Gr, phi_e, phi_r, d, M_r) -> float:
 
 
 def calibrate_stiffness(
-    empty: Experiment,
-    reference: Experiment,
+    empty: ExperimentLogs,
+    reference: ExperimentLogs,
     body: TrueBody,
     fixture_gravity: np.ndarray,
     fixture_gravity_cov: np.ndarray,
     empty_inertia: np.ndarray,
 ) -> StiffnessCalibration | None:
-    """c from every node that has a pendulum run in both folders (module docstring); None
-    when no node has both.
+    """c from every node that has a pendulum log in both experiments (module docstring); None
+    when no node has both or the empty experiment's device has no ``[pendulum]`` table.
 
     ``fixture_gravity`` [Gs, Gc] (N m) with its covariance and ``empty_inertia`` (stages, 5)
     harmonics are the RSP calibration's.
@@ -116,9 +114,9 @@ def calibrate_stiffness(
     for stage, st in enumerate(device.stages, 1):
         ref_harmonics = inertia_harmonics(body.inertia, st.gear_ratio, 0.0)
         for k, node_deg in enumerate(st.nodes_deg, 1):
-            pair = [folder.pendulum_path(stage, k) for folder in (empty, reference)]
-            if not all(path.is_file() for path in pair):
+            if not all((stage, k) in logs.pendulum for logs in (empty, reference)):
                 continue
+            pair = [logs.sources.pendulum_log(stage, k) for logs in (empty, reference)]
             w_e, s_e, phi_e = _frequency(empty, stage, k)
             w_r, s_r, phi_r = _frequency(reference, stage, k)
             if not w_r < w_e:
@@ -150,7 +148,7 @@ def calibrate_stiffness(
             values.append(c)
             variances.append(var)
             per_node.append((stage, node_deg, c, math.sqrt(var)))
-            paths += [str(path) for path in pair]
+            paths += pair
     if not values:
         return None
     values, variances = np.array(values), np.array(variances)

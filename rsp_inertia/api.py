@@ -36,7 +36,7 @@ if TYPE_CHECKING:
 
     from rsp_inertia.checking import CheckReport
     from rsp_inertia.estimation.calibration import Calibration
-    from rsp_inertia.estimation.identify import AxisResult, Identification
+    from rsp_inertia.estimation.results import AxisResult, Identification
     from rsp_inertia.pipeline import PassSummary, ProgramSummary
     from rsp_inertia.planning import PlanReport
 
@@ -140,7 +140,7 @@ class IdentifyResult:
         m, ``[x_c, y_c]`` of the centre of mass, when device.toml gives ``[body] mass``.
     com_std : numpy.ndarray, shape (2,), or None
         m.
-    axes : tuple of rsp_inertia.estimation.identify.AxisResult
+    axes : tuple of rsp_inertia.estimation.results.AxisResult
         One per node of every stage: ``stage``, ``phi_deg``, the unit ``direction`` (3,),
         and the axial moment ``J`` (least squares), ``J_node`` (node formula), ``J_plain``
         (the paper's formula), each with its ``_std``, in kg m^2.
@@ -156,7 +156,7 @@ class IdentifyResult:
     truth : numpy.ndarray, shape (6,), or None
         kg m^2, the virtual device's true entries, set by :func:`demo` only (then ``str``
         shows the errors against it).
-    identification : rsp_inertia.estimation.identify.Identification
+    identification : rsp_inertia.estimation.results.Identification
         Everything identify found (node formula, pendulum baseline, uncertainty budget,
         model tests, friction asymmetry, ...).
 

@@ -259,7 +259,7 @@ def _check_pendulum(exp, report: CheckReport) -> None:
 
 def _check_constants(exp, report: CheckReport) -> None:
     """What identify will take as known: calibration.toml, or device.toml's stated stds."""
-    from rsp_inertia.estimation.calibration import (
+    from rsp_inertia.estimation.reading import (
         CALIBRATION_FILE,
         calibrated_stiffness,
         load_calibration,

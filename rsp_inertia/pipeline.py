@@ -33,7 +33,7 @@ from rsp_inertia.plant.logs import (
 # identification's modules (scipy.stats, the GLS) nor ``identify`` for the OCP's.
 if TYPE_CHECKING:
     from rsp_inertia.estimation.calibration import Calibration
-    from rsp_inertia.estimation.identify import Identification
+    from rsp_inertia.estimation.results import Identification
     from rsp_inertia.ocp.program import ProgramResult
     from rsp_inertia.plant.virtual import SimulatedPass
 
@@ -404,11 +404,10 @@ def calibrate(
     Nothing is written when an input is bad (stages that differ from EXP's, a missing or
     unphysical reference.toml, bad logs).
     """
-    from rsp_inertia.estimation.calibration import CALIBRATION_FILE
-    from rsp_inertia.estimation.calibration import calibrate as calibrate_rig
+    from rsp_inertia.estimation.reading import CALIBRATION_FILE, calibrate_experiment
 
     exp = open_experiment(root)
-    result = calibrate_rig(
+    result = calibrate_experiment(
         exp,
         open_experiment(empty),
         None if reference is None else open_experiment(reference),
@@ -422,7 +421,7 @@ def identify(
     root: str | Path, progress: Callable[[str], None] | None = None
 ) -> Identification:
     """``rsp-inertia identify``: all stages' logs -> EXP/result.json (written atomically)."""
-    from rsp_inertia.estimation.identify import identify as identify_experiment
+    from rsp_inertia.estimation.reading import identify_experiment
 
     exp = open_experiment(root)
     result = identify_experiment(exp, progress)
@@ -437,7 +436,7 @@ def result_json(result: Identification) -> str:
 
 def format_identification(result: Identification, truth: np.ndarray | None = None) -> str:
     """A short human table of an identification (optionally against a known tensor)."""
-    from rsp_inertia.estimation.identify import ENTRY_NAMES
+    from rsp_inertia.estimation.tensor import ENTRY_KEYS
     from rsp_inertia.plant.geometry import tensor_from_entries
 
     lines = []
@@ -447,7 +446,7 @@ def format_identification(result: Identification, truth: np.ndarray | None = Non
     lines.append(head)
     node_std = np.sqrt(np.diag(result.node_entries_cov))
     scale = None if truth is None else np.abs(np.linalg.eigvalsh(tensor_from_entries(truth))).max()
-    for k, name in enumerate(ENTRY_NAMES):
+    for k, name in enumerate(ENTRY_KEYS):
         row = (
             f"{name:5} {result.entries[k]:14.8f} +- {result.entries_std[k]:8.1e}"
             f" {result.node_entries[k]:14.8f} +- {node_std[k]:8.1e}"
@@ -623,7 +622,7 @@ def demo(
     (its warnings and error shown); ``calibrate``; the identification, printed
     against the virtual device's true tensor, with figures.
     """
-    from rsp_inertia.estimation.calibration import CALIBRATION_FILE
+    from rsp_inertia.estimation.reading import CALIBRATION_FILE
     from rsp_inertia.plant.geometry import tensor_from_entries
 
     say = progress or (lambda _text: None)

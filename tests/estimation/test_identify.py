@@ -8,6 +8,7 @@ issue's accuracy targets.
 """
 
 import dataclasses
+import io
 import json
 import math
 import shutil
@@ -15,7 +16,11 @@ import shutil
 import numpy as np
 import pytest
 
+from rsp_inertia.estimation.calibration import device_known_terms
+from rsp_inertia.estimation.identify import identify_logs
+from rsp_inertia.estimation.runs import ExperimentLogs
 from rsp_inertia.pipeline import create_default_experiment, identify, simulate
+from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.logs import read_log, write_log
 from tests.estimation.conftest import tensor
@@ -51,6 +56,28 @@ def ideal(tmp_path_factory):
     result = identify(root)
     exp = open_experiment(root)
     return root, result, exp.load_virtual()
+
+
+def test_identify_logs_takes_the_logs_in_memory(ideal, monkeypatch):
+    """identify_logs on the simulator's logs, handed over in memory with no file opened, is
+    what identify finds from the folder the same simulator wrote."""
+    root, result, virtual = ideal
+    device = open_experiment(root).device
+    runs = {}
+    for stage in (1, 2):
+        braking = vd.simulate_braking(device, stage, virtual)
+        reverse = vd.simulate_ideal_reverse(device, stage, virtual, braking)
+        runs[stage, "forward"] = (braking.log, reverse.log)
+    known, warnings = device_known_terms(device)
+
+    def no_file(*args, **kwargs):
+        raise AssertionError(f"identify_logs opened {args[:1]}")
+
+    monkeypatch.setattr("builtins.open", no_file)
+    monkeypatch.setattr(io, "open", no_file)
+    in_memory = identify_logs(ExperimentLogs(device, runs), known, warnings=warnings)
+    monkeypatch.undo()
+    assert in_memory.to_json() == result.to_json()
 
 
 def test_axial_moments_are_the_true_ones(ideal):

@@ -8,10 +8,12 @@ import math
 import numpy as np
 import pytest
 
+from rsp_inertia.estimation.runs import ExperimentLogs
 from rsp_inertia.estimation.stiffness import _two_period, calibrate_stiffness
 from rsp_inertia.pipeline import create_rig_experiment, simulate
 from rsp_inertia.plant.config import load_reference
 from rsp_inertia.plant.experiment import open_experiment
+from rsp_inertia.plant.logs import read_log
 from rsp_inertia.plant.virtual import true_parameters
 
 
@@ -46,6 +48,19 @@ def rig(tmp_path_factory):
     return open_experiment(empty), open_experiment(reference)
 
 
+def _pendulum_logs(exp) -> ExperimentLogs:
+    """The pendulum logs of a folder (it has no braking and reverse runs)."""
+    device = exp.device
+    nodes = [(s, k) for s, st in enumerate(device.stages, 1) for k in range(1, len(st.nodes) + 1)]
+    return ExperimentLogs(
+        device=device,
+        runs={},
+        pendulum={
+            (s, k): read_log(exp.pendulum_path(s, k), device.encoder, "pendulum") for s, k in nodes
+        },
+    )
+
+
 def test_calibrated_stiffness_recovers_the_rigs(rig):
     """From the true fixture gravity and empty harmonics (what the RSP calibration gives):
     the rig's true c within 3 of its std and 1e-3, every node's c within 3 of its own std,
@@ -61,7 +76,9 @@ def test_calibrated_stiffness_recovers_the_rigs(rig):
         for s in range(1, len(device.stages) + 1)
     ])
     body = load_reference(reference.root / "reference.toml")
-    cal = calibrate_stiffness(empty, reference, body, G_f, np.zeros((2, 2)), harmonics)
+    cal = calibrate_stiffness(
+        _pendulum_logs(empty), _pendulum_logs(reference), body, G_f, np.zeros((2, 2)), harmonics
+    )
     truth = virtual.rig.pendulum_stiffness
     assert truth == 2.01
     assert len(cal.per_node) == 6

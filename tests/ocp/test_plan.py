@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 
 from rsp_inertia.cli import main
-from rsp_inertia.estimation.identify import identify
 from rsp_inertia.estimation.predict import (
     PlannedPass,
     combine_information,
@@ -18,6 +17,7 @@ from rsp_inertia.estimation.predict import (
     predicted_balance,
     run_information,
 )
+from rsp_inertia.estimation.reading import identify_experiment
 from rsp_inertia.ocp.plan import NOMINAL_COULOMB_SHARE, TORQUE_MARGIN, StageModel, evaluate
 from rsp_inertia.pipeline import create_default_experiment, simulate
 from rsp_inertia.plant.config import load_device, load_virtual
@@ -96,7 +96,7 @@ def test_prediction_matches_identify_on_an_ideal_reverse(tmp_path, paper):
     root = create_default_experiment(tmp_path / "exp")
     simulate(root, part="braking")
     simulate(root, part="reverse", ideal=True)
-    result = identify(open_experiment(root))
+    result = identify_experiment(open_experiment(root))
     infos = []
     for stage in (1, 2):
         model = true_parameters(device, stage, virtual, 1.0)

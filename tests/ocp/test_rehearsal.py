@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from rsp_inertia.cli import main
-from rsp_inertia.estimation.runs import estimate_run, read_run
+from rsp_inertia.estimation.reading import read_run
+from rsp_inertia.estimation.runs import estimate_run
 from rsp_inertia.ocp.plan import StageModel, map_stages
 from rsp_inertia.ocp.program import make_program
 from rsp_inertia.ocp.rehearsal import consistent_models
@@ -84,10 +85,11 @@ def test_estimate_run_reuses_the_programs_smoothing(tmp_path):
     simulate(root, part="braking", stage=1)
     simulate(root, part="reverse", stage=1, ideal=True)
     exp = open_experiment(root)
-    b_read, r_read = read_run(exp, 1, "forward", [])
-    made = make_program(exp.device, 1, b_read.log)
+    braking, reverse = read_run(exp, 1, "forward")
+    b_read, r_read = estimate_run(exp.device, braking, reverse, "forward", [])
+    made = make_program(exp.device, 1, braking)
     b_mem, r_mem = estimate_run(
-        exp.device, b_read.log, r_read.log, "forward", [], braking_smoothed=made.smoothed
+        exp.device, braking, reverse, "forward", [], braking_smoothed=made.smoothed
     )
     np.testing.assert_array_equal(b_mem.smoothed.omega, b_read.smoothed.omega)
     np.testing.assert_array_equal(b_mem.work, b_read.work)

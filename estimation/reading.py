@@ -1,0 +1,266 @@
+"""An experiment folder read for the estimators: its logs, calibration.toml and reference.toml.
+
+The estimators work on data in memory (rsp_inertia.estimation.identify.identify_logs,
+rsp_inertia.estimation.calibration.calibrate_logs). This module is the one of the package
+that opens the files they need: it reads them, names every input by its path for the
+messages (rsp_inertia.estimation.runs.Sources), and calls the estimators.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import hashlib
+import math
+import tomllib
+from collections.abc import Callable, Iterator, Mapping
+from pathlib import Path
+
+import numpy as np
+
+from rsp_inertia.estimation.calibration import (
+    Calibration,
+    calibrate_logs,
+    device_known_terms,
+    known_terms_from_toml,
+    stiffness_from_toml,
+)
+from rsp_inertia.estimation.identify import identify_logs, pendulum_baseline
+from rsp_inertia.estimation.results import Identification, PendulumResult
+from rsp_inertia.estimation.runs import ExperimentLogs, Sources, runs
+from rsp_inertia.estimation.tensor import KnownTerms
+from rsp_inertia.plant.config import load_reference
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.experiment import Experiment
+from rsp_inertia.plant.logs import Log, align_counter, read_log
+
+__all__ = [
+    "CALIBRATION_FILE",
+    "REFERENCE_FILE",
+    "calibrate_experiment",
+    "calibrated_stiffness",
+    "check_same_stages",
+    "identify_experiment",
+    "identify_pendulum",
+    "known_terms",
+    "load_calibration",
+    "read_experiment",
+    "read_run",
+]
+
+CALIBRATION_FILE = "calibration.toml"
+"""Written into the experiment folder by ``rsp-inertia calibrate``, read by identify."""
+
+REFERENCE_FILE = "reference.toml"
+"""The reference body's known data, in the reference experiment's folder."""
+
+
+def read_run(exp: Experiment, stage: int, direction: str) -> tuple[Log, Log]:
+    """One run's braking and reverse logs as logged, the reverse's counter continuing the
+    braking's (rsp_inertia.plant.logs.align_counter)."""
+    encoder = exp.device.encoder
+    braking = read_log(exp.braking_path(stage, direction), encoder, "braking", direction)
+    # The reverse starts where the braking stopped: one counter, one angle.
+    reverse = align_counter(
+        read_log(exp.reverse_path(stage, direction), encoder, "reverse", direction),
+        float(braking.phi[-1]),
+        encoder,
+    )
+    return braking, reverse
+
+
+class _OnDemand(Mapping):
+    """Logs read from their files when first looked up: the estimators take the runs one by
+    one, so a bad log is reported after the runs before it are balanced, as they are listed."""
+
+    def __init__(self, readers: dict[tuple, Callable[[], Log | tuple[Log, Log]]]) -> None:
+        self._readers = readers
+        self._read: dict = {}
+
+    def __getitem__(self, key):
+        if key not in self._read:
+            self._read[key] = self._readers[key]()
+        return self._read[key]
+
+    def __contains__(self, key) -> bool:
+        return key in self._readers
+
+    def __iter__(self) -> Iterator:
+        return iter(self._readers)
+
+    def __len__(self) -> int:
+        return len(self._readers)
+
+
+def read_experiment(exp: Experiment) -> ExperimentLogs:
+    """Every run's logs and every ``stageN/pendulum_kK.csv`` present, named by their paths;
+    each log is read when the estimators first look it up."""
+    device = exp.device
+    keys = runs(device)
+    pendulum = [
+        (stage, k)
+        for stage, st in enumerate(device.stages, 1)
+        for k in range(1, len(st.nodes) + 1)
+        if exp.pendulum_path(stage, k).is_file()
+    ]
+    sources = Sources(
+        experiment=str(exp.root),
+        device=str(exp.root / "device.toml"),
+        runs={
+            (s, d): (str(exp.braking_path(s, d)), str(exp.reverse_path(s, d))) for s, d in keys
+        },
+        pendulum={(s, k): str(exp.pendulum_path(s, k)) for s, k in pendulum},
+    )
+    return ExperimentLogs(
+        device=device,
+        runs=_OnDemand({(s, d): functools.partial(read_run, exp, s, d) for s, d in keys}),
+        pendulum=_OnDemand(
+            {
+                (s, k): functools.partial(
+                    read_log, exp.pendulum_path(s, k), device.encoder, "pendulum"
+                )
+                for s, k in pendulum
+            }
+        ),
+        sources=sources,
+    )
+
+
+def _calibration_document(exp: Experiment) -> dict | None:
+    """``EXP/calibration.toml`` parsed, None if absent."""
+    path = exp.root / CALIBRATION_FILE
+    if not path.is_file():
+        return None
+    try:
+        with open(path, "rb") as file:
+            return tomllib.load(file)
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as error:
+        raise InputError(f"{path}: cannot read as TOML: {' '.join(str(error).split())}") from None
+
+
+def load_calibration(exp: Experiment) -> KnownTerms | None:
+    """``EXP/calibration.toml`` as KnownTerms, checked to be made for this device; None if absent.
+
+    Raises
+    ------
+    InputError
+        A malformed file, or one made for another device (name, encoder or stages differ).
+    """
+    doc = _calibration_document(exp)
+    if doc is None:
+        return None
+    return known_terms_from_toml(doc, exp.device, str(exp.root / CALIBRATION_FILE))
+
+
+def calibrated_stiffness(exp: Experiment) -> tuple[float, float] | None:
+    """(c, std), N m/rad, of calibration.toml's ``[pendulum]`` when it has one (checked to be
+    made for this device, :func:`load_calibration`); None otherwise."""
+    if load_calibration(exp) is None:
+        return None
+    return stiffness_from_toml(_calibration_document(exp), str(exp.root / CALIBRATION_FILE))
+
+
+def known_terms(exp: Experiment) -> tuple[KnownTerms, list[str]]:
+    """The rig's known terms for identify: calibration.toml, else device.toml's
+    (rsp_inertia.estimation.calibration.device_known_terms), with the warnings they give."""
+    calibrated = load_calibration(exp)
+    if calibrated is not None:
+        return calibrated, []
+    return device_known_terms(exp.device, str(exp.root / CALIBRATION_FILE))
+
+
+def identify_experiment(
+    exp: Experiment, progress: Callable[[str], None] | None = None
+) -> Identification:
+    """Identify an experiment folder: its logs, calibration and pendulum runs read, then
+    rsp_inertia.estimation.identify.identify_logs (its errors and warnings name the files)."""
+    known, warnings = known_terms(exp)
+    logs = read_experiment(exp)
+    stiffness = calibrated_stiffness(exp) if logs.pendulum else None
+    return identify_logs(
+        logs, known, pendulum_stiffness=stiffness, warnings=warnings, progress=progress
+    )
+
+
+def identify_pendulum(
+    exp: Experiment,
+    progress: Callable[[str], None] | None = None,
+    known: KnownTerms | None = None,
+    gravity: np.ndarray | None = None,
+    gravity_cov: np.ndarray | None = None,
+    warnings: list[str] | None = None,
+) -> PendulumResult | None:
+    """The torsion-pendulum baseline of an experiment folder's pendulum logs
+    (rsp_inertia.estimation.identify.pendulum_baseline, with calibration.toml's stiffness)."""
+    logs = read_experiment(exp)
+    stiffness = calibrated_stiffness(exp) if logs.pendulum and gravity is not None else None
+    return pendulum_baseline(logs, known, gravity, gravity_cov, stiffness, warnings, progress)
+
+
+def check_same_stages(exp: Experiment, other: Experiment, role: str) -> None:
+    """Raise InputError unless ``other`` has ``exp``'s stages (gear ratios and nodes)."""
+    mine, theirs = exp.device.stages, other.device.stages
+    where = other.root / "device.toml"
+    if len(theirs) != len(mine):
+        raise InputError(
+            f"{where}: the {role} experiment has {len(theirs)} stage(s), {exp.root} has "
+            f"{len(mine)}: calibration runs need the same stages"
+        )
+    for k, (a, b) in enumerate(zip(mine, theirs), 1):
+        if not math.isclose(a.gear_ratio, b.gear_ratio, rel_tol=1e-9, abs_tol=1e-12):
+            raise InputError(
+                f"{where}: stage[{k}].gear_ratio = {b.gear_ratio!r} differs from "
+                f"{exp.root / 'device.toml'}'s {a.gear_ratio!r}"
+            )
+        if tuple(a.nodes_deg) != tuple(b.nodes_deg):
+            raise InputError(
+                f"{where}: stage[{k}].nodes_deg = {list(b.nodes_deg)} differs from "
+                f"{exp.root / 'device.toml'}'s {list(a.nodes_deg)}"
+            )
+    if other.device.encoder.counts_per_rev != exp.device.encoder.counts_per_rev:
+        raise InputError(
+            f"{where}: encoder.counts_per_rev differs from {exp.root / 'device.toml'}'s: "
+            "calibration runs must be made on the same device"
+        )
+
+
+def _sha256(path: str | Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def calibrate_experiment(
+    exp: Experiment,
+    empty: Experiment,
+    reference: Experiment | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> Calibration:
+    """Calibrate ``exp``'s rig from the empty-fixture and reference experiment folders
+    (rsp_inertia.estimation.calibration.calibrate_logs), recording every input file's sha256.
+
+    Raises
+    ------
+    InputError
+        A calibration folder whose stages differ from ``exp``'s, a missing or unphysical
+        reference.toml, bad logs.
+    """
+    check_same_stages(exp, empty, "empty")
+    body = None
+    if reference is not None:
+        check_same_stages(exp, reference, "reference")
+        body = load_reference(reference.root / REFERENCE_FILE)
+    empty_logs = read_experiment(empty)
+    reference_logs = None if reference is None else read_experiment(reference)
+    result = calibrate_logs(exp.device, empty_logs, reference_logs, body, progress)
+    inputs = {}
+    for folder, logs in ((empty, empty_logs), (reference, reference_logs)):
+        if folder is None:
+            continue
+        files = [str(folder.root / "device.toml")]
+        if folder is reference:
+            files.append(str(folder.root / REFERENCE_FILE))
+        for names in logs.sources.runs.values():
+            files += names
+        inputs.update({path: _sha256(path) for path in files})
+    if result.stiffness is not None:
+        inputs.update({path: _sha256(path) for path in result.stiffness.paths})
+    return dataclasses.replace(result, inputs=inputs)
