@@ -43,7 +43,7 @@ from scipy.ndimage import uniform_filter1d
 from rsp_inertia.ocp.reference import Mirror
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.model import MODEL, ModelParameters, motor_torque, static_torque
+from rsp_inertia.plant.model import MODEL, ModelParameters, motor_torque, rk4_step, static_torque
 
 __all__ = ["GRID_STEP", "RHO", "W_PHI", "OcpSolution", "required_torque", "solve_program_ocp"]
 
@@ -108,11 +108,7 @@ def _step_function(h: float) -> ca.Function:
     def rhs(z):
         return ca.vertcat(f(z[:2], z[2], _DIRECTION, MODEL.p), v)
 
-    k1 = rhs(x)
-    k2 = rhs(x + h / 2 * k1)
-    k3 = rhs(x + h / 2 * k2)
-    k4 = rhs(x + h * k3)
-    return ca.Function("F", [x, v, MODEL.p], [x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
+    return ca.Function("F", [x, v, MODEL.p], [rk4_step(rhs, x, h)])
 
 
 @dataclass(frozen=True)

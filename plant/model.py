@@ -28,6 +28,7 @@ Parameter vector p (12 entries, :data:`PARAMETER_NAMES`), all reduced to phi:
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import casadi as ca
@@ -49,6 +50,7 @@ __all__ = [
     "potential",
     "reduced_inertia",
     "reduced_inertia_slope",
+    "rk4_step",
     "spring_parameters",
     "static_torque",
     "torque_regressor",
@@ -248,6 +250,26 @@ class GimbalModel:
 
 MODEL = GimbalModel()
 """The one symbolic model instance every package uses."""
+
+
+def rk4_step(
+    derivative: Callable[[ca.SX], ca.SX], x: ca.SX, h: ca.SX | float, substeps: int = 1
+) -> ca.SX:
+    """x advanced by h: ``substeps`` classical fourth-order Runge-Kutta steps of h / substeps.
+
+    ``derivative(x)`` is dx/dt as a CasADi expression of the state (the model's equation of
+    motion with its inputs held over the step, :meth:`GimbalModel.state_derivative`); the
+    result is an expression in x and h, which the simulator (rsp_inertia.plant.virtual) and the
+    optimal-control problem (rsp_inertia.ocp.feedforward) make into their step functions.
+    """
+    dt = h / substeps
+    for _ in range(substeps):
+        k1 = derivative(x)
+        k2 = derivative(x + dt / 2 * k1)
+        k3 = derivative(x + dt / 2 * k2)
+        k4 = derivative(x + dt * k3)
+        x = x + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    return x
 
 
 def _evaluate(name: str, args: tuple, p: np.ndarray) -> np.ndarray | float:

@@ -45,6 +45,7 @@ from rsp_inertia.plant.model import (
     inertia_harmonics,
     motor_torque,
     reduced_inertia,
+    rk4_step,
     static_torque,
 )
 
@@ -120,15 +121,8 @@ def _build_step(substeps: int = SUBSTEPS) -> ca.Function:
     x = ca.SX.sym("x", 2)
     u, direction, h = ca.SX.sym("u"), ca.SX.sym("direction"), ca.SX.sym("h")
     f = MODEL.state_derivative()
-    dt = h / substeps
-    xk = x
-    for _ in range(substeps):
-        k1 = f(xk, u, direction, MODEL.p)
-        k2 = f(xk + dt / 2 * k1, u, direction, MODEL.p)
-        k3 = f(xk + dt / 2 * k2, u, direction, MODEL.p)
-        k4 = f(xk + dt * k3, u, direction, MODEL.p)
-        xk = xk + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-    return ca.Function("step", [x, u, direction, MODEL.p, h], [xk])
+    end = rk4_step(lambda z: f(z, u, direction, MODEL.p), x, h, substeps)
+    return ca.Function("step", [x, u, direction, MODEL.p, h], [end])
 
 
 _STEP = _build_step()

@@ -3,6 +3,7 @@ derivatives are derivatives, forward and inverse dynamics are one equation, ener
 
 import math
 
+import casadi as ca
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -18,6 +19,7 @@ from rsp_inertia.plant.model import (
     potential,
     reduced_inertia,
     reduced_inertia_slope,
+    rk4_step,
     static_torque,
 )
 
@@ -25,6 +27,7 @@ from rsp_inertia.plant.model import (
 PROPERTY = settings(max_examples=200, deadline=None)
 
 EPS = np.finfo(float).eps
+TINY = np.finfo(float).tiny
 
 unit = st.floats(-1.0, 1.0)
 angles = st.floats(-20.0, 20.0)
@@ -208,10 +211,11 @@ def test_inertia_slope_and_static_torque_are_derivatives(params, phi):
     # harmonics up to 2 phi (f''' <= 8 sum|coefficients|) and a spring c/2 (phi-phi0)^2
     # (f''' = 0, |f| <= c/2 (|phi|+|phi0|)^2). Both are below 1e-9 of the scale.
     # The step is the difference of the representable angles (phi +- h rounds by 4e-10 of h).
+    # TINY keeps a tolerance where the scale is subnormal (1e-9 of it rounds to zero).
     ahead, behind = phi + 1e-5, phi - 1e-5
     dM = (reduced_inertia(ahead, params) - reduced_inertia(behind, params)) / (ahead - behind)
     scale_M = np.abs(params.inertia_harmonics).sum()
-    assert reduced_inertia_slope(phi, params) == pytest.approx(dM, rel=0, abs=1e-9 * scale_M)
+    assert reduced_inertia_slope(phi, params) == pytest.approx(dM, rel=0, abs=1e-9 * scale_M + TINY)
 
     dPi = (potential(ahead, params) - potential(behind, params)) / (ahead - behind)
     scale_Pi = (
@@ -219,7 +223,7 @@ def test_inertia_slope_and_static_torque_are_derivatives(params, phi):
         + abs(params.gravity_cos)
         + params.stiffness * (abs(phi) + abs(params.zero_angle) + 1.0) ** 2
     )
-    assert static_torque(phi, params) == pytest.approx(dPi, rel=0, abs=1e-9 * scale_Pi)
+    assert static_torque(phi, params) == pytest.approx(dPi, rel=0, abs=1e-9 * scale_Pi + TINY)
 
 
 # --- 3-5. one equation of motion ---------------------------------------------------------
@@ -330,3 +334,45 @@ def test_numeric_functions_broadcast(name):
     assert type(function(*zero_d, DEFAULTISH)) is float
     empty = function(np.empty((0, 2)), *[0.5 for _ in names[1:]], DEFAULTISH)
     assert isinstance(empty, np.ndarray) and empty.shape == (0, 2)
+
+
+# --- one RK4 step builder ------------------------------------------------------------------
+
+
+def test_rk4_step_is_fourth_order():
+    """On dx/dt = -x the step's error over a fixed span falls 2^4-fold per halved step."""
+    x, h = ca.SX.sym("x"), ca.SX.sym("h")
+    errors = []
+    for substeps in (16, 32, 64):
+        step = ca.Function("step", [x, h], [rk4_step(lambda z: -z, x, h, substeps)])
+        errors.append(abs(float(step(1.0, 2.0)) - math.exp(-2.0)))
+    assert errors[0] / errors[1] == pytest.approx(16, rel=0.1)
+    assert errors[1] / errors[2] == pytest.approx(16, rel=0.1)
+
+
+def _euler(derivative, x, h, substeps=1):
+    """A stand-in for rk4_step: one explicit Euler step."""
+    return x + h * derivative(x)
+
+
+def test_the_simulator_and_the_ocp_step_with_rk4_step(monkeypatch):
+    """rsp_inertia.plant.virtual and rsp_inertia.ocp.feedforward build their steps with
+    rk4_step: replaced by an Euler step, their step functions become Euler steps."""
+    from rsp_inertia.ocp import feedforward
+    from rsp_inertia.plant import virtual
+
+    params = ModelParameters(np.array([0.03, 0.001, 0.0, 0.0, 0.0]), 0.1, 0.2, 0.01, 0.0, 1e-3)
+    x0, u, h = np.array([0.4, 3.0]), 0.05, 1e-3
+    slope = np.array([3.0, acceleration(0.4, 3.0, u, params, direction=1.0)])
+    monkeypatch.setattr(virtual, "rk4_step", _euler)
+    step = virtual._build_step(8)
+    np.testing.assert_allclose(
+        np.asarray(step(x0, u, 1.0, params.vector, h)).ravel(), x0 + h * slope, rtol=1e-14
+    )
+    monkeypatch.setattr(feedforward, "rk4_step", _euler)
+    step = feedforward._step_function(h)
+    direction = feedforward._DIRECTION
+    slope = np.array([3.0, acceleration(0.4, 3.0, u, params, direction=direction), 2.0])
+    np.testing.assert_allclose(
+        np.asarray(step([0.4, 3.0, u], 2.0, params.vector)).ravel(), [0.4, 3.0, u] + h * slope, rtol=1e-14
+    )
