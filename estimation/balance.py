@@ -38,6 +38,7 @@ reverse delta is only speed noise and the slopes come out undetermined, at littl
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -354,6 +355,7 @@ def node_formula(
     work_scale: float = 1.0,
     friction_slope: np.ndarray | None = None,
     friction_slope_cov: np.ndarray | None = None,
+    nodes_deg: Sequence[float] | None = None,
 ) -> list[NodeEstimate]:
     """M at each node of the stage from every one-turn pair (phi_a, phi_a + 2 pi).
 
@@ -373,11 +375,16 @@ def node_formula(
     the correction joins every pair's numerator and its uncertainty the numerators'
     covariance (the pairs share d). Without it the mismatch's friction work is left in M
     (friction x100 sweep: the node formula 3e-3 off at 150 of its stds).
+
+    ``nodes_deg``: the nodes to estimate M at (deg); the stage's by default.
     """
     st = device.stages[stage - 1]
+    if nodes_deg is None:
+        nodes_deg = st.nodes_deg
+    nodes = np.radians(np.asarray(nodes_deg, dtype=float))
     lo, hi = usable_range(braking, reverse, stage)
     estimates = []
-    for node_deg, node in zip(st.nodes_deg, direction * st.nodes):
+    for node_deg, node in zip(nodes_deg, direction * nodes):
         first = node + 2 * math.pi * math.ceil((lo - node) / (2 * math.pi))
         passages = np.arange(first, hi, 2 * math.pi)
         if passages.size < 2:

@@ -42,7 +42,7 @@ from rsp_inertia.estimation.tensor import (
     tensor_from_axes,
 )
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.geometry import axis_direction, design_matrix
+from rsp_inertia.plant.geometry import axis_direction, axis_nodes_deg, device_design
 
 __all__ = [
     "MAX_CONDITION",
@@ -140,24 +140,27 @@ def identify_logs(
     warnings = list(warnings)
     balances, nodes = balance_runs(logs, warnings, say)
     fit = fit_tensor(balances, known)
-    by_node = {}
+    # The axes are the device's design (a lambda = 0 stage gives one, whatever its nodes),
+    # in its order; the node formula estimates M at each axis's node, in every run.
+    design = device_design(device)
+    by_node = {
+        (stage, node_deg): []
+        for stage, st in enumerate(device.stages, 1)
+        for node_deg in axis_nodes_deg(st)
+    }
     for k, (stage, sign, b_est, r_est) in enumerate(nodes):
         for n in node_formula(
             device, stage, b_est, r_est, fit.speed_noise_scale[k], sign, known.work_scale,
             fit.friction_slope[k], fit.friction_slope_cov[k],
+            axis_nodes_deg(device.stages[stage - 1]),
         ):
-            by_node.setdefault((n.stage, n.node_deg), []).append(n)
+            by_node[n.stage, n.node_deg].append(n)
     nodes = [_combine_directions(found) for found in by_node.values()]
     labels = [format_run(key) for key in fit.runs]
     warnings += model_warnings(fit.tests, fit.speed_noise_scale, labels)
 
-    directions = np.array(
-        [
-            axis_direction(math.radians(n.node_deg), device.stages[n.stage - 1].gear_ratio)
-            for n in nodes
-        ]
-    )
-    cond = float(np.linalg.cond(design_matrix(directions)))
+    directions = design.directions
+    cond = design.condition
     if not cond < MAX_CONDITION:
         raise InputError(
             f"{logs.sources.device}: stage: the node axes are ill-conditioned "
@@ -187,7 +190,7 @@ def identify_logs(
         J_plain.append(axial_moment(n.M_plain, st, empty))
         plain_var = known.node_variance(n.stage, phi, n.M_plain) if known.calibrated else 0.0
         J_plain_std.append(axial_std(math.sqrt(n.M_plain_std**2 + plain_var), st))
-    node_entries, node_cov, _ = tensor_from_axes(
+    node_entries, node_cov = tensor_from_axes(
         np.array(J_node), np.array(J_node_std), directions
     )
     axes = [
@@ -392,7 +395,7 @@ def _best_practice(
                 for (stage, _), p in zip(found, phi)
             ]
         )
-        entries, cov, _ = tensor_from_axes(J, J_std, dirs)
+        entries, cov = tensor_from_axes(J, J_std, dirs)
     return {
         "best": best,
         "J_best": J,

@@ -354,13 +354,14 @@ def axis_values(entries: np.ndarray, cov: np.ndarray, directions: np.ndarray):
 def tensor_from_axes(values: np.ndarray, stds: np.ndarray, directions: np.ndarray):
     """Tensor entries from axis moments through V: solve (6 axes) or weighted least squares.
 
-    Returns the entries, their covariance and cond(V).
+    Returns the entries and their covariance (the design's cond(V):
+    rsp_inertia.plant.geometry.device_design).
     """
     V = design_matrix(directions)
     W = 1 / np.asarray(stds)
     x, *_ = np.linalg.lstsq(V * W[:, None], values * W, rcond=None)
     cov = np.linalg.pinv((V * W[:, None]).T @ (V * W[:, None]))
-    return x, cov, float(np.linalg.cond(V))
+    return x, cov
 
 
 def principal(entries: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -21,6 +21,7 @@ __all__ = [
     "AxisDesign",
     "axis_angles_deg",
     "axis_direction",
+    "axis_nodes_deg",
     "best_cone_opening",
     "condition_number",
     "cone_plus_z_design",
@@ -364,6 +365,14 @@ def best_cone_opening() -> tuple[float, float]:
     return float(grid[i]), float(conds[i])
 
 
+def axis_nodes_deg(stage: Any) -> list[float]:
+    """The nodes (deg) at which a stage realises its axes: its ``nodes_deg``, or the one node
+    0 when its ``gear_ratio`` is 0 (it spins about z, the same axis at every node)."""
+    if float(stage.gear_ratio) == 0.0:
+        return [0.0]
+    return [float(n) for n in stage.nodes_deg]
+
+
 def device_design(device: Any) -> AxisDesign:
     """Axes that a device's stages realise, in stage order (METHOD.md §1, §5).
 
@@ -372,7 +381,8 @@ def device_design(device: Any) -> AxisDesign:
     device : object
         Has ``stages``, each with ``gear_ratio`` (lambda, float) and ``nodes_deg``
         (node angles phi, deg). A stage with ``gear_ratio == 0`` spins about z: it gives
-        one axis (phi = 0) whatever its nodes, since every node would give the same axis.
+        one axis (phi = 0) whatever its nodes, since every node would give the same axis
+        (:func:`axis_nodes_deg`).
 
     Returns
     -------
@@ -385,7 +395,7 @@ def device_design(device: Any) -> AxisDesign:
     stages: list[int] = []
     for index, stage in enumerate(device.stages, start=1):
         lam = float(stage.gear_ratio)
-        nodes = [0.0] if lam == 0.0 else [float(n) for n in stage.nodes_deg]
+        nodes = axis_nodes_deg(stage)
         lams += [lam] * len(nodes)
         phis += list(np.radians(nodes))
         stages += [index] * len(nodes)

@@ -21,7 +21,9 @@ from rsp_inertia.estimation.identify import identify_logs
 from rsp_inertia.estimation.runs import ExperimentLogs
 from rsp_inertia.pipeline import create_default_experiment, identify, simulate
 from rsp_inertia.plant import virtual as vd
+from rsp_inertia.plant.config import load_device, write_device
 from rsp_inertia.plant.experiment import open_experiment
+from rsp_inertia.plant.geometry import best_cone_opening, device_design
 from rsp_inertia.plant.logs import read_log, write_log
 from tests.estimation.conftest import tensor
 
@@ -78,6 +80,37 @@ def test_identify_logs_takes_the_logs_in_memory(ideal, monkeypatch):
     in_memory = identify_logs(ExperimentLogs(device, runs), known, warnings=warnings)
     monkeypatch.undo()
     assert in_memory.to_json() == result.to_json()
+
+
+def test_a_locked_stage_gives_the_designs_one_z_axis(tmp_path):
+    """A lambda = 0 stage listing three nodes turns about z at each: identify reports the
+    device design's six axes and its cond(V) (rsp-inertia design's, 1.489), not the z axis
+    once per node (eight axes, cond(V) 1.823 of the repeated rows)."""
+    root = create_default_experiment(tmp_path / "cone")
+    device = load_device(root / "device.toml")
+    lam = math.tan(math.radians(best_cone_opening()[0]) / 2)
+    cone = dataclasses.replace(
+        device.stages[1], gear_ratio=lam, tare_inertia=(1 + lam**2) * 0.002 + lam**2 * 0.001,
+        nodes_deg=(0.0, 72.0, 144.0, 216.0, 288.0), launch_speed=5.0, braking_torque=0.15,
+    )
+    locked = dataclasses.replace(
+        device.stages[0], gear_ratio=0.0, tare_inertia=0.002, nodes_deg=(0.0, 120.0, 240.0)
+    )
+    device = dataclasses.replace(device, stages=(cone, locked), pendulum=None)
+    write_device(root / "device.toml", device)
+    simulate(root, part="braking")
+    simulate(root, part="reverse", ideal=True)
+    result = identify(root)
+    design = device_design(device)
+    assert result.condition_number == design.condition
+    assert [(a.stage, a.phi_deg) for a in result.axes] == [
+        (1, 0.0), (1, 72.0), (1, 144.0), (1, 216.0), (1, 288.0), (2, 0.0)
+    ]
+    np.testing.assert_array_equal([a.direction for a in result.axes], design.directions)
+    Jz = open_experiment(root).load_virtual().body.inertia[2]
+    z = result.axes[-1]
+    assert abs(z.J - Jz) <= N_STD * z.J_std
+    assert abs(z.J_node - Jz) <= N_STD * z.J_node_std
 
 
 def test_axial_moments_are_the_true_ones(ideal):

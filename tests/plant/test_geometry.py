@@ -13,6 +13,7 @@ from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.geometry import (
     axis_angles_deg,
     axis_direction,
+    axis_nodes_deg,
     best_cone_opening,
     condition_number,
     cone_plus_z_design,
@@ -186,6 +187,8 @@ def test_device_with_a_locked_stage_gives_one_z_axis() -> None:
             SimpleNamespace(gear_ratio=lam, nodes_deg=(0.0, 72.0, 144.0, 216.0, 288.0)),
         )
     )
+    assert axis_nodes_deg(device.stages[0]) == [0.0]
+    assert axis_nodes_deg(device.stages[1]) == [0.0, 72.0, 144.0, 216.0, 288.0]
     d = device_design(device)
     assert d.name == "device"
     np.testing.assert_array_equal(d.stages, [1, 2, 2, 2, 2, 2])
