@@ -460,7 +460,7 @@ def test_the_rigs_imperfections_load(tmp_path):
     )
 
 
-def test_the_new_tables_default_to_an_exact_symmetric_rig(tmp_path):
+def test_the_rig_tables_default_to_an_exact_symmetric_rig(tmp_path):
     virtual = load_virtual(write(tmp_path, "virtual.toml", VIRTUAL_TOML))
     assert virtual.fixture is None and virtual.friction_backward is None
     assert virtual.rig == Rig() and virtual.rig.torque_gain == 1.0
