@@ -28,13 +28,14 @@ from benchmarks.experiments import (
 )
 from benchmarks.protocol import fit_protocol
 from benchmarks.truth import best_axes_count, method_errors, pendulum_estimates, relative_errors
-from rsp_inertia.estimation.calibration import known_terms
-from rsp_inertia.estimation.identify import identify_pendulum
+from rsp_inertia.estimation.identify import pendulum_baseline
 from rsp_inertia.estimation.pendulum import estimate_pendulum
+from rsp_inertia.estimation.reading import known_terms
+from rsp_inertia.estimation.runs import ExperimentLogs, Sources
 from rsp_inertia.pipeline import create_default_experiment, identify, program, simulate
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
-from rsp_inertia.plant.logs import Log, read_log, write_log
+from rsp_inertia.plant.logs import Log, read_log
 
 __all__ = [
     "COM_FRICTION_FACTORS",
@@ -317,35 +318,34 @@ def _equal_time_pendulum(root: Path, result, row: dict) -> dict:
     used = float(shares.sum() + (runs - periods.size) * min(
         row["experiment_time_rsp"] * periods.mean() / total_periods, device.pendulum.duration
     ))
-    cut_root = root.parent / f"{root.name}-equal-time"
-    cut_root.mkdir()
-    (cut_root / "device.toml").write_text((root / "device.toml").read_text())
-    cut = open_experiment(cut_root)
     left_out = []
+    cut: dict[tuple[int, int], Log] = {}
+    names: dict[tuple[int, int], str] = {}
     for r, duration in zip(pend.runs, shares):
         k = device.stages[r.stage - 1].nodes_deg.index(r.node_deg) + 1
-        log = read_log(exp.pendulum_path(r.stage, k), device.encoder, "pendulum")
+        path = exp.pendulum_path(r.stage, k)
+        log = read_log(path, device.encoder, "pendulum")
         keep = log.t <= log.t[0] + duration
         short = Log(t=log.t[keep], phi=log.phi[keep], torque=log.torque[keep])
-        path = cut.pendulum_path(r.stage, k)
+        name = str(path).replace(str(root), "EXP")
         try:
-            estimate_pendulum(short, device.pendulum.stiffness, r.stage, r.node_deg, str(path))
+            estimate_pendulum(short, device.pendulum.stiffness, r.stage, r.node_deg, name)
         except InputError as error:
             left_out.append(str(error))
             continue
-        path.parent.mkdir(parents=True, exist_ok=True)
-        write_log(path, short)
+        cut[r.stage, k], names[r.stage, k] = short, name
     warnings: list[str] = []
-    known = known_terms(exp)[0]
-    short_pend = identify_pendulum(
-        cut, None, known, result.gravity, result.gravity_cov, warnings
+    short_pend = pendulum_baseline(
+        ExperimentLogs(
+            device, runs={}, pendulum=cut,
+            sources=Sources(device="EXP/device.toml", pendulum=names),
+        ),
+        known_terms(exp)[0], result.gravity, result.gravity_cov, warnings=warnings,
     )
     body = exp.load_virtual().body
     out: dict = {
         "experiment_time_pendulum_equal": used,
-        "pendulum_failures_equal": "; ".join(
-            w.replace(str(cut_root), "EXP") for w in left_out + warnings
-        ) or None,
+        "pendulum_failures_equal": "; ".join(left_out + warnings) or None,
         "pendulum_axes_equal": 0 if short_pend is None else len(short_pend.runs),
         "pendulum_best_axes_equal": best_axes_count(short_pend),
     }

@@ -27,9 +27,8 @@ from benchmarks import RESULTS
 from benchmarks.experiments import default_experiment, scale_friction, seeded
 from benchmarks.tables import command_line, markdown_table
 from benchmarks.truth import tensor_error, true_moments
-from rsp_inertia.estimation.balance import stage_balance
-from rsp_inertia.estimation.identify import identify
-from rsp_inertia.estimation.passes import estimate_pass
+from rsp_inertia.estimation.reading import identify_experiment
+from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs
 from rsp_inertia.estimation.tensor import axis_values, fit_tensor
 from rsp_inertia.pipeline import simulate
 from rsp_inertia.plant.experiment import open_experiment
@@ -40,21 +39,24 @@ from rsp_inertia.plant.virtual import simulate_braking, simulate_ideal_reverse
 def _std_with_exact_speeds(exp, virtual, directions: np.ndarray) -> np.ndarray:
     """Reported J_k std of the same least squares fed the virtual device's true speeds.
 
-    What the torque logs alone allow: the speeds at the balance angles are the simulator's
-    (cubic spline in phi through its rows) and the speed noise is set to nothing; the work,
-    its noise model and every unknown stay as identify has them.
+    What the torque logs alone allow: the runs simulated again (the same seed: the same
+    logs), balanced as identify does (rsp_inertia.estimation.runs.balance_runs), then the
+    speeds at the balance angles replaced by the simulator's (cubic spline in phi through
+    its rows) with no speed noise; the work, its noise model and every unknown stay as
+    identify has them.
     """
-    q = exp.device.encoder.quantum
-    balances = []
+    simulated = {}
     for stage in exp.stages():
         braking = simulate_braking(exp.device, stage, virtual)
-        reverse = simulate_ideal_reverse(exp.device, stage, virtual, braking)
-        b = estimate_pass(braking.log, q, "braking", constant_torque=True)
-        r = estimate_pass(reverse.log, q, "reverse", sigma_torque=b.sigma_torque)
-        bal = stage_balance(exp.device, stage, b, r)
+        simulated[stage] = (braking, simulate_ideal_reverse(exp.device, stage, virtual, braking))
+    logs = ExperimentLogs(
+        exp.device, {(stage, "forward"): (b.log, r.log) for stage, (b, r) in simulated.items()}
+    )
+    balances = []
+    for bal, passes in zip(balance_runs(logs, warnings=[])[0], simulated.values(), strict=True):
         speed_sq = sum(
             CubicSpline(*_ascending(sim.truth.phi, sim.truth.omega))(bal.phi) ** 2
-            for sim in (braking, reverse)
+            for sim in passes
         )
         balances.append(
             dataclasses.replace(bal, speed_sq=speed_sq, speed_sq_cov=np.zeros_like(bal.speed_sq_cov))
@@ -81,7 +83,7 @@ def run_case(factor: float, seed: int) -> dict:
         simulated = time.perf_counter() - start
         exp = open_experiment(root)
         start = time.perf_counter()
-        result = identify(exp)
+        result = identify_experiment(exp)
         identified = time.perf_counter() - start
         truth = exp.load_virtual()
         exact_std = _std_with_exact_speeds(exp, truth, np.array([a.direction for a in result.axes]))

@@ -24,7 +24,7 @@ import numpy as np
 from benchmarks import RESULTS
 from benchmarks.tables import command_line, markdown_table
 from benchmarks.truth import tensor_error, true_moments
-from rsp_inertia.estimation.identify import identify
+from rsp_inertia.estimation.reading import identify_experiment
 from rsp_inertia.estimation.smoothing import smooth_log
 from rsp_inertia.ocp.nominal import fit_nominal
 from rsp_inertia.ocp.program import make_program
@@ -90,7 +90,7 @@ def run_case(inertia: float, friction: float, figures: bool) -> dict:
                     reverse.truth.omega,
                     f"Stage {stage}: reverse pass in closed loop (paper Fig. 4)",
                 )
-        result = identify(exp)
+        result = identify_experiment(exp)
         J_true = true_moments([a.direction for a in result.axes], virtual.body.tensor)
         row["J_k LS"] = float(np.max(np.abs(np.array([a.J for a in result.axes]) / J_true - 1)))
         row["J_k node"] = float(
