@@ -29,7 +29,12 @@ import numpy as np
 
 from rsp_inertia.estimation.balance import StageBalance
 from rsp_inertia.estimation.gls import NOISE_SOURCES, Block, ModelTest, solve_blocks
-from rsp_inertia.plant.geometry import axis_direction, design_matrix, tensor_from_entries
+from rsp_inertia.plant.geometry import (
+    axis_direction,
+    design_matrix,
+    physical_margins,
+    tensor_from_entries,
+)
 from rsp_inertia.plant.model import inertia_basis
 
 __all__ = [
@@ -374,19 +379,14 @@ def physical_warnings(entries: np.ndarray, cov: np.ndarray, samples: int = 2000)
     """Warnings when the tensor is not a physical one within its uncertainty.
 
     A rigid body's tensor is positive definite and its principal moments obey the triangle
-    inequality I1 + I2 >= I3 (NOTES.md). A violation is reported when it holds beyond two
-    standard deviations of the margin, estimated by sampling the entries' covariance
-    (seeded, deterministic).
+    inequality I1 + I2 >= I3 (rsp_inertia.plant.geometry.physical_margins). A violation is
+    reported when it holds beyond two standard deviations of the margin, estimated by
+    sampling the entries' covariance (seeded, deterministic).
     """
     rng = np.random.default_rng(0)
     draws = rng.multivariate_normal(entries, cov, size=samples, check_valid="ignore")
-
-    def margins(e):
-        m = np.linalg.eigvalsh(tensor_from_entries(e))
-        return m[0], m[0] + m[1] - m[2]
-    smallest, triangle = margins(entries)
-    spread = np.array([margins(d) for d in draws])
-    std_small, std_tri = spread.std(axis=0)
+    smallest, triangle = physical_margins(entries)
+    std_small, std_tri = np.column_stack(physical_margins(draws)).std(axis=0)
     warnings = []
     if smallest < -2 * std_small:
         warnings.append(

@@ -29,7 +29,9 @@ __all__ = [
     "device_design",
     "entries_from_tensor",
     "icosahedron_design",
+    "physical_margins",
     "rcond_curve",
+    "relative_errors",
     "tensor_from_entries",
     "turns_past_last_node",
 ]
@@ -195,6 +197,46 @@ def entries_from_tensor(J: ArrayLike) -> np.ndarray:
         ],
         axis=-1,
     )
+
+
+def physical_margins(j6: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """How far a tensor is from the limits of a rigid body's (METHOD.md §5, physical checks).
+
+    A body's tensor is positive definite and its principal moments I1 <= I2 <= I3 obey the
+    triangle inequality I1 + I2 >= I3.
+
+    Parameters
+    ----------
+    j6 : array_like
+        ``[Jx, Jy, Jz, Jxy, Jyz, Jxz]`` (kg m^2), shape ``(6,)`` or ``(..., 6)``.
+
+    Returns
+    -------
+    (smallest, triangle) : numpy.ndarray
+        Shape ``j6.shape[:-1]``, kg m^2: the smallest principal moment I1 (> 0 when positive
+        definite) and I1 + I2 - I3 (>= 0 when the triangle inequality holds).
+    """
+    m = np.linalg.eigvalsh(tensor_from_entries(j6))
+    return m[..., 0], m[..., 0] + m[..., 1] - m[..., 2]
+
+
+def relative_errors(j6: ArrayLike, true_j6: ArrayLike) -> np.ndarray:
+    """Errors of a tensor's entries against the true ones, relative to the true tensor's
+    largest principal moment (the scale of every entry, products included).
+
+    Parameters
+    ----------
+    j6, true_j6 : array_like
+        ``[Jx, Jy, Jz, Jxy, Jyz, Jxz]`` (kg m^2), shape ``(6,)``: an estimate and the truth.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(6,)``, ``(j6 - true_j6) / max |principal moment of true_j6|``.
+    """
+    true_j6 = np.asarray(true_j6, float)
+    scale = np.abs(np.linalg.eigvalsh(tensor_from_entries(true_j6))).max()
+    return (np.asarray(j6, float) - true_j6) / scale
 
 
 def _frozen_array(values: ArrayLike, dtype: type) -> np.ndarray:

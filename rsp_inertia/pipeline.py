@@ -437,25 +437,23 @@ def result_json(result: Identification) -> str:
 def format_identification(result: Identification, truth: np.ndarray | None = None) -> str:
     """A short human table of an identification (optionally against a known tensor)."""
     from rsp_inertia.estimation.tensor import ENTRY_KEYS
-    from rsp_inertia.plant.geometry import tensor_from_entries
+    from rsp_inertia.plant.geometry import relative_errors
 
     lines = []
     head = f"{'':5} {'RSP least squares':>26} {'RSP node formula':>26}"
     if truth is not None:
         head += f" {'truth':>12} {'LS error':>10} {'node error':>10}"
+        ls_error = relative_errors(result.entries, truth)
+        node_error = relative_errors(result.node_entries, truth)
     lines.append(head)
     node_std = np.sqrt(np.diag(result.node_entries_cov))
-    scale = None if truth is None else np.abs(np.linalg.eigvalsh(tensor_from_entries(truth))).max()
     for k, name in enumerate(ENTRY_KEYS):
         row = (
             f"{name:5} {result.entries[k]:14.8f} +- {result.entries_std[k]:8.1e}"
             f" {result.node_entries[k]:14.8f} +- {node_std[k]:8.1e}"
         )
         if truth is not None:
-            row += (
-                f" {truth[k]:12.8f} {(result.entries[k] - truth[k]) / scale:+10.1e}"
-                f" {(result.node_entries[k] - truth[k]) / scale:+10.1e}"
-            )
+            row += f" {truth[k]:12.8f} {ls_error[k]:+10.1e} {node_error[k]:+10.1e}"
         lines.append(row)
     if truth is not None:
         lines.append("(errors relative to the largest principal moment)")
@@ -511,12 +509,13 @@ def format_identification(result: Identification, truth: np.ndarray | None = Non
                 f" J = {pend.J_classic[i]:.8f} / {pend.J_damped[i]:.8f}{best}"
             )
         if truth is not None and pend.entries_classic is not None:
-            err_c = np.abs(pend.entries_classic - truth).max() / scale
-            err_d = np.abs(pend.entries_damped - truth).max() / scale
-            err_ls = np.abs(result.entries - truth).max() / scale
+            err_c = np.abs(relative_errors(pend.entries_classic, truth)).max()
+            err_d = np.abs(relative_errors(pend.entries_damped, truth)).max()
+            err_ls = np.abs(ls_error).max()
             best = ""
             if pend.entries_best is not None:
-                best = f", pendulum best practice {np.abs(pend.entries_best - truth).max() / scale:.1e}"
+                err_b = np.abs(relative_errors(pend.entries_best, truth)).max()
+                best = f", pendulum best practice {err_b:.1e}"
             lines.append(
                 f"worst tensor error / largest moment: RSP {err_ls:.1e}, pendulum classic "
                 f"{err_c:.1e}, pendulum damped fit {err_d:.1e}{best}"
@@ -546,7 +545,7 @@ def demo_figures(
     # Imported here: only the demo draws, and matplotlib costs the other commands a second.
     from rsp_inertia.design import plot_cone_conditioning
     from rsp_inertia.estimation.smoothing import smooth_log
-    from rsp_inertia.plant.geometry import tensor_from_entries
+    from rsp_inertia.plant.geometry import design_matrix
     from rsp_inertia.plant.virtual import free_motion
     from rsp_inertia.plots import plot_errors, plot_motion, plot_tracking
 
@@ -588,9 +587,8 @@ def demo_figures(
             )
     if virtual is None or virtual.body is None:  # no truth to compare with
         return paths
-    tensor = tensor_from_entries(virtual.body.inertia)
-    directions = np.array([a.direction for a in result.axes])
-    J_true = np.einsum("ij,jk,ik->i", directions, tensor, directions)
+    # The true moments about the axes: J_k = V_k . J (METHOD.md §5).
+    J_true = design_matrix(np.array([a.direction for a in result.axes])) @ virtual.body.inertia
     errors = {
         "RSP least squares": np.array([a.J for a in result.axes]) / J_true - 1,
         "RSP node formula": np.array([a.J_node for a in result.axes]) / J_true - 1,
@@ -601,8 +599,7 @@ def demo_figures(
         pend = result.pendulum
         if pend.J_best is not None:
             # About the axis at each run's equilibrium, where the best practice measures.
-            best_dirs = pend.best_axes(exp.device)
-            J_best_true = np.einsum("ij,jk,ik->i", best_dirs, tensor, best_dirs)
+            J_best_true = design_matrix(pend.best_axes(exp.device)) @ virtual.body.inertia
             errors["pendulum best practice"] = pend.J_best / J_best_true - 1
     labels = [f"s{a.stage} {a.phi_deg:g} deg" for a in result.axes]
     paths.append(out / "errors.png")
@@ -623,7 +620,7 @@ def demo(
     against the virtual device's true tensor, with figures.
     """
     from rsp_inertia.estimation.reading import CALIBRATION_FILE
-    from rsp_inertia.plant.geometry import tensor_from_entries
+    from rsp_inertia.plant.geometry import relative_errors
 
     say = progress or (lambda _text: None)
     root, empty, reference = create_rig_experiment(root)
@@ -639,10 +636,9 @@ def demo(
     truth = exp.load_virtual()
     (root / CALIBRATION_FILE).unlink(missing_ok=True)
     raw = identify(root)
-    scale = np.abs(np.linalg.eigvalsh(tensor_from_entries(truth.body.inertia))).max()
     say(
         "without calibration: worst tensor error / largest moment "
-        f"{np.abs(raw.entries - truth.body.inertia).max() / scale:.1e}, warnings:"
+        f"{np.abs(relative_errors(raw.entries, truth.body.inertia)).max():.1e}, warnings:"
     )
     for warning in raw.warnings:
         say(f"  {warning}")

@@ -4,18 +4,11 @@ The truth (PassTruth) rides beside every log, so estimates can be compared with 
 virtual body really did, never with numbers from an earlier run (STYLE.md, principle 6).
 """
 
-import numpy as np
 import pytest
 
 from rsp_inertia.plant import virtual as vd
 
 STAGES = (1, 2)
-
-
-def tensor(entries) -> np.ndarray:
-    """The symmetric tensor of METHOD.md §2 from [Jx, Jy, Jz, Jxy, Jyz, Jxz]."""
-    Jx, Jy, Jz, Jxy, Jyz, Jxz = entries
-    return np.array([[Jx, Jxy, Jxz], [Jxy, Jy, Jyz], [Jxz, Jyz, Jz]])
 
 
 @pytest.fixture(scope="session")

@@ -14,7 +14,7 @@ from scipy.stats import chi2
 
 from rsp_inertia.pipeline import create_default_experiment, identify, simulate
 from rsp_inertia.plant.experiment import open_experiment
-from tests.estimation.conftest import tensor
+from rsp_inertia.plant.geometry import tensor_from_entries
 
 RELEASE_JITTER_DEG = 0.5
 """Release angles are drawn uniformly within this of the default (up to ~90 counts away)."""
@@ -36,7 +36,7 @@ def realisation(root, seed: int, release_deg: float) -> dict[str, tuple[np.ndarr
     simulate(root, part="reverse", ideal=True)
     result = identify(root)
     body = open_experiment(root).load_virtual().body
-    J = tensor(body.inertia)
+    J = tensor_from_entries(body.inertia)
     true_axes = np.array([a.direction @ J @ a.direction for a in result.axes])
     return {
         "tensor entries": (result.entries - body.inertia, result.entries_std),

@@ -21,7 +21,9 @@ from rsp_inertia.plant.geometry import (
     device_design,
     entries_from_tensor,
     icosahedron_design,
+    physical_margins,
     rcond_curve,
+    relative_errors,
     tensor_from_entries,
 )
 
@@ -216,3 +218,63 @@ def test_designs_are_frozen() -> None:
         d.name = "other"  # type: ignore[misc]
     with pytest.raises(ValueError):
         d.phis[0] = 1.0
+
+
+def test_physical_margins_are_the_smallest_moment_and_the_triangle() -> None:
+    rng = np.random.default_rng(3)
+    J = random_tensor(rng)
+    moments = np.linalg.eigvalsh(J)
+    smallest, triangle = physical_margins(entries_from_tensor(J))
+    assert smallest == pytest.approx(moments[0], rel=1e-12)
+    assert triangle == pytest.approx(moments[0] + moments[1] - moments[2], rel=1e-9)
+    # A flat plate is on the triangle's limit, a rod with a negative moment off both.
+    assert physical_margins([1.0, 2.0, 3.0, 0.0, 0.0, 0.0])[1] == 0.0
+    smallest, triangle = physical_margins([-0.1, 1.0, 1.0, 0.0, 0.0, 0.0])
+    assert smallest == -0.1 and triangle < 0
+    # Several tensors at once, as physical_warnings samples them.
+    many = np.array([entries_from_tensor(random_tensor(rng)) for _ in range(4)])
+    batch = np.column_stack(physical_margins(many))
+    np.testing.assert_array_equal(batch, [physical_margins(e) for e in many])
+
+
+def test_physical_warnings_take_the_margins_from_physical_margins(monkeypatch) -> None:
+    """estimation.tensor.physical_warnings judges the margins plant.geometry gives it."""
+    from rsp_inertia.estimation import tensor
+
+    body = np.array([0.025, 0.028, 0.022, 0.0012, -0.0009, 0.0015])
+    cov = np.diag(np.full(6, 1e-14))
+    assert tensor.physical_warnings(body, cov) == []
+
+    def broken(j6):
+        smallest, triangle = physical_margins(j6)
+        return smallest - 1.0, triangle - 1.0
+
+    monkeypatch.setattr(tensor, "physical_margins", broken)
+    found = tensor.physical_warnings(body, cov)
+    assert len(found) == 2 and "not positive definite" in found[0] and "triangle" in found[1]
+
+
+def test_relative_errors_are_over_the_largest_principal_moment() -> None:
+    truth = np.array([1.0, 2.0, 3.0, 0.0, 0.0, 0.5])
+    scale = np.linalg.eigvalsh(tensor_from_entries(truth)).max()
+    estimate = truth + np.array([0.0, 1e-3, 0.0, 0.0, -2e-3, 0.0])
+    np.testing.assert_allclose(
+        relative_errors(estimate, truth), (estimate - truth) / scale, rtol=1e-15
+    )
+
+
+def test_the_demo_prints_the_errors_relative_errors_gives(monkeypatch) -> None:
+    """rsp_inertia.pipeline.format_identification's error columns are relative_errors'."""
+    from rsp_inertia.pipeline import format_identification
+
+    truth = np.array([0.025, 0.028, 0.022, 0.0012, -0.0009, 0.0015])
+    result = SimpleNamespace(
+        entries=truth + 1e-6, entries_std=np.full(6, 1e-7), node_entries=truth - 1e-6,
+        node_entries_cov=np.eye(6) * 1e-12, condition_number=1.58, axes=[], std_budget={},
+        friction_asymmetry=None, calibration=None, pendulum=None, com=None, warnings=[],
+    )
+    monkeypatch.setattr(
+        "rsp_inertia.plant.geometry.relative_errors", lambda j6, true_j6: np.full(6, 0.125)
+    )
+    rows = format_identification(result, truth).splitlines()[1:7]
+    assert all(row.split()[-2:] == ["+1.2e-01", "+1.2e-01"] for row in rows)
