@@ -27,7 +27,12 @@ from benchmarks.experiments import (
     with_encoder_bits,
 )
 from benchmarks.protocol import fit_protocol
-from benchmarks.truth import best_axes_count, method_errors, pendulum_estimates, relative_errors
+from benchmarks.truth import (
+    best_axes_count,
+    identification_errors,
+    method_errors,
+    pendulum_estimates,
+)
 from rsp_inertia.estimation.identify import pendulum_baseline
 from rsp_inertia.estimation.pendulum import estimate_pendulum
 from rsp_inertia.estimation.reading import known_terms
@@ -189,7 +194,7 @@ def run_case(case: Case) -> dict:
         ``case`` (its name), the inputs, ``code`` (:func:`code_fingerprint`),
         ``release_angle_deg``; per stage N the protocol used (``launch_speed_N``,
         ``braking_torque_N``, ``turns_past_last_node_N``, ``short_protocol_N``); the errors
-        of :func:`benchmarks.truth.relative_errors` per method of METHODS, ``axes``,
+        of :func:`benchmarks.truth.identification_errors` per method of METHODS, ``axes``,
         ``pendulum_failures`` (the runs left out and why), the same for the pendulum at RSP's
         time (``*_equal``); ``physical_duration`` (s, braking and reverse passes); wall-clock
         times in s (``time_*``: smoothing, program and closed loop per stage, pendulum runs,
@@ -256,7 +261,7 @@ def _run_experiment(root: Path, case: Case) -> dict:
         row[f"time_program_{stage}"] for stage in stages
     )
     row["axes"] = len(result.axes)
-    row.update(relative_errors(result, exp.load_virtual().body, exp.device))
+    row.update(identification_errors(result, exp.load_virtual().body, exp.device))
     row["warnings"] = "; ".join(result.warnings).replace(str(root), "EXP")
     # Experiment time (physical): RSP's braking and reverse passes; the pendulum's logged
     # runs, one per node. Neither calibrates here (device.toml's tares and stiffness are

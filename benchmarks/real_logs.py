@@ -44,6 +44,7 @@ from rsp_inertia.pipeline import (
     simulate,
 )
 from rsp_inertia.plant.config import LoggerSettings, load_virtual
+from rsp_inertia.plant.geometry import relative_errors
 from rsp_inertia.plant.logs import write_atomic
 
 LOGGER = LoggerSettings(time_jitter=0.2, dropped_fraction=0.001, counts=True)
@@ -62,15 +63,15 @@ def _make_real(folder: Path) -> None:
 
 def _score(result, root: Path) -> dict:
     body = load_virtual(root / "virtual.toml").body
-    scale = principal_scale(body.tensor)
+    relative = relative_errors(result.entries, body.inertia)
     err = result.entries - np.asarray(body.inertia)
     std = np.sqrt(np.diag(result.entries_cov))
     return {
-        "err": err / scale,
+        "err": relative,
         "z": err / std,
-        "max_err": float(np.abs(err).max() / scale),
+        "max_err": float(np.abs(relative).max()),
         "max_z": float(np.abs(err / std).max()),
-        "max_std": float(std.max() / scale),
+        "max_std": float(std.max() / principal_scale(body.tensor)),
         "warnings": len(result.warnings),
         "warning_text": list(result.warnings),
     }

@@ -32,7 +32,7 @@ from benchmarks.cases import Case, code_fingerprint, configure
 from benchmarks.experiments import vary, with_stages
 from benchmarks.protocol import fit_protocol
 from benchmarks.tables import fmt, new_figure, table_lines
-from benchmarks.truth import relative_errors
+from benchmarks.truth import identification_errors
 from rsp_inertia.pipeline import create_default_experiment, identify, program, simulate
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
@@ -122,7 +122,7 @@ def _run(p: Perturbation, row: dict) -> None:
                 vary(root, device=lambda d: _stated_stds(d, p))
             exp = open_experiment(root)
             result = identify(root)
-            errors = relative_errors(result, exp.load_virtual().body, exp.device)
+            errors = identification_errors(result, exp.load_virtual().body, exp.device)
             row.update({f"{k}{suffix}": v for k, v in errors.items()
                         if k.endswith(tuple(SENSITIVITY_METHODS))})
             row[f"warnings{suffix}"] = "; ".join(result.warnings)

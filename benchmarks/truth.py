@@ -2,7 +2,8 @@
 
 The truth is virtual.toml's body (:class:`rsp_inertia.plant.config.TrueBody`). Moments of
 inertia J_k about identified axes are compared relatively (J / J_true - 1); tensor entries
-relative to the largest principal moment (products of inertia may be near zero);
+relative to the largest principal moment (products of inertia may be near zero; the
+package's :func:`rsp_inertia.plant.geometry.relative_errors`);
 ``|error| / std`` says whether a method's reported std explains its error.
 :func:`method_errors` reduces one method's estimates to the worst of each over the axes, the
 row keys the sweep and the sensitivity study tabulate.
@@ -12,13 +13,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from rsp_inertia.plant.geometry import relative_errors
+
 __all__ = [
     "METHODS",
     "best_axes_count",
+    "identification_errors",
     "method_errors",
     "pendulum_estimates",
     "principal_scale",
-    "relative_errors",
     "tensor_error",
     "true_moments",
 ]
@@ -47,11 +50,11 @@ def principal_scale(tensor) -> float:
 
 def tensor_error(entries, body) -> float:
     """Worst |entry - true entry| of [Jx, Jy, Jz, Jxy, Jyz, Jxz] over ``body``'s largest
-    principal moment."""
-    return float(np.max(np.abs(np.asarray(entries) - body.inertia)) / principal_scale(body.tensor))
+    principal moment (:func:`rsp_inertia.plant.geometry.relative_errors`)."""
+    return float(np.max(np.abs(relative_errors(entries, body.inertia))))
 
 
-def relative_errors(result, body, device) -> dict:
+def identification_errors(result, body, device) -> dict:
     """An identification's errors, per method of METHODS (:func:`method_errors`), plus
     ``com_error_mm`` (in the xy-plane), ``pendulum_axes`` and ``pendulum_best_axes``.
 
