@@ -1,9 +1,11 @@
 """The inertia tensor from the runs' balances: least squares, axis solve, physical checks.
 
-Least squares over many turns (METHOD.md §5). With w(phi) = (lam sin phi, lam cos phi, 1),
+Least squares over many turns (docs/method.md §5). With w(phi) = (lam sin phi, lam cos phi, 1),
 (1 + lam^2) J_e(phi) = w^T J w = v(phi) . [Jx Jy Jz Jxy Jyz Jxz], v the design-matrix row of
-the unnormalised w (METHOD.md §2: the harmonic form of M per stage written in the tensor's
-entries, so that all stages share one set of unknowns). Each balance angle of a run (one
+the unnormalised w (docs/method.md §2: the harmonic form of M per stage written in the tensor's
+entries, so that all stages share one set of unknowns; rsp_inertia.plant.model.tensor_basis
+gives these rows from the model's M, rsp_inertia.plant.model.gravity_basis the gravity
+columns from its Pi). Each balance angle of a run (one
 stage, one direction of rotation) gives
 
     1/2 S v(phi) . J + 2 Gs sin phi + 2 Gc cos phi - C_run - d . R - dir e_s . Q
@@ -29,13 +31,8 @@ import numpy as np
 
 from rsp_inertia.estimation.balance import StageBalance
 from rsp_inertia.estimation.gls import NOISE_SOURCES, Block, ModelTest, solve_blocks
-from rsp_inertia.plant.geometry import (
-    axis_direction,
-    design_matrix,
-    physical_margins,
-    tensor_from_entries,
-)
-from rsp_inertia.plant.model import inertia_basis
+from rsp_inertia.plant.geometry import design_matrix, physical_margins, tensor_from_entries
+from rsp_inertia.plant.model import gravity_basis, inertia_basis, tensor_basis
 
 __all__ = [
     "ENTRY_KEYS",
@@ -106,17 +103,9 @@ class TensorFit:
     """(stage, direction) of each run, in the order of the balances."""
 
 
-def _design_rows(bal: StageBalance) -> np.ndarray:
-    """Rows v(phi) of the unnormalised axes w = (lam sin phi, lam cos phi, 1) at the balance
-    angles: v . J = w^T J w = (1 + lam^2) J_e (METHOD.md §1-2)."""
-    lam = bal.gear_ratio
-    return design_matrix(axis_direction(bal.phi, lam) * np.sqrt(1.0 + lam * lam))
-
-
-
 @dataclass(frozen=True)
 class KnownTerms:
-    """What the balances take as known about the rig (METHOD.md §2-3).
+    """What the balances take as known about the rig (docs/method.md §2-3).
 
     From ``calibration.toml`` (rsp_inertia.estimation.calibration), or device.toml's tares alone: the
     empty system's reduced inertia per stage (tare and fixture), the fixture's gravity terms,
@@ -197,16 +186,16 @@ class KnownTerms:
 
 
 def gravity_rows(phi: np.ndarray) -> np.ndarray:
-    """(n, 2) 2 dPi/d[Gs, Gc] = 2 [sin phi, cos phi]: the gravity potential's share of the
-    balance (METHOD.md §3: Pi = Gs sin phi + Gc cos phi, twice for the two passes)."""
-    return np.column_stack([2 * np.sin(phi), 2 * np.cos(phi)])
+    """(n, 2) 2 dPi/d[Gs, Gc]: the gravity potential's share of the balance, twice for the
+    two passes (docs/method.md §3, rsp_inertia.plant.model.gravity_basis)."""
+    return 2 * gravity_basis(phi)
 
 
 def balance_rhs(bal: StageBalance, known: KnownTerms) -> np.ndarray:
     """The known side of one run's equations: h W - 2 Pi_spring - 1/2 S M_empty - 2 Pi_f.
 
     W the logged motor work of both passes, M_empty(phi) the empty system's reduced inertia
-    and Pi_f the fixture's gravity potential (METHOD.md §5, with the rig's terms of
+    and Pi_f the fixture's gravity potential (docs/method.md §5, with the rig's terms of
     :class:`KnownTerms`).
     """
     M_empty = inertia_basis(bal.phi) @ known.inertia[bal.stage - 1]
@@ -266,7 +255,7 @@ def tensor_block(bal: StageBalance, run: str, known: KnownTerms, asymmetry: bool
     ``run`` names the run's own unknowns (its constant and friction slopes); ``asymmetry``:
     the run's stage is run in both directions, so its friction asymmetry is an unknown.
     """
-    v = _design_rows(bal)
+    v = tensor_basis(bal.phi, bal.gear_ratio)
     half_s = 0.5 * bal.speed_sq
     cols = {name: half_s * v[:, i] for i, name in enumerate(ENTRY_KEYS)}
     cols["Gs"], cols["Gc"] = gravity_rows(bal.phi).T
@@ -347,7 +336,7 @@ def fit_tensor(
 
 
 def axis_values(entries: np.ndarray, cov: np.ndarray, directions: np.ndarray):
-    """J_k = e_k^T J e_k for unit directions, with standard deviations (METHOD.md §5 (8))."""
+    """J_k = e_k^T J e_k for unit directions, with standard deviations (docs/method.md §5 (8))."""
     V = design_matrix(directions)
     values = V @ entries
     # v^T C v of a covariance is >= 0; a source that leaves an axis untouched (a tare std of

@@ -1,10 +1,11 @@
-"""The reduced one-degree-of-freedom gimbal model (METHOD.md §2-3), built once in CasADi.
+"""The reduced one-degree-of-freedom gimbal model (docs/method.md §2-3), built once in CasADi.
 
 Every equation of the model lives here exactly once, as a CasADi ``SX`` expression in the
 generalised coordinate phi, the speed Omega = dphi/dt, the motor torque u and a parameter
 vector p. The simulator, the optimal-control problem and the estimators all use these
-expressions (symbolically through :data:`MODEL`, numerically through the functions below),
-so nobody restates the physics (STYLE.md, principle 1).
+expressions (symbolically through :data:`MODEL`, numerically through the functions below,
+e.g. the least squares' rows :func:`tensor_basis` and :func:`gravity_basis`, and one RK4
+step builder :func:`rk4_step`), so nobody restates the physics.
 
 Parameter vector p (12 entries, :data:`PARAMETER_NAMES`), all reduced to phi:
 
@@ -43,6 +44,8 @@ __all__ = [
     "dissipation",
     "dissipation_regressor",
     "energy_regressor",
+    "gravity_basis",
+    "harmonics_matrix",
     "inertia_basis",
     "inertia_harmonics",
     "mechanical_energy",
@@ -53,14 +56,14 @@ __all__ = [
     "rk4_step",
     "spring_parameters",
     "static_torque",
-    "torque_regressor",
+    "tensor_basis",
 ]
 
 PARAMETER_NAMES = ("M0", "Mc2", "Ms2", "Ms1", "Mc1", "c", "phi0", "Gs", "Gc", "a1", "a2", "a3")
 
 
 def inertia_harmonics(inertia: np.ndarray, gear_ratio: float, tare_inertia: float) -> np.ndarray:
-    """Harmonic coefficients of the reduced inertia M(phi) of one stage (METHOD.md §2).
+    """Harmonic coefficients of the reduced inertia M(phi) of one stage (docs/method.md §2).
 
     ``(1+lam^2) J_e(phi) = Jz + lam^2 (Jx+Jy)/2 + lam^2 (Jy-Jx)/2 cos 2phi + lam^2 Jxy sin 2phi
     + 2 lam Jxz sin phi + 2 lam Jyz cos phi`` and ``M = (1+lam^2) J_e + M_tare``.
@@ -91,6 +94,16 @@ def inertia_harmonics(inertia: np.ndarray, gear_ratio: float, tare_inertia: floa
             2 * lam * jyz,
         ]
     )
+
+
+def harmonics_matrix(gear_ratio: float) -> np.ndarray:
+    """(5, 6) d[M0, Mc2, Ms2, Ms1, Mc1] / d[Jx, Jy, Jz, Jxy, Jyz, Jxz] of one stage.
+
+    The harmonics are linear in the body's tensor: :func:`inertia_harmonics` (J, lam, M_tare)
+    is this matrix times J, plus M_tare in M0. Its columns are :func:`inertia_harmonics` of
+    the unit tensors, so the two agree exactly.
+    """
+    return np.column_stack([inertia_harmonics(e, gear_ratio, 0.0) for e in np.eye(6)])
 
 
 @dataclass(frozen=True)
@@ -146,7 +159,7 @@ def spring_parameters(stiffness: float, zero_angle: float) -> ModelParameters:
 
 
 class GimbalModel:
-    """Symbolic reduced model (METHOD.md §2-3): one set of CasADi expressions.
+    """Symbolic reduced model (docs/method.md §2-3): one set of CasADi expressions.
 
     Attributes
     ----------
@@ -167,7 +180,7 @@ class GimbalModel:
         Scalar symbol for an acceleration eps (rad/s^2), input of the inverse dynamics.
     tau : casadi.SX
         Inverse dynamics: the motor torque M acc + 1/2 M' Omega^2 + D + S that produces
-        the acceleration ``acc`` (Lagrange's equation, METHOD.md §3).
+        the acceleration ``acc`` (Lagrange's equation, docs/method.md §3).
     eps : casadi.SX
         Forward dynamics: the acceleration that torque u produces (the same equation solved).
     E : casadi.SX
@@ -183,18 +196,18 @@ class GimbalModel:
         m0, mc2, ms2, ms1, mc1, c, phi0, gs, gc, a1, a2, a3 = ca.vertsplit(self.p)
         phi, Omega = self.phi, self.Omega
 
-        # METHOD.md §2, harmonic form of M(phi).
+        # docs/method.md §2, harmonic form of M(phi).
         self.M = (
             m0 + mc2 * ca.cos(2 * phi) + ms2 * ca.sin(2 * phi) + ms1 * ca.sin(phi) + mc1 * ca.cos(phi)
         )
         self.dM = ca.jacobian(self.M, phi)
-        # METHOD.md §3, spring and gravity potential; the static torque is its gradient.
+        # docs/method.md §3, spring and gravity potential; the static torque is its gradient.
         self.Pi = c / 2 * (phi - phi0) ** 2 + gs * ca.sin(phi) + gc * ca.cos(phi)
         self.S = ca.jacobian(self.Pi, phi)
-        # METHOD.md §3, the paper's dissipation model with sign(Omega) made an explicit input
+        # docs/method.md §3, the paper's dissipation model with sign(Omega) made an explicit input
         # so that an integrator can hold it fixed between stops (no chattering at Omega = 0).
         self.D = (a1 + a3 * Omega**2) * self.direction + a2 * Omega
-        # METHOD.md §3, Lagrange's equation, written once as the torque a motor must apply for
+        # docs/method.md §3, Lagrange's equation, written once as the torque a motor must apply for
         # a given acceleration (inverse dynamics); the forward dynamics solve the same line.
         self.acc = ca.SX.sym("eps")
         self.tau = self.M * self.acc + self.dM * Omega**2 / 2 + self.D + self.S
@@ -210,6 +223,10 @@ class GimbalModel:
                 "inertia_basis", [phi, self.p], [ca.jacobian(self.M, self.p)[:, :5]]
             ),
             "potential": ca.Function("potential", [phi, self.p], [self.Pi]),
+            # Pi is linear in the gravity terms p[7:9]: dPi/d[Gs, Gc] is their basis.
+            "gravity_basis": ca.Function(
+                "gravity_basis", [phi, self.p], [ca.jacobian(self.Pi, self.p)[:, 7:9]]
+            ),
             "static_torque": ca.Function("static_torque", [phi, self.p], [self.S]),
             "dissipation": ca.Function(
                 "dissipation", [Omega, self.direction, self.p], [self.D]
@@ -221,15 +238,9 @@ class GimbalModel:
             "motor_torque": ca.Function(
                 "motor_torque", [phi, Omega, self.acc, self.direction, self.p], [self.tau]
             ),
-            # Lagrange's equation is linear in every parameter but the spring's: its
-            # Jacobian in p is the regressor of a least-squares fit of the model.
-            "torque_regressor": ca.Function(
-                "torque_regressor",
-                [phi, Omega, self.acc, self.direction, self.p],
-                [ca.jacobian(self.tau, self.p)],
-            ),
-            # Likewise the mechanical energy and the dissipative torque: the regressors of
-            # the energy balance E_b - E_a + integral of D dphi = motor work (METHOD.md §3).
+            # The mechanical energy (but for the spring's part) and the dissipative torque are
+            # linear in p: their Jacobians in p are the regressors of the energy balance
+            # E_b - E_a + integral of D dphi = motor work (docs/method.md §3).
             "energy_regressor": ca.Function(
                 "energy_regressor", [phi, Omega, self.p], [ca.jacobian(self.E, self.p)]
             ),
@@ -288,12 +299,12 @@ def _p(params: ModelParameters | np.ndarray) -> np.ndarray:
 
 
 def reduced_inertia(phi, params: ModelParameters | np.ndarray):
-    """M(phi), kg m^2 (METHOD.md §2), element-wise over ``phi`` (rad)."""
+    """M(phi), kg m^2 (docs/method.md §2), element-wise over ``phi`` (rad)."""
     return _evaluate("reduced_inertia", (phi,), _p(params))
 
 
 def inertia_basis(phi) -> np.ndarray:
-    """dM/d[M0, Mc2, Ms2, Ms1, Mc1] at each angle, shape phi.shape + (5,) (METHOD.md §2).
+    """dM/d[M0, Mc2, Ms2, Ms1, Mc1] at each angle, shape phi.shape + (5,) (docs/method.md §2).
 
     M(phi) = inertia_basis(phi) @ harmonics: the functions 1, cos 2phi, sin 2phi, sin phi,
     cos phi of the harmonic form, taken from the model's own M.
@@ -304,13 +315,32 @@ def inertia_basis(phi) -> np.ndarray:
     return out.reshape(phi.shape + (5,))
 
 
+def tensor_basis(phi, gear_ratio: float) -> np.ndarray:
+    """dM/d[Jx, Jy, Jz, Jxy, Jyz, Jxz] of one stage at each angle, shape phi.shape + (6,).
+
+    M(phi) - M_tare = tensor_basis(phi, lam) @ J = (1 + lam^2) J_e(phi) (docs/method.md §2): the
+    rows v(phi) of the least squares over the tensor's entries (docs/method.md §5), the model's
+    basis (:func:`inertia_basis`) times :func:`harmonics_matrix`.
+    """
+    return inertia_basis(phi) @ harmonics_matrix(gear_ratio)
+
+
+def gravity_basis(phi) -> np.ndarray:
+    """dPi/d[Gs, Gc] at each angle, shape phi.shape + (2,) (docs/method.md §3): the functions
+    sin phi, cos phi of the gravity potential, taken from the model's own Pi."""
+    phi = np.asarray(phi, dtype=float)
+    row = phi.reshape(1, -1)
+    out = np.asarray(MODEL.functions["gravity_basis"](row, np.zeros(len(PARAMETER_NAMES))))
+    return out.reshape(phi.shape + (2,))
+
+
 def reduced_inertia_slope(phi, params: ModelParameters | np.ndarray):
-    """dM/dphi, kg m^2/rad (METHOD.md §3), element-wise over ``phi`` (rad)."""
+    """dM/dphi, kg m^2/rad (docs/method.md §3), element-wise over ``phi`` (rad)."""
     return _evaluate("reduced_inertia_slope", (phi,), _p(params))
 
 
 def potential(phi, params: ModelParameters | np.ndarray):
-    """Pi(phi), J: spring plus gravity potential (METHOD.md §3)."""
+    """Pi(phi), J: spring plus gravity potential (docs/method.md §3)."""
     return _evaluate("potential", (phi,), _p(params))
 
 
@@ -320,14 +350,14 @@ def static_torque(phi, params: ModelParameters | np.ndarray):
 
 
 def dissipation(Omega, params: ModelParameters | np.ndarray, direction=None):
-    """D(Omega), N m (METHOD.md §3); ``direction`` defaults to sign(Omega)."""
+    """D(Omega), N m (docs/method.md §3); ``direction`` defaults to sign(Omega)."""
     if direction is None:
         direction = np.sign(Omega)
     return _evaluate("dissipation", (Omega, direction), _p(params))
 
 
 def acceleration(phi, Omega, u, params: ModelParameters | np.ndarray, direction=None):
-    """eps = dOmega/dt, rad/s^2, from Lagrange's equation (METHOD.md §3).
+    """eps = dOmega/dt, rad/s^2, from Lagrange's equation (docs/method.md §3).
 
     ``direction`` (the sign used by the Coulomb and quadratic friction) defaults to
     sign(Omega); pass it explicitly at rest.
@@ -338,24 +368,13 @@ def acceleration(phi, Omega, u, params: ModelParameters | np.ndarray, direction=
 
 
 def motor_torque(phi, Omega, eps, params: ModelParameters | np.ndarray, direction=None):
-    """Inverse dynamics: the motor torque u, N m, that gives acceleration ``eps`` (METHOD.md §3).
+    """Inverse dynamics: the motor torque u, N m, that gives acceleration ``eps`` (docs/method.md §3).
 
     ``direction`` (sign used by the Coulomb and quadratic friction) defaults to sign(Omega).
     """
     if direction is None:
         direction = np.sign(Omega)
     return _evaluate("motor_torque", (phi, Omega, eps, direction), _p(params))
-
-
-def torque_regressor(phi, Omega, eps, params: ModelParameters | np.ndarray, direction=None):
-    """d(motor_torque)/dp at each sample: rows of shape (12,), in PARAMETER_NAMES order.
-
-    The inverse dynamics are linear in every parameter except the spring's (c, phi0), so
-    u = regressor . p up to the spring's term; ``params`` supplies c and phi0.
-    """
-    if direction is None:
-        direction = np.sign(Omega)
-    return _regressor("torque_regressor", (phi, Omega, eps, direction), _p(params))
 
 
 def _regressor(name: str, args: tuple, p: np.ndarray) -> np.ndarray:
@@ -378,5 +397,5 @@ def dissipation_regressor(Omega, params: ModelParameters | np.ndarray, direction
 
 
 def mechanical_energy(phi, Omega, params: ModelParameters | np.ndarray):
-    """E = M(phi) Omega^2 / 2 + Pi(phi), J (METHOD.md §3)."""
+    """E = M(phi) Omega^2 / 2 + Pi(phi), J (docs/method.md §3)."""
     return _evaluate("mechanical_energy", (phi, Omega), _p(params))

@@ -12,14 +12,15 @@ import math
 import numpy as np
 import pytest
 
+from rsp_inertia.estimation import tensor
 from rsp_inertia.estimation.balance import node_formula, stage_balance
 from rsp_inertia.estimation.passes import PassEstimate
 from rsp_inertia.estimation.smoothing import Smoothed
-from rsp_inertia.estimation.tensor import fit_tensor
+from rsp_inertia.estimation.tensor import ENTRY_KEYS, KnownTerms, fit_tensor, tensor_block
 from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.geometry import relative_errors
 from rsp_inertia.plant.logs import Log
-from rsp_inertia.plant.model import acceleration, reduced_inertia
+from rsp_inertia.plant.model import acceleration, gravity_basis, reduced_inertia, tensor_basis
 from tests.estimation.conftest import STAGES
 
 EXACT_REL = 1e-6
@@ -100,3 +101,22 @@ def test_least_squares_gives_the_true_tensor_and_centre_of_mass(
     np.testing.assert_allclose(
         fit.gravity / weight, body.com[:2], rtol=0, atol=EXACT_REL * np.linalg.norm(body.com[:2])
     )
+
+
+def test_the_least_squares_rows_are_the_models_bases(default_device, exact_passes, monkeypatch):
+    """tensor_block's inertia and gravity columns are rsp_inertia.plant.model's tensor_basis
+    and gravity_basis (twice: two passes); replaced, the columns follow."""
+    bal = stage_balance(default_device, 1, *exact_passes[1])
+    known = KnownTerms.from_tares([st.tare_inertia for st in default_device.stages])
+    block = tensor_block(bal, "0", known, False)
+    v = tensor_basis(bal.phi, bal.gear_ratio)
+    for i, name in enumerate(ENTRY_KEYS):
+        np.testing.assert_array_equal(block.inertia_columns[name], v[:, i])
+    np.testing.assert_array_equal(
+        np.column_stack([block.columns["Gs"], block.columns["Gc"]]), 2 * gravity_basis(bal.phi)
+    )
+    monkeypatch.setattr(tensor, "tensor_basis", lambda phi, lam: np.ones((len(phi), 6)))
+    monkeypatch.setattr(tensor, "gravity_basis", lambda phi: np.ones((len(phi), 2)))
+    block = tensor_block(bal, "0", known, False)
+    assert all(np.all(block.inertia_columns[name] == 1.0) for name in ENTRY_KEYS)
+    assert np.all(block.columns["Gs"] == 2.0) and np.all(block.columns["Gc"] == 2.0)

@@ -9,10 +9,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from rsp_inertia.plant.geometry import axis_direction, entries_from_tensor
 from rsp_inertia.plant.model import (
     ModelParameters,
     acceleration,
     dissipation,
+    gravity_basis,
+    harmonics_matrix,
     inertia_harmonics,
     mechanical_energy,
     motor_torque,
@@ -21,6 +24,7 @@ from rsp_inertia.plant.model import (
     reduced_inertia_slope,
     rk4_step,
     static_torque,
+    tensor_basis,
 )
 
 # Each example costs a handful of CasADi calls (~0.1 ms): 200 of them per property are cheap.
@@ -376,3 +380,31 @@ def test_the_simulator_and_the_ocp_step_with_rk4_step(monkeypatch):
     np.testing.assert_allclose(
         np.asarray(step([0.4, 3.0, u], 2.0, params.vector)).ravel(), [0.4, 3.0, u] + h * slope, rtol=1e-14
     )
+
+
+# --- the least squares' bases are the model's -------------------------------------------
+
+
+@PROPERTY
+@given(J=tensors(), lam=st.floats(0.0, 6.0), tare=st.floats(0.0, 0.1), phi=angles)
+def test_tensor_basis_is_the_models_reduced_inertia(J, lam, tare, phi):
+    """tensor_basis(phi, lam) . J = M(phi) - M_tare = (1 + lam^2) e^T J e (METHOD.md §2)."""
+    j6 = entries_from_tensor(J)
+    row = tensor_basis(np.array([phi]), lam)[0]
+    M = reduced_inertia(phi, ModelParameters(inertia_harmonics(j6, lam, tare)))
+    scale = (1 + lam * lam) * np.abs(J).sum() + tare
+    assert row @ j6 == pytest.approx(M - tare, rel=0, abs=1e-13 * scale)
+    e = axis_direction(phi, lam)
+    assert row @ j6 == pytest.approx((1 + lam * lam) * e @ J @ e, rel=0, abs=1e-13 * scale)
+    np.testing.assert_allclose(
+        harmonics_matrix(lam) @ j6 + [tare, 0, 0, 0, 0], inertia_harmonics(j6, lam, tare),
+        rtol=0, atol=1e-15 * scale,
+    )
+
+
+@PROPERTY
+@given(gs=unit, gc=unit, phi=angles)
+def test_gravity_basis_is_the_models_gravity_potential(gs, gc, phi):
+    params = ModelParameters(np.zeros(5), gravity_sin=gs, gravity_cos=gc)
+    value = gravity_basis(np.array([phi]))[0] @ [gs, gc]
+    assert value == pytest.approx(potential(phi, params), rel=0, abs=4 * EPS)
