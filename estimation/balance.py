@@ -1,7 +1,7 @@
 """Both passes of a stage at common angles: the node formula and the balance equations.
 
 Reverse minus braking balance between two angles a < b covered by both passes
-(METHOD.md §5), with S = Omega^2 + Omega'^2 the two passes' squared speeds at one angle and
+(docs/method.md §5), with S = Omega^2 + Omega'^2 the two passes' squared speeds at one angle and
 W(phi) = A(release -> phi) + A'(phi7 -> phi) the motor work of both passes up to phi:
 
     1/2 M(phi_b) S_b - 1/2 M(phi_a) S_a + 2 (Pi_b - Pi_a) = W_b - W_a = A_ab - A'_ab
@@ -12,7 +12,7 @@ it does the same work on both passes at the same angle and speed.
 
 Tracking mismatch. A closed-loop reverse runs at |Omega'| = |Omega| + delta, delta a few 1e-4
 of the speed, and friction then does slightly different work on the two passes. With
-F = friction's work (negative) and D(|Omega|) the dissipative torque of METHOD.md §3, the
+F = friction's work (negative) and D(|Omega|) the dissipative torque of docs/method.md §3, the
 braking pass's F_b(phi) from the release and the reverse's F_r(phi) from phi7 sum to
 
     F_b(phi) + F_r(phi) = const - int_phi^phi7 [D(|Omega'|) - D(|Omega|)] dphi
@@ -73,7 +73,7 @@ __all__ = [
 
 MIN_SPEED_FRACTION = 0.2
 """Angles where the braking speed is below this fraction of its top speed are left out:
-near rest the mirror cannot be exact (torque-rate limit, static friction, METHOD.md §4)."""
+near rest the mirror cannot be exact (torque-rate limit, static friction, docs/method.md §4)."""
 
 EDGE_MARGIN = 0.1
 """rad left out at each end of the common range (smoother start-up, release transient)."""
@@ -158,13 +158,14 @@ def _outside_gaps(est: PassEstimate, times: np.ndarray, sample_rate: float) -> n
 
 
 def _spring_potential(phi: np.ndarray, device: Device) -> np.ndarray:
-    """Spring part of Pi (METHOD.md §3, rsp_inertia.plant.model); gravity is estimated, not known."""
+    """Spring part of Pi (docs/method.md §3, rsp_inertia.plant.model); gravity is estimated,
+    not known."""
     return potential(phi, spring_parameters(device.spring.stiffness, device.spring.zero_angle))
 
 
 MIN_TURNS = 2.0
 """Turns both passes must share at useful speed: every node then has at least one whole-turn
-pair, and the least squares sees M's pattern repeat (METHOD.md §4: at least two turns)."""
+pair, and the least squares sees M's pattern repeat (docs/method.md §4: at least two turns)."""
 
 
 def usable_range(braking: PassEstimate, reverse: PassEstimate, stage: int) -> tuple[float, float]:
@@ -254,7 +255,7 @@ def friction_shape(phi: np.ndarray, omega: np.ndarray) -> np.ndarray:
     """Work of a dissipative torque e1 + e2 |Omega| + e3 Omega^2 from phi[0], per coefficient.
 
     Columns int dphi, int |Omega| dphi, int Omega^2 dphi (trapezoid rule along ``phi``,
-    ascending). With METHOD.md §3's dissipation D = a1 + a2 |Omega| + a3 Omega^2, a friction
+    ascending). With docs/method.md §3's dissipation D = a1 + a2 |Omega| + a3 Omega^2, a friction
     that differs between the directions of rotation, D_backward - D_forward =
     e1 + e2 |Omega| + e3 Omega^2, leaves exactly this shape in a run's balance (the reverse
     pass runs in the other direction): + e . shape in a forward run, - e . shape in a
@@ -327,7 +328,7 @@ def stage_balance(
 
 @dataclass(frozen=True)
 class NodeEstimate:
-    """Reduced inertia at one node from its whole-turn pairs (METHOD.md §5)."""
+    """Reduced inertia at one node from its whole-turn pairs (docs/method.md §5)."""
 
     stage: int
     """Stage number, from 1."""
@@ -359,7 +360,7 @@ def node_formula(
 ) -> list[NodeEstimate]:
     """M at each node of the stage from every one-turn pair (phi_a, phi_a + 2 pi).
 
-    METHOD.md §5: M = 2 (A' - A + 2 dPi) / (Omega_a^2 + Omega'_a^2 - Omega_b^2 - Omega'_b^2),
+    docs/method.md §5: M = 2 (A' - A + 2 dPi) / (Omega_a^2 + Omega'_a^2 - Omega_b^2 - Omega'_b^2),
     and the paper's plain form M = (A' - A + 2 dPi) / (Omega_a^2 - Omega_b^2). Gravity cancels
     over whole turns; dPi is the spring's. Pairs are combined by generalised least squares
     (:func:`_combine_pairs`): speed noise from the smoothers' derived error variance times

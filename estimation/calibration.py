@@ -3,9 +3,9 @@
 Like every mass-properties instrument, the gimbal is calibrated with runs of its own:
 
 - an **empty** experiment, the fixture without a body: its balances give, per stage, the
-  empty system's reduced inertia M_empty(phi) in harmonic form (METHOD.md §2: the tare
+  empty system's reduced inertia M_empty(phi) in harmonic form (docs/method.md §2: the tare
   M_tare(lambda) and an unbalanced mounting plate's own harmonics, five coefficients), and
-  the fixture's gravity terms Gs_f = m_f g x_f, Gc_f = m_f g y_f (METHOD.md §3);
+  the fixture's gravity terms Gs_f = m_f g x_f, Gc_f = m_f g y_f (docs/method.md §3);
 - a **reference** experiment, the fixture with a body whose tensor, mass and centre of mass
   are known (``reference.toml``): the same balances with the known body's M_ref(phi) and
   gravity added fix the scale of the logged torque, h = 1 / torque gain (logged torque =

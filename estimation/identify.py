@@ -10,7 +10,7 @@ balances and the node formula (rsp_inertia.estimation.balance), least squares an
 Two estimates of the tensor are reported:
 
 - **least squares** (the headline): every stage's balance angles over all covered turns in
-  one weighted least-squares problem (METHOD.md §5), tensor and gravity terms together;
+  one weighted least-squares problem (docs/method.md §5), tensor and gravity terms together;
 - **node formula**: M at each node from its whole-turn pairs, J_k = (M - M_tare)/(1+lam^2),
   and the tensor from the J_k through V (the paper's six-axis solve, (8)).
 
@@ -61,7 +61,7 @@ WARN_CONDITION = 10.0
 
 
 def axial_moment(M, stage, empty=None) -> np.ndarray | float:
-    """J_e = (M - M_tare) / (1 + lam^2) about a stage's axis (METHOD.md §2).
+    """J_e = (M - M_tare) / (1 + lam^2) about a stage's axis (docs/method.md §2).
 
     ``empty``: the empty system's reduced inertia at the node (tare and fixture, from a
     calibration); device.toml's tare by default.

@@ -27,7 +27,7 @@ class AxisResult:
     phi_deg: float
     """Node, deg."""
     direction: np.ndarray
-    """Unit axis in the body frame (METHOD.md §1)."""
+    """Unit axis in the body frame (docs/method.md §1)."""
     J: float
     """kg m^2, from the least-squares tensor (headline)."""
     J_std: float

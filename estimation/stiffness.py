@@ -11,9 +11,9 @@ and the fixture with the reference body at
 
 w the undamped frequencies at zero amplitude (rsp_inertia.estimation.pendulum.half_cycle_fit), phi_e and
 phi_r the oscillations' equilibria, k = -(Gs sin phi + Gc cos phi) the gravity stiffnesses
-(METHOD.md §3) of the fixture (calibrated by the RSP calibration) and of the reference body
+(docs/method.md §3) of the fixture (calibrated by the RSP calibration) and of the reference body
 (its mass and centre of mass, reference.toml), and M_r the reference body's reduced inertia
-(its tensor, METHOD.md §2). The RSP calibration's empty harmonics give the small change
+(its tensor, docs/method.md §2). The RSP calibration's empty harmonics give the small change
 d = M_e(phi_r) - M_e(phi_e) between the two equilibria. Eliminating M_e = M_e(phi_e):
 
     M_e = [w_r^2 (d + M_r) - k_f(phi_r) - k_r(phi_r) + k_f(phi_e)] / (w_e^2 - w_r^2),

@@ -1,6 +1,6 @@
 """Axis geometry: instantaneous axes, the design matrix V and the axis designs.
 
-Pure numpy (plus one bounded scalar search from scipy). Every formula cites METHOD.md:
+Pure numpy (plus one bounded scalar search from scipy). Every formula cites docs/method.md:
 the axis direction is §1, the tensor convention §2, the design matrix and the two
 designs of the paper (icosahedron, one cone plus the z axis) §5 "Axis designs".
 """
@@ -38,7 +38,7 @@ __all__ = [
 
 
 def axis_direction(phi: ArrayLike, gear_ratio: ArrayLike) -> np.ndarray:
-    """Unit vector of the instantaneous axis in body coordinates (METHOD.md §1).
+    """Unit vector of the instantaneous axis in body coordinates (docs/method.md §1).
 
     With psi = lambda * phi and nutation pi/2 the body turns about
 
@@ -70,11 +70,11 @@ def axis_direction(phi: ArrayLike, gear_ratio: ArrayLike) -> np.ndarray:
 
 
 def design_matrix(directions: ArrayLike) -> np.ndarray:
-    """Design matrix V of a set of axes (METHOD.md §5, the paper's (8)).
+    """Design matrix V of a set of axes (docs/method.md §5, the paper's (8)).
 
     Row k is V_k = (ex^2, ey^2, ez^2, 2 ex ey, 2 ey ez, 2 ex ez), so that
     V_k . [Jx, Jy, Jz, Jxy, Jyz, Jxz] = e_k^T J e_k = J_e about axis k, with the products
-    of inertia as tensor entries (METHOD.md §2).
+    of inertia as tensor entries (docs/method.md §2).
 
     Parameters
     ----------
@@ -99,7 +99,7 @@ def condition_number(V: ArrayLike) -> float:
     Parameters
     ----------
     V : array_like
-        Shape ``(n, 6)``, ``n >= 6`` (a design matrix, METHOD.md §5).
+        Shape ``(n, 6)``, ``n >= 6`` (a design matrix, docs/method.md §5).
 
     Returns
     -------
@@ -143,7 +143,7 @@ def axis_angles_deg(directions: ArrayLike) -> np.ndarray:
 
 
 def tensor_from_entries(j6: ArrayLike) -> np.ndarray:
-    """Inertia tensor from its six entries (METHOD.md §2).
+    """Inertia tensor from its six entries (docs/method.md §2).
 
     Parameters
     ----------
@@ -168,7 +168,7 @@ def tensor_from_entries(j6: ArrayLike) -> np.ndarray:
 
 
 def entries_from_tensor(J: ArrayLike) -> np.ndarray:
-    """Six entries ``[Jx, Jy, Jz, Jxy, Jyz, Jxz]`` of an inertia tensor (METHOD.md §2).
+    """Six entries ``[Jx, Jy, Jz, Jxy, Jyz, Jxz]`` of an inertia tensor (docs/method.md §2).
 
     Inverse of :func:`tensor_from_entries`. Each product is the mean of the two mirror
     entries, so a tensor that is symmetric only up to rounding gives its symmetric part.
@@ -200,7 +200,7 @@ def entries_from_tensor(J: ArrayLike) -> np.ndarray:
 
 
 def physical_margins(j6: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
-    """How far a tensor is from the limits of a rigid body's (METHOD.md §5, physical checks).
+    """How far a tensor is from the limits of a rigid body's (docs/method.md §5, physical checks).
 
     A body's tensor is positive definite and its principal moments I1 <= I2 <= I3 obey the
     triangle inequality I1 + I2 >= I3.
@@ -248,7 +248,7 @@ def _frozen_array(values: ArrayLike, dtype: type) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class AxisDesign:
-    """A set of instantaneous axes in the body, one per (stage, node) (METHOD.md §5).
+    """A set of instantaneous axes in the body, one per (stage, node) (docs/method.md §5).
 
     Axis k is ``axis_direction(phis[k], gear_ratios[k])``. The arrays are copied and made
     read-only. Equality is identity (arrays have no single truth value).
@@ -283,12 +283,12 @@ class AxisDesign:
 
     @property
     def directions(self) -> np.ndarray:
-        """(n, 3) unit axis vectors in body coordinates (METHOD.md §1)."""
+        """(n, 3) unit axis vectors in body coordinates (docs/method.md §1)."""
         return axis_direction(self.phis, self.gear_ratios)
 
     @property
     def matrix(self) -> np.ndarray:
-        """(n, 6) design matrix V (METHOD.md §5)."""
+        """(n, 6) design matrix V (docs/method.md §5)."""
         return design_matrix(self.directions)
 
     @property
@@ -303,7 +303,7 @@ class AxisDesign:
 
 
 def icosahedron_design() -> AxisDesign:
-    """The paper's two-stage design: the six axes of a regular icosahedron (METHOD.md §5).
+    """The paper's two-stage design: the six axes of a regular icosahedron (docs/method.md §5).
 
     Stage 1: lambda1 = 3 - sqrt 5 (0.7639), nodes phi = 0, 120, 240 deg.
     Stage 2: lambda2 = 3 + sqrt 5 (5.2361), nodes phi = 60, 180, 300 deg.
@@ -324,14 +324,14 @@ def icosahedron_design() -> AxisDesign:
 
 
 def _cone_gear_ratio(opening_deg: float) -> float:
-    """Gear ratio lambda = tan(beta) of a cone of opening 2 beta (deg) (METHOD.md §1)."""
+    """Gear ratio lambda = tan(beta) of a cone of opening 2 beta (deg) (docs/method.md §1)."""
     if not 0.0 <= opening_deg < 180.0:
         raise InputError(f"cone opening angle {opening_deg} deg: must lie in [0, 180)")
     return float(np.tan(np.radians(opening_deg) / 2.0))
 
 
 def cone_plus_z_design(opening_deg: float) -> AxisDesign:
-    """Five axes 72 deg apart on one cone plus the z axis (METHOD.md §5, paper Fig. 1).
+    """Five axes 72 deg apart on one cone plus the z axis (docs/method.md §5, paper Fig. 1).
 
     Parameters
     ----------
@@ -382,7 +382,7 @@ def rcond_curve(openings_deg: ArrayLike) -> np.ndarray:
 
 
 def best_cone_opening() -> tuple[float, float]:
-    """Opening angle 2 beta of the cone-plus-z design that minimises cond(V) (METHOD.md §5).
+    """Opening angle 2 beta of the cone-plus-z design that minimises cond(V) (docs/method.md §5).
 
     cond(V) has a cusp at its minimum (two singular values cross there), so a smooth
     optimiser alone is unreliable: a 0.1 deg grid over (0, 180) locates the basin, then a
@@ -416,7 +416,7 @@ def axis_nodes_deg(stage: Any) -> list[float]:
 
 
 def device_design(device: Any) -> AxisDesign:
-    """Axes that a device's stages realise, in stage order (METHOD.md §1, §5).
+    """Axes that a device's stages realise, in stage order (docs/method.md §1, §5).
 
     Parameters
     ----------

@@ -587,7 +587,7 @@ def demo_figures(
             )
     if virtual is None or virtual.body is None:  # no truth to compare with
         return paths
-    # The true moments about the axes: J_k = V_k . J (METHOD.md §5).
+    # The true moments about the axes: J_k = V_k . J (docs/method.md §5).
     J_true = design_matrix(np.array([a.direction for a in result.axes])) @ virtual.body.inertia
     errors = {
         "RSP least squares": np.array([a.J for a in result.axes]) / J_true - 1,
