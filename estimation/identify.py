@@ -1,8 +1,9 @@
 """Identification from an experiment's logs in memory: tensor and centre of mass out.
 
-Takes what a rig produces (the device and the logs, :class:`rsp_inertia.estimation.runs.ExperimentLogs`)
-and what its calibration knows (:class:`rsp_inertia.estimation.tensor.KnownTerms`), never the
-virtual device's truth; opens no file (rsp_inertia.estimation.reading reads a folder). Steps,
+Takes what a rig produces (the device and the logs,
+:class:`rsp_inertia.estimation.runs.ExperimentLogs`) and what its calibration knows
+(:class:`rsp_inertia.estimation.tensor.KnownTerms`), never the virtual device's truth; opens
+no file (rsp_inertia.estimation.reading reads a folder). Steps,
 each in its own function elsewhere: smoothing and motor work (rsp_inertia.estimation.passes),
 balances and the node formula (rsp_inertia.estimation.balance), least squares and the tensor
 (rsp_inertia.estimation.tensor).
@@ -134,6 +135,8 @@ def identify_logs(
     InputError
         Malformed logs, logs that do not overlap, too few turns for a node, a braking whose
         speed reverses, an ill-conditioned axis design.
+    ValueError
+        ``logs.runs`` are not the device's runs (rsp_inertia.estimation.runs.balance_runs).
     """
     say = progress or (lambda _text: None)
     device = logs.device
