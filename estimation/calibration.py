@@ -417,13 +417,3 @@ def device_known_terms(
         "exact, and their errors are not in the stds (calibrate with rsp-inertia calibrate)"
     )
     return known, [warning]
-
-
-def __getattr__(name: str):
-    """``known_terms``, the known terms of an experiment folder, is
-    rsp_inertia.estimation.reading's; benchmarks/cases.py still imports it from here."""
-    if name == "known_terms":
-        from rsp_inertia.estimation.reading import known_terms
-
-        return known_terms
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -409,17 +409,3 @@ def _best_practice(
         "J_best_budget": budgets,
         "stiffness": (float(c), float(c_std), source),
     }
-
-
-_FOLDER_READERS = {"identify": "identify_experiment", "identify_pendulum": "identify_pendulum"}
-"""Names under which benchmarks/ (cases.py, identification.py, program.py) still import the
-folder-level readers of rsp_inertia.estimation.reading from this module."""
-
-
-def __getattr__(name: str):
-    """The folder-level readers of :data:`_FOLDER_READERS`, from rsp_inertia.estimation.reading."""
-    if name in _FOLDER_READERS:
-        from rsp_inertia.estimation import reading
-
-        return getattr(reading, _FOLDER_READERS[name])
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

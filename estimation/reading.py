@@ -16,8 +16,6 @@ import tomllib
 from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 
-import numpy as np
-
 from rsp_inertia.estimation.calibration import (
     Calibration,
     calibrate_logs,
@@ -25,8 +23,8 @@ from rsp_inertia.estimation.calibration import (
     known_terms_from_toml,
     stiffness_from_toml,
 )
-from rsp_inertia.estimation.identify import identify_logs, pendulum_baseline
-from rsp_inertia.estimation.results import Identification, PendulumResult
+from rsp_inertia.estimation.identify import identify_logs
+from rsp_inertia.estimation.results import Identification
 from rsp_inertia.estimation.runs import ExperimentLogs, Sources, runs
 from rsp_inertia.estimation.tensor import KnownTerms
 from rsp_inertia.plant.config import load_reference
@@ -41,7 +39,6 @@ __all__ = [
     "calibrated_stiffness",
     "check_same_stages",
     "identify_experiment",
-    "identify_pendulum",
     "known_terms",
     "load_calibration",
     "read_experiment",
@@ -180,21 +177,6 @@ def identify_experiment(
     return identify_logs(
         logs, known, pendulum_stiffness=stiffness, warnings=warnings, progress=progress
     )
-
-
-def identify_pendulum(
-    exp: Experiment,
-    progress: Callable[[str], None] | None = None,
-    known: KnownTerms | None = None,
-    gravity: np.ndarray | None = None,
-    gravity_cov: np.ndarray | None = None,
-    warnings: list[str] | None = None,
-) -> PendulumResult | None:
-    """The torsion-pendulum baseline of an experiment folder's pendulum logs
-    (rsp_inertia.estimation.identify.pendulum_baseline, with calibration.toml's stiffness)."""
-    logs = read_experiment(exp)
-    stiffness = calibrated_stiffness(exp) if logs.pendulum and gravity is not None else None
-    return pendulum_baseline(logs, known, gravity, gravity_cov, stiffness, warnings, progress)
 
 
 def check_same_stages(exp: Experiment, other: Experiment, role: str) -> None:
