@@ -62,7 +62,7 @@ the torque's variation within a turn (at 12 rad/s a turn lasts ~0.5 s)."""
 FEASIBILITY_WINDOW = 0.1
 """s over which the needed torque is averaged before it is compared with the motor's limit.
 
-Measured on a 12-bit encoder (rsp-inertia bench, friction x10, stage 2): where the body moves
+Measured on a 12-bit encoder (the benchmarks' sweep, friction x10, stage 2): where the body moves
 about one count per sample the quantization stops being white and the smoothed acceleration
 shows isolated bumps; averaged over 50 ms the needed torque then peaked at 0.66 N m, over
 100 ms at 0.24 N m, against a true need of about 0.3 N m. 100 ms still follows the fastest

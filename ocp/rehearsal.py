@@ -48,7 +48,7 @@ from rsp_inertia.ocp.program import make_program
 from rsp_inertia.ocp.regulator import OBSERVER_BANDWIDTH
 from rsp_inertia.plant.config import ControllerSettings, Device, Friction, RunSettings, Virtual
 from rsp_inertia.plant.geometry import device_design
-from rsp_inertia.plant.model import ModelParameters, inertia_harmonics
+from rsp_inertia.plant.model import ModelParameters, harmonics_matrix, inertia_harmonics
 from rsp_inertia.plant.virtual import run_program, simulate_braking
 
 __all__ = ["Rehearsal", "consistent_models", "rehearse"]
@@ -70,10 +70,7 @@ def consistent_models(device: Device, models: Sequence[StageModel]) -> list[Mode
     rows, rhs = [], []
     for sm in models:
         st = device.stages[sm.stage - 1]
-        basis = np.column_stack(
-            [inertia_harmonics(e, st.gear_ratio, 0.0) for e in np.eye(6)]
-        )
-        rows.append(basis)
+        rows.append(harmonics_matrix(st.gear_ratio))
         rhs.append(sm.model.inertia_harmonics - inertia_harmonics(np.zeros(6), 0.0, st.tare_inertia))
     tensor, *_ = np.linalg.lstsq(np.vstack(rows), np.concatenate(rhs), rcond=None)
     gs = float(np.mean([sm.model.gravity_sin for sm in models]))

@@ -845,8 +845,12 @@ def simulate_pendulum(device: Device, stage: int, virtual: Virtual, node: int) -
     # grid's last sample: _resample advances from there).
     clock = (stage, _STREAM_PENDULUM + _STREAM_CLOCK, node)
     truth = _resample(truth, pair, sampling_instants(virtual, clock, n, dt))
-    end = dict(end_phi=float(truth.phi[-1]), end_omega=float(truth.omega[-1]))
-    truth = dataclasses.replace(truth, end_time=float(truth.t[-1]), **end)
+    truth = dataclasses.replace(
+        truth,
+        end_time=float(truth.t[-1]),
+        end_phi=float(truth.phi[-1]),
+        end_omega=float(truth.omega[-1]),
+    )
     seed = (stage, _STREAM_PENDULUM, node)
     return _logged(truth, np.zeros(len(truth.t)), virtual, seed, device.encoder.quantum)
 

@@ -15,6 +15,7 @@ import numpy as np
 
 from rsp_inertia.plant.device_config import Device
 from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.geometry import physical_margins, tensor_from_entries
 from rsp_inertia.plant.toml_schema import (
     ContentError,
     config_class,
@@ -32,15 +33,14 @@ def _physical_inertia(inertia: tuple[float, ...], key: str) -> None:
     for name, value in zip(_INERTIA_NAMES[:3], inertia[:3], strict=True):
         if not value > 0.0:
             raise ContentError(key, f"{name} must be > 0, got {value!r}")
-    jx, jy, jz, jxy, jyz, jxz = inertia
-    moments = np.linalg.eigvalsh([[jx, jxy, jxz], [jxy, jy, jyz], [jxz, jyz, jz]])
-    # Ascending order: only the smallest can be <= 0 and only the largest can exceed the
-    # sum of the others. A flat plate has I3 = I1 + I2 exactly, hence the rounding margin.
-    if moments[0] <= 0.0 or moments[2] > moments[0] + moments[1] + 1e-12 * moments.sum():
+    smallest, triangle = physical_margins(inertia)
+    # A flat plate has I3 = I1 + I2 exactly, hence the rounding margin on the triangle.
+    if smallest <= 0.0 or triangle < -1e-12 * sum(inertia[:3]):
+        moments = np.linalg.eigvalsh(tensor_from_entries(inertia))
         listed = ", ".join(f"{moment:.6g}" for moment in moments)
         fault = (
             "not positive definite"
-            if moments[0] <= 0.0
+            if smallest <= 0.0
             else "the largest exceeds the sum of the other two (triangle inequality)"
         )
         raise ContentError(
@@ -90,8 +90,7 @@ class TrueBody:
     @property
     def tensor(self) -> np.ndarray:
         """The inertia tensor J, kg m^2, shape (3, 3) (docs/method.md §2)."""
-        jx, jy, jz, jxy, jyz, jxz = self.inertia
-        return np.array([[jx, jxy, jxz], [jxy, jy, jyz], [jxz, jyz, jz]])
+        return tensor_from_entries(self.inertia)
 
 
 @config_class

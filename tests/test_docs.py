@@ -51,11 +51,6 @@ OWN_PAGES = [ROOT / "README.md"] + [
 DEFAULTS = Path(rsp_inertia.plant.__file__).parent / "defaults"
 ENTRIES = ("Jx", "Jy", "Jz", "Jxy", "Jyz", "Jxz")
 
-PENDING = {("virtual.toml", "logger")}
-"""Documented tables whose reader is being written: exempt from the accepted-keys checks
-only while rsp_inertia.plant.config knows no such table at all."""
-
-
 # --- parsing the pages --------------------------------------------------------------------
 
 FENCE = re.compile(r"^```([^\n]*)\n(.*?)^```[ \t]*$", re.MULTILINE | re.DOTALL)
@@ -259,10 +254,6 @@ def _documented(file: str) -> dict[str, list[str]]:
     return {_key(row[0]): row for row in _table_rows(section)}
 
 
-def _pending(file: str, table: str, accepted: dict) -> bool:
-    return (file, table) in PENDING and table not in accepted[file].get("", set())
-
-
 @pytest.mark.parametrize("file", list(LOADERS))
 def test_documented_toml_keys_are_the_ones_config_accepts(file):
     accepted = _accepted()[file]
@@ -272,16 +263,15 @@ def test_documented_toml_keys_are_the_ones_config_accepts(file):
     }
     documented = set(_documented(file))
     assert documented, f"docs/files.md has no key table under '## {file}'"
-    pending = {k for k in documented if _pending(file, k.split(".")[0], _accepted())}
-    assert documented - pending <= known, (
+    assert documented <= known, (
         f"{file}: documented but not accepted by rsp_inertia.plant.config: "
-        f"{sorted(documented - pending - known)}"
+        f"{sorted(documented - known)}"
     )
     assert known <= documented, (
         f"{file}: accepted by rsp_inertia.plant.config but not documented in docs/files.md: "
         f"{sorted(known - documented)}"
     )
-    tables = {k.split(".")[0] for k in documented - pending}
+    tables = {k.split(".")[0] for k in documented}
     assert tables <= accepted[""], f"{file}: unknown tables {sorted(tables - accepted[''])}"
 
 
@@ -324,10 +314,7 @@ def _examples(file: str) -> list[dict]:
 def _merged(file: str, block: dict, tmp_path: Path, name: str = "x") -> Path:
     """``block``'s tables on top of the default experiment's ``file``, written to a file."""
     doc = tomllib.loads(BASES[file].read_text(encoding="utf-8"))
-    accepted = _accepted()
-    for table, value in block.items():
-        if not _pending(file, table, accepted):
-            doc[table] = value
+    doc.update(block)
     path = tmp_path / f"{name}-{file}"
     path.write_text(tomlkit.dumps(doc), encoding="utf-8")
     return path
@@ -367,13 +354,10 @@ def _plain(value):
 def test_documented_requirements_and_defaults_hold(file, tmp_path):
     """Each key left out of the example that shows it: a required key is missed, an optional
     one takes its documented default (or stays unset)."""
-    accepted = _accepted()
     blocks = _examples(file)
     faults = []
     for dotted, row in _documented(file).items():
         table, key = dotted.split(".", 1)
-        if _pending(file, table, accepted):
-            continue
         holders = [b for b in blocks if key in _entries(b.get(table))]
         if not holders:
             faults.append(f"{dotted}: in no '# {file}' example of the docs")
