@@ -360,16 +360,16 @@ def _euler(derivative, x, h, substeps=1):
 
 
 def test_the_simulator_and_the_ocp_step_with_rk4_step(monkeypatch):
-    """rsp_inertia.plant.virtual and rsp_inertia.ocp.feedforward build their steps with
+    """rsp_inertia.plant.integrate and rsp_inertia.ocp.feedforward build their steps with
     rk4_step: replaced by an Euler step, their step functions become Euler steps."""
     from rsp_inertia.ocp import feedforward
-    from rsp_inertia.plant import virtual
+    from rsp_inertia.plant import integrate
 
     params = ModelParameters(np.array([0.03, 0.001, 0.0, 0.0, 0.0]), 0.1, 0.2, 0.01, 0.0, 1e-3)
     x0, u, h = np.array([0.4, 3.0]), 0.05, 1e-3
     slope = np.array([3.0, acceleration(0.4, 3.0, u, params, direction=1.0)])
-    monkeypatch.setattr(virtual, "rk4_step", _euler)
-    step = virtual._build_step(8)
+    monkeypatch.setattr(integrate, "rk4_step", _euler)
+    step = integrate._build_step(8)
     np.testing.assert_allclose(
         np.asarray(step(x0, u, 1.0, params.vector, h)).ravel(), x0 + h * slope, rtol=1e-14
     )

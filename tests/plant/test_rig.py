@@ -14,6 +14,7 @@ from scipy.interpolate import CubicSpline
 from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.config import Friction, Rig, TrueBody
 from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.integrate import advance
 from rsp_inertia.plant.logs import Program, read_log, write_log
 from rsp_inertia.plant.model import dissipation, mechanical_energy, static_torque
 
@@ -275,7 +276,7 @@ def test_static_friction_is_that_of_the_direction_the_net_torque_pushes(device, 
     phi = 0.7
     u = static_torque(phi, forward) + sign * 1.5 * a1
     x = np.array([phi, 0.0])
-    after = vd._advance(x.copy(), u, device.encoder.dt, (forward.vector, backward.vector))
+    after = advance(x.copy(), u, device.encoder.dt, (forward.vector, backward.vector))
     if sign > 0:
         assert after[1] > 0.0 and after[0] > phi
     else:

@@ -1,6 +1,6 @@
-"""The virtual device (METHOD.md §3-4, INTERFACES.md logs): the integrator conserves energy,
-its braking agrees with an independent integration, the logs are what a rig writes, static
-friction holds, the ideal reverse is the mirror, the drive keeps its limits."""
+"""The virtual device (docs/method.md §3-4, docs/files.md logs): the integrator conserves
+energy, its braking agrees with an independent integration, the logs are what a rig writes,
+static friction holds, the ideal reverse is the mirror, the drive keeps its limits."""
 
 import dataclasses
 import math
@@ -11,6 +11,7 @@ from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
 from rsp_inertia.plant import virtual as vd
+from rsp_inertia.plant.integrate import BLOCK, advance, step_block
 from rsp_inertia.plant.logs import Program, read_log, write_log
 from rsp_inertia.plant.model import (
     acceleration,
@@ -75,14 +76,14 @@ def test_integrator_conserves_energy_without_dissipation(default_device, default
     x = release_state(default_device, stage, default_virtual)
     E0 = mechanical_energy(x[0], x[1], params)
     blocks = []
-    for _ in range(round(10.0 / (dt * vd._BLOCK))):  # 10 s
-        block = np.asarray(vd._STEP_BLOCK(x, 0.0, 1.0, params.vector, dt)).T
+    for _ in range(round(10.0 / (dt * BLOCK))):  # 10 s
+        block = step_block(x, 0.0, 1.0, params.vector, dt)
         blocks.append(block)
         x = block[-1]
     trajectory = np.concatenate(blocks)
     assert trajectory[-1, 0] - trajectory[0, 0] > 3 * 2 * math.pi  # turns of swings in M, Pi
     drift = np.abs(mechanical_energy(trajectory[:, 0], trajectory[:, 1], params) / E0 - 1.0)
-    # The issue's requirement (plant/virtual.py docstring): 1e-9 relative over 10 s. RK4 at
+    # The bound plant/integrate.py's docstring states: 1e-9 relative over 10 s. RK4 at
     # h = dt/8 loses ~(h Omega)^4 ~ 1e-13 per unit time at these speeds.
     assert drift.max() < 1e-9
 
@@ -91,7 +92,7 @@ def test_integrator_conserves_energy_without_dissipation(default_device, default
 
 
 def independent_braking(device, stage, virtual):
-    """The braking pass from METHOD.md §2-3 in plain numpy, integrated by DOP853.
+    """The braking pass from docs/method.md §2-3 in plain numpy, integrated by DOP853.
 
     M = w^T J w + M_tare and M' = 2 w^T J w' with w = (lam sin phi, lam cos phi, 1); gravity
     m g (x_c cos phi - y_c sin phi); friction (a1 + a3 W^2) sign W + a2 W; braking torque
@@ -252,7 +253,7 @@ def test_braking_ends_at_the_first_stop(default_device, default_virtual, braking
     assert 0.0 <= truth.end_phi - truth.phi[-1] <= truth.omega[-1] * dt
 
 
-# --- 6. static friction (METHOD.md §4) ------------------------------------------------------
+# --- 6. static friction (docs/method.md §4) -------------------------------------------------
 
 
 @pytest.fixture(scope="module")
@@ -271,7 +272,7 @@ def test_static_friction_holds_a_body_at_rest(stage1, fraction):
         params = dataclasses.replace(params, gravity_sin=0.0, gravity_cos=0.0)
     u = static_torque(phi, params) + fraction * a1
     x = np.array([phi, 0.0])
-    after = vd._advance(x.copy(), u, dt, (params.vector, params.vector))
+    after = advance(x.copy(), u, dt, (params.vector, params.vector))
     np.testing.assert_array_equal(after, x)
 
 
@@ -280,7 +281,7 @@ def test_static_friction_breaks_away_in_the_direction_of_the_net_torque(stage1, 
     params, a1, dt = stage1
     phi = 0.7
     u = static_torque(phi, params) + sign * 1.01 * a1
-    after = vd._advance(np.array([phi, 0.0]), u, dt, (params.vector, params.vector))
+    after = advance(np.array([phi, 0.0]), u, dt, (params.vector, params.vector))
     assert np.sign(after[1]) == sign and np.sign(after[0] - phi) == sign
     # Once moving, kinetic friction a1 opposes the motion: the net torque is 0.01 a1, and the
     # speed after one sample is that over M times dt (the angle moves by 1e-11 rad, gravity
@@ -299,7 +300,7 @@ def test_a_slow_body_stops_and_stays_at_rest(stage1):
     stop_time = Omega / abs(acceleration(phi, Omega, u, params))
     speeds, angles = [], []
     for _ in range(round(2 * stop_time / dt)):
-        x = vd._advance(x, u, dt, (params.vector, params.vector))
+        x = advance(x, u, dt, (params.vector, params.vector))
         speeds.append(x[1])
         angles.append(x[0])
     speeds, angles = np.array(speeds), np.array(angles)
@@ -322,7 +323,7 @@ def test_ideal_reverse_mirrors_the_braking_speed(
     default_device, default_virtual, brakings, reverses, stage
 ):
     braking, reverse = brakings[stage], reverses[stage]
-    # At every angle the reverse speed equals the braking speed in magnitude (METHOD.md §4).
+    # At every angle the reverse speed equals the braking speed in magnitude (docs/method.md §4).
     # The ideal drive feeds forward the exact inverse dynamics, averaged over each sample;
     # its docstring promises ~1e-6 rad/s, and the spline adds < 1e-9 rad/s.
     assert np.all(reverse.truth.omega[1:] < 0.0)

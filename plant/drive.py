@@ -1,0 +1,236 @@
+"""The virtual device's drive and its logger: what leaves the device of a simulated pass.
+
+A rig's drive reads the encoder, floor(phi/q) q (:func:`encoder_reading`), at its sampling
+instants: one per period of the sample rate, each off the regular grid by up to
+``[logger] time_jitter`` of a period (:func:`sampling_instants`). Its controller estimates
+the speed from the encoder alone (:class:`SpeedObserver`). The log records the drive's
+command plus the torque channel's noise, less the rows the logger drops
+(``[logger] dropped_fraction``); the body receives command / torque_gain (``[rig]``). The
+true states are returned beside the log (:class:`SimulatedPass`) for tests and benchmarks,
+never written where ``identify`` or ``program`` could read them.
+
+Every pass draws from its own reproducible random streams, numbered per stage: the noise of
+its log, the jitter of its instants and the rows its logger drops.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from rsp_inertia.plant.config import DIRECTIONS, Stage, Virtual
+from rsp_inertia.plant.integrate import Pair, advance
+from rsp_inertia.plant.logs import Log
+
+__all__ = [
+    "STREAM_BRAKING",
+    "STREAM_BRAKING_BACKWARD",
+    "STREAM_CLOCK",
+    "STREAM_DROPS",
+    "STREAM_PENDULUM",
+    "STREAM_PILOT",
+    "STREAM_REVERSE",
+    "STREAM_REVERSE_BACKWARD",
+    "PassTruth",
+    "SimulatedPass",
+    "SpeedObserver",
+    "braking_torque",
+    "direction_sign",
+    "encoder_reading",
+    "jittered",
+    "logged",
+    "resample",
+    "sampling_instants",
+]
+
+# Seeds of the independent random streams of one stage (numpy SeedSequence entropy words).
+STREAM_BRAKING = 0
+STREAM_REVERSE = 1
+STREAM_PENDULUM = 2
+STREAM_BRAKING_BACKWARD = 3
+STREAM_REVERSE_BACKWARD = 4
+STREAM_PILOT = 5
+STREAM_CLOCK = 100
+"""Added to a pass's stream for its sampling instants' jitter (``[logger] time_jitter``)."""
+STREAM_DROPS = 200
+"""Added to a pass's stream for the rows its logger drops (``[logger] dropped_fraction``)."""
+
+
+def direction_sign(direction: str) -> float:
+    """s = +1.0 for a forward run, -1.0 for a backward one (docs/method.md §4 mirrored)."""
+    if direction not in DIRECTIONS:
+        raise ValueError(f"direction must be one of {DIRECTIONS}, got {direction!r}")
+    return 1.0 if direction == "forward" else -1.0
+
+
+def braking_torque(stage: Stage, virtual: Virtual, s: float) -> tuple[float, float]:
+    """The braking pass's motor torque, N m: (the logged command, the torque applied).
+
+    The command is the constant braking torque against the motion, -s braking_torque; the
+    drive applies command / torque_gain (``[rig]``).
+    """
+    command = -s * stage.braking_torque
+    return command, command / virtual.rig.torque_gain
+
+
+def encoder_reading(phi: np.ndarray, quantum: float) -> np.ndarray:
+    """Incremental encoder: floor(phi / q) q (docs/files.md, logs)."""
+    return np.floor(np.asarray(phi) / quantum) * quantum
+
+
+@dataclass(frozen=True)
+class PassTruth:
+    """True states of the virtual device at the log's rows (never written to a log)."""
+
+    t: np.ndarray
+    """s, the log's time stamps."""
+    phi: np.ndarray
+    """rad, true angle at t."""
+    omega: np.ndarray
+    """rad/s, true speed at t."""
+    torque: np.ndarray
+    """N m, torque physically applied over [t_k, t_k+1); the log records the drive's command,
+    torque_gain times it, plus noise."""
+    end_time: float
+    """s: braking, the exact instant the speed reaches zero; reverse, the end of the program."""
+    end_phi: float
+    """rad, true angle at end_time."""
+    end_omega: float
+    """rad/s, true speed at end_time."""
+
+
+@dataclass(frozen=True)
+class SimulatedPass:
+    """One pass of the virtual device: the log a rig writes, and the truth beside it."""
+
+    log: Log
+    """What the rig writes (encoder angle, logged torque)."""
+    truth: PassTruth
+    """The simulator's true states."""
+
+
+def sampling_instants(virtual: Virtual, seed: tuple, n: int, dt: float) -> np.ndarray:
+    """s, the drive's first ``n`` sampling instants (k + d_k) dt, d_0 = 0 and d_k uniform
+    within +-``[logger] time_jitter`` (a fraction of the period); k dt exactly without jitter.
+
+    ``seed`` names the pass's random stream (the same instants for the same pass).
+    """
+    jitter = virtual.logger.time_jitter
+    k = np.arange(n, dtype=float)
+    if jitter == 0.0 or n == 0:
+        return k * dt
+    offsets = np.random.default_rng([virtual.run.seed, *seed]).uniform(-jitter, jitter, n)
+    offsets[0] = 0.0
+    return (k + offsets) * dt
+
+
+def resample(truth: PassTruth, pair: Pair, instants: np.ndarray) -> PassTruth:
+    """The pass ``truth`` (states on the regular grid, the physical torque held over each
+    grid sample) at the drive's sampling ``instants`` (from 0; an instant past the grid's
+    last sample advances from that sample).
+
+    Exact for the passes whose torque is constant between the grid's samples and the
+    instants (braking, pendulum: one torque throughout; a pilot's switch-off is a grid
+    sample, so its one row around the switch carries the command of the grid sample before
+    it). Each state advances from the grid sample before it, stops and static friction
+    included (:func:`rsp_inertia.plant.integrate.advance`).
+    """
+    if np.array_equal(instants, truth.t):
+        return truth
+    g = np.clip(np.searchsorted(truth.t, instants, side="right") - 1, 0, truth.t.size - 1)
+    states = np.array(
+        [
+            advance(np.array([truth.phi[j], truth.omega[j]]), truth.torque[j], h, pair)
+            for j, h in zip(g.tolist(), (instants - truth.t[g]).tolist())
+        ]
+    )
+    return dataclasses.replace(
+        truth, t=instants, phi=states[:, 0], omega=states[:, 1], torque=truth.torque[g]
+    )
+
+
+def jittered(
+    truth: PassTruth, pair: Pair, virtual: Virtual, seed: tuple, dt: float
+) -> PassTruth:
+    """``truth`` at the drive's jittered sampling instants before its end_time."""
+    if virtual.logger.time_jitter == 0.0:
+        return truth
+    instants = sampling_instants(virtual, seed, truth.t.size + 2, dt)
+    return resample(truth, pair, instants[instants < truth.end_time])
+
+
+def logged(
+    truth: PassTruth, command: np.ndarray, virtual: Virtual, seed: tuple, quantum: float
+) -> SimulatedPass:
+    """What the logger writes of a pass: encoder readings and the command plus noise at
+    every sampling instant (noise drawn on the stream ``seed``), less the rows it drops
+    (``[logger] dropped_fraction``: at random, never the first or the last); ``truth`` is
+    cut to the rows kept."""
+    rng = np.random.default_rng([virtual.run.seed, *seed])
+    noise = virtual.run.torque_noise
+    torque = command + (rng.normal(0.0, noise, len(command)) if noise > 0 else 0.0)
+    log = Log(
+        t=np.asarray(truth.t),
+        phi=encoder_reading(truth.phi, quantum),
+        torque=np.asarray(torque),
+    )
+    fraction = virtual.logger.dropped_fraction
+    if fraction > 0.0:
+        drop_seed = (seed[0], seed[1] + STREAM_DROPS, *seed[2:])
+        lost = np.random.default_rng([virtual.run.seed, *drop_seed]).random(len(log)) < fraction
+        lost[0] = lost[-1] = False
+        keep = ~lost
+        log = Log(t=log.t[keep], phi=log.phi[keep], torque=log.torque[keep])
+        truth = dataclasses.replace(
+            truth, t=truth.t[keep], phi=truth.phi[keep], omega=truth.omega[keep],
+            torque=truth.torque[keep],
+        )
+    return SimulatedPass(log=log, truth=truth)
+
+
+class SpeedObserver:
+    """The virtual controller's speed estimate from the encoder alone.
+
+    A third-order tracking loop (an alpha-beta-gamma tracker: angle, speed and acceleration
+    states), run once per sample on the quantized angle y_k:
+
+        predict  phi^- = phi + omega dt + acc dt^2/2,  omega^- = omega + acc dt
+        correct  e = y_k - phi^-
+                 phi = phi^- + l1 e,  omega = omega^- + l2 e,  acc = acc + l3 e
+
+    with l1 = 3 w dt, l2 = 3 w^2 dt, l3 = w^3 dt: the characteristic polynomial (s + w)^3,
+    w the bandwidth of virtual.toml's ``speed_observer_bandwidth``. Being type 3, the loop
+    follows a constant speed and a constant acceleration without steady error (a type-2
+    alpha-beta tracker would trail an acceleration a by about 2a/w); the quantization's
+    fluctuation reaches the estimate only through the loop's low-pass. This is the kind of
+    estimate a real drive's controller has.
+    """
+
+    def __init__(self, phi0: float, omega0: float, bandwidth: float, dt: float) -> None:
+        self.phi = phi0
+        self.omega = omega0
+        self.acc = 0.0
+        self.dt = dt
+        self.bandwidth = bandwidth
+        self.l1 = 3.0 * bandwidth * dt
+        self.l2 = 3.0 * bandwidth**2 * dt
+        self.l3 = bandwidth**3 * dt
+
+    def update(self, y: float, dt: float | None = None) -> float:
+        """Take the encoder reading of this sample, ``dt`` s after the previous one (default:
+        the nominal period; a jittered drive knows its own); return the speed estimate, rad/s.
+        """
+        if dt is None or dt == self.dt:
+            l1, l2, l3 = self.l1, self.l2, self.l3
+            dt = self.dt
+        else:
+            w = self.bandwidth
+            l1, l2, l3 = 3.0 * w * dt, 3.0 * w * w * dt, w**3 * dt
+        predicted = self.phi + self.omega * dt + self.acc * dt * dt / 2
+        error = y - predicted
+        self.phi = predicted + l1 * error
+        self.omega += self.acc * dt + l2 * error
+        self.acc += l3 * error
+        return self.omega

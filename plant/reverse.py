@@ -1,0 +1,262 @@
+"""The reverse pass: a torque program run in closed loop on the virtual device.
+
+:func:`run_program` is the drive executing program.csv (docs/files.md) at its sampling
+instants: feedforward plus state feedback on the encoder reading and the speed observer's
+estimate, clipped to the motor's torque and rate limits. :func:`simulate_ideal_reverse` runs
+the exact mirror of a braking pass (:func:`ideal_program`) on an ideal drive instead, so that
+identification can be tested apart from the optimal-control work.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from rsp_inertia.plant.config import Device, Virtual
+from rsp_inertia.plant.drive import (
+    STREAM_CLOCK,
+    STREAM_REVERSE,
+    STREAM_REVERSE_BACKWARD,
+    PassTruth,
+    SimulatedPass,
+    SpeedObserver,
+    braking_torque,
+    direction_sign,
+    encoder_reading,
+    logged,
+    sampling_instants,
+)
+from rsp_inertia.plant.integrate import BLOCK, advance, step_block, true_pair, true_parameters
+from rsp_inertia.plant.logs import Program
+from rsp_inertia.plant.model import acceleration, motor_torque, reduced_inertia, static_torque
+
+__all__ = ["IDEAL_BANDWIDTH", "ideal_program", "run_program", "simulate_ideal_reverse"]
+
+IDEAL_BANDWIDTH = 5.0
+"""rad/s: closed-loop bandwidth of the ideal reverse's feedback (it only mops up the
+zero-order-hold residue; the feedforward is the exact inverse dynamics)."""
+
+
+def run_program(
+    device: Device,
+    stage: int,
+    virtual: Virtual,
+    program: Program,
+    start: tuple[float, float],
+    *,
+    ideal: bool = False,
+    direction: str = "forward",
+    coarse: bool = False,
+) -> SimulatedPass:
+    """Execute ``program`` in closed loop on the virtual device (docs/files.md, program.csv).
+
+    At each of its sampling instants (regular, or jittered by ``[logger] time_jitter``:
+    :func:`rsp_inertia.plant.drive.sampling_instants`; the program interpolated there) the
+    controller reads the encoder, updates its speed estimate
+    (:class:`rsp_inertia.plant.drive.SpeedObserver`), computes
+
+        u = clip(torque_ff - k_phi (phi - phi_ref) - k_omega (omega - omega_ref), +-torque_limit)
+
+    limits the change from the previous sample to torque_rate_limit times the step, and holds
+    u until its next instant; with a wrapping position counter (``counter_bits``) phi - phi_ref
+    is taken modulo the counter's range. u is the drive's command: the log records it (plus
+    noise), the body receives u / torque_gain (``[rig]``). Before the program the motor holds
+    the body at rest, so the rate limiter starts from the command that held it there
+    (torque_gain times the static torque at the start angle).
+
+    Parameters
+    ----------
+    device, stage, virtual
+        The gimbal, the stage number (from 1) and the virtual device's truth.
+    program : Program
+        The torque program.
+    start : (phi, Omega)
+        True state at the start of the program (rad, rad/s), e.g. the braking's rest.
+    ideal : bool
+        An ideal drive for the ideal reverse: no torque or rate limit, feedback on the true
+        state instead of the encoder and the speed observer, and u applied physically exactly
+        (the log records the command torque_gain u). The log is still the encoder's.
+    direction : {"forward", "backward"}
+        The direction of the stage's run whose reverse pass this is; it only selects the
+        pass's noise stream (the motion follows the program, in whichever direction).
+    coarse : bool
+        One RK4 step per sample instead of SUBSTEPS (4x faster): for a rehearsal on a
+        nominal model (rsp_inertia.ocp.rehearsal), where the body's motion over a sample,
+        h w ~ 0.01 at the 2 Omega harmonic, leaves an RK4 error ~(h w)^5 / 120, far below
+        what the model knows.
+
+    Returns
+    -------
+    SimulatedPass
+        The log and the true states; ``truth.torque`` is the physical torque.
+    """
+    s = direction_sign(direction)
+    pair = true_pair(device, stage, virtual)
+    gain = virtual.rig.torque_gain
+    enc = device.encoder
+    dt = enc.dt
+    q = enc.quantum
+    n = len(program.t)
+    stream = STREAM_REVERSE if s > 0 else STREAM_REVERSE_BACKWARD
+    # The drive's sampling instants (jittered: ``[logger] time_jitter``), one more for the
+    # end of the last sample; it applies program.csv at each, interpolated in time.
+    instants = sampling_instants(virtual, (stage, stream + STREAM_CLOCK), n + 1, dt)
+    # Without jitter every step is the period itself (differences of k dt are off by ulps).
+    steps = np.diff(instants) if virtual.logger.time_jitter else np.full(n, dt)
+    # A drive whose position counter wraps (device.toml counter_bits) knows phi only modulo
+    # the counter's range, as its logs do: program.csv, made from such a log, may be whole
+    # ranges off the true angle, and the drive takes the position error modulo the range.
+    span = None if enc.counter_bits is None else 2**enc.counter_bits * q
+    u_max = math.inf if ideal else device.motor.torque_limit
+    rate_max = math.inf if ideal else device.motor.torque_rate_limit
+
+    x = np.array(start, dtype=float)
+    held = float(static_torque(x[0], pair[0]))
+    u_prev = held if ideal else held * gain
+    observer = SpeedObserver(
+        float(encoder_reading(x[0], q)), x[1], virtual.controller.speed_observer_bandwidth, dt
+    )
+    phi_true = np.empty(n)
+    omega_true = np.empty(n)
+    applied = np.empty(n)
+    commands = np.empty(n)
+    at = instants[:-1]
+    if np.array_equal(at, program.t):
+        columns = (program.torque_ff, program.k_phi, program.k_omega)
+        ref_columns = (program.phi_ref, program.omega_ref)
+    else:
+        columns = tuple(
+            np.interp(at, program.t, c)
+            for c in (program.torque_ff, program.k_phi, program.k_omega)
+        )
+        ref_columns = tuple(
+            np.interp(at, program.t, c) for c in (program.phi_ref, program.omega_ref)
+        )
+    ff, kp, kw = columns
+    ref_phi, ref_omega = ref_columns
+    h_prev = dt
+    for k in range(n):
+        phi_true[k], omega_true[k] = x
+        y = math.floor(x[0] / q) * q
+        omega_hat = observer.update(y, h_prev)
+        if ideal:
+            y, omega_hat = x
+        error = y - ref_phi[k]
+        if span is not None:  # a counter's position error, modulo its range
+            error -= span * round(error / span)
+        u = ff[k] - kp[k] * error - kw[k] * (omega_hat - ref_omega[k])
+        u = min(max(u, -u_max), u_max)
+        du_max = rate_max * h_prev
+        u = min(max(u, u_prev - du_max), u_prev + du_max)
+        physical = u if ideal else u / gain
+        applied[k] = physical
+        commands[k] = u * gain if ideal else u
+        u_prev = u
+        h_prev = float(steps[k])
+        x = advance(x, physical, h_prev, pair, coarse)
+    truth = PassTruth(
+        t=at,
+        phi=phi_true,
+        omega=omega_true,
+        torque=applied,
+        end_time=float(instants[-1]),
+        end_phi=float(x[0]),
+        end_omega=float(x[1]),
+    )
+    return logged(truth, commands, virtual, (stage, stream), q)
+
+
+def ideal_program(
+    device: Device,
+    stage: int,
+    virtual: Virtual,
+    braking: SimulatedPass,
+    direction: str = "forward",
+) -> Program:
+    """The exact mirror of a simulated braking pass, as a program (docs/method.md §4).
+
+    The reference is the braking trajectory run backwards from its true rest point:
+    x_ref(t') = (phi(T - t'), -Omega(T - t')), obtained by integrating the braking's own
+    dynamics (its physical torque, the friction of its direction of motion s) with a negative
+    step from (phi7, 0), so no interpolation enters. The feedforward is the true model's
+    inverse dynamics along it (:func:`rsp_inertia.plant.model.motor_torque`, with the
+    friction of the reverse's direction -s), averaged over each sample for the zero-order
+    hold: a physical torque, which the ideal drive of :func:`run_program` applies exactly.
+    The gains put both closed-loop poles at -IDEAL_BANDWIDTH with the true M(phi_ref).
+
+    Parameters
+    ----------
+    device, stage, virtual
+        The gimbal, the stage number (from 1) and the virtual device's truth.
+    braking : SimulatedPass
+        The braking pass of ``direction`` (:func:`rsp_inertia.plant.virtual.simulate_braking`).
+    direction : {"forward", "backward"}
+        The direction of the braking: a backward braking's mirror moves phi up.
+    """
+    s = direction_sign(direction)
+    if not braking.truth.omega[0] * s > 0.0:
+        raise ValueError(f"the braking pass does not run {direction}")
+    st = device.stages[stage - 1]
+    p = true_parameters(device, stage, virtual, s).vector
+    p_reverse = true_parameters(device, stage, virtual, -s).vector
+    dt = device.encoder.dt
+    T = braking.truth.end_time
+    n = math.floor(T / dt + 1e-9) + 1
+    _, u_b = braking_torque(st, virtual, s)
+    # Braking states at times T - k dt, k = 0..n-1, by backward integration.
+    back = np.empty((n, 2))
+    back[0] = (braking.truth.end_phi, 0.0)
+    x = back[0]
+    for start in range(1, n, BLOCK):
+        count = min(BLOCK, n - start)
+        block = step_block(x, u_b, s, p, -dt)[:count]
+        back[start : start + count] = block
+        x = block[-1]
+    phi_ref = back[:, 0]
+    omega_ref = -back[:, 1]
+    # The braking's acceleration at the mirrored states is the reverse's acceleration.
+    eps_ref = acceleration(back[:, 0], back[:, 1], u_b, p, direction=s * np.ones(n))
+    u_needed = motor_torque(phi_ref, omega_ref, eps_ref, p_reverse, direction=-s * np.ones(n))
+    torque_ff = np.empty(n)
+    torque_ff[:-1] = (u_needed[:-1] + u_needed[1:]) / 2
+    torque_ff[-1] = u_needed[-1]
+    M = reduced_inertia(phi_ref, p)
+    w = IDEAL_BANDWIDTH
+    return Program(
+        t=np.arange(n) * dt,
+        phi_ref=phi_ref,
+        omega_ref=omega_ref,
+        torque_ff=torque_ff,
+        k_phi=M * w * w,
+        k_omega=2.0 * M * w,
+    )
+
+
+def simulate_ideal_reverse(
+    device: Device,
+    stage: int,
+    virtual: Virtual,
+    braking: SimulatedPass,
+    direction: str = "forward",
+) -> SimulatedPass:
+    """The ideal reverse pass: the exact mirror driven by an ideal drive.
+
+    Ideal actuator (no torque or rate limit, the physical torque applied exactly whatever
+    the torque gain; the log records the command, torque_gain times it) and ideal sensing
+    (feedback on the true state); the feedforward is the true inverse dynamics
+    (:func:`ideal_program`). The speed matches the braking's at the same angle to about
+    1e-6 rad/s, so identification can be tested apart from the optimal-control work. The
+    log is the encoder's, as always. ``direction`` is the braking's (a backward braking's
+    mirror moves phi up) and selects the pass's noise stream.
+    """
+    program = ideal_program(device, stage, virtual, braking, direction)
+    return run_program(
+        device,
+        stage,
+        virtual,
+        program,
+        (braking.truth.end_phi, 0.0),
+        ideal=True,
+        direction=direction,
+    )
