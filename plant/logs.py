@@ -1,11 +1,16 @@
-"""Encoder logs and torque programs: the CSV files of INTERFACES.md ("Logs", "program.csv").
+"""Encoder logs and torque programs: the CSV files of docs/files.md (logs, program.csv).
 
-A braking or reverse pass is logged as ``t,phi,torque`` (a :class:`Log`); the torque program of
-a reverse pass is ``t,phi_ref,omega_ref,torque_ff,k_phi,k_omega`` (a :class:`Program`).
-Reading checks everything the rest of the package relies on (finite numbers, t from 0 at the
-encoder's sample rate, phi on the encoder grid, the direction of the pass) and turns every
-fault into one :class:`~rsp_inertia.plant.errors.InputError` line naming the file and the line.
-Writing is exact (``repr`` round-trips every float64), deterministic and atomic.
+A pass is logged as ``t,phi,torque`` (a :class:`Log`), or ``t,counts,torque`` by a drive that
+logs its position counter; the torque program of a reverse pass is
+``t,phi_ref,omega_ref,torque_ff,k_phi,k_omega`` (a :class:`Program`). Reading checks
+everything the rest of the package relies on (:mod:`rsp_inertia.plant.log_checks`: finite
+numbers, t from 0 at the encoder's sample rate, phi on the encoder grid, the direction of the
+pass) and turns every fault into one :class:`~rsp_inertia.plant.errors.InputError` line
+naming the file and the line. Writing is exact (``repr`` round-trips every float64),
+deterministic and atomic.
+
+``JITTER_LIMIT`` and ``EncoderLike`` are defined in :mod:`rsp_inertia.plant.log_checks` and
+exposed here too: they describe the logs this module reads.
 """
 
 from __future__ import annotations
@@ -15,12 +20,38 @@ import secrets
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import Protocol
 
 import numpy as np
 
 from rsp_inertia.plant.config import DIRECTIONS
-from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.log_checks import (
+    JITTER_LIMIT,
+    EncoderLike,
+    check_direction,
+    check_grid,
+    check_time,
+    read_header,
+    read_table,
+    unwrap_counts,
+)
+
+__all__ = [
+    "COUNT_COLUMNS",
+    "JITTER_LIMIT",
+    "LOG_COLUMNS",
+    "LOG_KINDS",
+    "PROGRAM_COLUMNS",
+    "EncoderLike",
+    "Log",
+    "Program",
+    "align_counter",
+    "dropped_samples",
+    "read_log",
+    "read_program",
+    "write_atomic",
+    "write_log",
+    "write_program",
+]
 
 LOG_COLUMNS = ("t", "phi", "torque")
 """Header of braking.csv and reverse.csv."""
@@ -32,45 +63,7 @@ PROGRAM_COLUMNS = ("t", "phi_ref", "omega_ref", "torque_ff", "k_phi", "k_omega")
 """Header of program.csv."""
 
 LOG_KINDS = ("braking", "reverse", "pendulum", "pilot")
-"""The two passes of a stage (METHOD.md §4), and the torsion-pendulum baseline runs."""
-
-T0_TOLERANCE = 1e-9
-"""s, how far from 0 the first time stamp may be."""
-
-RATE_TOLERANCE = 1e-3
-"""Relative tolerance on every time step of a program against 1 / sample_rate."""
-
-JITTER_LIMIT = 0.25
-"""Fraction of a sample period by which a log's time stamp may be off the regular grid.
-
-A log's time stamps are the instants at which the drive read the encoder and set the torque
-(the torque of row k acts over [t_k, t_k+1)); they need not be regular. With every stamp
-within +-JITTER_LIMIT of a period of its grid instant, a step of one sample lies between
-1 - 2 JITTER_LIMIT = 0.5 and 1.5 periods, and a step of about n periods (n >= 2) is a gap of
-n - 1 samples the logger dropped (:func:`dropped_samples`). A step shorter than half a
-period is refused (a repeated row, or a sample rate that is not device.toml's)."""
-
-MEAN_RATE_TOLERANCE = 0.01
-"""Relative tolerance on a log's mean sample period (its duration over the periods its steps
-count, dropped samples included) against 1 / sample_rate; jitter moves it by at most
-2 JITTER_LIMIT / periods."""
-
-GRID_TOLERANCE = 1e-3
-"""Counts, how far phi / q may be from a whole number."""
-
-
-class EncoderLike(Protocol):
-    """What the readers need of an encoder (``rsp_inertia.plant.config.Encoder`` has it)."""
-
-    @property
-    def quantum(self) -> float:
-        """rad, q = 2 pi / counts_per_rev."""
-        ...
-
-    @property
-    def sample_rate(self) -> float:
-        """Hz."""
-        ...
+"""The two passes of a stage (docs/method.md §4), the torsion-pendulum runs and the pilot run."""
 
 
 def _frozen_array(value: object, name: str) -> np.ndarray:
@@ -96,7 +89,7 @@ class Log:
     """Encoder/torque log of one pass (braking.csv or reverse.csv).
 
     Row k pairs the encoder reading at ``t[k]`` with the torque held over ``[t[k], t[k+1])``
-    (zero-order hold, METHOD.md §4). Arrays are read-only float64 copies. Compare logs with
+    (zero-order hold, docs/method.md §4). Arrays are read-only float64 copies. Compare logs with
     ``np.array_equal`` on the fields: ``==`` is identity.
     """
 
@@ -115,7 +108,8 @@ class Log:
         return len(self.t)
 
     def motor_work(self) -> np.ndarray:
-        """Cumulative motor work along the log, the Stieltjes sum of u over phi (METHOD.md §3-4).
+        """Cumulative motor work along the log, the Stieltjes sum of u over phi
+        (docs/method.md §3-4).
 
         Returns
         -------
@@ -140,7 +134,7 @@ class Program:
 
     Every sample the device applies ``u = torque_ff - k_phi (phi - phi_ref)
     - k_omega (omega - omega_ref)``, clipped to its torque limit and held over
-    ``[t[k], t[k+1])`` (INTERFACES.md, "program.csv"). Arrays are read-only float64 copies.
+    ``[t[k], t[k+1])`` (docs/files.md, program.csv). Arrays are read-only float64 copies.
     """
 
     t: np.ndarray  # s, shape (n,)
@@ -162,119 +156,6 @@ class Program:
 
 # ---------------------------------------------------------------------------------------------
 # Reading
-
-
-def _read_table(path: str | os.PathLike, columns: Sequence[str]) -> np.ndarray:
-    """Parse a CSV with exactly ``columns`` as header into an (n, len(columns)) float array.
-
-    Line numbers in messages are 1-based lines of the file (the header is line 1).
-    """
-    try:
-        text = Path(path).read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise InputError(f"{path}: no such file") from None
-    except UnicodeDecodeError as exc:
-        raise InputError(f"{path}: not a UTF-8 text file (byte {exc.start})") from None
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read ({exc.strerror or exc})") from None
-
-    lines = text.split("\n")
-    while lines and not lines[-1].strip():
-        lines.pop()
-    if not lines:
-        raise InputError(f"{path}: the file is empty, expected a header {','.join(columns)!r}")
-
-    header = [name.strip() for name in lines[0].split(",")]
-    if header != list(columns):
-        found = lines[0].strip()
-        shown = repr(found) if len(found) <= 80 else repr(found[:77]) + "..."
-        raise InputError(f"{path}, line 1: header is {shown}, expected {','.join(columns)!r}")
-
-    ncol = len(columns)
-    fields_flat: list[str] = []
-    for number, line in enumerate(lines[1:], start=2):
-        row = line.split(",")
-        if len(row) != ncol:
-            if not line.strip():
-                raise InputError(f"{path}, line {number}: blank line inside the data")
-            raise InputError(
-                f"{path}, line {number}: {len(row)} fields, expected {ncol} ({','.join(columns)})"
-            )
-        fields_flat.extend(row)
-    try:
-        values = np.array([float(field) for field in fields_flat], dtype=np.float64)
-    except ValueError:
-        for index, field in enumerate(fields_flat):
-            try:
-                float(field)
-            except ValueError:
-                row_index, col = divmod(index, ncol)
-                shown = repr(field.strip())
-                raise InputError(
-                    f"{path}, line {row_index + 2}: {columns[col]} = {shown} is not a number"
-                ) from None
-        raise  # float() failed once but not on any single field: cannot happen
-    values = values.reshape(-1, ncol)
-
-    bad = ~np.isfinite(values)
-    if bad.any():
-        row_index, col = np.argwhere(bad)[0]
-        raise InputError(
-            f"{path}, line {row_index + 2}: {columns[col]} = {float(values[row_index, col])!r} "
-            "is not finite"
-        )
-    if len(values) < 2:
-        raise InputError(f"{path}: {len(values)} data row(s), at least 2 are needed")
-    return values
-
-
-def _check_time(
-    path: str | os.PathLike, t: np.ndarray, encoder: EncoderLike, regular: bool = True
-) -> None:
-    """t from 0, strictly increasing; ``regular``: one step per encoder sample (a program),
-    else a log's sampling instants (:data:`JITTER_LIMIT`: jitter and dropped samples)."""
-    if abs(t[0]) > T0_TOLERANCE:
-        raise InputError(f"{path}, line 2: t = {float(t[0])!r} s, the first row must be at t = 0")
-    steps = np.diff(t)
-    not_increasing = np.flatnonzero(steps <= 0.0)
-    if not_increasing.size:
-        k = not_increasing[0]
-        now, before = float(t[k + 1]), float(t[k])
-        raise InputError(
-            f"{path}, line {k + 3}: t = {now!r} s is not after t = {before!r} s of the row before; "
-            "t must be strictly increasing"
-        )
-    rate = float(encoder.sample_rate)
-    if not regular:
-        median = float(np.median(steps))
-        if median * rate >= 1.0 + 2 * JITTER_LIMIT:
-            raise InputError(
-                f"{path}: median time step {median:.6g} s, expected {1.0 / rate:.6g} s "
-                f"(encoder sample rate {rate:g} Hz)"
-            )
-        short = np.flatnonzero(steps * rate < 1.0 - 2 * JITTER_LIMIT)
-        if short.size:
-            k = short[0]
-            raise InputError(
-                f"{path}, line {k + 3}: time step {steps[k]:.6g} s at t = {float(t[k + 1])!r} s "
-                f"is less than half the sample period {1.0 / rate:.6g} s (time stamps may be "
-                f"off the sampling grid by at most {JITTER_LIMIT:g} of a period)"
-            )
-        periods = int(np.rint(steps * rate).sum())
-        mean = float(t[-1] - t[0]) / periods
-        if abs(mean * rate - 1.0) > MEAN_RATE_TOLERANCE:
-            raise InputError(
-                f"{path}: mean sample period {mean:.6g} s over {periods} periods, expected "
-                f"{1.0 / rate:.6g} s (encoder sample rate {rate:g} Hz)"
-            )
-        return
-    off_rate = np.flatnonzero(np.abs(steps * rate - 1.0) > RATE_TOLERANCE)
-    if off_rate.size:
-        k = off_rate[0]
-        raise InputError(
-            f"{path}, line {k + 3}: time step {steps[k]:.6g} s, expected {1.0 / rate:.6g} s "
-            f"(encoder sample rate {rate:g} Hz)"
-        )
 
 
 def dropped_samples(t: np.ndarray, sample_rate: float) -> np.ndarray:
@@ -301,48 +182,6 @@ def dropped_samples(t: np.ndarray, sample_rate: float) -> np.ndarray:
     return np.maximum(np.rint(np.diff(t) * sample_rate).astype(np.int64) - 1, 0)
 
 
-def _header(path: str | os.PathLike) -> list[str] | None:
-    """The first line's column names, or None if the file cannot be read (the full reader
-    then says why)."""
-    try:
-        with open(path, encoding="utf-8-sig") as file:
-            return [name.strip() for name in file.readline().split(",")]
-    except (OSError, UnicodeDecodeError):
-        return None
-
-
-def _unwrap_counts(path: str | os.PathLike, counts: np.ndarray, encoder: EncoderLike):
-    """Integer counts, a counter of ``encoder.counter_bits`` unwrapped (float array).
-
-    A step between two samples is taken modulo 2**bits into [-2**(bits-1), 2**(bits-1)): a
-    counter wraps, the body does not turn half a counter's range in one sample. Where the
-    counter stood before the log began is unknown by whole wraps, so counts_per_rev must
-    divide 2**bits for the angle modulo a turn (the nodes) to be defined.
-    """
-    bad = np.flatnonzero(counts != np.round(counts))
-    if bad.size:
-        k = int(bad[0])
-        raise InputError(f"{path}, line {k + 2}: counts = {float(counts[k])!r} is not an integer")
-    bits = getattr(encoder, "counter_bits", None)
-    if bits is None:
-        return counts
-    span = 2**bits
-    if span % int(encoder.counts_per_rev):
-        raise InputError(
-            f"{path}: counts wrap at 2^{bits} (device.toml encoder.counter_bits), which is not "
-            f"a whole number of turns of {encoder.counts_per_rev} counts: the angle is undefined"
-        )
-    out_of_range = np.flatnonzero((counts < 0) | (counts >= span))
-    if out_of_range.size:
-        k = int(out_of_range[0])
-        raise InputError(
-            f"{path}, line {k + 2}: counts = {counts[k]:.0f} is outside the {bits}-bit counter "
-            f"(0 to {span - 1})"
-        )
-    step = np.mod(np.diff(counts) + span // 2, span) - span // 2
-    return counts[0] + np.concatenate([[0.0], np.cumsum(step)])
-
-
 def align_counter(log: Log, phi: float, encoder: EncoderLike) -> Log:
     """``log`` moved by whole ranges of a wrapping counter (``encoder.counter_bits``) so that
     it starts nearest ``phi``: two logs of one counter (a braking and its reverse, which
@@ -357,46 +196,10 @@ def align_counter(log: Log, phi: float, encoder: EncoderLike) -> Log:
     return Log(t=log.t, phi=log.phi + wraps * span, torque=log.torque)
 
 
-def _check_grid(path: str | os.PathLike, phi: np.ndarray, encoder: EncoderLike) -> None:
-    """phi a whole number of encoder counts."""
-    q = float(encoder.quantum)
-    counts = phi / q
-    off_grid = np.flatnonzero(np.abs(counts - np.round(counts)) > GRID_TOLERANCE)
-    if off_grid.size:
-        k = off_grid[0]
-        value = float(phi[k])
-        raise InputError(
-            f"{path}, line {k + 2}: phi = {value!r} is not on the encoder grid (q = {q:.4g} rad)"
-        )
-
-
-def _check_direction(path: str | os.PathLike, phi: np.ndarray, kind: str, direction: str) -> None:
-    """A forward braking runs up from the release to rest and its reverse pass back down; a
-    backward run is the other way round."""
-    if kind not in ("braking", "reverse"):
-        return
-    last_line = len(phi) + 1
-    increases = (kind == "braking") == (direction == "forward")
-    if (phi[-1] > phi[0]) if increases else (phi[-1] < phi[0]):
-        return
-    run = "a braking" if kind == "braking" else "a reverse"
-    if direction == "backward":
-        run = f"a backward {kind}"
-    end = "larger" if increases else "smaller"
-    why = ""
-    if direction == "backward":
-        moves = "increases" if increases else "decreases"
-        why = f" (phi {moves} during a backward {kind})"
-    raise InputError(
-        f"{path}, line {last_line}: {run} log must end at a {end} phi than it starts{why}, "
-        f"but phi goes from {float(phi[0])!r} to {float(phi[-1])!r} rad"
-    )
-
-
 def read_log(
     path: str | os.PathLike, encoder: EncoderLike, kind: str, direction: str = "forward"
 ) -> Log:
-    """Read and check braking.csv or reverse.csv.
+    """Read and check a log: braking.csv, reverse.csv, a pendulum run's or pilot.csv.
 
     Parameters
     ----------
@@ -408,14 +211,15 @@ def read_log(
         absolute angle, its zero must be the spring's reference.
     encoder : encoder-like
         Anything with ``quantum`` (rad, 2 pi / counts_per_rev) and ``sample_rate`` (Hz), such
-        as ``rsp_inertia.plant.config.Encoder``; ``counts_per_rev`` and ``counter_bits`` for counts.
-    kind : {"braking", "reverse", "pendulum"}
-        Which pass: a forward braking must end at a larger phi than it starts, its reverse at
-        a smaller one; a pendulum run may go either way.
+        as ``rsp_inertia.plant.config.Encoder``; ``counts_per_rev`` and ``counter_bits`` for
+        counts.
+    kind : {"braking", "reverse", "pendulum", "pilot"}
+        Which run (``LOG_KINDS``): a forward braking must end at a larger phi than it starts,
+        its reverse at a smaller one; a pendulum or pilot run may go either way.
     direction : {"forward", "backward"}
-        The direction of the stage's run (``rsp_inertia.plant.config.DIRECTIONS``): a backward braking
-        must end at a smaller phi than it starts, its reverse at a larger one. Pendulum runs
-        ignore it.
+        The direction of the stage's run (``rsp_inertia.plant.config.DIRECTIONS``): a
+        backward braking must end at a smaller phi than it starts, its reverse at a larger
+        one. Pendulum and pilot runs ignore it.
 
     Returns
     -------
@@ -434,14 +238,14 @@ def read_log(
         raise ValueError(f"kind must be one of {LOG_KINDS}, got {kind!r}")
     if direction not in DIRECTIONS:
         raise ValueError(f"direction must be one of {DIRECTIONS}, got {direction!r}")
-    if _header(path) == list(COUNT_COLUMNS):
-        t, counts, torque = _read_table(path, COUNT_COLUMNS).T
-        phi = _unwrap_counts(path, counts, encoder) * float(encoder.quantum)
+    if read_header(path) == list(COUNT_COLUMNS):
+        t, counts, torque = read_table(path, COUNT_COLUMNS).T
+        phi = unwrap_counts(path, counts, encoder) * float(encoder.quantum)
     else:
-        t, phi, torque = _read_table(path, LOG_COLUMNS).T
-    _check_time(path, t, encoder, regular=False)
-    _check_grid(path, phi, encoder)
-    _check_direction(path, phi, kind, direction)
+        t, phi, torque = read_table(path, LOG_COLUMNS).T
+    check_time(path, t, encoder, regular=False)
+    check_grid(path, phi, encoder)
+    check_direction(path, phi, kind, direction)
     return Log(t=t, phi=phi, torque=torque)
 
 
@@ -468,8 +272,8 @@ def read_program(path: str | os.PathLike, encoder: EncoderLike) -> Program:
         header, a malformed or non-finite number, fewer than 2 rows, t not from 0, not strictly
         increasing or not at the sample rate.
     """
-    values = _read_table(path, PROGRAM_COLUMNS)
-    _check_time(path, values[:, 0], encoder)
+    values = read_table(path, PROGRAM_COLUMNS)
+    check_time(path, values[:, 0], encoder)
     return Program(*values.T)
 
 
