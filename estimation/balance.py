@@ -1,4 +1,4 @@
-"""Both passes of a stage at common angles: the node formula and the balance equations.
+"""Both passes of a stage at common angles: the balance equations.
 
 Reverse minus braking balance between two angles a < b covered by both passes
 (docs/method.md §5), with S = Omega^2 + Omega'^2 the two passes' squared speeds at one angle and
@@ -27,18 +27,13 @@ about |Omega| with D'(Omega) = d1 + d2 Omega, hence D'' = d2:
 exact for the paper's D = a1 + a2 Omega + a3 Omega^2 (d1 = a2, d2 = 2 a3). d1, d2 join the
 unknowns of each run with the regressors R1 = int_lo^phi delta dphi and
 R2 = int_lo^phi (|Omega| delta + delta^2 / 2) dphi from the measured speeds. The second-order
-part matters where the loop tracks loosely: with friction 100 times the paper's, delta
-reached 1.4% of the speed (0.11 rad/s rms on stage 1) and a3 int delta^2 dphi ~ 1e-4 of the
-kinetic energy, 4-5 std of J_k when left out.
-On the default closed loop this term is ~1e-4 of stage 1's kinetic energy, 3-5 times the
-noise floor (measured against the simulator's true friction work, tests/ocp); on an ideal
-reverse delta is only speed noise and the slopes come out undetermined, at little cost.
+part matters where the loop tracks loosely (a large delta); on an ideal reverse delta is only
+speed noise and the slopes come out undetermined, at little cost.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -61,12 +56,13 @@ __all__ = [
     "NODE_GAP_SAMPLES",
     "NODE_GAP_WINDOW_DEG",
     "POSITION_SPACING_BANDWIDTHS",
-    "NodeEstimate",
     "StageBalance",
+    "balance_spacing",
     "check_node_gaps",
     "friction_shape",
     "mirror_log",
-    "node_formula",
+    "mismatch_regressors",
+    "spring_potential",
     "stage_balance",
     "usable_range",
 ]
@@ -157,7 +153,7 @@ def _outside_gaps(est: PassEstimate, times: np.ndarray, sample_rate: float) -> n
     return keep
 
 
-def _spring_potential(phi: np.ndarray, device: Device) -> np.ndarray:
+def spring_potential(phi: np.ndarray, device: Device) -> np.ndarray:
     """Spring part of Pi (docs/method.md §3, rsp_inertia.plant.model); gravity is estimated,
     not known."""
     return potential(phi, spring_parameters(device.spring.stiffness, device.spring.zero_angle))
@@ -287,7 +283,7 @@ def stage_balance(
     rate = device.encoder.sample_rate
     for est in (braking, reverse):
         check_node_gaps(device, stage, est.log, est.source, lo, hi, direction)
-    phi = np.arange(lo, hi, _balance_spacing(braking, reverse))
+    phi = np.arange(lo, hi, balance_spacing(braking, reverse))
     b = sample_at(braking, phi)
     r = sample_at(reverse, phi)
     keep = _outside_gaps(braking, b.time, rate) & _outside_gaps(reverse, r.time, rate)
@@ -306,9 +302,9 @@ def stage_balance(
     rev_cov *= r.omega[None, :]
     S_cov += rev_cov
     del rev_cov
-    spring = 2 * _spring_potential(direction * phi, device)
+    spring = 2 * spring_potential(direction * phi, device)
     work = b.work + r.work - spring
-    mismatch = _mismatch_regressors(phi, b.omega, r.omega)
+    mismatch = mismatch_regressors(phi, b.omega, r.omega)
     return StageBalance(
         stage=stage,
         gear_ratio=st.gear_ratio,
@@ -326,117 +322,7 @@ def stage_balance(
     )
 
 
-@dataclass(frozen=True)
-class NodeEstimate:
-    """Reduced inertia at one node from its whole-turn pairs (docs/method.md §5)."""
-
-    stage: int
-    """Stage number, from 1."""
-    node_deg: float
-    """Node angle, deg."""
-    M: float
-    """kg m^2, RSP formula with the measured reverse speeds (inverse-variance mean of pairs)."""
-    M_std: float
-    """kg m^2."""
-    M_plain: float
-    """kg m^2, the paper's formula (6)/(7): braking speeds only."""
-    M_plain_std: float
-    """kg m^2."""
-    pairs: int
-    """Number of one-turn pairs used."""
-
-
-def node_formula(
-    device: Device,
-    stage: int,
-    braking: PassEstimate,
-    reverse: PassEstimate,
-    speed_noise_scale: float = 1.0,
-    direction: int = 1,
-    work_scale: float = 1.0,
-    friction_slope: np.ndarray | None = None,
-    friction_slope_cov: np.ndarray | None = None,
-    nodes_deg: Sequence[float] | None = None,
-) -> list[NodeEstimate]:
-    """M at each node of the stage from every one-turn pair (phi_a, phi_a + 2 pi).
-
-    docs/method.md §5: M = 2 (A' - A + 2 dPi) / (Omega_a^2 + Omega'_a^2 - Omega_b^2 - Omega'_b^2),
-    and the paper's plain form M = (A' - A + 2 dPi) / (Omega_a^2 - Omega_b^2). Gravity cancels
-    over whole turns; dPi is the spring's. Pairs are combined by generalised least squares
-    (:func:`_combine_pairs`): speed noise from the smoothers' derived error variance times
-    ``speed_noise_scale`` (the calibration that the least squares finds on its residuals,
-    rsp_inertia.estimation.tensor), and work noise from the torque logs (rsp_inertia.estimation.passes).
-    ``direction`` -1: a backward run's passes, mirrored by :func:`mirror_log`; its node phi
-    sits at -phi in the mirrored coordinate. ``work_scale``: h = 1 / torque gain, the factor
-    that makes the logged motor work physical (a calibration's, rsp_inertia.estimation.calibration).
-
-    ``friction_slope`` [d1, d2] (with its (2, 2) covariance): the run's tracking-mismatch
-    slopes that the least squares fits (module docstring). The balance of a pair then reads
-    1/2 M (S_a - S_b) = N + (R_a - R_b) . d, R the mismatch regressors at the passages, so
-    the correction joins every pair's numerator and its uncertainty the numerators'
-    covariance (the pairs share d). Without it the mismatch's friction work is left in M
-    (friction x100 sweep: the node formula 3e-3 off at 150 of its stds).
-
-    ``nodes_deg``: the nodes to estimate M at (deg); the stage's by default.
-    """
-    st = device.stages[stage - 1]
-    if nodes_deg is None:
-        nodes_deg = st.nodes_deg
-    nodes = np.radians(np.asarray(nodes_deg, dtype=float))
-    lo, hi = usable_range(braking, reverse, stage)
-    estimates = []
-    for node_deg, node in zip(nodes_deg, direction * nodes):
-        first = node + 2 * math.pi * math.ceil((lo - node) / (2 * math.pi))
-        passages = np.arange(first, hi, 2 * math.pi)
-        if passages.size < 2:
-            raise InputError(
-                f"{braking.source}: stage {stage}: node {node_deg:g} deg: the passes cover no "
-                f"whole turn from it at useful speed ({passages.size} passage(s) in the common "
-                "range); the braking must cover more turns"
-            )
-        b = sample_at(braking, passages)
-        r = sample_at(reverse, passages)
-        a_, b_ = slice(None, -1), slice(1, None)
-        A = b.work[b_] - b.work[a_]  # braking work a -> b (negative)
-        A_rev = r.work[a_] - r.work[b_]  # reverse work b -> a (positive when driving)
-        true_angle = direction * passages
-        dPi = _spring_potential(true_angle[b_], device) - _spring_potential(true_angle[a_], device)
-        num = work_scale * (A_rev - A) + 2 * dPi
-        # Work errors at the passages, differenced into the pairs' numerators.
-        step = np.diff(np.eye(passages.size), axis=0)
-        num_cov = step @ (work_covariance(braking, b) + work_covariance(reverse, r)) @ step.T
-        num_cov = num_cov * work_scale**2
-        plain_num, plain_cov = num, num_cov
-        if friction_slope is not None and np.all(np.isfinite(friction_slope)):
-            R = _mismatch_at(braking, reverse, lo, passages)
-            dR = R[a_] - R[b_]  # (pairs, 2): R_a - R_b
-            num = num + dR @ friction_slope
-            if friction_slope_cov is not None:
-                num_cov = num_cov + dR @ friction_slope_cov @ dR.T
-        wb2, wr2 = b.omega**2, r.omega**2
-        # Passages a turn apart: their speed errors are independent (R decays in ~40 / w_c).
-        vb = 4 * wb2 * np.diag(speed_error_covariance(braking, b)) * speed_noise_scale
-        vr = 4 * wr2 * np.diag(speed_error_covariance(reverse, r)) * speed_noise_scale
-        den = wb2[a_] + wr2[a_] - wb2[b_] - wr2[b_]
-        M = 2 * num / den
-        M_plain = plain_num / (wb2[a_] - wb2[b_])
-        M_mean, M_std = _combine_pairs(M, num_cov, den, vb + vr)
-        P_mean, P_std = _combine_pairs(M_plain, plain_cov / 4, wb2[a_] - wb2[b_], vb)
-        estimates.append(
-            NodeEstimate(
-                stage=stage,
-                node_deg=float(node_deg),
-                M=M_mean,
-                M_std=M_std,
-                M_plain=P_mean,
-                M_plain_std=P_std,
-                pairs=int(M.size),
-            )
-        )
-    return estimates
-
-
-def _balance_spacing(braking: PassEstimate, reverse: PassEstimate) -> float:
+def balance_spacing(braking: PassEstimate, reverse: PassEstimate) -> float:
     """rad between the balance angles: POSITION_SPACING_BANDWIDTHS smoother time constants
     at the passes' top speed."""
     bandwidth = min(braking.smoothed.bandwidth, reverse.smoothed.bandwidth)
@@ -444,7 +330,7 @@ def _balance_spacing(braking: PassEstimate, reverse: PassEstimate) -> float:
     return POSITION_SPACING_BANDWIDTHS / bandwidth * top
 
 
-def _mismatch_regressors(phi: np.ndarray, omega: np.ndarray, omega_rev: np.ndarray):
+def mismatch_regressors(phi: np.ndarray, omega: np.ndarray, omega_rev: np.ndarray):
     """(n, 2) [R1, R2] of the module docstring from ``phi[0]``: int delta dphi and
     int (|Omega| delta + delta^2 / 2) dphi, delta = |Omega'| - |Omega| (trapezoid)."""
     delta = np.abs(omega_rev) - np.abs(omega)
@@ -454,44 +340,3 @@ def _mismatch_regressors(phi: np.ndarray, omega: np.ndarray, omega_rev: np.ndarr
             cumulative_trapezoid(np.abs(omega) * delta + delta**2 / 2, phi, initial=0.0),
         ]
     )
-
-
-def _mismatch_at(braking: PassEstimate, reverse: PassEstimate, lo: float, at: np.ndarray):
-    """(len(at), 2) the mismatch regressors of :func:`stage_balance` at the angles ``at``,
-    integrated from ``lo`` on the balance's own grid, then interpolated."""
-    phi = np.append(np.arange(lo, at.max(), _balance_spacing(braking, reverse)), at.max())
-    R = _mismatch_regressors(phi, sample_at(braking, phi).omega, sample_at(reverse, phi).omega)
-    return np.column_stack([np.interp(at, phi, R[:, j]) for j in range(2)])
-
-
-def _combine_pairs(M, num_cov, den, passage_var) -> tuple[float, float]:
-    """Generalised mean of the consecutive pairs' M, with its standard deviation.
-
-    Pair i runs from passage i to i+1, so consecutive pairs share a passage: the speed error
-    there enters pair i's denominator with a minus sign and pair i+1's with a plus sign. To
-    first order dM_i = 2 dN_i / den_i - M_i dden_i / den_i with dden_i = dS_i - dS_{i+1};
-    the work errors dN_i have covariance ``num_cov`` (diagonal for sample-by-sample sums over
-    disjoint stretches, full when a constant braking torque's mean is shared), the passages'
-    speed errors dS_j are independent, which makes the speed part tridiagonal:
-
-        cov_ij = (2/den_i)(2/den_j) cov(N_i, N_j)
-                 + (M_i/den_i)^2 (var S_i + var S_{i+1})            (i = j)
-                 - (M_i/den_i)(M_{i+1}/den_{i+1}) var S_{i+1}       (j = i + 1)
-
-    ``passage_var`` holds var S_j at every passage (len(M) + 1 of them). For the plain
-    formula M = N / den, pass cov N / 4 (the factor 2 above).
-    """
-    g = M / den
-    cov = np.outer(2 / den, 2 / den) * num_cov
-    cov += np.diag(g**2 * (passage_var[:-1] + passage_var[1:]))
-    off = -g[:-1] * g[1:] * passage_var[1:-1]
-    cov += np.diag(off, 1) + np.diag(off, -1)
-    ones = np.ones_like(M)
-    try:
-        weights = np.linalg.solve(cov, ones)
-    except np.linalg.LinAlgError:  # noise-free logs (a synthetic test): no error to weigh
-        weights = np.linalg.pinv(cov) @ ones
-    total = float(ones @ weights)
-    if not total > 0.0 or not math.isfinite(total):
-        return float(np.mean(M)), 0.0
-    return float(weights @ M / total), float(1 / math.sqrt(total))

@@ -36,7 +36,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rsp_inertia.estimation.gls import BalanceFit, Block, ModelTest, model_warnings, solve_blocks
+from rsp_inertia.estimation.gls import BalanceFit, Block, solve_blocks
+from rsp_inertia.estimation.model_tests import ModelTest, model_warnings
 from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs
 from rsp_inertia.estimation.stiffness import StiffnessCalibration, calibrate_stiffness
 from rsp_inertia.estimation.tensor import (

@@ -1,33 +1,21 @@
-"""Generalised least squares over the runs' balance equations, with its own model checks.
+"""Generalised least squares over the runs' balance equations.
 
 Every run (one stage in one direction) contributes one equation per balance angle
-(rsp_inertia.estimation.balance, METHOD.md §5). Which unknowns those equations share depends on the
-question: the body's tensor (rsp_inertia.estimation.tensor) or the empty fixture's harmonics and the
-torque gain (rsp_inertia.estimation.calibration). Both build :class:`Block` s, named columns and a
-right-hand side, and this module solves them the same way:
+(rsp_inertia.estimation.balance, docs/method.md §5). Which unknowns those equations share
+depends on the question: the body's tensor (rsp_inertia.estimation.tensor) or the empty
+fixture's harmonics and the torque gain (rsp_inertia.estimation.calibration). Both build
+:class:`Block` s, named columns and a right-hand side, and this module solves them the same
+way:
 
 - **weights**: the covariance of a run's equations is the motor work's (the torque logs'
-  own noise, rsp_inertia.estimation.passes) plus the speed noise's, 1/4 M_i M_j cov(S_i, S_j), M from a
-  first unweighted pass and cov(S) from the smoothers' derived error autocovariance;
+  own noise, rsp_inertia.estimation.passes) plus the speed noise's, 1/4 M_i M_j cov(S_i, S_j),
+  M from a first unweighted pass and cov(S) from the smoothers' derived error
+  autocovariance; the equations are whitened by its Cholesky factor
+  (rsp_inertia.estimation.whitening);
 - **speed-noise scale**: the derived speed part of each run is scaled by the factor that makes
   that run's own fit reach chi^2/dof = 1 (a real encoder adds line errors, a closed loop its
-  regulator's jitter). A run's own fit can absorb a systematic misfit into that scale (its
-  own M harmonics and constant take up much of it), so the scale alone proves nothing: the
-  runs are checked against each other;
-- **consistency tests**: unknowns declared per group (the tensor, per run) are fitted once
-  shared and once free per group (each run its own tensor; each run's early and late
-  turns their own; each turn its own), with the same weights. The chi^2 drop is chi^2-distributed with as many
-  degrees of freedom as the freed unknowns add to the rank when the model is right. A
-  systematic error rarely biases every run, and fast and slow turns, alike: friction that
-  differs between the directions of rotation (its work grows with speed), a wrong spring or
-  gear ratio, a torque gain that differs between runs. A smooth regressor per run (a drift
-  in the angle, the shape of friction work) is no test here: the kinetic energy along the
-  braking is itself such a smooth function, so it would stand in for the noisy measured
-  speeds and reject every run. Nor is a per-node term (M let off its harmonic form within
-  15 deg of each node): it found a local 4e-5 change of M at one node (chi^2 = 90 for 6)
-  and kept quiet on the ideal reverse, but a closed-loop reverse leaves structure locked to
-  the angle there (chi^2 = 23-36 for 6 on 6 of 24 clean sweep cases whose errors were
-  1-1.4 std), so it would raise false alarms;
+  regulator's jitter). A run's own fit can absorb a systematic misfit into that scale, so
+  the runs are also checked against each other (rsp_inertia.estimation.model_tests);
 - **known terms**: the right-hand side may depend on calibrated parameters theta (their
   covariance known); their share of the estimate's covariance is K B cov(theta) B^T K^T,
   K the GLS gain and B = d rhs / d theta;
@@ -42,41 +30,18 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg
 from scipy.optimize import brentq
-from scipy.stats import chi2
 
 from rsp_inertia.estimation.balance import StageBalance
+from rsp_inertia.estimation.model_tests import SCALE_CAP, ModelTest, run_model_tests
+from rsp_inertia.estimation.whitening import cholesky_factors, weighted_chi2, whiten
 
-__all__ = [
-    "CALIBRATION_SOURCE",
-    "JITTER",
-    "NOISE_SOURCES",
-    "SCALE_CAP",
-    "TEST_ALPHA",
-    "BalanceFit",
-    "Block",
-    "ModelTest",
-    "information",
-    "model_warnings",
-    "solve_blocks",
-]
+__all__ = ["CALIBRATION_SOURCE", "NOISE_SOURCES", "BalanceFit", "Block", "solve_blocks"]
 
 NOISE_SOURCES = ("braking torque log", "reverse torque log", "encoder (speed)")
 """The independent noise sources of the balance equations, for the uncertainty budget."""
 
 CALIBRATION_SOURCE = "calibration"
 """Budget line of the calibrated terms (tare, fixture, torque gain)."""
-
-SCALE_CAP = 1e4
-"""Largest speed-noise scale; a run that needs it has residuals no encoder explains."""
-
-TEST_ALPHA = 0.01
-"""Family-wise false-alarm probability of the model tests of one fit (Bonferroni over the
-tests): a clean rig's identification warns in about 1 run in 100."""
-
-JITTER = 1e-12
-"""Relative ridge on the covariance before its Cholesky factor: the speed errors have no
-low-frequency content, so with a noise-free torque log the covariance is singular to
-rounding; 1e-12 of its mean variance is far below any noise and keeps it definite."""
 
 
 @dataclass(frozen=True)
@@ -110,35 +75,6 @@ class Block:
     """Unknowns left out of the run's own fit that sets its speed-noise scale: terms that only
     the runs together determine (a friction asymmetry's work shape, alone in one run, would
     stand in for the kinetic energy and absorb the speed noise)."""
-
-
-@dataclass(frozen=True)
-class ModelTest:
-    """A chi^2 test of the balance model (module docstring)."""
-
-    kind: str
-    """"consistency" (between runs), "early/late" (between each run's halves) or "per turn"."""
-    label: str
-    """What was tested, e.g. "stage 1 forward"."""
-    statistic: float
-    """The chi^2 drop."""
-    dof: int
-    """Degrees of freedom added."""
-    p_value: float
-    """P(chi^2_dof >= statistic) under the model."""
-    significant: bool
-    """p_value below the family-wise level (Bonferroni over the fit's tests)."""
-
-    def to_json(self) -> dict:
-        """The result.json entry."""
-        return {
-            "kind": self.kind,
-            "label": self.label,
-            "chi2": self.statistic,
-            "dof": self.dof,
-            "p_value": self.p_value,
-            "significant": self.significant,
-        }
 
 
 @dataclass(frozen=True)
@@ -176,41 +112,6 @@ class BalanceFit:
         return float(self.x[i]), float(math.sqrt(self.cov[i, i]))
 
 
-def _factors(covs: list[np.ndarray]) -> list[np.ndarray]:
-    """Lower Cholesky factors of the diagonal blocks of the covariance (with the ridge)."""
-    return [
-        np.linalg.cholesky(cov + JITTER * np.trace(cov) / len(cov) * np.eye(len(cov)))
-        for cov in covs
-    ]
-
-
-def _whiten(M: np.ndarray, factors: list[np.ndarray]) -> np.ndarray:
-    """Rows of M (stacked blocks) multiplied by the inverse Cholesky factor, block by block."""
-    out, start = [], 0
-    for L in factors:
-        n = L.shape[0]
-        out.append(scipy.linalg.solve_triangular(L, M[start : start + n], lower=True))
-        start += n
-    return np.concatenate(out)
-
-
-def _chi2(A: np.ndarray, y: np.ndarray, factors: list[np.ndarray]) -> tuple[float, int, np.ndarray]:
-    """Weighted residual chi^2, rank of A and the estimate."""
-    Aw, yw = _whiten(A, factors), _whiten(y, factors)
-    x, _, rank, _ = np.linalg.lstsq(Aw, yw, rcond=None)
-    r = yw - Aw @ x
-    return float(r @ r), int(rank), x
-
-
-def information(A: np.ndarray, cov: np.ndarray) -> np.ndarray:
-    """A^T C^-1 A: the Fisher information of equations A x = y + noise of covariance C.
-
-    Whitened with the same factor (and the same jitter) as the least squares itself.
-    """
-    Aw = _whiten(A, _factors([cov]))
-    return Aw.T @ Aw
-
-
 def _used(A: np.ndarray) -> np.ndarray:
     """Columns with any non-zero entry."""
     return np.nonzero(np.any(A != 0.0, axis=0))[0]
@@ -225,7 +126,7 @@ def _calibrated_scale(A, y, work_cov, speed_var) -> float:
     lo, hi = 1.0 / SCALE_CAP, SCALE_CAP
 
     def chi2_dof(scale: float) -> float:
-        value, rank, _ = _chi2(A, y, _factors([work_cov + scale * speed_var]))
+        value, rank, _ = weighted_chi2(A, y, cholesky_factors([work_cov + scale * speed_var]))
         return value / max(len(y) - rank, 1)
 
     if chi2_dof(hi) >= 1.0:
@@ -335,8 +236,8 @@ def solve_blocks(
         return scales
 
     def joint_fit(scales: list[float]):
-        factors = _factors([w + s * v for w, v, s in zip(work_cov, speed_var, scales)])
-        Aw, yw = _whiten(A, factors), _whiten(y, factors)
+        factors = cholesky_factors([w + s * v for w, v, s in zip(work_cov, speed_var, scales)])
+        Aw, yw = whiten(A, factors), whiten(y, factors)
         return factors, Aw, yw, *_weighted_solution(Aw, yw)
 
     scales = [1.0] * len(blocks) if predict else run_scales(y)
@@ -370,7 +271,7 @@ def solve_blocks(
                 for b in blocks
             ]
         )
-        gain = cov_x @ Aw.T @ _whiten(B, factors)  # dx / dtheta
+        gain = cov_x @ Aw.T @ whiten(B, factors)  # dx / dtheta
         cov_parts[CALIBRATION_SOURCE] = gain @ known_cov @ gain.T
         cov = cov + cov_parts[CALIBRATION_SOURCE]
         # For the tests, the calibrated terms are unknowns with their calibration as prior:
@@ -380,32 +281,6 @@ def solve_blocks(
         if live.any():
             nuisance = (B @ (U[:, live] * np.sqrt(lam[live])), int(live.sum()))
 
-    found_tests = []
-    splits = (
-        () if predict or not tests
-        else ((None, "consistency"), ("halves", "early/late"), ("turns", "per turn"))
-    )
-    for split, kind in splits:
-        fixed = [j for j, n in enumerate(names) if any(n in b.fixed_in_tests for b in blocks)]
-        kept = [j for j in range(len(names)) if j not in fixed]
-        found = _consistency(
-            blocks,
-            [names[j] for j in kept],
-            A[:, kept],
-            y - A[:, fixed] @ x[fixed],
-            factors,
-            split,
-            nuisance,
-        )
-        if found is not None:
-            found_tests.append(((kind, found[0]), found[1], found[2]))
-    level = TEST_ALPHA / max(len(found_tests), 1)
-    model_tests = []
-    for (kind, label), stat, dof_ in found_tests:
-        p_value = float(chi2.sf(max(stat, 0.0), dof_))
-        model_tests.append(
-            ModelTest(kind, label, float(stat), int(dof_), p_value, p_value < level)
-        )
     return BalanceFit(
         names=names,
         x=x,
@@ -414,92 +289,12 @@ def solve_blocks(
         chi2_dof=chi2_dof,
         scales=scales,
         n_equations=len(y),
-        tests=model_tests,
+        tests=(
+            []
+            if predict or not tests
+            else run_model_tests(blocks, names, A, y, x, factors, nuisance)
+        ),
         labels=[block.label for block in blocks],
     )
 
 
-def _consistency(
-    blocks, names, A, y, factors, split, nuisance=None
-) -> tuple[str, float, int] | None:
-    """The chi^2 drop when the grouped unknowns are freed per group, or None if no groups.
-
-    ``split``: None, or each block's balance angles are also cut into parts, each a group of
-    its own: "halves" (early turns, late turns) or "turns" (every whole turn travelled; a
-    last part shorter than a turn joins the one before). ``nuisance``: (B, p), columns of p
-    standardised calibration errors (prior N(0, 1) each) that both fits take as unknowns.
-    """
-    grouped = {name for block in blocks for name in block.groups}
-    labels = list(dict.fromkeys(g for block in blocks for g in block.groups.values()))
-    if not grouped or (len(labels) < 2 and split is None):
-        return None
-    free_names, parts = [n for n in names if n not in grouped], []
-    for block in blocks:
-        for rows, half in _parts(block, split):
-            cols = {k: v[rows] for k, v in block.columns.items() if k not in grouped}
-            for name in sorted(grouped & block.columns.keys()):
-                key = f"{name}@{block.groups[name]}{half}"
-                cols[key] = block.columns[name][rows]
-                if key not in free_names:
-                    free_names.append(key)
-            parts.append((cols, rows.stop - rows.start))
-    A_free = np.vstack(
-        [np.column_stack([cols.get(k, np.zeros(n)) for k in free_names]) for cols, n in parts]
-    )
-    if nuisance is not None:
-        B, p = nuisance
-        A, A_free = np.hstack([A, B]), np.hstack([A_free, B])
-        prior = [np.hstack([np.zeros((p, M.shape[1] - p)), np.eye(p)]) for M in (A, A_free)]
-        A, A_free = np.vstack([A, prior[0]]), np.vstack([A_free, prior[1]])
-        y = np.concatenate([y, np.zeros(p)])
-        factors = list(factors) + [np.eye(p)]
-    joint, rank_joint, _ = _chi2(A, y, factors)
-    free, rank_free, _ = _chi2(A_free, y, factors)
-    dof = rank_free - rank_joint
-    if dof <= 0:
-        return None
-    what = {
-        None: "the runs " + ", ".join(labels),
-        "halves": "the early and late turns of each run",
-        "turns": "the turns of each run",
-    }[split]
-    return what, joint - free, dof
-
-
-def _parts(block: Block, split: str | None) -> list[tuple[slice, str]]:
-    """Row ranges of a block for :func:`_consistency`, with their group suffixes."""
-    n = len(block.rhs)
-    if split is None:
-        return [(slice(0, n), "")]
-    if split == "halves":
-        return [(slice(0, n // 2), " early"), (slice(n // 2, n), " late")]
-    turn = np.floor(block.balance.friction_shape[:, 0] / (2 * math.pi)).astype(int)
-    turns = max(int(turn[-1]), 1)  # a last partial turn joins the one before
-    turn = np.minimum(turn, turns - 1)
-    starts = np.searchsorted(turn, np.arange(turns))
-    ends = np.append(starts[1:], n)
-    return [(slice(a, b), f" turn {k + 1}") for k, (a, b) in enumerate(zip(starts, ends))]
-
-
-def model_warnings(tests: list[ModelTest], scales: list[float], labels: list[str]) -> list[str]:
-    """Warnings from the balance model's tests and the runs' speed-noise scales."""
-    warnings = []
-    for label, scale in zip(labels, scales):
-        if scale >= SCALE_CAP:
-            warnings.append(
-                f"{label}: the balance residuals exceed the encoder's speed-noise model even "
-                f"{scale:.0f}-fold: the balances do not close; the stds are not reliable"
-            )
-    for test in tests:
-        if not test.significant:
-            continue
-        warnings.append(
-            f"the balances do not close: {test.label} disagree beyond their noise (chi2 = "
-            f"{test.statistic:.3g} for {test.dof} terms, p = {test.p_value:.2g}); likely "
-            "causes: friction that differs between the directions of rotation (run the "
-            'stages both ways: directions = ["forward", "backward"]), a reverse that does not '
-            "track the mirror, a wrong spring stiffness or gear ratio in device.toml, a torque "
-            "gain that differs between the passes or runs; the result may be off by more "
-            "than its std"
-        )
-    return warnings

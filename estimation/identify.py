@@ -5,7 +5,7 @@ Takes what a rig produces (the device and the logs,
 (:class:`rsp_inertia.estimation.tensor.KnownTerms`), never the virtual device's truth; opens
 no file (rsp_inertia.estimation.reading reads a folder). Steps,
 each in its own function elsewhere: smoothing and motor work (rsp_inertia.estimation.passes),
-balances and the node formula (rsp_inertia.estimation.balance), least squares and the tensor
+balances (rsp_inertia.estimation.balance), the node formula (rsp_inertia.estimation.nodes), least squares and the tensor
 (rsp_inertia.estimation.tensor).
 
 Two estimates of the tensor are reported:
@@ -25,13 +25,10 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from rsp_inertia.estimation.balance import NodeEstimate, node_formula
-from rsp_inertia.estimation.gls import model_warnings
-from rsp_inertia.estimation.pendulum import (
-    best_practice_inertia,
-    estimate_pendulum,
-    half_cycle_fit,
-)
+from rsp_inertia.estimation.best_practice import best_practice_inertia, half_cycle_fit
+from rsp_inertia.estimation.model_tests import model_warnings
+from rsp_inertia.estimation.nodes import NodeEstimate, node_formula
+from rsp_inertia.estimation.pendulum import estimate_pendulum
 from rsp_inertia.estimation.results import AxisResult, Identification, PendulumResult
 from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs
 from rsp_inertia.estimation.tensor import (
@@ -153,9 +150,9 @@ def identify_logs(
     }
     for k, (stage, sign, b_est, r_est) in enumerate(nodes):
         for n in node_formula(
-            device, stage, b_est, r_est, fit.speed_noise_scale[k], sign, known.work_scale,
+            device, stage, b_est, r_est, axis_nodes_deg(device.stages[stage - 1]),
+            fit.speed_noise_scale[k], sign, known.work_scale,
             fit.friction_slope[k], fit.friction_slope_cov[k],
-            axis_nodes_deg(device.stages[stage - 1]),
         ):
             by_node[n.stage, n.node_deg].append(n)
     nodes = [_combine_directions(found) for found in by_node.values()]

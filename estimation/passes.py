@@ -1,9 +1,9 @@
-"""A pass (braking or reverse) ready for work-energy balances (METHOD.md §3-5).
+"""A pass (braking or reverse) ready for work-energy balances (docs/method.md §3-5).
 
 A pass is turned into functions of the angle: the speed (smoothed), the motor work from the
 start of the pass (Stieltjes sum of the logged torque over encoder increments), and the
 variance that the torque log's noise puts into that work. The node formula and the least
-squares both read a stage through :func:`balance_at`.
+squares both read a stage through :func:`sample_at`.
 
 Motor work: the Stieltjes sum of the logged torque over the *smoothed* angle's increments,
 W_K = sum_{k<K} u_k (phi^_{k+1} - phi^_k), not over the raw readings y. Over readings the
@@ -16,14 +16,11 @@ free of the reading's sample-to-sample error, which removes the bias. Between ro
 work is W(phi*) = W_K + u_K (phi* - phi^_K), K the last row at or before phi*.
 
 Braking pass: a constant torque. By protocol the motor holds one constant braking torque
-(or none) over the whole braking pass (METHOD.md §4); the log is that constant plus the
+(or none) over the whole braking pass (docs/method.md §4); the log is that constant plus the
 channel's white noise. Then the best estimate of the applied torque is the mean of every
 row of the log, u_bar, and the work is W(phi) = u_bar (phi - phi^_0): its error
 (u_bar - u)(phi - phi^_0) has variance sigma^2 / N (phi - phi^_0)^2, N the rows, instead of
-the sample-by-sample sum's random walk sigma^2 sum dphi_k^2. On the default experiment, fed
-exact speeds, the stage-1 axes' std goes from 8.9e-6 to 6.8e-6 with it; with smoothed speeds
-the braking log's share of that std is then 3.5e-6 of 1.05e-5 (identify's uncertainty
-budget, benchmarks/results/identification.md). The assumption is checked on the log itself
+the sample-by-sample sum's random walk sigma^2 sum dphi_k^2. The assumption is checked on the log itself
 (:func:`constancy_p_value`, a chi^2 test of quarter-turn means): a braking torque that
 drifts or ripples beyond its noise falls back to the sample-by-sample sum, which is exact
 for any applied torque, and identify says so.
@@ -32,8 +29,7 @@ Dropped samples (rsp_inertia.plant.logs: a logger may lose rows; the drive still
 those instants). Over a gap of n missing rows between rows k and k+1 the zero-order-hold sum
 would hold u_k over the whole gap, while the drive set n unlogged torques there. A constant
 torque's mean is not affected; a sample-by-sample sum is (a closed-loop reverse's torque
-moves by the regulator's response to every count: dropping one row in a thousand put the
-default stage's J_k 3 std off and failed the per-turn consistency test). The gap's missing
+moves by the regulator's response to every count). The gap's missing
 instants are taken evenly spaced between its two rows, their torques linearly interpolated
 between u_k and u_k+1 and their angles from the smoothed motion (Hermite), and the work
 over the gap is summed with them (:func:`gap_work`). The interpolation's error is unknown
@@ -123,7 +119,7 @@ class PassEstimate:
 
 
 def check_braking_monotone(log: Log, source: str) -> None:
-    """The braking speed never reverses: encoder readings never decrease (INTERFACES.md)."""
+    """The braking speed never reverses: encoder readings never decrease (docs/files.md)."""
     back = np.nonzero(np.diff(log.phi) < 0)[0]
     if back.size:
         line = int(back[0]) + 3  # row k+1 of the data is line k+3 (header is line 1)
@@ -161,7 +157,7 @@ def estimate_pass(
     smoothed: Smoothed | None = None,
     sample_rate: float | None = None,
 ) -> PassEstimate:
-    """Smooth a pass and accumulate its motor work (METHOD.md §3, Stieltjes sum; see above).
+    """Smooth a pass and accumulate its motor work (docs/method.md §3, Stieltjes sum; see above).
 
     ``sigma_torque`` is the torque channel's logging noise; by default it is estimated from
     this log (right for a braking log, see :func:`torque_noise`). ``constant_torque``: the

@@ -14,8 +14,7 @@ The generalised least squares then gives the covariance the noise model alone im
 (``fit_tensor(..., predict=True)``: speed-noise scale 1, no inflation by residuals). That
 is an ideal reverse's std, a closed loop's best case: it cannot foresee the closed-loop
 reverse's tracking mismatch (its friction slopes cost information; an exact mirror has
-none) nor the regulator's speed noise, which together put identify's std 1.0-2.6x above it
-on the planning benchmark. The planner uses it to rank protocols; the closed-loop
+none) nor the regulator's speed noise, which together put identify's std above it. The planner uses it to rank protocols; the closed-loop
 rehearsal of the chosen one (rsp_inertia.ocp.rehearsal) gives the std it promises. Neither foresees a
 rig's imperfections beyond the noise model.
 """
@@ -29,17 +28,14 @@ import numpy as np
 import scipy.linalg
 
 from rsp_inertia.estimation.balance import StageBalance, stage_balance
-from rsp_inertia.estimation.gls import JITTER, information
 from rsp_inertia.estimation.passes import PassEstimate, motor_work
 from rsp_inertia.estimation.smoothing import Smoothed, noise_density, smoother_bandwidth
 from rsp_inertia.estimation.tensor import (
     ENTRY_KEYS,
     KnownTerms,
-    TensorFit,
-    axis_values,
-    fit_tensor,
     tensor_block,
 )
+from rsp_inertia.estimation.whitening import JITTER, information
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.geometry import design_matrix, device_design
 from rsp_inertia.plant.logs import Log
@@ -47,11 +43,9 @@ from rsp_inertia.plant.logs import Log
 __all__ = [
     "SHARED",
     "PlannedPass",
-    "Prediction",
     "axis_stds",
     "combine_information",
     "planned_estimate",
-    "predict_fit",
     "predicted_balance",
     "run_information",
 ]
@@ -76,7 +70,7 @@ class PlannedPass:
     """N m, the motor torque held over [t_k, t_k+1)."""
 
     def mirrored(self, torque: np.ndarray) -> PlannedPass:
-        """The time mirror (METHOD.md §4) on the same samples, with its motor torque."""
+        """The time mirror (docs/method.md §4) on the same samples, with its motor torque."""
         return PlannedPass(
             t=self.t,
             phi=self.phi[::-1].copy(),
@@ -142,40 +136,6 @@ def predicted_balance(
     return dataclasses.replace(balance, mismatch=np.zeros_like(balance.mismatch))
 
 
-@dataclass(frozen=True)
-class Prediction:
-    """Predicted standard deviations of identify's least squares for a set of planned runs."""
-
-    fit: TensorFit
-    """The noise model's fit (entries' covariance; estimates meaningless, the data exact)."""
-    axis_std: np.ndarray
-    """kg m^2, std of J_k at every node of the device (device_design order)."""
-    axis_stage: np.ndarray
-    """Stage of each axis (from 1)."""
-
-    @property
-    def worst(self) -> float:
-        """kg m^2, the largest std over the axes."""
-        return float(self.axis_std.max())
-
-    def stage_worst(self, stage: int) -> float:
-        """kg m^2, the largest std over the axes of one stage."""
-        return float(self.axis_std[self.axis_stage == stage].max())
-
-
-def predict_fit(device: Device, balances: list[StageBalance]) -> Prediction:
-    """Predicted J_k stds from the planned runs' balances (module docstring).
-
-    The reduced inertia that weights the speed noise comes from the balances' own exact
-    work, so the balances must be those of a consistent nominal model (the tare in
-    device.toml included).
-    """
-    fit = fit_tensor(balances, predict=True)
-    design = device_design(device)
-    _, stds = axis_values(fit.entries, fit.entries_cov, design.directions)
-    return Prediction(fit=fit, axis_std=stds, axis_stage=np.asarray(design.stages))
-
-
 def run_information(device: Device, balance: StageBalance, inertia: np.ndarray) -> np.ndarray:
     """(8, 8) information of one planned run on :data:`SHARED`, its own unknowns marginalised.
 
@@ -185,7 +145,8 @@ def run_information(device: Device, balance: StageBalance, inertia: np.ndarray) 
     1/4 M_i M_j cov(S_i, S_j) (rsp_inertia.estimation.gls), and its own unknowns (the run's constant,
     its friction slopes) taken out by the Schur complement. ``inertia``: M at the balance's
     angles (the nominal model's), which the least squares takes from a first unweighted fit.
-    Equal to :func:`predict_fit`'s covariance (tests), at a fraction of its cost, so that a
+    Equal to the least squares' own covariance of the planned balances (``fit_tensor(...,
+    predict=True)``, tests/ocp/test_plan.py), at a fraction of its cost, so that a
     planner can try each stage's protocols once and combine them freely.
     """
     known = KnownTerms.from_tares([st.tare_inertia for st in device.stages])
@@ -213,7 +174,7 @@ def axis_stds(device: Device, informations: np.ndarray) -> np.ndarray:
     """kg m^2, (k, axes): J_k stds of k summed information matrices (k, 8, 8) at once.
 
     Each matrix is scaled to unit diagonal before its (pseudo-)inverse, as the least squares
-    scales its columns (rsp_inertia.estimation.gls); J_k = v_k . J through V (METHOD.md §5).
+    scales its columns (rsp_inertia.estimation.gls); J_k = v_k . J through V (docs/method.md §5).
     """
     scale = np.sqrt(np.abs(np.einsum("kii->ki", informations)))
     scale[scale == 0.0] = 1.0

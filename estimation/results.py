@@ -10,8 +10,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rsp_inertia.estimation.gls import ModelTest
-from rsp_inertia.estimation.pendulum import BestPractice, PendulumEstimate
+from rsp_inertia.estimation.best_practice import BestPractice
+from rsp_inertia.estimation.model_tests import ModelTest
+from rsp_inertia.estimation.pendulum import PendulumEstimate
 from rsp_inertia.estimation.tensor import ENTRY_KEYS, format_run, principal
 from rsp_inertia.plant.geometry import axis_direction
 

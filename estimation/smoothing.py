@@ -7,7 +7,7 @@ density ``q_j`` (rad^2/s^5). Over a step T the transition is
     F = [[1, T, T^2/2], [0, 1, T], [0, 0, 1]],
     Q = q_j [[T^5/20, T^4/8, T^3/6], [T^4/8, T^3/3, T^2/2], [T^3/6, T^2/2, T]].
 
-Measurement: the encoder reads y = floor(phi/q) q (INTERFACES.md), so phi lies in [y, y+q):
+Measurement: the encoder reads y = floor(phi/q) q (docs/files.md), so phi lies in [y, y+q):
 the measurement is z = y + q/2 with the quantization's variance q^2/12 (uniform error), each
 reading independent (true when the body moves several counts per sample; near rest the
 estimate is over-confident, and the energy balances avoid the last slow stretch anyway).
@@ -32,24 +32,19 @@ w_c T <= ``BLOCK_BANDWIDTH`` = 2 (:func:`block_length`):
   relative amplitude a at nu <= 2 Omega_max = w_c / BANDWIDTH_FACTOR, j = a nu^2 Omega, so
   the relative speed bias is at most a kappa (w_c / BANDWIDTH_FACTOR)^2. At w_c = 390 rad/s
   (a 3-turn, 2 s braking against a spring, 20 rad/s) kappa = 6.9e-7 s^2 with B = 10
-  (w_c T = 3.9; the simulator's passes show 7.1e-7 to 7.4e-7), a speed bias of 1e-4 rad/s
-  that follows the jerk over the whole pass; with the aliasing below it put J_k off by 6-18
-  of its std over eight realisations. With B = 5 (w_c T = 1.95) kappa = 3.3e-9 s^2 and the
-  bias factor kappa (w_c / 10)^2 is 5e-6.
+  (w_c T = 3.9), a speed bias of 1e-4 rad/s that follows the jerk over the whole pass; with
+  B = 5 (w_c T = 1.95) kappa = 3.3e-9 s^2 and the bias factor kappa (w_c / 10)^2 is 5e-6.
 - Aliasing. The block states sample the smoother's output at 1/T; the speed error's spectral
   density r w^2 H(w)^2 (below) peaks at 0.76 w_c and must have died out by the block rate's
   Nyquist frequency pi/T. At w_c T = 2, pi/T = 1.57 w_c, where the density is 2.4 % of its
-  peak (12 % at w_c T = 2.4, 98 % at 3.9). Measured on the same pass, the speed error averaged
-  over 80 ms scatters 2.0 times the derived R's prediction with B = 10 and 1.0 times with
-  B <= 6; J_k's share of the encoder noise, over 40 noise draws, reaches 1.5 times its
-  derived std with B = 6 (w_c T = 2.3) and 1.2-1.3 times with B = 5 or 4.
+  peak (12 % at w_c T = 2.4, 98 % at 3.9).
 
 The default experiment's stage 1 (w_c = 240 rad/s) gets B = 8, its stage 2 (70 rad/s) B = 10.
 
 Process noise, justified. The RTS smoother of this model is, in steady state, the two-sided
 Wiener filter 1 / (1 + (w/w_c)^6) with w_c = (q_j / r)^(1/6), r = (q^2/12) dt the spectral
 density of the reading noise. The speed of a body on the gimbal oscillates at the harmonics
-of its rotation, the highest that matters at 2 Omega (M(phi) has cos 2phi terms, METHOD §2).
+of its rotation, the highest that matters at 2 Omega (M(phi) has cos 2phi terms, docs/method.md §2).
 Putting w_c = ``BANDWIDTH_FACTOR`` x 2 Omega_max keeps the smoother's amplitude bias at that
 harmonic below (1/BANDWIDTH_FACTOR)^6 = 1e-6, far below the target accuracy; a lower w_c
 would average more noise out but bias exactly the harmonics that carry the tensor's products.

@@ -9,7 +9,7 @@ and the fixture with the reference body at
 
     w_r^2 = (c + k_f(phi_r) + k_r(phi_r)) / (M_e(phi_r) + M_r(phi_r)),
 
-w the undamped frequencies at zero amplitude (rsp_inertia.estimation.pendulum.half_cycle_fit), phi_e and
+w the undamped frequencies at zero amplitude (rsp_inertia.estimation.best_practice.half_cycle_fit), phi_e and
 phi_r the oscillations' equilibria, k = -(Gs sin phi + Gc cos phi) the gravity stiffnesses
 (docs/method.md §3) of the fixture (calibrated by the RSP calibration) and of the reference body
 (its mass and centre of mass, reference.toml), and M_r the reference body's reduced inertia
@@ -32,12 +32,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rsp_inertia.estimation.pendulum import (
+from rsp_inertia.estimation.best_practice import (
     best_practice_inertia,
-    crossing_period,
     gravity_stiffness,
     half_cycle_fit,
 )
+from rsp_inertia.estimation.pendulum import crossing_period
 from rsp_inertia.estimation.runs import ExperimentLogs
 from rsp_inertia.plant.config import TrueBody
 from rsp_inertia.plant.errors import InputError

@@ -30,7 +30,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from rsp_inertia.estimation.balance import StageBalance
-from rsp_inertia.estimation.gls import NOISE_SOURCES, Block, ModelTest, solve_blocks
+from rsp_inertia.estimation.gls import NOISE_SOURCES, Block, solve_blocks
+from rsp_inertia.estimation.model_tests import ModelTest
 from rsp_inertia.plant.geometry import design_matrix, physical_margins, tensor_from_entries
 from rsp_inertia.plant.model import gravity_basis, inertia_basis, tensor_basis
 

@@ -1,4 +1,4 @@
-"""The reverse pass's feedforward torque: an optimal-control problem in CasADi (METHOD.md §4).
+"""The reverse pass's feedforward torque: an optimal-control problem in CasADi (docs/method.md §4).
 
 States x = (phi, Omega, u): the body's angle and speed and the motor torque, which is a state
 so that its rate v = du/dt can be bounded (the motor's torque-rate limit). On a grid of step
@@ -21,10 +21,8 @@ the 4x4 Hessian of lam_k . F(x_k, v_k), both SX functions (built once per step l
 cached) mapped over the N intervals, plus the cost's own constant Hessian. The same numbers
 as CasADi's automatic MX derivatives of the whole NLP (to rounding; tests/ocp/
 test_feedforward_derivatives.py), at less than half the time: those colour the NLP's sparsity
-and sweep the mapped step several times per evaluation (measured on the default stage 2,
-1105 intervals: 40 ms per Hessian and 22 ms per Jacobian against 20 and 8 ms here, and
-0.15 s to build the solver against 0.03 s), while an expanded SX graph of the whole NLP
-takes seconds to differentiate.
+and sweep the mapped step several times per evaluation, while an expanded SX graph of the
+whole NLP takes seconds to differentiate.
 
 Before the OCP, the mirror's torque is checked against the motor: if the nominal model
 needs more than ``torque_limit`` anywhere, the mirror is impossible and nothing is written.
@@ -62,11 +60,10 @@ the torque's variation within a turn (at 12 rad/s a turn lasts ~0.5 s)."""
 FEASIBILITY_WINDOW = 0.1
 """s over which the needed torque is averaged before it is compared with the motor's limit.
 
-Measured on a 12-bit encoder (the benchmarks' sweep, friction x10, stage 2): where the body moves
-about one count per sample the quantization stops being white and the smoothed acceleration
-shows isolated bumps; averaged over 50 ms the needed torque then peaked at 0.66 N m, over
-100 ms at 0.24 N m, against a true need of about 0.3 N m. 100 ms still follows the fastest
-physical change, the 2 Omega harmonic of stage 1 (period 0.26 s at 12 rad/s, kept to 77%)."""
+Where the body moves about one count per sample the quantization stops being white and the
+smoothed acceleration shows isolated bumps, which a shorter average lets through; 100 ms
+still follows the fastest physical change, the 2 Omega harmonic of stage 1 (period 0.26 s
+at 12 rad/s, kept to 77%)."""
 
 _DIRECTION = -1.0
 """The reverse pass runs backwards: friction's sign term is that of a negative speed."""

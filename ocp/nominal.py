@@ -1,6 +1,6 @@
 """Nominal model of a stage from its braking log, for the program's feedforward.
 
-Lagrange's equation (METHOD.md §3, rsp_inertia.plant.model) is linear in the harmonic coefficients of
+Lagrange's equation (docs/method.md §3, rsp_inertia.plant.model) is linear in the harmonic coefficients of
 M(phi), the gravity terms and the dissipation coefficients (a1, a2, a3); the spring is
 known from device.toml. Along the smoothed braking pass (phi, Omega > 0, eps) with the
 logged torque u, least squares on
@@ -52,17 +52,13 @@ over-confident smoothing near rest)."""
 _WINDOW = 0.25
 """s per energy-balance window on a long pass. Short windows leave the speed's noise large next
 to each window's energy change; on a stage whose friction nearly balances the inertia term
-(stage 1 of the default experiment, a 23 s pass) that noise biases the fitted scale: 20 ms
-windows gave M 14x too small, 0.1 s 24% too small, 0.25 s within the 2% that a1 = 0 costs."""
+that noise biases the fitted scale."""
 
 _MIN_WINDOWS = 30
 """Windows a pass is cut into at least: on a pass shorter than _MIN_WINDOWS x _WINDOW
 (7.5 s) the windows shorten to pass / _MIN_WINDOWS. Such a pass brakes hard, so each
-window's energy change stands far above the speed noise that made short windows fail on
-the slow default stage. Measured on a 2.0 s braking against a spring (c = 0.02 N m/rad,
-stage 1 at 14 rad/s): 10 windows (5 unknowns fitted) put M0 at half its value and the
-mirror's torque need 0.17 N m too high; 18 and 30 windows (all unknowns) M0 within 0.7%
-and the need within 3 mN m."""
+window's energy change stands far above the speed noise that biases short windows on a
+slow pass."""
 
 _SHORTEST_WINDOW = 0.02
 """s: below this a window spans too few samples for the smoother's bandwidth (~1/w_c)."""
@@ -171,7 +167,7 @@ def fit_nominal(device: Device, stage: int, log: Log, sm: Smoothed) -> ModelPara
     """Least-squares nominal model of stage ``stage`` from its smoothed braking pass.
 
     The equation of motion is fitted in its integrated form, the energy balance over
-    consecutive windows [a, b] of the pass (METHOD.md §3):
+    consecutive windows [a, b] of the pass (docs/method.md §3):
 
         E(b) - E(a) + integral_a^b D dphi = motor work from a to b
 

@@ -3,7 +3,7 @@
 A pilot run (``stageN/pilot.csv``, the log format of braking.csv; the virtual device's
 :func:`rsp_inertia.plant.virtual.simulate_pilot`) starts at rest, drives the body forward at a constant
 known torque up to the stage's launch speed (or until a spring stops the speed rising),
-then switches the motor off and lets it coast to rest (or for a while). Its energy balance over windows of the pass (METHOD.md §3),
+then switches the motor off and lets it coast to rest (or for a while). Its energy balance over windows of the pass (docs/method.md §3),
 
     E(b) - E(a) + integral_a^b D dphi = motor work from a to b,
 
@@ -17,11 +17,8 @@ with the speed. A free spin-down alone (motor off throughout) has the braking's 
 full: every term of the balance is proportional to the unknowns, so M and friction are only
 known relative to each other.
 
-Measured on the default experiment (tests/estimation/test_pilot.py; eight release angles
-and seeds): M0 within 0.07% on both stages; a3 within 0.7% on stage 1 and 5% on stage 2,
-whose 30 s coast loses only 8% of its speed: that speed range is too narrow to tell a1, a2
-and a3 apart well. The fit gets the friction torque D over the coast's speeds right (to
-0.3% of its top value), its split among a1, a2, a3 loosely.
+The fit gets the friction torque D over the coast's speeds right, its split among a1, a2,
+a3 only loosely when the coast spans a narrow speed range.
 """
 
 from __future__ import annotations
@@ -131,9 +128,7 @@ def fit_pilot(device: Device, stage: int, log: Log, source: str | None = None) -
     below by 0. The stds are those of ordinary least squares: the residual variance times
     (A^T A)^-1, as if the windows' errors were independent. They are not: consecutive
     windows share an endpoint, whose speed error enters both with opposite signs, so the
-    stds overstate the scatter; over eight pilots of each default stage (release angle and
-    seed varied, paper's friction and 30x its a1 and a2) the actual scatter was 0.4-1x the
-    stated std for M0 and 0.3-0.8x for a1-a3 on stage 1, 0.1-0.15x on stage 2.
+    stds overstate the scatter.
 
     Parameters
     ----------

@@ -58,13 +58,11 @@ def start_reference(
     The mirror, except over the start: there the torque must step from the hold to the
     mirror's first torque at the drive's rate (the OCP's bound), so the body cannot follow the
     mirror, and the OCP's trajectory departs from it. Regulating onto the bare mirror there
-    would fight the feedforward (on a spring's 2 s pass the drive then rode its rate limit
-    on 4.6% of the samples). So the reference carries the OCP's departure (linear between
+    would fight the feedforward. So the reference carries the OCP's departure (linear between
     its grid points) for the step's duration |u'(0) - hold| / torque_rate_limit, then fades
     it out with a half cosine over START_FADE_BANDWIDTHS / w, w the regulator's bandwidth.
     Not beyond: after the start the OCP tracks the mirror only to its cost's tolerance (up to
-    6e-4 of the top speed on the default stages), which the regulator removes; carrying that
-    departure all along made the 12-bit closed loops' errors 1.3-2.7x larger.
+    6e-4 of the top speed on the default stages), which the regulator removes.
     """
     need = float(required_torque(ref, model)[0])
     step = abs(need - float(sol.torque[0])) / device.motor.torque_rate_limit

@@ -1,4 +1,4 @@
-"""The mirrored reference of the reverse pass (METHOD.md §4, the paper's (2)-(3)).
+"""The mirrored reference of the reverse pass (docs/method.md §4, the paper's (2)-(3)).
 
 In file time (each log from t = 0), with T the braking's rest time:
 
@@ -11,9 +11,7 @@ The rest. The braking log ends at the last sample before the speed reaches zero;
 lies less than a sample later. A straight line fitted to the smoothed speed over the last
 ``REST_WINDOW`` seconds, or over the last ``REST_COUNTS`` counts of motion if that is longer
 (the deceleration is constant to first order near rest) gives the
-rest time T (its root) and, integrated, the angles there and the rest angle phi7. Measured
-on the default stages, the line puts T within 1.3 ms (stage 1) and 0.2 ms (stage 2) of the
-truth; the last smoothed state alone 3.8 ms, a quadratic over the window 3.4 and 7.5 ms.
+rest time T (its root) and, integrated, the angles there and the rest angle phi7.
 A fit over a window, not the last smoothed state alone: at the very
 end of a log the smoother has no later data and its speed scatters by ~1e-2 rad/s (enough
 to move T by several samples, or to make the end speed negative, which would make the
@@ -31,7 +29,7 @@ import numpy as np
 from rsp_inertia.estimation.smoothing import Smoothed, hermite
 from rsp_inertia.plant.errors import InputError
 
-__all__ = ["REST_COUNTS", "REST_WINDOW", "Mirror", "RestFit", "braking_states_at", "mirror", "rest_fit", "rest_point"]
+__all__ = ["REST_COUNTS", "REST_WINDOW", "Mirror", "RestFit", "braking_states_at", "mirror", "rest_fit"]
 
 REST_WINDOW = 0.05
 """s of the braking's end over which the deceleration to rest is fitted."""
@@ -114,12 +112,6 @@ def rest_fit(sm: Smoothed, source: str, quantum: float) -> RestFit:
     # phi7: the smoothed angle where the fit starts plus the line's distance to rest.
     left = fit.rest_time - fit.start
     return dataclasses.replace(fit, phi7=float(sm.phi[-n]) + fit.decel * left**2 / 2)
-
-
-def rest_point(sm: Smoothed, quantum: float, source: str = "braking.csv") -> tuple[float, float]:
-    """Rest time T and angle phi7 of a braking pass (module docstring); q the encoder count."""
-    fit = rest_fit(sm, source, quantum)
-    return fit.rest_time, fit.phi7
 
 
 def braking_states_at(sm: Smoothed, times: np.ndarray, rest: tuple[float, float]):

@@ -15,11 +15,9 @@ interpolated (time-varying gains: M changes by ~5% within a turn and by the spee
 The gains are python-control's ``control.dlqr`` (the stable solution X of the discrete
 algebraic Riccati equation, K = (R + B'XB)^-1 B'XA), computed for all the points at once:
 the Riccati equation by the structure-preserving doubling algorithm on stacks of 2x2
-matrices (:func:`_riccati`, ~10 iterations of quadratic convergence). One ``dlqr`` call costs
-~1 ms of Python and LAPACK overhead, 300-450 of them per stage ~0.5 s, and importing
-python-control ~1 s (it loads matplotlib); the stacked solution takes ~20 ms for a whole
-stage. tests/ocp/test_regulator_dlqr.py checks it against ``control.dlqr`` (1e-9 relative;
-measured: within 1e-12 on the default stages).
+matrices (:func:`_riccati`, ~10 iterations of quadratic convergence), which spares a
+``dlqr`` call's Python and LAPACK overhead per point and the import of python-control.
+tests/ocp/test_regulator_dlqr.py checks it against ``control.dlqr`` (1e-9 relative).
 
 The bandwidth w: high enough to absorb a nominal model 30% off, low enough that the
 encoder's quantization does not make the torque chatter. One count q of angle error moves
@@ -48,10 +46,9 @@ from rsp_inertia.plant.model import MODEL, ModelParameters, reduced_inertia
 __all__ = ["GAIN_STEP", "MAX_BANDWIDTH", "OBSERVER_BANDWIDTH", "bandwidth", "lqr_gains"]
 
 MAX_BANDWIDTH = 45.0
-"""rad/s: ceiling on the regulator's bandwidth. Measured on the default stage 1 with the
-nominal model 30% off in inertia: 30 rad/s left a systematic lag of ~9e-4 of the speed at
-the nodes, 60 rad/s let the encoder's jitter through (peaks of 2e-3); 45 keeps both near
-or under 1e-3."""
+"""rad/s: ceiling on the regulator's bandwidth, between a lower one's lag behind a wrong
+nominal model and a higher one's encoder jitter (both near or under 1e-3 of the speed at the
+nodes of the default stage 1 with the nominal model 30% off in inertia)."""
 
 GAIN_STEP = 0.05
 """s between gain computations (interpolated in between)."""
@@ -67,16 +64,10 @@ _JAC = ca.Function(
 
 OBSERVER_BANDWIDTH = 100.0
 """rad/s: the drive's speed observer assumed by the bandwidth rule (module docstring); the
-virtual drive's (virtual.toml controller.speed_observer_bandwidth). Measured on the closed
-loop of a planned paper protocol: keeping only k_phi q within the rate limit (c_o = 0) left
-the heavy stage (M = 0.83 kg m^2, w = 15.8 rad/s) riding the drive's rate limiter on 47% of
-its reverse samples, and identify's speed-noise scale for that run at 10 (337 against a
-spring of 0.02 N m/rad): the chattering loop leaves slow residuals in the balances that no
-encoder noise explains. With the observer's step counted, w = 5.3 rad/s there: the rate
-limiter engaged on under 0.01% of samples, scale 1.7-2.2 over six realisations (J_k within
-1.7 std); the light stage keeps MAX_BANDWIDTH. The price
-is looser tracking of a wrong nominal model on the heavy stage (benchmarks/results/
-program.md), which the balances' mismatch terms absorb."""
+virtual drive's (virtual.toml controller.speed_observer_bandwidth). Without the observer's
+step a heavy stage's loop chatters on the drive's rate limiter and leaves slow residuals in
+the balances that no encoder noise explains; the price of counting it is looser tracking of
+a wrong nominal model on the heavy stage, which the balances' mismatch terms absorb."""
 
 
 def bandwidth(device: Device, M: float) -> float:
@@ -116,8 +107,7 @@ def lqr_gains(
     M = reduced_inertia(phi[idx], nominal)
     w = bandwidth(device, float(np.max(M)))
     # Stacks of 2x2 problems: BLAS threads only add overhead, and under load they
-    # oversubscribe the cores (measured with per-point dlqr calls: 24 ms each with two
-    # other busy processes, 30x the idle time).
+    # oversubscribe the cores.
     with threadpool_limits(limits=1):
         K = _gains(device, phi[idx], omega[idx], torque[idx], M, w, nominal.vector)
     return np.interp(t, t[idx], K[:, 0]), np.interp(t, t[idx], K[:, 1])

@@ -14,22 +14,17 @@ that identify sees and the ideal prediction cannot:
   the body in a way the smoother does not follow; identify measures that as its
   speed-noise scale.
 
-Measured on the planning benchmark (five scenarios), identify's std was 1.0-3.0x the ideal
-prediction, most of it from the mismatch columns (with them left out, identify's std on the
-same logs was within 10% of the prediction on the paper's scenario).
-
 The rehearsal therefore runs what the experiment will run, with the nominal model as the
 truth: for every stage and direction the braking of the chosen protocol (encoder
 quantization, the torque log's noise of the pilot or the guess; the release where the plan
-puts it, rsp_inertia.ocp.plan.planned_release), ``program`` from that
+puts it, rsp_inertia.ocp.candidates.planned_release), ``program`` from that
 braking log (its own nominal fit, blind to a1 as on the rig), the closed-loop reverse on a
 drive with the regulator's assumed speed observer (rsp_inertia.ocp.regulator.OBSERVER_BANDWIDTH) and the
 motor's limits, and identify's least squares on those logs. Its reported stds are the
 prediction. One realisation, seeded: the stds scatter by 3% over four noise seeds (spring
 scenario). What the rehearsal cannot know is how far the program's nominal model will be
 from the real truth, which sets the mismatch's shape: its truth is the pilot's model, whose
-a1 a pilot pins only loosely (on the spring's slow stage identify then reported up to 2.2x
-less than rehearsed on two axes; 0.96-1.17x elsewhere, benchmarks/results/plan.md).
+a1 a pilot pins only loosely (benchmarks/results/plan.md).
 """
 
 from __future__ import annotations
@@ -43,7 +38,8 @@ import numpy as np
 from rsp_inertia.estimation.balance import stage_balance
 from rsp_inertia.estimation.runs import estimate_run
 from rsp_inertia.estimation.tensor import axis_values, fit_tensor, format_run
-from rsp_inertia.ocp.plan import Candidate, StageModel, map_stages, planned_release
+from rsp_inertia.ocp.candidates import Candidate, StageModel, planned_release
+from rsp_inertia.ocp.plan import map_stages
 from rsp_inertia.ocp.program import make_program
 from rsp_inertia.ocp.regulator import OBSERVER_BANDWIDTH
 from rsp_inertia.plant.config import ControllerSettings, Device, Friction, RunSettings, Virtual
@@ -60,7 +56,7 @@ def consistent_models(device: Device, models: Sequence[StageModel]) -> list[Mode
     Each stage's pilot is fitted alone, so the stages' harmonics need not come from one tensor,
     nor their gravity terms from one centre of mass; identify fits one of each to all stages
     and would read the difference as a misfit. The harmonics are linear in the tensor
-    (rsp_inertia.plant.model.inertia_harmonics, METHOD.md §2): least squares over every stage's
+    (rsp_inertia.plant.model.inertia_harmonics, docs/method.md §2): least squares over every stage's
     harmonics gives the tensor, and the harmonics are recomputed from it; Gs and Gc
     (m g x_c, m g y_c, the same for every stage) are averaged. With one stage the model
     stays as it is.

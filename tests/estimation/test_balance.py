@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from rsp_inertia.estimation import tensor
-from rsp_inertia.estimation.balance import node_formula, stage_balance
+from rsp_inertia.estimation.balance import stage_balance
+from rsp_inertia.estimation.nodes import node_formula
 from rsp_inertia.estimation.passes import PassEstimate
 from rsp_inertia.estimation.smoothing import Smoothed
 from rsp_inertia.estimation.tensor import ENTRY_KEYS, KnownTerms, fit_tensor, tensor_block
@@ -79,7 +80,9 @@ def test_node_formula_gives_the_true_reduced_inertia(
 ):
     braking, reverse = exact_passes[stage]
     p = vd.true_parameters(default_device, stage, default_virtual).vector
-    nodes = node_formula(default_device, stage, braking, reverse)
+    nodes = node_formula(
+        default_device, stage, braking, reverse, default_device.stages[stage - 1].nodes_deg
+    )
     assert [n.node_deg for n in nodes] == list(default_device.stages[stage - 1].nodes_deg)
     for n in nodes:
         true_M = float(reduced_inertia(math.radians(n.node_deg), p))

@@ -10,7 +10,8 @@ import pytest
 from scipy.optimize import brentq
 
 from rsp_inertia.cli import main
-from rsp_inertia.estimation.pendulum import best_practice_inertia, crossing_period, half_cycle_fit
+from rsp_inertia.estimation.best_practice import best_practice_inertia, half_cycle_fit
+from rsp_inertia.estimation.pendulum import crossing_period
 from rsp_inertia.pipeline import create_default_experiment
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.geometry import axis_direction, design_matrix, entries_from_tensor

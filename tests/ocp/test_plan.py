@@ -13,15 +13,16 @@ from rsp_inertia.cli import main
 from rsp_inertia.estimation.predict import (
     PlannedPass,
     combine_information,
-    predict_fit,
     predicted_balance,
     run_information,
 )
 from rsp_inertia.estimation.reading import identify_experiment
-from rsp_inertia.ocp.plan import NOMINAL_COULOMB_SHARE, TORQUE_MARGIN, StageModel, evaluate
+from rsp_inertia.estimation.tensor import axis_values, fit_tensor
+from rsp_inertia.ocp.candidates import NOMINAL_COULOMB_SHARE, TORQUE_MARGIN, StageModel, evaluate
 from rsp_inertia.pipeline import create_default_experiment, simulate
 from rsp_inertia.plant.config import load_device, load_virtual
 from rsp_inertia.plant.experiment import open_experiment
+from rsp_inertia.plant.geometry import device_design
 from rsp_inertia.plant.model import acceleration, dissipation, motor_torque, reduced_inertia
 from rsp_inertia.plant.virtual import integrate_to_stop, true_parameters
 
@@ -72,7 +73,8 @@ def test_structured_information_equals_the_least_squares_covariance(paper):
         bal = predicted_balance(device, stage, b, r, 1e-4)
         balances.append(bal)
         infos.append(run_information(device, bal, np.ravel(reduced_inertia(bal.phi, model))))
-    dense = predict_fit(device, balances).axis_std
+    fit = fit_tensor(balances, predict=True)
+    _, dense = axis_values(fit.entries, fit.entries_cov, device_design(device).directions)
     fast = combine_information(device, infos)
     np.testing.assert_allclose(fast, dense, rtol=1e-4)
 

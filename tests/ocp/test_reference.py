@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from rsp_inertia.estimation.smoothing import Smoothed
-from rsp_inertia.ocp.reference import braking_states_at, mirror, rest_fit, rest_point
+from rsp_inertia.ocp.reference import braking_states_at, mirror, rest_fit
 from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.errors import InputError
 from tests.ocp.conftest import (
@@ -131,15 +131,16 @@ def test_rest_point_of_the_exact_states_is_the_true_stop(
     braking = brakings[stage]
     params = vd.true_parameters(default_device, stage, default_virtual)
     exact = exact_states(braking, params)
-    T, phi7 = rest_point(exact, default_device.encoder.quantum)
+    fit = rest_fit(exact, "braking.csv", default_device.encoder.quantum)
+    T, phi7 = fit.rest_time, fit.phi7
     tr = braking.truth
-    # rest_point fits a straight line to the speed over the last window W. A jerk j over the
+    # rest_fit fits a straight line to the speed over the last window W. A jerk j over the
     # window bends the speed by j s^2 / 2; the least-squares line through s^2 on [-W, 0] misses
     # it at s = 0 by W^2 / 6 and has slope -W: speed error j W^2 / 12, deceleration error
     # j W / 2. So T is off by at most (j W^2 / 12 + tau j W / 2) / |eps| (tau < dt the time
     # still to go), and phi7, the line's distance over the window, by at most j W^3 / 12.
     dt = default_device.encoder.dt
-    W = exact.t[-1] - rest_fit(exact, "braking", default_device.encoder.quantum).start
+    W = exact.t[-1] - fit.start
     eps = true_accelerations(braking, params)
     jerk = np.abs(np.diff(eps[-round(W / dt) - 1 :])).max() / dt
     assert abs(T - tr.end_time) <= (jerk * W * W / 12 + dt * jerk * W / 2) / abs(eps[-1]) + 1e-12
@@ -152,7 +153,8 @@ def test_rest_point_of_the_smoothed_braking_is_the_true_stop(
 ):
     braking = brakings[stage]
     sm = smoothed[stage]
-    T, phi7 = rest_point(sm, default_device.encoder.quantum)
+    fit = rest_fit(sm, "braking.csv", default_device.encoder.quantum)
+    T, phi7 = fit.rest_time, fit.phi7
     tr = braking.truth
     dt = default_device.encoder.dt
     # With exact states T would be right to a small fraction of a sample (test above). The

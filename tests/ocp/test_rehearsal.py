@@ -12,7 +12,8 @@ import pytest
 from rsp_inertia.cli import main
 from rsp_inertia.estimation.reading import read_run
 from rsp_inertia.estimation.runs import estimate_run
-from rsp_inertia.ocp.plan import StageModel, map_stages
+from rsp_inertia.ocp.candidates import StageModel
+from rsp_inertia.ocp.plan import map_stages
 from rsp_inertia.ocp.program import make_program
 from rsp_inertia.ocp.rehearsal import consistent_models
 from rsp_inertia.pipeline import create_default_experiment, simulate

@@ -1,0 +1,192 @@
+"""Model tests of the balance equations: do the runs agree beyond their noise?
+
+A run's own fit can absorb a systematic misfit into its speed-noise scale
+(rsp_inertia.estimation.gls: its own M harmonics and constant take up much of it), so the scale
+alone proves nothing: the runs are checked against each other. Unknowns declared per group
+(the tensor, per run) are fitted once shared and once free per group (each run its own
+tensor; each run's early and late turns their own; each turn its own), with the same
+weights. The chi^2 drop is chi^2-distributed with as many degrees of freedom as the freed
+unknowns add to the rank when the model is right; each drop is tested at a family-wise level
+``TEST_ALPHA`` (Bonferroni over the tests). A systematic error rarely biases every run, and
+fast and slow turns, alike: friction that differs between the directions of rotation (its
+work grows with speed), a wrong spring or gear ratio, a torque gain that differs between
+runs.
+
+A smooth regressor per run (a drift in the angle, the shape of friction work) is no test
+here: the kinetic energy along the braking is itself such a smooth function, so it would
+stand in for the noisy measured speeds and reject every run. Nor is a per-node term (M let
+off its harmonic form within 15 deg of each node): a closed-loop reverse leaves structure
+locked to the angle there, so it would raise false alarms (benchmarks/results/design-notes.md).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+from scipy.stats import chi2
+
+from rsp_inertia.estimation.whitening import weighted_chi2
+
+if TYPE_CHECKING:
+    from rsp_inertia.estimation.gls import Block
+
+__all__ = ["SCALE_CAP", "TEST_ALPHA", "ModelTest", "model_warnings", "run_model_tests"]
+
+SCALE_CAP = 1e4
+"""Largest speed-noise scale; a run that needs it has residuals no encoder explains."""
+
+TEST_ALPHA = 0.01
+"""Family-wise false-alarm probability of the model tests of one fit (Bonferroni over the
+tests): a clean rig's identification warns in about 1 run in 100."""
+
+
+@dataclass(frozen=True)
+class ModelTest:
+    """A chi^2 test of the balance model (module docstring)."""
+
+    kind: str
+    """"consistency" (between runs), "early/late" (between each run's halves) or "per turn"."""
+    label: str
+    """What was tested, e.g. "stage 1 forward"."""
+    statistic: float
+    """The chi^2 drop."""
+    dof: int
+    """Degrees of freedom added."""
+    p_value: float
+    """P(chi^2_dof >= statistic) under the model."""
+    significant: bool
+    """p_value below the family-wise level (Bonferroni over the fit's tests)."""
+
+    def to_json(self) -> dict:
+        """The result.json entry."""
+        return {
+            "kind": self.kind,
+            "label": self.label,
+            "chi2": self.statistic,
+            "dof": self.dof,
+            "p_value": self.p_value,
+            "significant": self.significant,
+        }
+
+
+def run_model_tests(blocks, names, A, y, x, factors, nuisance=None) -> list[ModelTest]:
+    """The three tests (between runs, early against late turns, per turn) of a joint fit.
+
+    ``names``, ``A``, ``y``: the stacked equations of ``blocks``, ``x`` their joint estimate,
+    ``factors`` the Cholesky factors of their covariance (rsp_inertia.estimation.whitening);
+    the unknowns of ``fixed_in_tests`` are held at ``x``. ``nuisance``: see
+    :func:`_consistency`.
+    """
+    found_tests = []
+    splits = ((None, "consistency"), ("halves", "early/late"), ("turns", "per turn"))
+    for split, kind in splits:
+        fixed = [j for j, n in enumerate(names) if any(n in b.fixed_in_tests for b in blocks)]
+        kept = [j for j in range(len(names)) if j not in fixed]
+        found = _consistency(
+            blocks,
+            [names[j] for j in kept],
+            A[:, kept],
+            y - A[:, fixed] @ x[fixed],
+            factors,
+            split,
+            nuisance,
+        )
+        if found is not None:
+            found_tests.append(((kind, found[0]), found[1], found[2]))
+    level = TEST_ALPHA / max(len(found_tests), 1)
+    model_tests = []
+    for (kind, label), stat, dof_ in found_tests:
+        p_value = float(chi2.sf(max(stat, 0.0), dof_))
+        model_tests.append(
+            ModelTest(kind, label, float(stat), int(dof_), p_value, p_value < level)
+        )
+    return model_tests
+
+
+def _consistency(
+    blocks, names, A, y, factors, split, nuisance=None
+) -> tuple[str, float, int] | None:
+    """The chi^2 drop when the grouped unknowns are freed per group, or None if no groups.
+
+    ``split``: None, or each block's balance angles are also cut into parts, each a group of
+    its own: "halves" (early turns, late turns) or "turns" (every whole turn travelled; a
+    last part shorter than a turn joins the one before). ``nuisance``: (B, p), columns of p
+    standardised calibration errors (prior N(0, 1) each) that both fits take as unknowns.
+    """
+    grouped = {name for block in blocks for name in block.groups}
+    labels = list(dict.fromkeys(g for block in blocks for g in block.groups.values()))
+    if not grouped or (len(labels) < 2 and split is None):
+        return None
+    free_names, parts = [n for n in names if n not in grouped], []
+    for block in blocks:
+        for rows, half in _parts(block, split):
+            cols = {k: v[rows] for k, v in block.columns.items() if k not in grouped}
+            for name in sorted(grouped & block.columns.keys()):
+                key = f"{name}@{block.groups[name]}{half}"
+                cols[key] = block.columns[name][rows]
+                if key not in free_names:
+                    free_names.append(key)
+            parts.append((cols, rows.stop - rows.start))
+    A_free = np.vstack(
+        [np.column_stack([cols.get(k, np.zeros(n)) for k in free_names]) for cols, n in parts]
+    )
+    if nuisance is not None:
+        B, p = nuisance
+        A, A_free = np.hstack([A, B]), np.hstack([A_free, B])
+        prior = [np.hstack([np.zeros((p, M.shape[1] - p)), np.eye(p)]) for M in (A, A_free)]
+        A, A_free = np.vstack([A, prior[0]]), np.vstack([A_free, prior[1]])
+        y = np.concatenate([y, np.zeros(p)])
+        factors = list(factors) + [np.eye(p)]
+    joint, rank_joint, _ = weighted_chi2(A, y, factors)
+    free, rank_free, _ = weighted_chi2(A_free, y, factors)
+    dof = rank_free - rank_joint
+    if dof <= 0:
+        return None
+    what = {
+        None: "the runs " + ", ".join(labels),
+        "halves": "the early and late turns of each run",
+        "turns": "the turns of each run",
+    }[split]
+    return what, joint - free, dof
+
+
+def _parts(block: Block, split: str | None) -> list[tuple[slice, str]]:
+    """Row ranges of a block for :func:`_consistency`, with their group suffixes."""
+    n = len(block.rhs)
+    if split is None:
+        return [(slice(0, n), "")]
+    if split == "halves":
+        return [(slice(0, n // 2), " early"), (slice(n // 2, n), " late")]
+    turn = np.floor(block.balance.friction_shape[:, 0] / (2 * math.pi)).astype(int)
+    turns = max(int(turn[-1]), 1)  # a last partial turn joins the one before
+    turn = np.minimum(turn, turns - 1)
+    starts = np.searchsorted(turn, np.arange(turns))
+    ends = np.append(starts[1:], n)
+    return [(slice(a, b), f" turn {k + 1}") for k, (a, b) in enumerate(zip(starts, ends))]
+
+
+def model_warnings(tests: list[ModelTest], scales: list[float], labels: list[str]) -> list[str]:
+    """Warnings from the balance model's tests and the runs' speed-noise scales."""
+    warnings = []
+    for label, scale in zip(labels, scales):
+        if scale >= SCALE_CAP:
+            warnings.append(
+                f"{label}: the balance residuals exceed the encoder's speed-noise model even "
+                f"{scale:.0f}-fold: the balances do not close; the stds are not reliable"
+            )
+    for test in tests:
+        if not test.significant:
+            continue
+        warnings.append(
+            f"the balances do not close: {test.label} disagree beyond their noise (chi2 = "
+            f"{test.statistic:.3g} for {test.dof} terms, p = {test.p_value:.2g}); likely "
+            "causes: friction that differs between the directions of rotation (run the "
+            'stages both ways: directions = ["forward", "backward"]), a reverse that does not '
+            "track the mirror, a wrong spring stiffness or gear ratio in device.toml, a torque "
+            "gain that differs between the passes or runs; the result may be off by more "
+            "than its std"
+        )
+    return warnings

@@ -1,0 +1,185 @@
+"""The paper's node formula: M at a node from the whole-turn pairs of both passes.
+
+Nodes phi_a and phi_b = phi_a + 2 pi m (the same axis, M equal at both), braking speeds
+Omega_a, Omega_b, reverse speeds (magnitudes) Omega'_a, Omega'_b, motor work A on the braking
+pass (from a to b) and A' on the reverse (from b back to a), dPi = Pi(phi_b) - Pi(phi_a)
+(docs/method.md §5):
+
+    M = 2 (A' - A + 2 dPi) / (Omega_a^2 + Omega'_a^2 - Omega_b^2 - Omega'_b^2)
+
+With perfect symmetry (Omega' = Omega) it is the paper's formula (6),
+M = (A' - A + 2 dPi) / (Omega_a^2 - Omega_b^2). The passes, their common range and the
+tracking mismatch's regressors are the stage balance's (rsp_inertia.estimation.balance).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from rsp_inertia.estimation.balance import (
+    balance_spacing,
+    mismatch_regressors,
+    spring_potential,
+    usable_range,
+)
+from rsp_inertia.estimation.passes import (
+    PassEstimate,
+    sample_at,
+    speed_error_covariance,
+    work_covariance,
+)
+from rsp_inertia.plant.config import Device
+from rsp_inertia.plant.errors import InputError
+
+__all__ = ["NodeEstimate", "node_formula"]
+
+
+@dataclass(frozen=True)
+class NodeEstimate:
+    """Reduced inertia at one node from its whole-turn pairs (docs/method.md §5)."""
+
+    stage: int
+    """Stage number, from 1."""
+    node_deg: float
+    """Node angle, deg."""
+    M: float
+    """kg m^2, RSP formula with the measured reverse speeds (inverse-variance mean of pairs)."""
+    M_std: float
+    """kg m^2."""
+    M_plain: float
+    """kg m^2, the paper's formula (6)/(7): braking speeds only."""
+    M_plain_std: float
+    """kg m^2."""
+    pairs: int
+    """Number of one-turn pairs used."""
+
+
+def node_formula(
+    device: Device,
+    stage: int,
+    braking: PassEstimate,
+    reverse: PassEstimate,
+    nodes_deg: Sequence[float],
+    speed_noise_scale: float = 1.0,
+    direction: int = 1,
+    work_scale: float = 1.0,
+    friction_slope: np.ndarray | None = None,
+    friction_slope_cov: np.ndarray | None = None,
+) -> list[NodeEstimate]:
+    """M at each of ``nodes_deg`` (deg) from every one-turn pair (phi_a, phi_a + 2 pi).
+
+    docs/method.md §5: M = 2 (A' - A + 2 dPi) / (Omega_a^2 + Omega'_a^2 - Omega_b^2 - Omega'_b^2),
+    and the paper's plain form M = (A' - A + 2 dPi) / (Omega_a^2 - Omega_b^2). Gravity cancels
+    over whole turns; dPi is the spring's. Pairs are combined by generalised least squares
+    (:func:`_combine_pairs`): speed noise from the smoothers' derived error variance times
+    ``speed_noise_scale`` (the calibration that the least squares finds on its residuals,
+    rsp_inertia.estimation.tensor), and work noise from the torque logs (rsp_inertia.estimation.passes).
+    ``direction`` -1: a backward run's passes, mirrored by
+    :func:`rsp_inertia.estimation.balance.mirror_log`; its node phi
+    sits at -phi in the mirrored coordinate. ``work_scale``: h = 1 / torque gain, the factor
+    that makes the logged motor work physical (a calibration's, rsp_inertia.estimation.calibration).
+
+    ``friction_slope`` [d1, d2] (with its (2, 2) covariance): the run's tracking-mismatch
+    slopes that the least squares fits (module docstring). The balance of a pair then reads
+    1/2 M (S_a - S_b) = N + (R_a - R_b) . d, R the mismatch regressors at the passages, so
+    the correction joins every pair's numerator and its uncertainty the numerators'
+    covariance (the pairs share d). Without it the mismatch's friction work is left in M.
+    """
+    nodes = np.radians(np.asarray(nodes_deg, dtype=float))
+    lo, hi = usable_range(braking, reverse, stage)
+    estimates = []
+    for node_deg, node in zip(nodes_deg, direction * nodes):
+        first = node + 2 * math.pi * math.ceil((lo - node) / (2 * math.pi))
+        passages = np.arange(first, hi, 2 * math.pi)
+        if passages.size < 2:
+            raise InputError(
+                f"{braking.source}: stage {stage}: node {node_deg:g} deg: the passes cover no "
+                f"whole turn from it at useful speed ({passages.size} passage(s) in the common "
+                "range); the braking must cover more turns"
+            )
+        b = sample_at(braking, passages)
+        r = sample_at(reverse, passages)
+        a_, b_ = slice(None, -1), slice(1, None)
+        A = b.work[b_] - b.work[a_]  # braking work a -> b (negative)
+        A_rev = r.work[a_] - r.work[b_]  # reverse work b -> a (positive when driving)
+        true_angle = direction * passages
+        dPi = spring_potential(true_angle[b_], device) - spring_potential(true_angle[a_], device)
+        num = work_scale * (A_rev - A) + 2 * dPi
+        # Work errors at the passages, differenced into the pairs' numerators.
+        step = np.diff(np.eye(passages.size), axis=0)
+        num_cov = step @ (work_covariance(braking, b) + work_covariance(reverse, r)) @ step.T
+        num_cov = num_cov * work_scale**2
+        plain_num, plain_cov = num, num_cov
+        if friction_slope is not None and np.all(np.isfinite(friction_slope)):
+            R = _mismatch_at(braking, reverse, lo, passages)
+            dR = R[a_] - R[b_]  # (pairs, 2): R_a - R_b
+            num = num + dR @ friction_slope
+            if friction_slope_cov is not None:
+                num_cov = num_cov + dR @ friction_slope_cov @ dR.T
+        wb2, wr2 = b.omega**2, r.omega**2
+        # Passages a turn apart: their speed errors are independent (R decays in ~40 / w_c).
+        vb = 4 * wb2 * np.diag(speed_error_covariance(braking, b)) * speed_noise_scale
+        vr = 4 * wr2 * np.diag(speed_error_covariance(reverse, r)) * speed_noise_scale
+        den = wb2[a_] + wr2[a_] - wb2[b_] - wr2[b_]
+        M = 2 * num / den
+        M_plain = plain_num / (wb2[a_] - wb2[b_])
+        M_mean, M_std = _combine_pairs(M, num_cov, den, vb + vr)
+        P_mean, P_std = _combine_pairs(M_plain, plain_cov / 4, wb2[a_] - wb2[b_], vb)
+        estimates.append(
+            NodeEstimate(
+                stage=stage,
+                node_deg=float(node_deg),
+                M=M_mean,
+                M_std=M_std,
+                M_plain=P_mean,
+                M_plain_std=P_std,
+                pairs=int(M.size),
+            )
+        )
+    return estimates
+
+
+def _mismatch_at(braking: PassEstimate, reverse: PassEstimate, lo: float, at: np.ndarray):
+    """(len(at), 2) the mismatch regressors of
+    :func:`rsp_inertia.estimation.balance.stage_balance` at the angles ``at``,
+    integrated from ``lo`` on the balance's own grid, then interpolated."""
+    phi = np.append(np.arange(lo, at.max(), balance_spacing(braking, reverse)), at.max())
+    R = mismatch_regressors(phi, sample_at(braking, phi).omega, sample_at(reverse, phi).omega)
+    return np.column_stack([np.interp(at, phi, R[:, j]) for j in range(2)])
+
+
+def _combine_pairs(M, num_cov, den, passage_var) -> tuple[float, float]:
+    """Generalised mean of the consecutive pairs' M, with its standard deviation.
+
+    Pair i runs from passage i to i+1, so consecutive pairs share a passage: the speed error
+    there enters pair i's denominator with a minus sign and pair i+1's with a plus sign. To
+    first order dM_i = 2 dN_i / den_i - M_i dden_i / den_i with dden_i = dS_i - dS_{i+1};
+    the work errors dN_i have covariance ``num_cov`` (diagonal for sample-by-sample sums over
+    disjoint stretches, full when a constant braking torque's mean is shared), the passages'
+    speed errors dS_j are independent, which makes the speed part tridiagonal:
+
+        cov_ij = (2/den_i)(2/den_j) cov(N_i, N_j)
+                 + (M_i/den_i)^2 (var S_i + var S_{i+1})            (i = j)
+                 - (M_i/den_i)(M_{i+1}/den_{i+1}) var S_{i+1}       (j = i + 1)
+
+    ``passage_var`` holds var S_j at every passage (len(M) + 1 of them). For the plain
+    formula M = N / den, pass cov N / 4 (the factor 2 above).
+    """
+    g = M / den
+    cov = np.outer(2 / den, 2 / den) * num_cov
+    cov += np.diag(g**2 * (passage_var[:-1] + passage_var[1:]))
+    off = -g[:-1] * g[1:] * passage_var[1:-1]
+    cov += np.diag(off, 1) + np.diag(off, -1)
+    ones = np.ones_like(M)
+    try:
+        weights = np.linalg.solve(cov, ones)
+    except np.linalg.LinAlgError:  # noise-free logs (a synthetic test): no error to weigh
+        weights = np.linalg.pinv(cov) @ ones
+    total = float(ones @ weights)
+    if not total > 0.0 or not math.isfinite(total):
+        return float(np.mean(M)), 0.0
+    return float(weights @ M / total), float(1 / math.sqrt(total))

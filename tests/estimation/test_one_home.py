@@ -1,0 +1,185 @@
+"""Every formula of docs/method.md has one home; its consumers in rsp_inertia.estimation call it.
+
+The table lists, per formula, the function named in docs/method.md and the estimation modules
+that use it: each must import that very function (not a copy of its own) and call it. The
+behavioural tests below replace a home in a consumer's namespace and see the consumer's result
+follow it. (The model's M, Pi and the RK4 step: tests/plant/test_model.py,
+tests/estimation/test_balance.py; the physical margins and the errors against the truth:
+tests/plant/test_geometry.py; the OCP's consumers: tests/ocp/test_one_home.py.)
+"""
+
+from __future__ import annotations
+
+import ast
+import importlib
+import inspect
+import math
+
+import numpy as np
+import pytest
+
+from rsp_inertia.estimation import best_practice, pendulum, predict, smoothing, tensor
+from rsp_inertia.estimation.best_practice import HalfCycleFit
+from rsp_inertia.plant import geometry
+from rsp_inertia.plant.logs import Log
+
+# (formula, home module, function, consumer modules)
+HOMES = [
+    ("J_e = (M - M_tare) / (1 + lambda^2)", "estimation.identify", "axial_moment",
+     ["estimation.identify"]),
+    ("M = c / w_n^2", "estimation.pendulum", "pendulum_inertia",
+     ["estimation.pendulum", "estimation.best_practice"]),
+    ("k_g = -(Gs sin phi + Gc cos phi)", "estimation.best_practice", "gravity_stiffness",
+     ["estimation.best_practice", "estimation.stiffness"]),
+    ("zero-crossing period", "estimation.pendulum", "crossing_period",
+     ["estimation.pendulum", "estimation.stiffness"]),
+    ("half-cycle fit", "estimation.best_practice", "half_cycle_fit",
+     ["estimation.identify", "estimation.stiffness"]),
+    ("M = (c + k_g) / w_n^2", "estimation.best_practice", "best_practice_inertia",
+     ["estimation.identify", "estimation.stiffness"]),
+    ("V (design matrix)", "plant.geometry", "design_matrix", ["estimation.tensor", "estimation.predict"]),
+    ("J from its entries", "plant.geometry", "tensor_from_entries", ["estimation.tensor"]),
+    ("e(phi)", "plant.geometry", "axis_direction", ["estimation.identify", "estimation.results"]),
+    ("identify's axes and cond(V)", "plant.geometry", "device_design",
+     ["estimation.identify", "estimation.predict"]),
+    ("M's basis functions", "plant.model", "inertia_basis",
+     ["estimation.tensor", "estimation.calibration", "estimation.stiffness"]),
+    ("M's harmonics", "plant.model", "inertia_harmonics",
+     ["estimation.calibration", "estimation.stiffness"]),
+    ("Pi (spring part)", "plant.model", "potential", ["estimation.balance"]),
+    ("2 Pi_spring of the balances", "estimation.balance", "spring_potential",
+     ["estimation.balance", "estimation.nodes"]),
+    ("w_c = 10 x 2 Omega_max", "estimation.smoothing", "smoother_bandwidth",
+     ["estimation.smoothing", "estimation.predict"]),
+    ("r = (q^2/12) dt", "estimation.smoothing", "noise_density",
+     ["estimation.smoothing", "estimation.predict"]),
+    ("R(tau)", "estimation.smoothing", "speed_error_autocovariance", ["estimation.smoothing"]),
+    ("smoothed states", "estimation.smoothing", "smooth_log", ["estimation.passes"]),
+    ("W_K, Stieltjes sum over the smoothed angle", "estimation.passes", "motor_work",
+     ["estimation.passes", "estimation.predict"]),
+    ("mirrored coordinate of a backward run", "estimation.balance", "mirror_log",
+     ["estimation.runs"]),
+    ("common range of the passes", "estimation.balance", "usable_range",
+     ["estimation.balance", "estimation.nodes"]),
+    ("tracking-mismatch regressors R1, R2", "estimation.balance", "mismatch_regressors",
+     ["estimation.balance", "estimation.nodes"]),
+    ("the stage balance", "estimation.balance", "stage_balance",
+     ["estimation.runs", "estimation.predict"]),
+    ("J_k = V_k . J with its std", "estimation.tensor", "axis_values", ["estimation.identify"]),
+    ("tensor through V", "estimation.tensor", "tensor_from_axes", ["estimation.identify"]),
+    ("one run's least-squares rows", "estimation.tensor", "tensor_block",
+     ["estimation.tensor", "estimation.predict"]),
+    ("2 dPi/d[Gs, Gc]", "estimation.tensor", "gravity_rows",
+     ["estimation.tensor", "estimation.calibration"]),
+    ("a run's own columns", "estimation.tensor", "run_columns",
+     ["estimation.tensor", "estimation.calibration"]),
+    ("the GLS", "estimation.gls", "solve_blocks", ["estimation.tensor", "estimation.calibration"]),
+    ("Cholesky whitening", "estimation.whitening", "whiten",
+     ["estimation.gls", "estimation.whitening"]),
+    ("weighted chi^2", "estimation.whitening", "weighted_chi2",
+     ["estimation.gls", "estimation.model_tests"]),
+    ("model-test warnings", "estimation.model_tests", "model_warnings",
+     ["estimation.identify", "estimation.calibration"]),
+    ("the node formula", "estimation.nodes", "node_formula", ["estimation.identify"]),
+]
+
+
+def _module(name: str):
+    return importlib.import_module(f"rsp_inertia.{name}")
+
+
+def _called(module, name: str) -> bool:
+    """Whether ``module``'s source calls ``name`` (as a bare name)."""
+    tree = ast.parse(inspect.getsource(module))
+    return any(
+        isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == name
+        for node in ast.walk(tree)
+    )
+
+
+@pytest.mark.parametrize(
+    "home, name, consumer",
+    [(home, name, c) for _, home, name, consumers in HOMES for c in consumers],
+    ids=lambda v: v if isinstance(v, str) else None,
+)
+def test_consumers_call_the_one_home(home, name, consumer):
+    function = getattr(_module(home), name)
+    used = _module(consumer)
+    assert getattr(used, name, None) is function, f"{consumer} has its own {name}"
+    assert _called(used, name), f"{consumer} does not call {name}"
+
+
+def _fit() -> HalfCycleFit:
+    return HalfCycleFit(
+        omega_n=5.0, omega_n_std=1e-4, omega_d=4.99, delta=0.05, kappa=0.0,
+        kappa_fitted=False, centre=0.1, amplitude=0.05, half_cycles=10, residual_rms=1e-5,
+    )
+
+
+def test_pendulum_inertia_is_the_home_of_m_from_the_frequency(monkeypatch):
+    t = np.arange(0.0, 20.0, 1e-3)
+    log = Log(t=t, phi=0.05 * np.exp(-0.02 * t) * np.cos(3.0 * t), torque=np.zeros_like(t))
+    gravity, cov = np.array([0.01, -0.02]), np.zeros((2, 2))
+    classic = pendulum.estimate_pendulum(log, 2.0, 1, 0.0, "p.csv").M_classic
+    best = best_practice.best_practice_inertia(_fit(), 2.0, 0.0, 0.1, gravity, cov).M
+    assert best == pytest.approx((2.0 + best_practice.gravity_stiffness(gravity, 0.1)) / 25.0)
+    for module in (pendulum, best_practice):
+        monkeypatch.setattr(module, "pendulum_inertia", lambda c, w: 3 * c / w**2)
+    assert pendulum.estimate_pendulum(log, 2.0, 1, 0.0, "p.csv").M_classic == pytest.approx(
+        3 * classic
+    )
+    assert best_practice.best_practice_inertia(_fit(), 2.0, 0.0, 0.1, gravity, cov).M == (
+        pytest.approx(3 * best)
+    )
+
+
+def test_gravity_stiffness_is_the_home_of_k_g(monkeypatch):
+    gravity = np.array([0.01, -0.02])
+    before = best_practice.best_practice_inertia(_fit(), 2.0, 0.0, 0.1, gravity, np.zeros((2, 2)))
+    monkeypatch.setattr(best_practice, "gravity_stiffness", lambda g, phi: 1.0)
+    after = best_practice.best_practice_inertia(_fit(), 2.0, 0.0, 0.1, gravity, np.zeros((2, 2)))
+    assert after.gravity_stiffness == 1.0 != before.gravity_stiffness
+    assert after.M == pytest.approx(3.0 / 25.0)
+
+
+def test_design_matrix_is_the_home_of_v(monkeypatch, default_device):
+    directions = geometry.device_design(default_device).directions
+    entries, cov = np.arange(1.0, 7.0), np.eye(6)
+    info = np.eye(8)[None] * 1e6
+    before = (tensor.axis_values(entries, cov, directions)[0],
+              tensor.tensor_from_axes(np.ones(6), np.ones(6), directions)[0],
+              predict.axis_stds(default_device, info))
+    for module in (tensor, predict):
+        monkeypatch.setattr(module, "design_matrix", lambda d: 2 * geometry.design_matrix(d))
+    np.testing.assert_allclose(tensor.axis_values(entries, cov, directions)[0], 2 * before[0])
+    np.testing.assert_allclose(
+        tensor.tensor_from_axes(np.ones(6), np.ones(6), directions)[0], before[1] / 2
+    )
+    np.testing.assert_allclose(predict.axis_stds(default_device, info), 2 * before[2])
+
+
+def test_tensor_from_entries_is_the_home_of_j(monkeypatch):
+    entries = np.array([0.025, 0.028, 0.022, 0.0012, -0.0009, 0.0015])
+    moments = tensor.principal(entries)[0]
+    monkeypatch.setattr(tensor, "tensor_from_entries", lambda e: 2 * geometry.tensor_from_entries(e))
+    np.testing.assert_allclose(tensor.principal(entries)[0], 2 * moments)
+
+
+def test_inertia_basis_is_the_home_of_m_empty(monkeypatch):
+    known = tensor.KnownTerms.from_tares([0.5, 1.5])
+    assert known.empty_inertia(2, 0.3) == 1.5
+    monkeypatch.setattr(tensor, "inertia_basis", lambda phi: 2 * np.ones((len(phi), 5)))
+    assert known.empty_inertia(2, 0.3) == 3.0
+
+
+def test_smoother_bandwidth_is_the_home_of_w_c(monkeypatch):
+    t = np.arange(0.0, 1.0, 1e-3)
+    log = Log(t=t, phi=np.floor(10.0 * t / 1e-3) * 1e-3, torque=np.zeros_like(t))
+    _, bandwidth = smoothing.jerk_density(log, 1e-3)
+    # the top speed read off the quantized log: 10 rad/s to a count over BLOCK samples
+    assert bandwidth == pytest.approx(smoothing.smoother_bandwidth(10.0), rel=0.02)
+    monkeypatch.setattr(smoothing, "smoother_bandwidth", lambda omega: 123.0)
+    q_j, bandwidth = smoothing.jerk_density(log, 1e-3)
+    assert bandwidth == 123.0
+    assert q_j == pytest.approx(smoothing.noise_density(1e-3, 1e-3) * 123.0**6)
+    assert math.isfinite(q_j)

@@ -1,0 +1,105 @@
+"""Every formula of docs/method.md has one home; its consumers in rsp_inertia.ocp call it.
+
+Per formula, the function named in docs/method.md and the ocp modules that use it: each must
+import that very function (not a copy of its own) and call it; a behavioural test replaces a
+home in a consumer's namespace and sees the result follow. (The RK4 step's consumers:
+tests/plant/test_model.py; the estimation's: tests/estimation/test_one_home.py.)
+"""
+
+from __future__ import annotations
+
+import ast
+import importlib
+import inspect
+
+import numpy as np
+import pytest
+
+from rsp_inertia.ocp import candidates, regulator
+from rsp_inertia.plant.model import ModelParameters
+
+# (formula, home module, function, consumer modules)
+HOMES = [
+    ("M(phi)", "plant.model", "reduced_inertia",
+     ["ocp.candidates", "ocp.regulator", "ocp.program"]),
+    ("dPi/dphi, the hold torque", "plant.model", "static_torque",
+     ["ocp.candidates", "ocp.feedforward"]),
+    ("Lagrange's equation solved for u", "plant.model", "motor_torque",
+     ["ocp.candidates", "ocp.feedforward"]),
+    ("Lagrange's equation solved for eps", "plant.model", "acceleration", ["ocp.candidates"]),
+    ("D(Omega)", "plant.model", "dissipation", ["ocp.candidates"]),
+    ("E = T + Pi", "plant.model", "mechanical_energy", ["ocp.nominal"]),
+    ("RK4 step", "plant.model", "rk4_step", ["ocp.feedforward"]),
+    ("M's harmonics from the entries", "plant.model", "harmonics_matrix", ["ocp.rehearsal"]),
+    ("smoothed braking", "estimation.smoothing", "smooth_log", ["ocp.program", "ocp.pilot"]),
+    ("cubic Hermite between states", "estimation.smoothing", "hermite",
+     ["ocp.reference", "ocp.candidates"]),
+    ("mirrored coordinate of a backward run", "estimation.balance", "mirror_log", ["ocp.program"]),
+    ("torque noise level", "estimation.passes", "torque_noise", ["ocp.pilot"]),
+    ("energy-window least squares", "ocp.nominal", "fit_energy_windows",
+     ["ocp.nominal", "ocp.pilot"]),
+    ("the rest point", "ocp.reference", "rest_fit", ["ocp.reference"]),
+    ("the time mirror", "ocp.reference", "mirror", ["ocp.program"]),
+    ("the mirror's torque on the nominal model", "ocp.feedforward", "required_torque",
+     ["ocp.feedforward", "ocp.program"]),
+    ("the regulator's bandwidth", "ocp.regulator", "bandwidth",
+     ["ocp.regulator", "ocp.program"]),
+    ("LQR gains", "ocp.regulator", "lqr_gains", ["ocp.program"]),
+    ("the planned release", "ocp.candidates", "planned_release",
+     ["ocp.candidates", "ocp.rehearsal"]),
+    ("a candidate protocol", "ocp.candidates", "evaluate", ["ocp.candidates", "ocp.plan"]),
+    ("the stage balance", "estimation.balance", "stage_balance", ["ocp.rehearsal"]),
+    ("predicted information of a run", "estimation.predict", "run_information",
+     ["ocp.candidates"]),
+    ("predicted J_k stds", "estimation.predict", "axis_stds", ["ocp.plan"]),
+    ("identify's least squares", "estimation.tensor", "fit_tensor", ["ocp.rehearsal"]),
+]
+
+
+def _module(name: str):
+    return importlib.import_module(f"rsp_inertia.{name}")
+
+
+def _called(module, name: str) -> bool:
+    tree = ast.parse(inspect.getsource(module))
+    return any(
+        isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == name
+        for node in ast.walk(tree)
+    )
+
+
+@pytest.mark.parametrize(
+    "home, name, consumer",
+    [(home, name, c) for _, home, name, consumers in HOMES for c in consumers],
+    ids=lambda v: v if isinstance(v, str) else None,
+)
+def test_consumers_call_the_one_home(home, name, consumer):
+    function = getattr(_module(home), name)
+    used = _module(consumer)
+    assert getattr(used, name, None) is function, f"{consumer} has its own {name}"
+    assert _called(used, name), f"{consumer} does not call {name}"
+
+
+MODEL = ModelParameters(
+    inertia_harmonics=np.array([0.1, 0.002, 0.0, 0.001, 0.0]),
+    coulomb=1e-4, viscous=1e-4, quadratic=1e-3,
+)
+
+
+def test_regulator_gains_follow_the_model_reduced_inertia(monkeypatch, default_device):
+    """The regulator's bandwidth and gains take M from the model's one M(phi)."""
+    t = np.arange(0.0, 0.2, default_device.encoder.dt)
+    phi, omega, torque = 1.0 - 5.0 * t, -5.0 * np.ones_like(t), np.zeros_like(t)
+    k_phi, _ = regulator.lqr_gains(default_device, t, phi, omega, torque, MODEL)
+    real = regulator.reduced_inertia
+    monkeypatch.setattr(regulator, "reduced_inertia", lambda phi, p: 2 * np.asarray(real(phi, p)))
+    k_phi_2, _ = regulator.lqr_gains(default_device, t, phi, omega, torque, MODEL)
+    assert not np.allclose(k_phi_2, k_phi)
+
+
+def test_candidate_friction_is_the_model_dissipation(monkeypatch):
+    """A candidate's friction D(|Omega|) is the model's dissipation."""
+    before = candidates._friction(MODEL, [3.0])
+    assert before[0] == pytest.approx(1e-4 + 3e-4 + 9e-3)
+    monkeypatch.setattr(candidates, "dissipation", lambda w, p, d: 7.0 * np.ones_like(w))
+    np.testing.assert_allclose(candidates._friction(MODEL, [3.0]), [7.0])
