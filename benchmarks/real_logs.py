@@ -38,7 +38,6 @@ from benchmarks.truth import principal_scale
 from rsp_inertia.pipeline import (
     create_default_experiment,
     create_rig_experiment,
-    demo,
     identify,
     program,
     simulate,
@@ -46,6 +45,7 @@ from rsp_inertia.pipeline import (
 from rsp_inertia.plant.config import LoggerSettings, load_virtual
 from rsp_inertia.plant.geometry import relative_errors
 from rsp_inertia.plant.logs import write_atomic
+from rsp_inertia.rig_demo import demo
 
 LOGGER = LoggerSettings(time_jitter=0.2, dropped_fraction=0.001, counts=True)
 """virtual.toml [logger] of the real logs."""

@@ -43,6 +43,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time, __getattr__ below
         write_report,
     )
 
+# The one list of the public names; rsp_inertia.api.__all__ is it without __version__.
 __all__ = [
     "CalibrateResult",
     "CheckResult",

@@ -10,6 +10,11 @@ same checks) and returns a result object instead of printing:
 - the library's full record stays reachable (``result.identification``, ``result.report``,
   ...).
 
+The result classes are defined in :mod:`rsp_inertia.results` (simulate, program, calibrate,
+check), :mod:`rsp_inertia.identify_result` and :mod:`rsp_inertia.plan_result`; this module
+re-exports them, so ``rsp_inertia.api.IdentifyResult`` and ``rsp_inertia.IdentifyResult``
+are the same class.
+
 Bad input raises :class:`~rsp_inertia.plant.errors.InputError`, whose message is the line
 the command line prints after ``rsp-inertia: error:``. Nothing is printed: what the command
 line shows while it works goes to the optional ``progress`` callable, one line (a ``str``)
@@ -22,85 +27,20 @@ docs/api.md.
 
 from __future__ import annotations
 
-import json
-import math
-from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, ClassVar
 
-from rsp_inertia.plant.errors import InputError
+import rsp_inertia
+from rsp_inertia.identify_result import IdentifyResult
+from rsp_inertia.plan_result import PlanResult
+from rsp_inertia.plant.errors import InputError  # noqa: F401 (public: raised by every function)
+from rsp_inertia.results import CalibrateResult, CheckResult, ProgramResult, SimulateResult
 
-if TYPE_CHECKING:
-    import numpy as np
-
-    from rsp_inertia.checking import CheckReport
-    from rsp_inertia.estimation.calibration import Calibration
-    from rsp_inertia.estimation.results import AxisResult, Identification
-    from rsp_inertia.pipeline import PassSummary, ProgramSummary
-    from rsp_inertia.planning import PlanReport
-
-__all__ = [
-    "CalibrateResult",
-    "CheckResult",
-    "IdentifyResult",
-    "InputError",
-    "PlanResult",
-    "ProgramResult",
-    "SimulateResult",
-    "calibrate",
-    "check",
-    "create_experiment",
-    "demo",
-    "identify",
-    "plan",
-    "program",
-    "simulate",
-    "write_report",
-]
+__all__ = [name for name in rsp_inertia.__all__ if name != "__version__"]
+"""The package's public names (one list, in rsp_inertia/__init__.py), without its version."""
 
 Progress = Callable[[str], None]
 """A callable that receives each progress line (str) as the command line would print it."""
-
-
-class _Records:
-    """Iterating, ``len``, indexing and ``str`` of a result over its records (the field
-    named by ``_records``), one printed line each."""
-
-    _records: ClassVar[str]
-
-    def __iter__(self) -> Iterator:
-        return iter(getattr(self, self._records))
-
-    def __len__(self) -> int:
-        return len(getattr(self, self._records))
-
-    def __getitem__(self, index: int):
-        return getattr(self, self._records)[index]
-
-    def __str__(self) -> str:
-        return "\n".join(str(record) for record in getattr(self, self._records))
-
-
-def _plain(value: Any) -> Any:
-    """``value`` as plain JSON types: arrays and tuples as lists, paths as strings, numpy
-    scalars as Python numbers, NaN and infinities as None (JSON has no such numbers)."""
-    if isinstance(value, dict):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    if isinstance(value, Path):
-        return str(value)
-    if hasattr(value, "tolist"):  # numpy array or scalar
-        return _plain(value.tolist())
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
-
-
-def _dumps(document: dict) -> str:
-    """The JSON text of a result document: indented, with a final newline (as result.json)."""
-    return json.dumps(_plain(document), indent=2) + "\n"
 
 
 def _quiet(progress: Progress | None) -> Progress:
@@ -109,169 +49,6 @@ def _quiet(progress: Progress | None) -> Progress:
 
 
 # --- identify and demo ----------------------------------------------------------------------
-
-
-@dataclass(frozen=True, eq=False)
-class IdentifyResult:
-    """The identified inertia tensor and centre of mass, with their standard deviations.
-
-    Returned by :func:`identify` and :func:`demo`. The headline estimate is RSP's weighted
-    least squares over all covered turns; the node formula and, when pendulum logs are
-    present, the torsion-pendulum baseline are in ``identification``. Every array is a new
-    NumPy array in SI units.
-
-    Attributes
-    ----------
-    tensor : numpy.ndarray, shape (3, 3)
-        kg m^2, the inertia tensor in the body frame (symmetric; off-diagonal entries are
-        the tensor's, Jxy = -integral of x y dm).
-    tensor_std : numpy.ndarray, shape (3, 3)
-        kg m^2, standard deviation of each entry of ``tensor``.
-    entries : numpy.ndarray, shape (6,)
-        kg m^2, ``[Jx, Jy, Jz, Jxy, Jyz, Jxz]``, the six independent entries of ``tensor``.
-    entries_cov : numpy.ndarray, shape (6, 6)
-        kg^2 m^4, covariance of ``entries``.
-    principal_moments : numpy.ndarray, shape (3,)
-        kg m^2, ascending.
-    principal_axes : numpy.ndarray, shape (3, 3)
-        Unit principal axes in the body frame, one per row, in the order of
-        ``principal_moments``.
-    com : numpy.ndarray, shape (2,), or None
-        m, ``[x_c, y_c]`` of the centre of mass, when device.toml gives ``[body] mass``.
-    com_std : numpy.ndarray, shape (2,), or None
-        m.
-    axes : tuple of rsp_inertia.estimation.results.AxisResult
-        One per node of every stage: ``stage``, ``phi_deg``, the unit ``direction`` (3,),
-        and the axial moment ``J`` (least squares), ``J_node`` (node formula), ``J_plain``
-        (the paper's formula), each with its ``_std``, in kg m^2.
-    condition_number : float
-        cond(V) of the node axes' design matrix (1 is ideal; identify warns above 1e3).
-    warnings : tuple of str
-        What identify found questionable (no calibration, a non-physical tensor, a failed
-        model test, ...), the same lines as in result.json.
-    path : pathlib.Path
-        The result.json written (``EXP/result.json``).
-    experiment : pathlib.Path
-        The experiment folder.
-    truth : numpy.ndarray, shape (6,), or None
-        kg m^2, the virtual device's true entries, set by :func:`demo` only (then ``str``
-        shows the errors against it).
-    identification : rsp_inertia.estimation.results.Identification
-        Everything identify found (node formula, pendulum baseline, uncertainty budget,
-        model tests, friction asymmetry, ...).
-
-    Examples
-    --------
-    >>> result = rsp_inertia.identify("bench-A")             # doctest: +SKIP
-    >>> result.tensor[0, 0], result.tensor_std[0, 0]          # doctest: +SKIP
-    (0.02500005..., 1.2e-07)
-    >>> print(result)                                         # doctest: +SKIP
-    """
-
-    tensor: np.ndarray
-    tensor_std: np.ndarray
-    entries: np.ndarray
-    entries_cov: np.ndarray = field(repr=False)
-    principal_moments: np.ndarray
-    principal_axes: np.ndarray = field(repr=False)
-    com: np.ndarray | None
-    com_std: np.ndarray | None
-    axes: tuple[AxisResult, ...] = field(repr=False)
-    condition_number: float
-    warnings: tuple[str, ...]
-    path: Path
-    experiment: Path
-    truth: np.ndarray | None = field(repr=False)
-    identification: Identification = field(repr=False)
-
-    @classmethod
-    def _from(
-        cls, identification: Identification, root: str | Path, truth: np.ndarray | None = None
-    ) -> IdentifyResult:
-        import numpy as np
-
-        from rsp_inertia.estimation.tensor import principal
-        from rsp_inertia.plant.geometry import tensor_from_entries
-
-        result = identification
-        moments, vectors = principal(result.entries)
-        root = Path(root)
-        return cls(
-            tensor=tensor_from_entries(result.entries),
-            tensor_std=tensor_from_entries(result.entries_std),
-            entries=np.array(result.entries, dtype=float),
-            entries_cov=np.array(result.entries_cov, dtype=float),
-            principal_moments=np.array(moments),
-            principal_axes=np.array(vectors),
-            com=None if result.com is None else np.array(result.com, dtype=float),
-            com_std=None if result.com_std is None else np.array(result.com_std, dtype=float),
-            axes=tuple(result.axes),
-            condition_number=float(result.condition_number),
-            warnings=tuple(result.warnings),
-            path=root / "result.json",
-            experiment=root,
-            truth=None if truth is None else np.array(truth, dtype=float),
-            identification=result,
-        )
-
-    @property
-    def entries_std(self) -> np.ndarray:
-        """kg m^2, shape (6,): standard deviations of ``entries``."""
-        import numpy as np
-
-        return np.sqrt(np.diag(self.entries_cov))
-
-    def __str__(self) -> str:
-        from rsp_inertia.pipeline import format_identification
-
-        table = format_identification(self.identification, self.truth)
-        return f"{table}\nresult -> {self.path}"
-
-    def to_json(self) -> str:
-        """The result as JSON: exactly the text identify writes to ``EXP/result.json``.
-
-        Returns
-        -------
-        str
-            The JSON document (keys ``tensor``, ``tensor_std``, ``principal_moments``,
-            ``principal_axes``, ``axes``, ``com``, ``com_std``, ``condition_number``,
-            ``node_formula``, ``least_squares``, ``warnings``, ``pendulum``, ...).
-        """
-        from rsp_inertia.pipeline import result_json
-
-        return result_json(self.identification)
-
-    def figures(self, folder: str | Path | None = None) -> list[Path]:
-        """Draw the demo's figures of this experiment as PNG files.
-
-        ``design.png`` (conditioning of the axis design, the paper's Fig. 1); per stage
-        ``motion_stageN.png`` (braking, reverse and the free motions, Fig. 3) and
-        ``tracking_stageN.png`` (the program's reference speed against the smoothed reverse,
-        Fig. 4); ``errors.png`` (each method's relative error per axis). Figures 3 and the
-        error chart need the virtual device's truth (virtual.toml) and Fig. 4 a
-        ``stageN/program.csv``: each is drawn only where its inputs exist, so a real rig's
-        experiment gets ``design.png`` and its tracking figures.
-
-        Parameters
-        ----------
-        folder : str or pathlib.Path, optional
-            Where to write them (created if needed). Default: the experiment folder, where
-            ``rsp-inertia demo`` writes them.
-
-        Returns
-        -------
-        list of pathlib.Path
-            The PNG files written, in the order above.
-
-        Raises
-        ------
-        InputError
-            A log or program that cannot be read (for instance changed since identify).
-        """
-        from rsp_inertia.pipeline import demo_figures
-        from rsp_inertia.plant.experiment import open_experiment
-
-        return demo_figures(open_experiment(self.experiment), self.identification, folder)
 
 
 def identify(path: str | Path, *, progress: Progress | None = None) -> IdentifyResult:
@@ -341,8 +118,8 @@ def demo(
     --------
     >>> result = rsp_inertia.demo("demo-experiment", progress=print)    # doctest: +SKIP
     """
-    from rsp_inertia.pipeline import demo as run
     from rsp_inertia.plant.experiment import open_experiment
+    from rsp_inertia.rig_demo import demo as run
 
     result = run(path, progress=_quiet(progress))
     truth = open_experiment(path).load_virtual().body.inertia
@@ -350,58 +127,6 @@ def demo(
 
 
 # --- simulate and program -------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class SimulateResult(_Records):
-    """The logs the virtual device wrote: one summary per pass, in the order written.
-
-    Returned by :func:`simulate`. Iterating, ``len`` and indexing go over ``passes``.
-
-    Attributes
-    ----------
-    passes : tuple of rsp_inertia.pipeline.PassSummary
-        One per log written, each with ``stage`` (from 1), ``part`` ('braking', 'reverse',
-        'ideal reverse', 'pilot' or 'pendulum at node K'), ``direction``, ``path`` (the CSV
-        written), ``rows``, ``duration`` (s), ``turns`` (angle span / 2 pi) and, for a
-        braking, ``turns_past_last_node``.
-    experiment : pathlib.Path
-        The experiment folder.
-
-    Examples
-    --------
-    >>> passes = rsp_inertia.simulate("bench-A", part="braking")    # doctest: +SKIP
-    >>> [p.duration for p in passes]                                 # doctest: +SKIP
-    [14.49, 22.09]
-    """
-
-    passes: tuple[PassSummary, ...]
-    experiment: Path
-    _records: ClassVar[str] = "passes"
-
-    def to_json(self) -> str:
-        """The passes as JSON.
-
-        Returns
-        -------
-        str
-            ``{"experiment": ..., "passes": [{"stage", "part", "direction", "path", "rows",
-            "duration", "turns", "turns_past_last_node"}, ...]}``; durations in s.
-        """
-        passes = [
-            {
-                "stage": p.stage,
-                "part": p.part,
-                "direction": p.direction,
-                "path": p.path,
-                "rows": p.rows,
-                "duration": p.duration,
-                "turns": p.turns,
-                "turns_past_last_node": p.turns_past_last_node,
-            }
-            for p in self.passes
-        ]
-        return _dumps({"experiment": self.experiment, "passes": passes})
 
 
 def simulate(
@@ -460,63 +185,6 @@ def simulate(
     return SimulateResult(tuple(passes), Path(path))
 
 
-@dataclass(frozen=True)
-class ProgramResult(_Records):
-    """The torque programs written, one per run (a stage in one direction).
-
-    Returned by :func:`program`. Iterating, ``len`` and indexing go over ``runs``.
-
-    Attributes
-    ----------
-    runs : tuple of rsp_inertia.pipeline.ProgramSummary
-        One per program.csv written, each with ``stage``, ``direction``, ``path`` and
-        ``details`` (rsp_inertia.ocp.program.ProgramResult: ``program``, the arrays of
-        program.csv, ``t`` s, ``phi_ref`` rad, ``omega_ref`` rad/s, ``torque_ff`` N m,
-        ``k_phi`` N m/rad, ``k_omega`` N m s/rad; the ``mirror``, the ``nominal`` model, the
-        ``ocp`` solution, the ``smoothed`` braking and the wall time ``seconds``).
-    experiment : pathlib.Path
-        The experiment folder.
-
-    Examples
-    --------
-    >>> programs = rsp_inertia.program("bench-A", stage=2)    # doctest: +SKIP
-    >>> programs[0].details.program.torque_ff.max()           # doctest: +SKIP
-    """
-
-    runs: tuple[ProgramSummary, ...]
-    experiment: Path
-    _records: ClassVar[str] = "runs"
-
-    def to_json(self) -> str:
-        """The programs' summaries as JSON (not their arrays: those are in program.csv).
-
-        Returns
-        -------
-        str
-            ``{"experiment": ..., "programs": [{"stage", "direction", "path", "rows",
-            "duration" (s), "peak_torque" (N m), "k_phi" (mean, N m/rad), "k_omega" (mean,
-            N m s/rad), "ocp_iterations", "seconds" (wall time)}, ...]}``.
-        """
-        programs = []
-        for run in self.runs:
-            prog = run.details.program
-            programs.append(
-                {
-                    "stage": run.stage,
-                    "direction": run.direction,
-                    "path": run.path,
-                    "rows": len(prog.t),
-                    "duration": prog.t[-1],
-                    "peak_torque": abs(prog.torque_ff).max(),
-                    "k_phi": prog.k_phi.mean(),
-                    "k_omega": prog.k_omega.mean(),
-                    "ocp_iterations": run.details.ocp.iterations,
-                    "seconds": run.details.seconds,
-                }
-            )
-        return _dumps({"experiment": self.experiment, "programs": programs})
-
-
 def program(
     path: str | Path, stage: int | None = None, *, progress: Progress | None = None
 ) -> ProgramResult:
@@ -555,112 +223,7 @@ def program(
     return ProgramResult(tuple(runs), Path(path))
 
 
-# --- calibrate ------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True, eq=False)
-class CalibrateResult:
-    """The rig's calibration, as written to ``EXP/calibration.toml``.
-
-    Returned by :func:`calibrate`; identify applies the file from then on. The values are
-    read back from the file's text, so they are exactly what identify will use.
-
-    Attributes
-    ----------
-    torque_gain : float
-        Logged torque / applied torque (1 without a reference experiment).
-    torque_gain_std : float
-        Its standard deviation (0 without a reference experiment: taken as exact).
-    reference : bool
-        Whether a reference experiment fixed the torque gain.
-    empty_inertia : numpy.ndarray, shape (stages, 5)
-        kg m^2, per stage the empty system's reduced inertia in harmonic form
-        ``[M0, Mc2, Ms2, Ms1, Mc1]`` (tare and fixture).
-    empty_inertia_std : numpy.ndarray, shape (stages, 5)
-        kg m^2.
-    fixture_gravity : numpy.ndarray, shape (2,)
-        N m, ``[m g x_c, m g y_c]`` of the fixture.
-    fixture_gravity_std : numpy.ndarray, shape (2,)
-        N m.
-    stiffness, stiffness_std : float or None
-        N m/rad, the torsion pendulum's stiffness, when both folders have pendulum runs.
-    chi2_dof : float
-        Residual chi^2 per degree of freedom of the calibration fit.
-    warnings : tuple of str
-        What the calibration's own checks found.
-    path : pathlib.Path
-        The calibration.toml written.
-    calibration : rsp_inertia.estimation.calibration.Calibration
-        The full record (the calibrated terms with their covariance, the input files'
-        sha256, the model tests).
-
-    Examples
-    --------
-    >>> cal = rsp_inertia.calibrate("bench-A", "empty", "reference")    # doctest: +SKIP
-    >>> cal.torque_gain, cal.torque_gain_std                            # doctest: +SKIP
-    (1.002999..., 4.5e-06)
-    """
-
-    torque_gain: float
-    torque_gain_std: float
-    reference: bool
-    empty_inertia: np.ndarray
-    empty_inertia_std: np.ndarray
-    fixture_gravity: np.ndarray
-    fixture_gravity_std: np.ndarray
-    stiffness: float | None
-    stiffness_std: float | None
-    chi2_dof: float
-    warnings: tuple[str, ...]
-    path: Path
-    calibration: Calibration = field(repr=False)
-
-    @classmethod
-    def _from(cls, calibration: Calibration, root: str | Path) -> CalibrateResult:
-        import numpy as np
-
-        doc = _calibration_document(calibration)
-        head, stages, pendulum = doc["calibration"], doc["stage"], doc.get("pendulum")
-        return cls(
-            torque_gain=head["torque_gain"],
-            torque_gain_std=head["torque_gain_std"],
-            reference=head["reference"],
-            empty_inertia=np.array([s["empty_inertia"] for s in stages]),
-            empty_inertia_std=np.array([s["empty_inertia_std"] for s in stages]),
-            fixture_gravity=np.array(doc["fixture"]["gravity"]),
-            fixture_gravity_std=np.array(doc["fixture"]["gravity_std"]),
-            stiffness=None if pendulum is None else pendulum["stiffness"],
-            stiffness_std=None if pendulum is None else pendulum["stiffness_std"],
-            chi2_dof=head["chi2_dof"],
-            warnings=tuple(calibration.warnings),
-            path=Path(root) / "calibration.toml",
-            calibration=calibration,
-        )
-
-    def __str__(self) -> str:
-        return f"{self.calibration}\ncalibration -> {self.path}"
-
-    def to_json(self) -> str:
-        """The calibration as JSON: calibration.toml's tables and keys, plus ``warnings``.
-
-        Returns
-        -------
-        str
-            ``{"calibration": {"device", "counts_per_rev", "reference", "torque_gain",
-            "torque_gain_std", "chi2_dof"}, "fixture": {...}, "stage": [...], "pendulum":
-            {...} (when calibrated), "covariance": {...}, "inputs": {...}, "warnings": [...]}``
-            (NaN written as null).
-        """
-        doc = _calibration_document(self.calibration)
-        doc["warnings"] = list(self.calibration.warnings)
-        return _dumps(doc)
-
-
-def _calibration_document(calibration: Calibration) -> dict:
-    """calibration.toml's content, parsed from the text calibrate writes (one source)."""
-    import tomllib
-
-    return tomllib.loads(calibration.to_toml())
+# --- calibrate and plan ---------------------------------------------------------------------
 
 
 def calibrate(
@@ -708,168 +271,6 @@ def calibrate(
 
     result = run(path, empty, reference, progress=_quiet(progress))
     return CalibrateResult._from(result, path)
-
-
-# --- plan -----------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True, eq=False)
-class PlanResult:
-    """The protocol ``plan`` chose for every stage, and what it predicts.
-
-    Returned by :func:`plan`. The per-stage tuples are in stage order.
-
-    Attributes
-    ----------
-    launch_speed : tuple of float
-        rad/s, per stage, as written to device.toml.
-    braking_torque : tuple of float
-        N m, per stage.
-    release_angle_deg : tuple of float
-        deg, per stage: where the plan assumes the rig releases the body.
-    previous : tuple of (float, float, float or None)
-        Per stage, ``(launch_speed, braking_torque, release_angle_deg)`` as device.toml
-        held them before (``None``: not stated).
-    predicted_std : numpy.ndarray, shape (nodes,)
-        kg m^2, the predicted standard deviation of J_k at every node (stage by stage): the
-        closed-loop rehearsal's when it ran, else the ideal reverse's.
-    predicted_std_ideal : numpy.ndarray, shape (nodes,)
-        kg m^2, the same for an ideal reverse (a closed loop's best case).
-    axis_stage : numpy.ndarray, shape (nodes,)
-        The stage of each entry of ``predicted_std``.
-    duration : float
-        s, the experiment's motion time with the plan (spin-up, braking and reverse of
-        every stage and direction).
-    max_duration : float
-        s, the budget it was chosen within.
-    rehearsed : bool
-        Whether the closed-loop rehearsal ran.
-    rehearsal_error : str or None
-        Why the rehearsal could not run, if it was asked for and did not.
-    path : pathlib.Path
-        The device.toml written.
-    figure : pathlib.Path
-        The trade-off figure plan wrote (``EXP/plan.png``).
-    report : rsp_inertia.planning.PlanReport
-        The full record (the plan with every candidate and the trade-off table, the stage
-        models, the rehearsal).
-
-    Examples
-    --------
-    >>> chosen = rsp_inertia.plan("bench-A", max_duration=100)    # doctest: +SKIP
-    >>> chosen.launch_speed, chosen.braking_torque                 # doctest: +SKIP
-    ((13.8, 4.32), (0.00462, 0.0823))
-    """
-
-    launch_speed: tuple[float, ...]
-    braking_torque: tuple[float, ...]
-    release_angle_deg: tuple[float, ...]
-    previous: tuple[tuple[float, float, float | None], ...]
-    predicted_std: np.ndarray
-    predicted_std_ideal: np.ndarray
-    axis_stage: np.ndarray
-    duration: float
-    max_duration: float
-    rehearsed: bool
-    rehearsal_error: str | None
-    path: Path
-    figure: Path
-    report: PlanReport = field(repr=False)
-
-    @classmethod
-    def _from(cls, report: PlanReport) -> PlanResult:
-        import numpy as np
-
-        from rsp_inertia.ocp.plan import planned_release
-
-        chosen = report.plan.chosen
-        return cls(
-            launch_speed=tuple(float(c.launch_speed) for c in chosen),
-            braking_torque=tuple(float(c.braking_torque) for c in chosen),
-            release_angle_deg=tuple(
-                float(planned_release(report.device.stages[c.stage - 1])) for c in chosen
-            ),
-            previous=tuple(report.old),
-            predicted_std=np.array(report.predicted_std, dtype=float),
-            predicted_std_ideal=np.array(report.plan.axis_std, dtype=float),
-            axis_stage=np.array(report.plan.axis_stage),
-            duration=float(report.plan.duration),
-            max_duration=float(report.plan.max_duration),
-            rehearsed=report.rehearsal is not None,
-            rehearsal_error=report.rehearsal_error,
-            path=report.written,
-            figure=report.figure,
-            report=report,
-        )
-
-    def __str__(self) -> str:
-        return str(self.report)
-
-    def to_json(self) -> str:
-        """The plan as JSON.
-
-        Returns
-        -------
-        str
-            ``{"stages": [{"stage", "launch_speed" (rad/s), "braking_torque" (N m),
-            "release_angle_deg", "previous": {...}, "predicted_std" (kg m^2, per node)}],
-            "predicted_std", "predicted_std_ideal", "axis_stage", "duration" (s),
-            "max_duration" (s), "rehearsed", "rehearsal_error", "path", "figure"}``.
-        """
-        stages = [
-            {
-                "stage": k,
-                "launch_speed": speed,
-                "braking_torque": torque,
-                "release_angle_deg": release,
-                "previous": dict(
-                    zip(("launch_speed", "braking_torque", "release_angle_deg"), old)
-                ),
-                "predicted_std": self.predicted_std[self.axis_stage == k],
-            }
-            for k, (speed, torque, release, old) in enumerate(
-                zip(self.launch_speed, self.braking_torque, self.release_angle_deg, self.previous),
-                1,
-            )
-        ]
-        return _dumps(
-            {
-                "stages": stages,
-                "predicted_std": self.predicted_std,
-                "predicted_std_ideal": self.predicted_std_ideal,
-                "axis_stage": self.axis_stage,
-                "duration": self.duration,
-                "max_duration": self.max_duration,
-                "rehearsed": self.rehearsed,
-                "rehearsal_error": self.rehearsal_error,
-                "path": self.path,
-                "figure": self.figure,
-            }
-        )
-
-    def figures(self, folder: str | Path | None = None) -> list[Path]:
-        """Draw the trade-off figure ``plan.png`` (plan has already drawn it into EXP).
-
-        Left: the best predicted worst std of J_k within each total duration, the plan and
-        device.toml's protocol before; right: per stage, the predicted std against the
-        launch speed.
-
-        Parameters
-        ----------
-        folder : str or pathlib.Path, optional
-            Where to write it (created if needed). Default: the experiment folder.
-
-        Returns
-        -------
-        list of pathlib.Path
-            ``[folder / "plan.png"]``.
-        """
-        from rsp_inertia.planning import PLAN_FIGURE
-        from rsp_inertia.plots import plan_figure
-
-        out = self.figure.parent if folder is None else Path(folder)
-        out.mkdir(parents=True, exist_ok=True)
-        return [plan_figure(self.report.plan, out / PLAN_FIGURE)]
 
 
 def plan(
@@ -925,52 +326,6 @@ def plan(
 
 
 # --- check, report, create_experiment -------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class CheckResult:
-    """What an experiment folder has, lacks or looks wrong, one finding per line.
-
-    Returned by :func:`check`. Not being ready is a finding, not an error: :func:`check`
-    raises only when device.toml cannot be read.
-
-    Attributes
-    ----------
-    ready : bool
-        Whether identify has everything it needs (no 'error' and no 'missing' finding).
-    findings : tuple of (str, str)
-        ``(level, message)`` in the order found; level is 'error', 'missing', 'suspicious'
-        or 'ok'.
-    experiment : pathlib.Path
-        The experiment folder.
-    report : rsp_inertia.checking.CheckReport
-        The full record.
-
-    Examples
-    --------
-    >>> status = rsp_inertia.check("bench-A")    # doctest: +SKIP
-    >>> status.ready                             # doctest: +SKIP
-    False
-    """
-
-    ready: bool
-    findings: tuple[tuple[str, str], ...]
-    experiment: Path
-    report: CheckReport = field(repr=False)
-
-    def __str__(self) -> str:
-        return str(self.report)
-
-    def to_json(self) -> str:
-        """The findings as JSON.
-
-        Returns
-        -------
-        str
-            ``{"experiment": ..., "ready": ..., "findings": [{"level", "message"}, ...]}``.
-        """
-        findings = [{"level": level, "message": text} for level, text in self.findings]
-        return _dumps({"experiment": self.experiment, "ready": self.ready, "findings": findings})
 
 
 def check(path: str | Path) -> CheckResult:

@@ -1,7 +1,11 @@
 """Command line of rsp-inertia: parse arguments, call one library function, print.
 
-Bad input (:class:`rsp_inertia.plant.errors.InputError`) becomes one line on stderr and exit status 2;
-argparse's own usage errors exit with 2 as well.
+Each command calls its function of the Python API (:mod:`rsp_inertia.api`, the same
+function a script calls) and prints its progress lines and its result; ``design``, which has
+no API function, calls :func:`rsp_inertia.design.run_design`.
+
+Bad input (:class:`rsp_inertia.plant.errors.InputError`) becomes one line on stderr and exit
+status 2; argparse's own usage errors exit with 2 as well.
 """
 
 from __future__ import annotations
@@ -14,74 +18,50 @@ import rsp_inertia
 from rsp_inertia.plant.errors import InputError
 
 
-def _cmd_demo(args: argparse.Namespace) -> None:
-    from rsp_inertia.pipeline import demo
+def _say(text: object) -> None:
+    """The progress callable of every command: one line on stdout, at once."""
+    print(text, flush=True)
 
-    demo(args.exp, progress=lambda text: print(text, flush=True))
+
+def _cmd_demo(args: argparse.Namespace) -> None:
+    rsp_inertia.demo(args.exp, progress=_say)
 
 
 def _cmd_simulate(args: argparse.Namespace) -> None:
-    from rsp_inertia.pipeline import simulate
-
-    simulate(
-        args.exp,
-        args.stage,
-        args.part,
-        ideal=args.ideal,
-        direction=args.direction,
-        progress=lambda summary: print(summary, flush=True),
+    rsp_inertia.simulate(
+        args.exp, args.stage, args.part, ideal=args.ideal, direction=args.direction,
+        progress=_say,
     )
 
 
 def _cmd_program(args: argparse.Namespace) -> None:
-    from rsp_inertia.pipeline import program
-
-    program(args.exp, args.stage, progress=lambda text: print(text, flush=True))
+    rsp_inertia.program(args.exp, args.stage, progress=_say)
 
 
 def _cmd_plan(args: argparse.Namespace) -> None:
-    from rsp_inertia.planning import plan
-
     print(
-        plan(
-            args.exp,
-            args.max_duration,
-            progress=lambda text: print(text, flush=True),
-            rehearse=not args.no_rehearsal,
+        rsp_inertia.plan(
+            args.exp, args.max_duration, rehearse=not args.no_rehearsal, progress=_say
         )
     )
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> None:
-    from rsp_inertia.pipeline import calibrate
-
-    result = calibrate(
-        args.exp, args.empty, args.reference, progress=lambda text: print(text, flush=True)
-    )
-    print(result)
-    print(f"calibration -> {args.exp / 'calibration.toml'}")
+    print(rsp_inertia.calibrate(args.exp, args.empty, args.reference, progress=_say))
 
 
 def _cmd_identify(args: argparse.Namespace) -> None:
-    from rsp_inertia.pipeline import format_identification, identify
-
-    result = identify(args.exp, progress=lambda text: print(text, flush=True))
-    print(format_identification(result))
-    print(f"result -> {args.exp / 'result.json'}")
+    print(rsp_inertia.identify(args.exp, progress=_say))
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
-    from rsp_inertia.checking import check
-
-    report = check(args.exp)
-    print(report)
-    return 0 if report.ready else 1
+    result = rsp_inertia.check(args.exp)
+    print(result)
+    return 0 if result.ready else 1
 
 
 def _cmd_report(args: argparse.Namespace) -> None:
-    from rsp_inertia.report import write_report
-
-    print(f"report -> {write_report(args.exp)}")
+    print(f"report -> {rsp_inertia.write_report(args.exp)}")
 
 
 def _cmd_design(args: argparse.Namespace) -> None:

@@ -2,7 +2,9 @@
 
 Each function takes an experiment folder, calls the library (plant/, estimation/, ocp/) and
 writes the outputs atomically. What it did comes back as small summary records that the
-command line prints.
+command line prints. The demo, which runs these functions on the virtual rig, is
+:mod:`rsp_inertia.rig_demo`; the table identify prints is
+:func:`rsp_inertia.identify_result.format_identification`.
 """
 
 from __future__ import annotations
@@ -17,6 +19,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+# The identify table's home is identify_result; tests/plant/test_geometry.py imports it from here.
+from rsp_inertia.identify_result import format_identification  # noqa: F401
 from rsp_inertia.plant.config import DIRECTIONS
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import Experiment, open_experiment
@@ -38,23 +42,17 @@ if TYPE_CHECKING:
     from rsp_inertia.plant.virtual import SimulatedPass
 
 __all__ = [
-    "DEFAULT_EXPERIMENT",
     "PassSummary",
     "ProgramSummary",
     "calibrate",
     "create_default_experiment",
     "create_rig_experiment",
-    "demo",
-    "format_identification",
     "identify",
     "program",
     "program_summaries",
     "result_json",
     "simulate",
 ]
-
-DEFAULT_EXPERIMENT = Path("demo-experiment")
-"""Where ``rsp-inertia demo`` builds its experiment when no folder is given."""
 
 PARTS = ("braking", "reverse", "pendulum", "pilot")
 
@@ -432,223 +430,3 @@ def identify(
 def result_json(result: Identification) -> str:
     """The text of EXP/result.json: ``result.to_json()`` indented, with a final newline."""
     return json.dumps(result.to_json(), indent=2) + "\n"
-
-
-def format_identification(result: Identification, truth: np.ndarray | None = None) -> str:
-    """A short human table of an identification (optionally against a known tensor)."""
-    from rsp_inertia.estimation.tensor import ENTRY_KEYS
-    from rsp_inertia.plant.geometry import relative_errors
-
-    lines = []
-    head = f"{'':5} {'RSP least squares':>26} {'RSP node formula':>26}"
-    if truth is not None:
-        head += f" {'truth':>12} {'LS error':>10} {'node error':>10}"
-        ls_error = relative_errors(result.entries, truth)
-        node_error = relative_errors(result.node_entries, truth)
-    lines.append(head)
-    node_std = np.sqrt(np.diag(result.node_entries_cov))
-    for k, name in enumerate(ENTRY_KEYS):
-        row = (
-            f"{name:5} {result.entries[k]:14.8f} +- {result.entries_std[k]:8.1e}"
-            f" {result.node_entries[k]:14.8f} +- {node_std[k]:8.1e}"
-        )
-        if truth is not None:
-            row += f" {truth[k]:12.8f} {ls_error[k]:+10.1e} {node_error[k]:+10.1e}"
-        lines.append(row)
-    if truth is not None:
-        lines.append("(errors relative to the largest principal moment)")
-    lines.append(f"axes (cond(V) = {result.condition_number:.4f}):")
-    for a in result.axes:
-        lines.append(
-            f"  stage {a.stage} node {a.phi_deg:6.1f} deg: J = {a.J:.8f} +- {a.J_std:.1e}"
-            f"  node formula {a.J_node:.8f} +- {a.J_node_std:.1e}  plain {a.J_plain:.8f}"
-        )
-    if result.std_budget:
-        worst = int(np.argmax([a.J_std / a.J for a in result.axes]))
-        a = result.axes[worst]
-        shares = ", ".join(
-            f"{source} {part['axes'][worst] / a.J:.1e}" for source, part in result.std_budget.items()
-        )
-        lines.append(
-            f"uncertainty budget of the least sure axis (stage {a.stage} node {a.phi_deg:g} deg, "
-            f"relative std {a.J_std / a.J:.1e}): {shares}"
-        )
-    if result.friction_asymmetry is not None:
-        for k, (e, std) in enumerate(
-            zip(result.friction_asymmetry, result.friction_asymmetry_std), 1
-        ):
-            if np.all(np.isfinite(e)):
-                lines.append(
-                    f"stage {k}: friction asymmetry D_backward - D_forward = "
-                    f"{e[0]:+.2e} +- {std[0]:.0e} N m {e[1]:+.2e} +- {std[1]:.0e} |W| "
-                    f"{e[2]:+.2e} +- {std[2]:.0e} W^2"
-                )
-    if result.calibration is not None:
-        cal = result.calibration
-        lines.append(
-            f"calibration applied: torque gain {cal['torque_gain']:.6f} +- "
-            f"{cal['torque_gain_std']:.1e}, empty-system M0 per stage "
-            + ", ".join(f"{row[0]:.6f}" for row in cal["empty_inertia"])
-            + " kg m^2"
-        )
-    if result.pendulum is not None:
-        pend = result.pendulum
-        lines.append(
-            "torsion-pendulum baseline (classic / damped fit; best practice +- std, about the "
-            "axis at the oscillation's equilibrium):"
-        )
-        for i, r in enumerate(pend.runs):
-            best = ""
-            if pend.J_best is not None and np.isfinite(pend.J_best[i]):
-                best = (
-                    f"; {pend.J_best[i]:.8f} +- {pend.J_best_std[i]:.1e} at "
-                    f"{np.degrees(pend.phi_best[i]):.2f} deg"
-                )
-            lines.append(
-                f"  stage {r.stage} node {r.node_deg:6.1f} deg: tau = {r.period:.5f} s,"
-                f" J = {pend.J_classic[i]:.8f} / {pend.J_damped[i]:.8f}{best}"
-            )
-        if truth is not None and pend.entries_classic is not None:
-            err_c = np.abs(relative_errors(pend.entries_classic, truth)).max()
-            err_d = np.abs(relative_errors(pend.entries_damped, truth)).max()
-            err_ls = np.abs(ls_error).max()
-            best = ""
-            if pend.entries_best is not None:
-                err_b = np.abs(relative_errors(pend.entries_best, truth)).max()
-                best = f", pendulum best practice {err_b:.1e}"
-            lines.append(
-                f"worst tensor error / largest moment: RSP {err_ls:.1e}, pendulum classic "
-                f"{err_c:.1e}, pendulum damped fit {err_d:.1e}{best}"
-            )
-    if result.com is not None:
-        lines.append(
-            f"centre of mass: x = {result.com[0] * 1e3:.4f} +- {result.com_std[0] * 1e3:.4f} mm,"
-            f" y = {result.com[1] * 1e3:.4f} +- {result.com_std[1] * 1e3:.4f} mm"
-        )
-    lines += [f"warning: {w}" for w in result.warnings]
-    return "\n".join(lines)
-
-
-def demo_figures(
-    exp: Experiment, result: Identification, folder: str | Path | None = None
-) -> list[Path]:
-    """The demo's PNG figures: Fig. 1, and per stage Fig. 3 and Fig. 4; error chart.
-
-    Fig. 4 shows what a rig sees: the program's reference speed against the smoothed speed
-    of the reverse log (forward runs). Fig. 3 (the free motions) and the error chart need
-    the virtual device's truth, so they are drawn only for a virtual experiment (with
-    virtual.toml; the error chart with its [body]); Fig. 4 only for a stage with a
-    stageN/program.csv (a closed-loop reverse). The demo has all of them and gets every
-    figure. Written into ``folder`` (created if needed; default: the experiment folder);
-    returns the paths written, in that order.
-    """
-    # Imported here: only the demo draws, and matplotlib costs the other commands a second.
-    from rsp_inertia.design import plot_cone_conditioning
-    from rsp_inertia.estimation.smoothing import smooth_log
-    from rsp_inertia.plant.geometry import design_matrix
-    from rsp_inertia.plant.virtual import free_motion
-    from rsp_inertia.plots import plot_errors, plot_motion, plot_tracking
-
-    out = exp.root if folder is None else Path(folder)
-    out.mkdir(parents=True, exist_ok=True)
-    device = exp.device
-    virtual = exp.load_virtual() if exp.virtual_path.is_file() else None
-    paths = [out / "design.png"]
-    plot_cone_conditioning(paths[0])
-    for st in exp.stages():
-        has_program = exp.program_path(st).is_file()
-        if virtual is None and not has_program:
-            continue
-        braking = read_log(exp.braking_path(st), device.encoder, "braking")
-        reverse = read_log(exp.reverse_path(st), device.encoder, "reverse")
-        sb = smooth_log(braking, device.encoder.quantum)
-        sr = smooth_log(reverse, device.encoder.quantum)
-        if virtual is not None:
-            duration = float(braking.t[-1] + reverse.t[-1])
-            paths.append(out / f"motion_stage{st}.png")
-            plot_motion(
-                paths[-1],
-                (sb.t, sb.omega),
-                (sr.t, sr.omega),
-                free_motion(device, st, virtual, duration, damped=False)[::2],
-                free_motion(device, st, virtual, duration, damped=True)[::2],
-                f"Stage {st}: RSP motion and free motions (paper Fig. 3)",
-            )
-        if has_program:
-            prog = read_program(exp.program_path(st), device.encoder)
-            n = min(len(prog.t), len(sr.t))
-            paths.append(out / f"tracking_stage{st}.png")
-            plot_tracking(
-                paths[-1],
-                prog.t[:n],
-                prog.omega_ref[:n],
-                sr.omega[:n],
-                f"Stage {st}: reverse pass, reference and smoothed output (paper Fig. 4)",
-            )
-    if virtual is None or virtual.body is None:  # no truth to compare with
-        return paths
-    # The true moments about the axes: J_k = V_k . J (docs/method.md §5).
-    J_true = design_matrix(np.array([a.direction for a in result.axes])) @ virtual.body.inertia
-    errors = {
-        "RSP least squares": np.array([a.J for a in result.axes]) / J_true - 1,
-        "RSP node formula": np.array([a.J_node for a in result.axes]) / J_true - 1,
-    }
-    if result.pendulum is not None and len(result.pendulum.runs) == len(result.axes):
-        errors["pendulum classic"] = result.pendulum.J_classic / J_true - 1
-        errors["pendulum damped fit"] = result.pendulum.J_damped / J_true - 1
-        pend = result.pendulum
-        if pend.J_best is not None:
-            # About the axis at each run's equilibrium, where the best practice measures.
-            J_best_true = design_matrix(pend.best_axes(exp.device)) @ virtual.body.inertia
-            errors["pendulum best practice"] = pend.J_best / J_best_true - 1
-    labels = [f"s{a.stage} {a.phi_deg:g} deg" for a in result.axes]
-    paths.append(out / "errors.png")
-    plot_errors(paths[-1], labels, errors, "Relative error of each axial moment, per method")
-    return paths
-
-
-def demo(
-    root: str | Path = DEFAULT_EXPERIMENT, progress: Callable[[str], None] | None = None
-) -> Identification:
-    """``rsp-inertia demo``: the whole real-rig workflow on the virtual device.
-
-    The rig of :func:`create_rig_experiment`: for the body and for both calibration
-    experiments, every stage's braking passes in both directions, their torque programs and
-    the closed-loop reverse passes; the torsion-pendulum runs (in the calibration folders
-    too: they give the torsion element's stiffness); an identification without calibration
-    (its warnings and error shown); ``calibrate``; the identification, printed
-    against the virtual device's true tensor, with figures.
-    """
-    from rsp_inertia.estimation.reading import CALIBRATION_FILE
-    from rsp_inertia.plant.geometry import relative_errors
-
-    say = progress or (lambda _text: None)
-    root, empty, reference = create_rig_experiment(root)
-    say(f"experiment folder: {root}; calibration runs: {empty}, {reference}")
-    for folder in (empty, reference, root):
-        simulate(folder, part="braking", progress=lambda s: say(str(s)))
-        program(folder, progress=say)
-        simulate(folder, part="reverse", progress=lambda s: say(str(s)))
-    for folder in (empty, reference, root):  # calibration folders: the torsion element's runs
-        if open_experiment(folder).device.pendulum is not None:
-            simulate(folder, part="pendulum", progress=lambda s: say(str(s)))
-    exp = open_experiment(root)
-    truth = exp.load_virtual()
-    (root / CALIBRATION_FILE).unlink(missing_ok=True)
-    raw = identify(root)
-    say(
-        "without calibration: worst tensor error / largest moment "
-        f"{np.abs(relative_errors(raw.entries, truth.body.inertia)).max():.1e}, warnings:"
-    )
-    for warning in raw.warnings:
-        say(f"  {warning}")
-    say(f"rsp-inertia calibrate {root} --empty {empty} --reference {reference}")
-    say(str(calibrate(root, empty, reference)))
-    result = identify(root, progress=say)
-    say(format_identification(result, truth.body.inertia))
-    say(f"figures -> {', '.join(str(p) for p in demo_figures(exp, result))}")
-    if result.com is not None:
-        say(f"true centre of mass: x = {truth.body.com[0] * 1e3:.4f} mm, "
-            f"y = {truth.body.com[1] * 1e3:.4f} mm")
-    say(f"result -> {root / 'result.json'}")
-    return result

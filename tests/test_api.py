@@ -153,6 +153,18 @@ def test_all_is_sorted_and_complete():
         rsp_inertia.identfy  # noqa: B018
 
 
+
+def test_the_api_module_has_the_same_names():
+    """rsp_inertia.api takes its __all__ from the package; no module shadows a function
+    (the demo's module is rig_demo, not demo)."""
+    import rsp_inertia.api
+    import rsp_inertia.rig_demo
+
+    assert rsp_inertia.api.__all__ == [n for n in rsp_inertia.__all__ if n != "__version__"]
+    for name in rsp_inertia.api.__all__:
+        assert getattr(rsp_inertia.api, name) is getattr(rsp_inertia, name)
+    assert inspect.isfunction(rsp_inertia.demo)
+
 @pytest.mark.parametrize("name", API_FUNCTIONS)
 def test_functions_have_numpydoc_docstrings(name):
     function = getattr(rsp_inertia, name)

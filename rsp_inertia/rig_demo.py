@@ -1,0 +1,154 @@
+"""The demo: the whole real-rig workflow on the virtual rig (``rsp-inertia demo``).
+
+:func:`demo` builds the rig experiment and its calibration experiments, runs the pipeline's
+commands on them (:mod:`rsp_inertia.pipeline`) and prints the identification against the
+virtual device's true tensor; :func:`demo_figures` draws its figures (also
+``IdentifyResult.figures``). The module is not named ``demo``: ``rsp_inertia.demo`` is the
+API's function.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from rsp_inertia.identify_result import format_identification
+from rsp_inertia.pipeline import calibrate, create_rig_experiment, identify, program, simulate
+from rsp_inertia.plant.experiment import Experiment, open_experiment
+from rsp_inertia.plant.logs import read_log, read_program
+
+if TYPE_CHECKING:
+    from rsp_inertia.estimation.results import Identification
+
+__all__ = ["DEFAULT_EXPERIMENT", "demo", "demo_figures"]
+
+DEFAULT_EXPERIMENT = Path("demo-experiment")
+"""Where ``rsp-inertia demo`` builds its experiment when no folder is given."""
+
+
+def demo_figures(
+    exp: Experiment, result: Identification, folder: str | Path | None = None
+) -> list[Path]:
+    """The demo's PNG figures: Fig. 1, and per stage Fig. 3 and Fig. 4; error chart.
+
+    Fig. 4 shows what a rig sees: the program's reference speed against the smoothed speed
+    of the reverse log (forward runs). Fig. 3 (the free motions) and the error chart need
+    the virtual device's truth, so they are drawn only for a virtual experiment (with
+    virtual.toml; the error chart with its [body]); Fig. 4 only for a stage with a
+    stageN/program.csv (a closed-loop reverse). The demo has all of them and gets every
+    figure. Written into ``folder`` (created if needed; default: the experiment folder);
+    returns the paths written, in that order.
+    """
+    # Imported here: only the demo draws, and matplotlib costs the other commands a second.
+    from rsp_inertia.design import plot_cone_conditioning
+    from rsp_inertia.estimation.smoothing import smooth_log
+    from rsp_inertia.plant.geometry import design_matrix
+    from rsp_inertia.plant.virtual import free_motion
+    from rsp_inertia.plots import plot_errors, plot_motion, plot_tracking
+
+    out = exp.root if folder is None else Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    device = exp.device
+    virtual = exp.load_virtual() if exp.virtual_path.is_file() else None
+    paths = [out / "design.png"]
+    plot_cone_conditioning(paths[0])
+    for st in exp.stages():
+        has_program = exp.program_path(st).is_file()
+        if virtual is None and not has_program:
+            continue
+        braking = read_log(exp.braking_path(st), device.encoder, "braking")
+        reverse = read_log(exp.reverse_path(st), device.encoder, "reverse")
+        sb = smooth_log(braking, device.encoder.quantum)
+        sr = smooth_log(reverse, device.encoder.quantum)
+        if virtual is not None:
+            duration = float(braking.t[-1] + reverse.t[-1])
+            paths.append(out / f"motion_stage{st}.png")
+            plot_motion(
+                paths[-1],
+                (sb.t, sb.omega),
+                (sr.t, sr.omega),
+                free_motion(device, st, virtual, duration, damped=False)[::2],
+                free_motion(device, st, virtual, duration, damped=True)[::2],
+                f"Stage {st}: RSP motion and free motions (paper Fig. 3)",
+            )
+        if has_program:
+            prog = read_program(exp.program_path(st), device.encoder)
+            n = min(len(prog.t), len(sr.t))
+            paths.append(out / f"tracking_stage{st}.png")
+            plot_tracking(
+                paths[-1],
+                prog.t[:n],
+                prog.omega_ref[:n],
+                sr.omega[:n],
+                f"Stage {st}: reverse pass, reference and smoothed output (paper Fig. 4)",
+            )
+    if virtual is None or virtual.body is None:  # no truth to compare with
+        return paths
+    # The true moments about the axes: J_k = V_k . J (docs/method.md §5).
+    J_true = design_matrix(np.array([a.direction for a in result.axes])) @ virtual.body.inertia
+    errors = {
+        "RSP least squares": np.array([a.J for a in result.axes]) / J_true - 1,
+        "RSP node formula": np.array([a.J_node for a in result.axes]) / J_true - 1,
+    }
+    if result.pendulum is not None and len(result.pendulum.runs) == len(result.axes):
+        errors["pendulum classic"] = result.pendulum.J_classic / J_true - 1
+        errors["pendulum damped fit"] = result.pendulum.J_damped / J_true - 1
+        pend = result.pendulum
+        if pend.J_best is not None:
+            # About the axis at each run's equilibrium, where the best practice measures.
+            J_best_true = design_matrix(pend.best_axes(exp.device)) @ virtual.body.inertia
+            errors["pendulum best practice"] = pend.J_best / J_best_true - 1
+    labels = [f"s{a.stage} {a.phi_deg:g} deg" for a in result.axes]
+    paths.append(out / "errors.png")
+    plot_errors(paths[-1], labels, errors, "Relative error of each axial moment, per method")
+    return paths
+
+
+def demo(
+    root: str | Path = DEFAULT_EXPERIMENT, progress: Callable[[str], None] | None = None
+) -> Identification:
+    """``rsp-inertia demo``: the whole real-rig workflow on the virtual device.
+
+    The rig of :func:`rsp_inertia.pipeline.create_rig_experiment`: for the body and for
+    both calibration experiments, every stage's braking passes in both directions, their
+    torque programs and the closed-loop reverse passes; the torsion-pendulum runs (in the
+    calibration folders too: they give the torsion element's stiffness); an identification
+    without calibration (its warnings and error shown); ``calibrate``; the identification,
+    printed against the virtual device's true tensor, with figures.
+    """
+    from rsp_inertia.estimation.reading import CALIBRATION_FILE
+    from rsp_inertia.plant.geometry import relative_errors
+
+    say = progress or (lambda _text: None)
+    root, empty, reference = create_rig_experiment(root)
+    say(f"experiment folder: {root}; calibration runs: {empty}, {reference}")
+    for folder in (empty, reference, root):
+        simulate(folder, part="braking", progress=lambda s: say(str(s)))
+        program(folder, progress=say)
+        simulate(folder, part="reverse", progress=lambda s: say(str(s)))
+    for folder in (empty, reference, root):  # calibration folders: the torsion element's runs
+        if open_experiment(folder).device.pendulum is not None:
+            simulate(folder, part="pendulum", progress=lambda s: say(str(s)))
+    exp = open_experiment(root)
+    truth = exp.load_virtual()
+    (root / CALIBRATION_FILE).unlink(missing_ok=True)
+    raw = identify(root)
+    say(
+        "without calibration: worst tensor error / largest moment "
+        f"{np.abs(relative_errors(raw.entries, truth.body.inertia)).max():.1e}, warnings:"
+    )
+    for warning in raw.warnings:
+        say(f"  {warning}")
+    say(f"rsp-inertia calibrate {root} --empty {empty} --reference {reference}")
+    say(str(calibrate(root, empty, reference)))
+    result = identify(root, progress=say)
+    say(format_identification(result, truth.body.inertia))
+    say(f"figures -> {', '.join(str(p) for p in demo_figures(exp, result))}")
+    if result.com is not None:
+        say(f"true centre of mass: x = {truth.body.com[0] * 1e3:.4f} mm, "
+            f"y = {truth.body.com[1] * 1e3:.4f} mm")
+    say(f"result -> {root / 'result.json'}")
+    return result
