@@ -37,7 +37,7 @@ from rsp_inertia.plant.logs import read_log, write_atomic
 
 SCENARIOS = ("paper", "spring", "heavy-friction", "com-offset", "cone-z")
 CONE_OPENING = 140.0
-"""deg, the one-cone-plus-z design's opening (METHOD.md §5: cond(V) least near 140 deg)."""
+"""deg, the one-cone-plus-z design's opening (docs/method.md §5: cond(V) least near 140 deg)."""
 
 
 def _tare(lam: float) -> float:

@@ -43,7 +43,7 @@ def mirror_torque(params: ModelParameters, speed: float, braking_torque: float) 
     to :func:`rsp_inertia.ocp.feedforward.required_torque` with ``params``: the braking obeys
     M eps = -b - D(Omega) + (terms of phi and Omega^2), its time reversal runs at -Omega with
     the same acceleration against the friction, so the motor supplies b + 2 D(Omega) at any
-    angle (METHOD.md §4).
+    angle (docs/method.md §4).
     """
     phi = np.zeros(1)
     eps = acceleration(phi, speed, -braking_torque, params, direction=1.0)

@@ -1,4 +1,4 @@
-"""The experiment folder of INTERFACES.md: where each file of an experiment lives.
+"""The experiment folder of docs/files.md: where each file of an experiment lives.
 
 One folder is one experiment::
 

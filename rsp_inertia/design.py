@@ -1,7 +1,7 @@
 """Presentation of axis designs: a text report and the conditioning figure (paper Fig. 1).
 
 The geometry itself (directions, V, cond(V), the optimum cone) lives in
-:mod:`rsp_inertia.plant.geometry` (METHOD.md §5 "Axis designs"); this module only formats and draws it.
+:mod:`rsp_inertia.plant.geometry` (docs/method.md §5 "Axis designs"); this module only formats and draws it.
 """
 
 from __future__ import annotations
@@ -67,7 +67,7 @@ def _angles_table(angles: np.ndarray) -> list[str]:
 
 
 def design_report(designs: list[AxisDesign]) -> str:
-    """Human-readable report of axis designs (METHOD.md §5 "Axis designs").
+    """Human-readable report of axis designs (docs/method.md §5 "Axis designs").
 
     Parameters
     ----------
@@ -106,7 +106,7 @@ def plot_cone_conditioning(
 
     The optimum opening (:func:`rsp_inertia.plant.geometry.best_cone_opening`) is marked and the
     icosahedron's 1/cond(V) = sqrt(2/5) is drawn as a horizontal reference
-    (METHOD.md §5 "Axis designs"). The file is written atomically: to a temporary file in
+    (docs/method.md §5 "Axis designs"). The file is written atomically: to a temporary file in
     the same folder, then renamed over ``path``.
 
     Parameters

@@ -20,7 +20,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 # The identify table's home is identify_result; tests/plant/test_geometry.py imports it from here.
-from rsp_inertia.identify_result import format_identification  # noqa: F401
 from rsp_inertia.plant.config import DIRECTIONS
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import Experiment, open_experiment

@@ -45,8 +45,8 @@ def guess_model(device: Device, stage: int) -> tuple[ModelParameters, float]:
     """Nominal model and torque noise of a stage from ``device.toml [plan]`` (no pilot run).
 
     M0 = M_tare + (1 + lambda^2) J, J the mean of the guessed principal moments (the axis's
-    J_e lies between the extreme ones; METHOD.md §2); no M harmonics (their effect on the
-    mirror's torque cancels, module docstring of rsp_inertia.ocp.plan); gravity m g r from the mass and
+    J_e lies between the extreme ones; docs/method.md §2); no M harmonics (their effect on the
+    mirror's torque cancels, module docstring of rsp_inertia.ocp.candidates); gravity m g r from the mass and
     the guessed offset of the centre of mass; friction and spring as given.
     """
     guess = device.plan

@@ -39,7 +39,7 @@ def uniform_braking(root, turns: float, duration: float):
     """(braking, reverse) logs: uniform deceleration over ``turns`` to rest, and its mirror.
 
     Braking: phi(t) = phi_0 + W t - W t^2 / (2 T) with W T / 2 = turns * 2 pi; reverse:
-    phi'(t') = phi(T - t') (METHOD.md §4). Both read as floor(phi / q) q.
+    phi'(t') = phi(T - t') (docs/method.md §4). Both read as floor(phi / q) q.
     """
     enc = encoder(root)
     q, dt = enc.quantum, enc.dt

@@ -1,4 +1,4 @@
-"""Axis-design report and Fig. 1 (METHOD.md §5), directly and through `rsp-inertia design`."""
+"""Axis-design report and Fig. 1 (docs/method.md §5), directly and through `rsp-inertia design`."""
 
 from __future__ import annotations
 

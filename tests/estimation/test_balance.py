@@ -3,7 +3,7 @@
 The smoother is left out: each pass is handed to the balances with the virtual device's true
 angle, speed and acceleration and its true (noise-free) torque, so whatever error is left is
 the formulas' own plus the simulator's. The reverse pass is the ideal reverse, the exact
-mirror of the braking (METHOD.md §4); with it the identified tensor of the virtual body must be
+mirror of the braking (docs/method.md §4); with it the identified tensor of the virtual body must be
 that body's tensor (STYLE.md, principle 6).
 """
 

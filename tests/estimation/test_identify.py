@@ -47,7 +47,7 @@ TARGET_COM = 1e-4
 
 
 def axis(phi_deg: float, gear_ratio: float) -> np.ndarray:
-    """Instantaneous axis e = (lam sin phi, lam cos phi, 1) / sqrt(1 + lam^2) (METHOD.md §1)."""
+    """Instantaneous axis e = (lam sin phi, lam cos phi, 1) / sqrt(1 + lam^2) (docs/method.md §1)."""
     phi = math.radians(phi_deg)
     lam = gear_ratio
     return np.array([lam * math.sin(phi), lam * math.cos(phi), 1.0]) / math.sqrt(1 + lam * lam)
@@ -177,7 +177,7 @@ def test_result_json_holds_the_interface(ideal):
     assert set(doc["com"]) == {"x", "y"}
     assert [doc["com"]["x"], doc["com"]["y"]] == list(result.com)
     assert doc["warnings"] == []
-    # The icosahedron design (METHOD.md §5): cond(V) = sqrt(5/2). The gear ratios in
+    # The icosahedron design (docs/method.md §5): cond(V) = sqrt(5/2). The gear ratios in
     # device.toml carry ten decimals, which moves it by far less than 1e-9.
     assert doc["condition_number"] == pytest.approx(math.sqrt(5 / 2), abs=1e-9)
 

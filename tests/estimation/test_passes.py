@@ -1,4 +1,4 @@
-"""Motor work and torque noise of a pass (estimation/passes.py, METHOD.md §3-4)."""
+"""Motor work and torque noise of a pass (estimation/passes.py, docs/method.md §3-4)."""
 
 import dataclasses
 import math
@@ -54,7 +54,7 @@ def test_torque_noise_is_read_from_the_log(stage, default_virtual, default_braki
 def test_braking_work_is_the_mean_torque_times_the_angle(
     stage, default_device, default_virtual, default_brakings
 ):
-    # The braking log is a constant torque plus white noise (METHOD.md §4): the test accepts
+    # The braking log is a constant torque plus white noise (docs/method.md §4): the test accepts
     # it, and the work is the log's mean times the angle. Its error against the noise-free
     # work is (u_bar - u)(phi - phi_0), std sigma / sqrt(N) (phi - phi_0): within 5 of those
     # (plus the count that the start reading may lie below the true release angle).

@@ -95,7 +95,7 @@ def test_the_scenario_is_the_reported_one(stage, spring_experiment, brakings):
     assert truth.end_time == pytest.approx(2.0, abs=0.01)
     assert (truth.end_phi - truth.phi[0]) / (2 * math.pi) == pytest.approx(3.1, abs=0.01)
     # It ends at the spring's turning point: held there with the motor off, the spring would
-    # turn the body back (its torque beats static friction, METHOD.md §4).
+    # turn the body back (its torque beats static friction, docs/method.md §4).
     assert STIFFNESS * truth.end_phi > virtual.friction.coulomb
     q = device.encoder.quantum
     sm = smooth_log(brakings[stage].log, q)

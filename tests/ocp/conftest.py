@@ -22,7 +22,7 @@ STAGES = (1, 2)
 
 NODE_SPEED_FRACTION = 0.2
 """Node passages count where the braking speed is above this fraction of its top: near rest
-the mirror cannot be exact (METHOD.md §4), and that is where no node pair is used."""
+the mirror cannot be exact (docs/method.md §4), and that is where no node pair is used."""
 
 TARGET = 1e-3
 """The issue's target: reverse speed = braking speed at the nodes to 1e-3 relative."""
@@ -119,7 +119,7 @@ class NodePassages:
 def node_passages(
     device, stage: int, braking: vd.SimulatedPass, reverse: vd.SimulatedPass
 ) -> NodePassages:
-    """True speeds of both passes at the nodes' passages (METHOD.md §5: where M is sampled).
+    """True speeds of both passes at the nodes' passages (docs/method.md §5: where M is sampled).
 
     Speeds are interpolated linearly between the 1 ms samples of the truth: the error is
     ~dt^2/8 of d(eps)/dt, ~1e-6 rad/s here, 1e-6 of the slowest speed counted.

@@ -1,6 +1,6 @@
 """The program in closed loop on the virtual device: the reverse pass holds the mirror.
 
-At every passage of a node (METHOD.md §5), with the braking faster than 20% of its top, the
+At every passage of a node (docs/method.md §5), with the braking faster than 20% of its top, the
 true reverse speed must equal the true braking speed to 1e-3 (the issue's target), on the
 fitted nominal model and on nominal models far off (the regulator's job, issue's robustness
 requirement). The device's own limits (torque, torque rate) hold throughout.

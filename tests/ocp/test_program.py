@@ -1,7 +1,7 @@
 """The reverse pass's OCP and the program it becomes (ocp/feedforward.py, ocp/program.py).
 
 The OCP drives the nominal model along the mirror within the motor's limits; its solution,
-interpolated to the sample rate with the LQR gains, is program.csv (INTERFACES.md).
+interpolated to the sample rate with the LQR gains, is program.csv (docs/files.md).
 """
 
 import dataclasses
@@ -35,7 +35,7 @@ IPOPT_TOLERANCE = 1e-6
 SETTLE = 0.5
 """s at the start of the reverse left out of tracking checks: there the body starts from the
 held rest with the hold torque and the OCP trades the exact start against the smoothness term
-(METHOD.md §4: near rest the mirror cannot be exact). The speed is still below 20% of the
+(docs/method.md §4: near rest the mirror cannot be exact). The speed is still below 20% of the
 top there, where no node pair lies."""
 
 
@@ -227,7 +227,7 @@ def test_reverse_gives_back_the_braking_torque_and_twice_the_friction(
 ):
     # On the true mirror of the true braking, Lagrange's equation of the two passes at the same
     # (phi, |Omega|, eps) differs only in friction's sign: the reverse needs
-    # u' = -u_b - 2 D(|Omega|) (METHOD.md §4). required_torque must run friction backwards.
+    # u' = -u_b - 2 D(|Omega|) (docs/method.md §4). required_torque must run friction backwards.
     params = vd.true_parameters(default_device, stage, default_virtual)
     braking = brakings[stage]
     tr = braking.truth

@@ -1,7 +1,7 @@
 """The mirrored reference (ocp/reference.py) against the braking it reflects and its truth.
 
 The mirror is phi'(t') = phi(T - t'), Omega'(t') = -Omega(T - t'), eps'(t') = eps(T - t')
-(METHOD.md §4) with T, phi7 the braking's rest. It is built from the smoothed braking, so
+(docs/method.md §4) with T, phi7 the braking's rest. It is built from the smoothed braking, so
 against the virtual device's truth it carries the smoother's errors (estimation/smoothing.py:
 a fraction of a count in angle, the reported omega_std in speed) and nothing more.
 """
@@ -35,7 +35,7 @@ def test_mirror_starts_at_rest_at_the_rest_angle_and_runs_back(stage, programs):
     ref = programs[stage].mirror
     assert ref.t[0] == 0.0
     assert ref.phi[0] == ref.rest_angle
-    # Omega'(0) = -Omega(T) = 0 by the definition of T (METHOD.md §4: the reverse starts from
+    # Omega'(0) = -Omega(T) = 0 by the definition of T (docs/method.md §4: the reverse starts from
     # the held rest), and from there on the body runs back: Omega' < 0, phi' decreasing.
     assert ref.omega[0] == 0.0, f"the reference starts at {ref.omega[0]:.3g} rad/s"
     assert np.all(ref.omega[1:] < 0.0), f"{np.sum(ref.omega[1:] >= 0)} samples run forward"
@@ -107,7 +107,7 @@ def test_mirror_speed_is_the_braking_speed_at_the_same_angle(
     sm = smoothed[stage]
     tr = braking.truth
     # At every node passage the mirror's speed is minus the true braking speed there: this is
-    # what makes friction's work cancel between the passes (METHOD.md §4).
+    # what makes friction's work cancel between the passes (docs/method.md §4).
     nodes = default_device.stages[stage - 1].nodes
     turns = np.arange(-1, math.ceil((tr.phi[-1] - tr.phi[0]) / (2 * math.pi)) + 1)
     angles = (nodes[:, None] + 2 * math.pi * turns[None, :]).ravel()

@@ -1,4 +1,4 @@
-"""Axis geometry and the design matrix (METHOD.md §1, §2, §5 "Axis designs")."""
+"""Axis geometry and the design matrix (docs/method.md §1, §2, §5 "Axis designs")."""
 
 from __future__ import annotations
 
@@ -27,7 +27,7 @@ from rsp_inertia.plant.geometry import (
     tensor_from_entries,
 )
 
-# Closed forms of the regular icosahedron (METHOD.md §5): its six vertex axes meet pairwise
+# Closed forms of the regular icosahedron (docs/method.md §5): its six vertex axes meet pairwise
 # at arccos(1/sqrt 5), and its design matrix has cond(V) = sqrt(5/2).
 ICOSAHEDRON_ANGLE_DEG = np.degrees(np.arccos(1.0 / np.sqrt(5.0)))
 ICOSAHEDRON_COND = np.sqrt(5.0 / 2.0)
@@ -83,7 +83,7 @@ def test_design_row_gives_the_moment_about_the_axis(
 
 @given(j6=entries, phi=angles, lam=st.floats(-8.0, 8.0, allow_nan=False))
 def test_harmonic_form_equals_the_quadratic_form(j6: list[float], phi: float, lam: float) -> None:
-    # Two independent computations of (1 + lambda^2) J_e(phi): METHOD.md §2's harmonic form
+    # Two independent computations of (1 + lambda^2) J_e(phi): docs/method.md §2's harmonic form
     # and the 3-D quadratic form about the axis of §1.
     jx, jy, jz, jxy, jyz, jxz = j6
     harmonic = (
@@ -264,8 +264,8 @@ def test_relative_errors_are_over_the_largest_principal_moment() -> None:
 
 
 def test_the_demo_prints_the_errors_relative_errors_gives(monkeypatch) -> None:
-    """rsp_inertia.pipeline.format_identification's error columns are relative_errors'."""
-    from rsp_inertia.pipeline import format_identification
+    """rsp_inertia.identify_result.format_identification's error columns are relative_errors'."""
+    from rsp_inertia.identify_result import format_identification
 
     truth = np.array([0.025, 0.028, 0.022, 0.0012, -0.0009, 0.0015])
     result = SimpleNamespace(

@@ -1,4 +1,4 @@
-"""The reduced model (METHOD.md §1-3): the harmonic form is the 3-D kinetic energy, the
+"""The reduced model (docs/method.md §1-3): the harmonic form is the 3-D kinetic energy, the
 derivatives are derivatives, forward and inverse dynamics are one equation, energy balances."""
 
 import math
@@ -86,7 +86,7 @@ def torque_scale(params: ModelParameters, Omega: float, u: float = 0.0) -> float
     )
 
 
-# --- rotations of the gimbal (METHOD.md §1), written independently of rsp_inertia.plant.model ---------
+# --- rotations of the gimbal (docs/method.md §1), written independently of rsp_inertia.plant.model ---------
 
 
 def rot_z(a: float) -> np.ndarray:
@@ -388,7 +388,7 @@ def test_the_simulator_and_the_ocp_step_with_rk4_step(monkeypatch):
 @PROPERTY
 @given(J=tensors(), lam=st.floats(0.0, 6.0), tare=st.floats(0.0, 0.1), phi=angles)
 def test_tensor_basis_is_the_models_reduced_inertia(J, lam, tare, phi):
-    """tensor_basis(phi, lam) . J = M(phi) - M_tare = (1 + lam^2) e^T J e (METHOD.md §2)."""
+    """tensor_basis(phi, lam) . J = M(phi) - M_tare = (1 + lam^2) e^T J e (docs/method.md §2)."""
     j6 = entries_from_tensor(J)
     row = tensor_basis(np.array([phi]), lam)[0]
     M = reduced_inertia(phi, ModelParameters(inertia_harmonics(j6, lam, tare)))

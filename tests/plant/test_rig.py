@@ -1,4 +1,4 @@
-"""The virtual rig's imperfections and backward runs (METHOD.md §2-4, plant/virtual.py): a
+"""The virtual rig's imperfections and backward runs (docs/method.md §2-4, plant/virtual.py): a
 backward braking is the mirror of a forward one, energy balances, the torque gain separates
 the logged command from the physical torque, friction may differ backward, the fixture adds
 its inertia, the rig's true tare replaces device.toml's."""
@@ -85,7 +85,7 @@ def test_backward_braking_is_the_mirror_of_the_mirrored_bodys_forward_braking(de
 
 
 def test_backward_braking_balances_energy(device, virtual):
-    # METHOD.md §3: E(end) - E(release) = motor work + friction work, the motor's constant
+    # docs/method.md §3: E(end) - E(release) = motor work + friction work, the motor's constant
     # torque +b times the (negative) displacement, the friction's -integral of D Omega dt.
     asymmetric = with_friction(virtual, backward_scale=1.5)
     braking = vd.simulate_braking(device, 1, asymmetric, "backward")
@@ -165,7 +165,7 @@ def test_ideal_reverse_of_a_backward_braking_mirrors_it_with_a_torque_gain(devic
     assert abs(truth.end_phi - braking.truth.phi[0]) <= 1.01 * device.stages[0].launch_speed * (
         device.encoder.dt
     )
-    # The same speed at every angle (METHOD.md §4): the ideal drive applies the physical
+    # The same speed at every angle (docs/method.md §4): the ideal drive applies the physical
     # inverse dynamics exactly, so the tolerance of the forward default case holds.
     error = np.abs(truth.omega - braking_speed_at(braking, truth.phi))
     assert error.max() < 1e-6
@@ -269,7 +269,7 @@ def test_backward_scale_changes_only_backward_motion(device, virtual):
 @pytest.mark.parametrize("sign", [-1.0, 1.0])
 def test_static_friction_is_that_of_the_direction_the_net_torque_pushes(device, virtual, sign):
     # Backward static friction 2 a1: a net torque of 1.5 a1 moves the body forward but
-    # cannot move it backward (METHOD.md §4, with the coefficient of that direction).
+    # cannot move it backward (docs/method.md §4, with the coefficient of that direction).
     rig = with_friction(virtual, backward_scale=2.0)
     forward, backward = (vd.true_parameters(device, 1, rig, d) for d in (1, -1))
     a1 = forward.coulomb
