@@ -8,15 +8,12 @@ tests/plant/test_model.py; the estimation's: tests/estimation/test_one_home.py.)
 
 from __future__ import annotations
 
-import ast
-import importlib
-import inspect
-
 import numpy as np
 import pytest
 
 from rsp_inertia.ocp import candidates, regulator
 from rsp_inertia.plant.model import ModelParameters
+from tests.one_home import assert_calls_home
 
 # (formula, home module, function, consumer modules)
 HOMES = [
@@ -56,28 +53,13 @@ HOMES = [
 ]
 
 
-def _module(name: str):
-    return importlib.import_module(f"rsp_inertia.{name}")
-
-
-def _called(module, name: str) -> bool:
-    tree = ast.parse(inspect.getsource(module))
-    return any(
-        isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == name
-        for node in ast.walk(tree)
-    )
-
-
 @pytest.mark.parametrize(
     "home, name, consumer",
     [(home, name, c) for _, home, name, consumers in HOMES for c in consumers],
     ids=lambda v: v if isinstance(v, str) else None,
 )
 def test_consumers_call_the_one_home(home, name, consumer):
-    function = getattr(_module(home), name)
-    used = _module(consumer)
-    assert getattr(used, name, None) is function, f"{consumer} has its own {name}"
-    assert _called(used, name), f"{consumer} does not call {name}"
+    assert_calls_home(home, name, consumer)
 
 
 MODEL = ModelParameters(
