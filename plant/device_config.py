@@ -36,20 +36,21 @@ DIRECTIONS = ("forward", "backward")
 during its reverse pass; backward, the other way round."""
 
 
+def _distinct(values: tuple, key: str, noun: str, at_least: str) -> None:
+    """Refuse an empty list (``at_least``: what it must have) or a repeated ``noun``."""
+    if not values:
+        raise ContentError(key, f"must {at_least}")
+    if len(set(values)) < len(values):
+        duplicate = next(value for value in values if values.count(value) > 1)
+        raise ContentError(key, f"duplicate {noun} {duplicate!r}")
+
+
 def _distinct_nodes(nodes: tuple[float, ...], key: str) -> None:
-    if not nodes:
-        raise ContentError(key, "must have at least one node")
-    if len(set(nodes)) < len(nodes):
-        duplicate = next(node for node in nodes if nodes.count(node) > 1)
-        raise ContentError(key, f"duplicate node {duplicate!r}")
+    _distinct(nodes, key, "node", "have at least one node")
 
 
 def _distinct_directions(directions: tuple[str, ...], key: str) -> None:
-    if not directions:
-        raise ContentError(key, "must name at least one direction")
-    if len(set(directions)) < len(directions):
-        duplicate = next(name for name in directions if directions.count(name) > 1)
-        raise ContentError(key, f"duplicate direction {duplicate!r}")
+    _distinct(directions, key, "direction", "name at least one direction")
 
 
 @config_class

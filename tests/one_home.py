@@ -21,6 +21,12 @@ def _called(module, name: str) -> bool:
     )
 
 
+def home_cases(homes: list[tuple]) -> list[tuple[str, str, str]]:
+    """(home module, function, consumer module) for every consumer of a table of
+    (formula, home module, function, consumer modules)."""
+    return [(home, name, c) for _, home, name, consumers in homes for c in consumers]
+
+
 def assert_calls_home(home: str, name: str, consumer: str) -> None:
     """``rsp_inertia.<consumer>`` uses ``rsp_inertia.<home>.<name>`` and calls it."""
     function = getattr(_module(home), name)

@@ -19,7 +19,7 @@ from rsp_inertia.estimation import best_practice, pendulum, predict, smoothing, 
 from rsp_inertia.estimation.best_practice import HalfCycleFit
 from rsp_inertia.plant import geometry
 from rsp_inertia.plant.logs import Log
-from tests.one_home import assert_calls_home
+from tests.one_home import assert_calls_home, home_cases
 
 # (formula, home module, function, consumer modules)
 HOMES = [
@@ -82,11 +82,7 @@ HOMES = [
 ]
 
 
-@pytest.mark.parametrize(
-    "home, name, consumer",
-    [(home, name, c) for _, home, name, consumers in HOMES for c in consumers],
-    ids=lambda v: v if isinstance(v, str) else None,
-)
+@pytest.mark.parametrize("home, name, consumer", home_cases(HOMES), ids=str)
 def test_consumers_call_the_one_home(home, name, consumer):
     assert_calls_home(home, name, consumer)
 

@@ -13,7 +13,7 @@ import pytest
 
 from rsp_inertia.ocp import candidates, regulator
 from rsp_inertia.plant.model import ModelParameters
-from tests.one_home import assert_calls_home
+from tests.one_home import assert_calls_home, home_cases
 
 # (formula, home module, function, consumer modules)
 HOMES = [
@@ -53,11 +53,7 @@ HOMES = [
 ]
 
 
-@pytest.mark.parametrize(
-    "home, name, consumer",
-    [(home, name, c) for _, home, name, consumers in HOMES for c in consumers],
-    ids=lambda v: v if isinstance(v, str) else None,
-)
+@pytest.mark.parametrize("home, name, consumer", home_cases(HOMES), ids=str)
 def test_consumers_call_the_one_home(home, name, consumer):
     assert_calls_home(home, name, consumer)
 
