@@ -41,6 +41,7 @@ from scipy.integrate import cumulative_trapezoid
 
 from rsp_inertia.estimation.passes import (
     PassEstimate,
+    mainly_back_driven,
     sample_at,
     speed_error_covariance,
     work_covariance,
@@ -224,6 +225,13 @@ class StageBalance:
     """(n, 3) [int dphi, int |Omega| dphi, int Omega^2 dphi] from the first angle along the
     motion (rad, rad^2/s, rad^3/s^2), braking speeds: the work that a dissipative torque
     e1 + e2 |Omega| + e3 Omega^2 does over the balance range (:func:`friction_shape`)."""
+    motor_work_back: np.ndarray | None = None
+    """J, the back-driven part of ``motor_work`` (rsp_inertia.estimation.passes.motor_work):
+    the drive delivers h_d x (motor_work - this) + h_b x this (docs/method.md §3); None: no
+    part is back-driven."""
+    back_driven: tuple[bool, bool] = (True, False)
+    """(braking, reverse): whether each pass's work is mainly back-driven, which sets the gain
+    (h_b or h_d) on its torque log's noise."""
 
     @property
     def work_cov(self) -> np.ndarray:
@@ -234,6 +242,22 @@ class StageBalance:
     def motor_work(self) -> np.ndarray:
         """W(phi), J: the logged motor work of both passes, spring potential not taken off."""
         return self.work if self.spring is None else self.work + self.spring
+
+    @property
+    def motor_work_parts(self) -> np.ndarray:
+        """(n, 2) [driving, back-driven] parts of :attr:`motor_work`, J: the columns the drive's
+        gains h_d and h_b multiply."""
+        back = np.zeros(len(self.phi)) if self.motor_work_back is None else self.motor_work_back
+        return np.column_stack([self.motor_work - back, back])
+
+    def received_work(self, gains: tuple[float, float]) -> np.ndarray:
+        """J, the work the body received from the drive of gains (h_d, h_b):
+        :attr:`motor_work_parts` @ gains (rsp_inertia.plant.transducers.drive_gains)."""
+        return self.motor_work_parts @ np.asarray(gains, dtype=float)
+
+    def work_scales(self, gains: tuple[float, float]) -> tuple[float, float]:
+        """(braking, reverse): the gain of each pass's main power flow (:attr:`back_driven`)."""
+        return tuple(gains[1] if back else gains[0] for back in self.back_driven)
 
 
 def mirror_log(log: Log, quantum: float) -> Log:
@@ -319,6 +343,8 @@ def stage_balance(
         direction=direction,
         spring=spring,
         friction_shape=friction_shape(phi, b.omega),
+        motor_work_back=b.work_back + r.work_back,
+        back_driven=(mainly_back_driven(braking), mainly_back_driven(reverse)),
     )
 
 

@@ -8,20 +8,35 @@ Like every mass-properties instrument, the gimbal is calibrated with runs of its
   the fixture's gravity terms Gs_f = m_f g x_f, Gc_f = m_f g y_f (docs/method.md §3);
 - a **reference** experiment, the fixture with a body whose tensor, mass and centre of mass
   are known (``reference.toml``): the same balances with the known body's M_ref(phi) and
-  gravity added fix the scale of the logged torque, h = 1 / torque gain (logged torque =
-  gain x applied: every inertia and gravity term from the logged work scales with it).
+  gravity added fix the scale of the logged torque, and with it the drive's two gains
+  h_d, h_b (docs/method.md §3: the torque the body receives per unit of logged torque while
+  the motor drives it and while the body drives the motor back) and the encoder's error
+  harmonics.
 
 One generalised least squares over every run of both experiments (rsp_inertia.estimation.gls), per
 balance angle of a run of stage s:
 
-    1/2 S M_s(phi) . [basis] + 2 Pi_f(phi) - h W(phi) - C_run - (slopes, asymmetry)
+    1/2 S M_s(phi) . [basis] + 2 Pi_f(phi) - h_d W_d(phi) - h_b W_b(phi) - M S e'(phi) . dtheta_e
+        - C_run - (slopes, asymmetry)
         = - 2 Pi_spring(phi) - [reference runs: 1/2 S M_ref(phi) + 2 Pi_ref(phi)]
 
-with the harmonics of M_empty of stage s, the fixture's gravity and h as unknowns (h = 1,
-exact, without a reference). The estimates and their covariance are the calibration
-(:class:`KnownTerms`), written to ``EXP/calibration.toml`` and applied by identify: there
-the loaded run's right-hand side is h W - 2 Pi_spring - 1/2 S M_empty - 2 Pi_f, and the
-calibration's covariance reaches the tensor as its own budget line.
+with the harmonics of M_empty of stage s, the fixture's gravity, h_d, h_b and the encoder's
+coefficients as unknowns. The drive's gains and the encoder come only with a reference: its
+known M_ref sets the scale that separates h_d and h_b (through the friction's share of the
+work, which differs between stages, runs and turns), and its added M0 separates the
+encoder's once- and twice-per-revolution error (which scales with the whole M) from the
+fixture's harmonics (which do not). Without a reference, h_d = h_b = 1 and the encoder's
+error is device.toml's, exact unless stated with a std.
+
+The encoder's error enters through the readings, so its column (the kinetic energy's share,
+rsp_inertia.estimation.tensor.encoder_columns) is its first-order effect: the fit is
+repeated on the logs corrected with the estimate so far (:data:`ENCODER_ITERATIONS`), until
+the correction moves by less than :data:`ENCODER_TOLERANCE` of its std.
+
+The estimates and their covariance are the calibration (:class:`KnownTerms`), written to
+``EXP/calibration.toml`` and applied by identify: there the loaded run's readings are
+corrected, its right-hand side is h_d W_d + h_b W_b - 2 Pi_spring - 1/2 S M_empty - 2 Pi_f,
+and the calibration's covariance reaches the tensor as its own budget line.
 
 The reference body's data are taken as exact (a reference mass is certified far beyond the
 method's noise); friction may differ between the calibration runs and the loaded ones (it
@@ -30,6 +45,7 @@ cancels within each run).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -38,11 +54,13 @@ import numpy as np
 
 from rsp_inertia.estimation.gls import BalanceFit, Block, solve_blocks
 from rsp_inertia.estimation.model_tests import ModelTest, model_warnings
-from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs
+from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs, corrected_log
 from rsp_inertia.estimation.stiffness import StiffnessCalibration, calibrate_stiffness
 from rsp_inertia.estimation.tensor import (
+    HARMONIC_NAMES,
     KnownTerms,
     both_directions,
+    encoder_columns,
     gravity_rows,
     run_columns,
     run_label,
@@ -63,15 +81,18 @@ __all__ = [
 STIFFNESS_CHI2_WARN = 4.0
 """chi^2/dof of the nodes' pendulum stiffnesses above which calibrate warns."""
 
-HARMONIC_NAMES = ("M0", "Mc2", "Ms2", "Ms1", "Mc1")
+ENCODER_ORDERS = 3
+"""Orders of the encoder's error that calibrate measures (with a reference). Orders 1 and 2
+(an eccentric disc, runout) are the ones that bias the tensor: they read as M's own
+harmonics; order 3 and above are orthogonal to M's harmonics, so they cannot bias it, but
+they raise the residuals (and with them the stds and the model tests) and order 3 is still
+tens of 1e-6 rad on ordinary encoders. Higher orders are smaller and left to the residuals."""
 
+ENCODER_ITERATIONS = 4
+"""Fits at most on logs corrected with the encoder's estimate so far (module docstring)."""
 
-def _param_names(n_stages: int) -> list[str]:
-    """Names of theta = [h, harmonics of stage 1..n, Gs_f, Gc_f] (KnownTerms)."""
-    names = ["h"]
-    for s in range(1, n_stages + 1):
-        names += [f"{h}[{s}]" for h in HARMONIC_NAMES]
-    return names + ["Gs", "Gc"]
+ENCODER_TOLERANCE = 0.02
+"""The iteration stops when the correction moves by less than this fraction of its std."""
 
 
 @dataclass(frozen=True)
@@ -104,23 +125,34 @@ class Calibration:
     def to_toml(self) -> str:
         """The calibration.toml text (deterministic: the same inputs give the same bytes)."""
         k = self.known
-        std = np.sqrt(np.diag(k.cov))
-        gain = 1.0 / k.work_scale
+        std = k.std
+        enc = k.encoder_slice
         lines = [
             "# Rig calibration written by rsp-inertia calibrate; identify applies it.",
-            "# theta = [h = 1/torque_gain, empty-system harmonics per stage, fixture gravity].",
+            "# theta = [h_d, h_b, empty-system harmonics per stage, fixture gravity, encoder",
+            "# error coefficients c_1, s_1, ...] (docs/files.md, calibration.toml).",
             "",
             "[calibration]",
             f"device = {_toml_str(self.device_name)}",
             f"counts_per_rev = {self.counts_per_rev}",
             f"reference = {'true' if self.reference else 'false'}",
-            f"torque_gain = {gain!r}                # logged torque / applied torque",
-            f"torque_gain_std = {float(std[0] * gain * gain)!r}",
             f"chi2_dof = {self.chi2_dof!r}",
+            "",
+            "[drive]                      # torque the body receives per unit of logged torque",
+            f"gain_driving = {k.gains[0]!r}        # h_d = eta_d / torque gain",
+            f"gain_driving_std = {float(std[0])!r}",
+            f"gain_backdriven = {k.gains[1]!r}     # h_b = 1 / (eta_b torque gain)",
+            f"gain_backdriven_std = {float(std[1])!r}",
+            "",
+            "[encoder]                    # reading error sum_n c_n cos(n phi) + s_n sin(n phi), rad",
+            f"error_cos = {_toml_list(k.encoder[0::2])}",
+            f"error_sin = {_toml_list(k.encoder[1::2])}",
+            f"error_cos_std = {_toml_list(std[enc][0::2])}",
+            f"error_sin_std = {_toml_list(std[enc][1::2])}",
             "",
             "[fixture]",
             f"gravity = {_toml_list(k.gravity)}     # [m g x_c, m g y_c] of the fixture, N m",
-            f"gravity_std = {_toml_list(std[-2:])}",
+            f"gravity_std = {_toml_list(std[k.gravity_slice])}",
         ]
         for s, (lam, nodes) in enumerate(zip(self.gear_ratios, self.nodes_deg)):
             lines += [
@@ -129,9 +161,8 @@ class Calibration:
                 f"gear_ratio = {lam!r}",
                 f"nodes_deg = {_toml_list(nodes)}",
                 f"empty_inertia = {_toml_list(k.inertia[s])}   # [M0, Mc2, Ms2, Ms1, Mc1], kg m^2",
-                f"empty_inertia_std = {_toml_list(std[1 + 5 * s : 6 + 5 * s])}",
+                f"empty_inertia_std = {_toml_list(std[k.harmonics_slice(s + 1)])}",
             ]
-        names = _param_names(len(self.gear_ratios))
         if self.stiffness is not None:
             c = self.stiffness
             lines += [
@@ -141,6 +172,7 @@ class Calibration:
                 f"stiffness_std = {c.stiffness_std!r}",
                 f"nodes = {len(c.per_node)}",
             ]
+        names = k.names()
         lines += ["", "[covariance]", f"parameters = [{', '.join(map(_toml_str, names))}]"]
         lines.append("matrix = [")
         lines += [f"  {_toml_list(row)}," for row in k.cov]
@@ -150,26 +182,56 @@ class Calibration:
 
     def __str__(self) -> str:
         k = self.known
-        std = np.sqrt(np.diag(k.cov))
-        gain = 1.0 / k.work_scale
+        std = k.std
         out = []
         if self.reference:
-            out.append(f"torque gain {gain:.6f} +- {std[0] * gain * gain:.1e} (logged / applied)")
-        else:
-            out.append("torque gain 1 (no reference experiment: taken as exact)")
-        for s in range(len(self.gear_ratios)):
-            M = k.inertia[s]
-            Ms = std[1 + 5 * s : 6 + 5 * s]
+            rt, rt_std = k.gains[0] / k.gains[1], k.round_trip_std()
             out.append(
-                f"stage {s + 1}: empty M0 = {M[0]:.8f} +- {Ms[0]:.1e} kg m^2, harmonics "
+                f"drive: gain driving h_d = {k.gains[0]:.6f} +- {std[0]:.1e}, back-driven "
+                f"h_b = {k.gains[1]:.6f} +- {std[1]:.1e} (body torque / logged torque); "
+                f"round-trip efficiency eta_d eta_b = h_d / h_b = {rt:.6f} +- {rt_std:.1e}"
+            )
+            out.append(
+                "  with the logged torque's scale exact, eta_d = h_d and eta_b = 1 / h_b: "
+                f"eta_d = {k.gains[0]:.4f}, eta_b = {1 / k.gains[1]:.4f} (a work balance "
+                "measures only h_d and h_b: the torque constant and the two efficiencies "
+                "are not separable)"
+            )
+        else:
+            out.append(
+                "drive: gains 1 (no reference experiment: torque constant and transmission "
+                "taken as exact)"
+            )
+        if k.orders:
+            enc = k.encoder_slice
+            amplitude = np.hypot(k.encoder[0::2], k.encoder[1::2])
+            out.append(
+                "encoder error: "
+                + ", ".join(
+                    f"order {n + 1}: {np.degrees(a) * 3600:.2f} arcsec "
+                    f"(cos {c:+.2e} +- {sc:.0e}, sin {s_:+.2e} +- {ss:.0e} rad)"
+                    for n, (a, c, s_, sc, ss) in enumerate(
+                        zip(
+                            amplitude, k.encoder[0::2], k.encoder[1::2],
+                            std[enc][0::2], std[enc][1::2],
+                        )
+                    )
+                )
+            )
+        for s in range(1, len(self.gear_ratios) + 1):
+            M = k.inertia[s - 1]
+            Ms = std[k.harmonics_slice(s)]
+            out.append(
+                f"stage {s}: empty M0 = {M[0]:.8f} +- {Ms[0]:.1e} kg m^2, harmonics "
                 + ", ".join(
                     f"{name} {v:+.2e} +- {e:.0e}"
                     for name, v, e in zip(HARMONIC_NAMES[1:], M[1:], Ms[1:])
                 )
             )
+        g_std = std[k.gravity_slice]
         out.append(
-            f"fixture gravity: m g x_c = {k.gravity[0]:+.3e} +- {std[-2]:.0e} N m, "
-            f"m g y_c = {k.gravity[1]:+.3e} +- {std[-1]:.0e} N m"
+            f"fixture gravity: m g x_c = {k.gravity[0]:+.3e} +- {g_std[0]:.0e} N m, "
+            f"m g y_c = {k.gravity[1]:+.3e} +- {g_std[1]:.0e} N m"
         )
         if self.stiffness is not None:
             c = self.stiffness
@@ -190,7 +252,14 @@ def _toml_list(values) -> str:
     return "[" + ", ".join(repr(float(v)) for v in values) + "]"
 
 
-def _blocks(device: Device, balances, role: str, reference: TrueBody | None, has_gain: bool):
+def _blocks(
+    device: Device,
+    balances,
+    role: str,
+    reference: TrueBody | None,
+    has_gain: bool,
+    encoder_orders: int,
+):
     """The calibration equations of one experiment's runs (module docstring)."""
     both = both_directions(balances)
     blocks = []
@@ -202,10 +271,16 @@ def _blocks(device: Device, balances, role: str, reference: TrueBody | None, has
         cols["Gs"], cols["Gc"] = gravity_rows(bal.phi).T
         cols.update(run_columns(bal, f"{role}{k}", s in both, group=f"{role} {s}"))
         if has_gain:
-            cols["h"] = -bal.motor_work
+            parts = bal.motor_work_parts
+            cols["h_d"], cols["h_b"] = -parts[:, 0], -parts[:, 1]
             rhs = -bal.spring
         else:
             rhs = bal.work.copy()
+        # The encoder's remaining error, per unit of M(phi) (the first pass gives M).
+        scaled = {}
+        if encoder_orders:
+            E = encoder_columns(bal, encoder_orders)
+            scaled = {name: -E[:, j] for j, name in enumerate(_encoder_names(encoder_orders))}
         known_M = np.zeros(len(bal.phi))
         if reference is not None:
             st = device.stages[s - 1]
@@ -220,14 +295,26 @@ def _blocks(device: Device, balances, role: str, reference: TrueBody | None, has
                 rhs=rhs,
                 inertia_columns={f"{h}[{s}]": basis[:, j] for j, h in enumerate(HARMONIC_NAMES)},
                 inertia_known=known_M,
-                # h scales the logged work, a smooth function as the kinetic energy is: alone
-                # in one run it would stand in for the noisy speeds (rsp_inertia.estimation.gls).
-                joint_only=frozenset(name for name in cols if name.startswith("e") or name == "h"),
+                # The gains scale the logged work, a smooth function as the kinetic energy is:
+                # alone in one run they would stand in for the noisy speeds
+                # (rsp_inertia.estimation.gls); the encoder's orders 1 and 2 are known only from
+                # the runs together (reference against empty).
+                joint_only=frozenset(
+                    name
+                    for name in (*cols, *scaled)
+                    if name.startswith("e") or name in ("h_d", "h_b") or name in scaled
+                ),
                 groups={f"{h}[{s}]": f"{role} {run_label(bal)}" for h in HARMONIC_NAMES},
-                fixed_in_tests=frozenset({"h"}),
+                fixed_in_tests=frozenset({"h_d", "h_b"}),
+                inertia_scaled_columns=scaled,
             )
         )
     return blocks
+
+
+def _encoder_names(orders: int) -> list[str]:
+    """The encoder's coefficients' names, c1, s1, c2, ... (KnownTerms.names)."""
+    return [f"{kind}{n}" for n in range(1, orders + 1) for kind in ("c", "s")]
 
 
 def fit_calibration(
@@ -235,41 +322,81 @@ def fit_calibration(
     empty: list,
     reference: list | None = None,
     reference_body: TrueBody | None = None,
+    encoder: np.ndarray | None = None,
 ) -> tuple[KnownTerms, BalanceFit]:
     """The calibrated terms from the empty runs' and the reference runs' balances.
 
     Parameters
     ----------
     device : Device
-        The loaded experiment's device (its stages and gravity).
+        The loaded experiment's device (its stages and gravity, the encoder error it states).
     empty, reference : list of StageBalance
         The runs of the empty experiment and of the reference experiment (optional).
     reference_body : TrueBody
         The reference body (with ``reference``).
+    encoder : array, optional
+        With a reference: the encoder's error coefficients (ENCODER_ORDERS orders) already
+        taken off the logs of the balances; the fit measures what is left and adds it.
+        Without a reference the encoder is device.toml's (:func:`device_known_terms`).
+
+    Returns
+    -------
+    (KnownTerms, BalanceFit)
+        The calibration and the fit it comes from.
     """
     has_gain = reference is not None
-    blocks = _blocks(device, empty, "empty", None, has_gain)
+    orders = ENCODER_ORDERS if has_gain else 0
+    applied = np.zeros(2 * orders) if encoder is None or not has_gain else np.asarray(encoder)
+    blocks = _blocks(device, empty, "empty", None, has_gain, orders)
     if has_gain:
-        blocks += _blocks(device, reference, "reference", reference_body, has_gain)
+        blocks += _blocks(device, reference, "reference", reference_body, has_gain, orders)
     fit = solve_blocks(blocks)
+    stated, _ = device_known_terms(device)
     n_stages = len(device.stages)
-    names = _param_names(n_stages)
-    missing = [n for n in names[1:] if n not in fit.names]
+    layout = KnownTerms(
+        (1.0, 1.0),
+        np.zeros((n_stages, 5)),
+        np.zeros(2),
+        _zero_cov(n_stages, orders or stated.orders),
+        encoder=applied if has_gain else stated.encoder,
+    )
+    names = layout.names()
+    fitted = [n for n in names if n not in ("h_d", "h_b") or has_gain]
+    if not has_gain:
+        fitted = [n for n in fitted if n not in _encoder_names(stated.orders)]
+    missing = [n for n in fitted if n not in fit.names]
     if missing:
         raise InputError(f"the calibration runs leave {', '.join(missing)} undetermined")
-    index = [fit.index(n) if n in fit.names else None for n in names]
-    theta = np.array([1.0 if i is None else fit.x[i] for i in index])
+    theta = np.array([fit.x[fit.index(n)] if n in fitted else 0.0 for n in names])
+    if not has_gain:
+        theta[:2] = 1.0
+        theta[layout.encoder_slice] = stated.encoder
+    else:
+        theta[layout.encoder_slice] += applied
     cov = np.zeros((len(names), len(names)))
-    live = [j for j, i in enumerate(index) if i is not None]
-    cov[np.ix_(live, live)] = fit.cov[np.ix_([index[j] for j in live], [index[j] for j in live])]
+    live = [j for j, n in enumerate(names) if n in fitted]
+    where = [fit.index(names[j]) for j in live]
+    cov[np.ix_(live, live)] = fit.cov[np.ix_(where, where)]
+    if not has_gain and stated.orders:  # the stated encoder error and its std, as it is
+        cov[layout.encoder_slice, layout.encoder_slice] = stated.cov[
+            stated.encoder_slice, stated.encoder_slice
+        ]
     known = KnownTerms(
-        work_scale=float(theta[0]),
-        inertia=theta[1:-2].reshape(n_stages, 5),
-        gravity=theta[-2:],
+        gains=(float(theta[0]), float(theta[1])),
+        inertia=theta[layout.harmonics_slice(1).start : layout.gravity_slice.start].reshape(
+            n_stages, 5
+        ),
+        gravity=theta[layout.gravity_slice],
         cov=cov,
         calibrated=True,
+        encoder=theta[layout.encoder_slice],
     )
     return known, fit
+
+
+def _zero_cov(n_stages: int, orders: int) -> np.ndarray:
+    size = 2 + 5 * n_stages + 2 + 2 * orders
+    return np.zeros((size, size))
 
 
 def calibrate_logs(
@@ -282,25 +409,48 @@ def calibrate_logs(
     """Calibrate the rig of ``device`` from the empty-fixture and reference experiments' logs.
 
     ``reference_body``: the reference experiment's known body (reference.toml), with
-    ``reference``. The torsion stiffness comes from the nodes with a pendulum log in both.
-    ``inputs`` is left empty: the reader of the files records them.
+    ``reference``. With a reference the fit repeats on the logs corrected with the encoder's
+    error found so far (module docstring). The torsion stiffness comes from the nodes with a
+    pendulum log in both. ``inputs`` is left empty: the reader of the files records them.
 
     Raises
     ------
     InputError
         Bad logs; a pendulum run the best-practice fit cannot take.
     """
-    warnings: list[str] = []
-    empty_bal, _ = balance_runs(empty, warnings, progress)
-    ref_bal = None
-    if reference is not None:
-        ref_bal, _ = balance_runs(reference, warnings, progress)
-    known, fit = fit_calibration(device, empty_bal, ref_bal, reference_body)
+    encoder = np.zeros(2 * ENCODER_ORDERS) if reference is not None else None
+    for iteration in range(ENCODER_ITERATIONS if reference is not None else 1):
+        warnings: list[str] = []
+        applied = () if encoder is None else encoder
+        say = progress if iteration == 0 else None
+        empty_bal, _ = balance_runs(empty, warnings, say, applied)
+        ref_bal = None
+        if reference is not None:
+            ref_bal, _ = balance_runs(reference, warnings, say, applied)
+        known, fit = fit_calibration(device, empty_bal, ref_bal, reference_body, encoder)
+        if encoder is None:
+            break
+        step = known.encoder - encoder
+        step_std = known.std[known.encoder_slice]
+        encoder = known.encoder
+        if np.all(np.abs(step) <= ENCODER_TOLERANCE * step_std):
+            break
+        if progress is not None:
+            largest = float(np.max(np.abs(step) / np.where(step_std > 0, step_std, 1.0)))
+            progress(
+                f"encoder error: correction moved by up to {largest:.2g} std; the logs corrected "
+                f"with it are balanced again (fit {iteration + 2})"
+            )
     warnings += model_warnings(fit.tests, fit.scales, fit.labels)
     stiffness = None
     if reference is not None:
         stiffness = calibrate_stiffness(
-            empty, reference, reference_body, known.gravity, known.cov[-2:, -2:], known.inertia
+            _corrected_pendulum(empty, known.encoder),
+            _corrected_pendulum(reference, known.encoder),
+            reference_body,
+            known.gravity,
+            known.cov[known.gravity_slice, known.gravity_slice],
+            known.inertia,
         )
         if stiffness is not None and stiffness.chi2_dof > STIFFNESS_CHI2_WARN:
             warnings.append(
@@ -321,9 +471,18 @@ def calibrate_logs(
     )
 
 
-def known_terms_from_toml(doc: dict, device: Device, source: str) -> KnownTerms:
+def _corrected_pendulum(logs: ExperimentLogs, encoder: np.ndarray) -> ExperimentLogs:
+    """``logs`` with its pendulum logs' readings taken back to the true angle: the pendulum
+    reads the same encoder (rsp_inertia.estimation.runs.corrected_log)."""
+    pendulum = {key: corrected_log(logs.pendulum[key], encoder) for key in logs.pendulum}
+    return dataclasses.replace(logs, pendulum=pendulum)
+
+
+def known_terms_from_toml(doc: dict, device: Device, source: str) -> tuple[KnownTerms, list[str]]:
     """A calibration.toml document (parsed TOML) as KnownTerms, checked to be made for
-    ``device``; ``source`` names the file in messages.
+    ``device``; ``source`` names the file in messages. With the warnings it gives: a file
+    of an older rsp-inertia, without the drive's gains and the encoder's error, is applied
+    with a lossless drive and an exact encoder (its torque_gain as both gains), and says so.
 
     Raises
     ------
@@ -331,10 +490,10 @@ def known_terms_from_toml(doc: dict, device: Device, source: str) -> KnownTerms:
         A malformed document, or one made for another device (name, encoder or stages differ).
     """
     path = source
+    warnings = []
     try:
         head = doc["calibration"]
         stages = doc["stage"]
-        gain = float(head["torque_gain"])
         if head["device"] != device.name:
             raise InputError(
                 f"{path}: made for device {head['device']!r}, not {device.name!r} "
@@ -358,19 +517,54 @@ def known_terms_from_toml(doc: dict, device: Device, source: str) -> KnownTerms:
         inertia = np.array([[float(v) for v in entry["empty_inertia"]] for entry in stages])
         gravity = np.array([float(v) for v in doc["fixture"]["gravity"]])
         cov = np.array(doc["covariance"]["matrix"], dtype=float)
+        legacy = "drive" not in doc
+        if legacy:
+            gain = float(head["torque_gain"])
+            if not gain > 0:
+                raise InputError(f"{path}: calibration.torque_gain: must be > 0, got {gain!r}")
+            gains = (1.0 / gain, 1.0 / gain)
+            encoder = np.zeros(0)
+        else:
+            drive = doc["drive"]
+            gains = (float(drive["gain_driving"]), float(drive["gain_backdriven"]))
+            for name, value in zip(("gain_driving", "gain_backdriven"), gains):
+                if not (value > 0 and math.isfinite(value)):
+                    raise InputError(f"{path}: drive.{name}: must be > 0, got {value!r}")
+            table = doc["encoder"]
+            cos = [float(v) for v in table["error_cos"]]
+            sin = [float(v) for v in table["error_sin"]]
+            if len(cos) != len(sin):
+                raise InputError(
+                    f"{path}: encoder.error_sin: must have one entry per order of "
+                    f"encoder.error_cos ({len(cos)}), got {len(sin)}"
+                )
+            encoder = np.empty(2 * len(cos))
+            encoder[0::2], encoder[1::2] = cos, sin
     except InputError:
         raise
     except (KeyError, TypeError, ValueError) as error:
         raise InputError(f"{path}: malformed calibration file ({error!r})") from None
-    size = 1 + inertia.size + 2
+    size = 2 + inertia.size + 2 + encoder.size
+    if legacy:  # theta = [h, ...]: h's row and column become both gains', fully correlated
+        old = 1 + inertia.size + 2
+        if cov.shape == (old, old):
+            cov = cov[np.ix_([0, *range(old)], [0, *range(old)])]
     if inertia.shape != (len(device.stages), 5) or gravity.shape != (2,) or cov.shape != (
         size,
         size,
     ):
         raise InputError(f"{path}: malformed calibration file (array sizes)")
-    if not gain > 0 or not np.all(np.isfinite(cov)):
-        raise InputError(f"{path}: malformed calibration file (torque_gain or covariance)")
-    return KnownTerms(1.0 / gain, inertia, gravity, cov, calibrated=True)
+    if not np.all(np.isfinite(cov)) or not np.all(np.isfinite(encoder)):
+        raise InputError(f"{path}: malformed calibration file (covariance or encoder error)")
+    if legacy:
+        warnings.append(
+            f"{path}: written by an older rsp-inertia, without the drive's gains by direction "
+            "of power flow and the encoder's error: the drive is taken as lossless (its "
+            "torque_gain for both) and the encoder as exact, and their errors are not in the "
+            "stds (calibrate again)"
+        )
+    known = KnownTerms(gains, inertia, gravity, cov, calibrated=True, encoder=encoder)
+    return known, warnings
 
 
 def stiffness_from_toml(doc: dict, source: str) -> tuple[float, float] | None:
@@ -396,25 +590,43 @@ def stiffness_from_toml(doc: dict, source: str) -> tuple[float, float] | None:
 def device_known_terms(
     device: Device, calibration_source: str = "calibration.toml"
 ) -> tuple[KnownTerms, list[str]]:
-    """The rig's known terms without a calibration: device.toml's tares and a torque gain of 1.
+    """The rig's known terms without a calibration: device.toml's tares, a torque gain of 1, a
+    lossless drive and the encoder's error as device.toml states it (none: exact).
 
-    They are taken as exact unless device.toml states their uncertainty
-    (``tare_inertia_std`` of every stage and ``torque_gain_std``); the warning, naming the
-    missing calibration ``calibration_source``, says when it does not.
+    The tares and the torque gain are taken as exact unless device.toml states their
+    uncertainty (``tare_inertia_std`` of every stage and ``torque_gain_std``); the warning,
+    naming the missing calibration ``calibration_source``, says when it does not. The
+    encoder's stated error carries ``[encoder] error_std`` (exact without it, and a warning).
     """
     known = KnownTerms.from_tares([st.tare_inertia for st in device.stages])
+    encoder = device.encoder.error
+    cov = np.zeros((known.cov.shape[0] + encoder.size,) * 2)
+    known = KnownTerms(known.gains, known.inertia, known.gravity, cov, encoder=encoder)
+    warnings = []
+    stated = False
+    if encoder.size:
+        if device.encoder.error_std is None:
+            warnings.append(
+                f"{calibration_source}: not found, and device.toml states the encoder's error "
+                "without error_std: it is taken as exact, and its error is not in the stds"
+            )
+        else:
+            std = np.repeat(np.asarray(device.encoder.error_std, dtype=float), 2)
+            cov[known.encoder_slice, known.encoder_slice] = np.diag(std**2)
+            stated = bool(np.any(std > 0))
     tare_std = [st.tare_inertia_std for st in device.stages]
     gain_std = device.motor.torque_gain_std
     if all(v is not None for v in tare_std) and gain_std is not None:
-        cov = np.zeros_like(known.cov)
-        cov[0, 0] = gain_std**2  # h = 1/gain ~ 1 - (gain - 1): the same std to first order
-        for s, v in enumerate(tare_std):
-            cov[1 + 5 * s, 1 + 5 * s] = v**2
-        stated = any(v > 0 for v in tare_std) or gain_std > 0
-        return KnownTerms(1.0, known.inertia, known.gravity, cov, calibrated=stated), []
-    warning = (
-        f"{calibration_source}: not found, and device.toml states no tare_inertia_std "
-        "and torque_gain_std: the tares of device.toml and a torque gain of 1 are taken as "
-        "exact, and their errors are not in the stds (calibrate with rsp-inertia calibrate)"
-    )
-    return known, [warning]
+        # h_d = h_b = 1/gain ~ 1 - (gain - 1): the same std to first order, for both gains.
+        cov[:2, :2] = gain_std**2
+        for s, v in enumerate(tare_std, 1):
+            i = known.harmonics_slice(s).start
+            cov[i, i] = v**2
+        stated = stated or any(v > 0 for v in tare_std) or gain_std > 0
+    else:
+        warnings.append(
+            f"{calibration_source}: not found, and device.toml states no tare_inertia_std "
+            "and torque_gain_std: the tares of device.toml and a torque gain of 1 are taken as "
+            "exact, and their errors are not in the stds (calibrate with rsp-inertia calibrate)"
+        )
+    return dataclasses.replace(known, cov=cov, calibrated=stated), warnings

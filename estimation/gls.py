@@ -60,11 +60,18 @@ class Block:
     """Unknown name -> its share of M(phi) per unit (n,): M = sum x[name] col + inertia_known."""
     inertia_known: np.ndarray
     """(n,) the known part of M(phi), kg m^2."""
-    work_scale: float = 1.0
-    """Factor on the logged motor work in the equations (1 / torque gain): scales the work's
-    noise covariance."""
+    work_scales: tuple[float, float] = (1.0, 1.0)
+    """Factors on the braking's and the reverse's logged motor work in the equations (the
+    drive's gain of each pass's power flow): they scale each torque log's noise covariance."""
     known_jacobian: np.ndarray | None = None
     """(n, p) d rhs / d theta for calibrated parameters theta, or None."""
+    known_jacobian_inertia: np.ndarray | None = None
+    """(n, p) the part of d rhs / d theta that is M(phi) times this (the encoder's error
+    scales the kinetic energy M S / 2), M from the first unweighted pass; or None."""
+    inertia_scaled_columns: dict[str, np.ndarray] = field(default_factory=dict)
+    """Unknown name -> its column per unit of M(phi): the column is M(phi) times this, M from
+    a first pass without these unknowns (an encoder coefficient's, whose effect on the balance
+    is proportional to the kinetic energy)."""
     groups: dict[str, str] = field(default_factory=dict)
     """Unknown name -> group label (e.g. the run) for the consistency tests."""
     fixed_in_tests: frozenset[str] = frozenset()
@@ -172,13 +179,36 @@ def _budget(Aw, factors, parts, cov_x) -> np.ndarray:
     return cov_x @ inner @ cov_x
 
 
-def _matrix(blocks: list[Block], names: list[str]) -> np.ndarray:
-    """Stack the blocks' named columns into a matrix with the columns ``names``."""
+def _matrix(
+    blocks: list[Block], names: list[str], inertia: list[np.ndarray] | None = None
+) -> np.ndarray:
+    """Stack the blocks' named columns into a matrix with the columns ``names``; a block's
+    inertia-scaled columns times its ``inertia`` M(phi) (zeros without it)."""
     rows = []
-    for block in blocks:
+    for k, block in enumerate(blocks):
         n = len(block.rhs)
-        rows.append(np.column_stack([block.columns.get(name, np.zeros(n)) for name in names]))
+        cols = dict(block.columns)
+        for name, col in block.inertia_scaled_columns.items():
+            cols[name] = col * inertia[k] if inertia is not None else np.zeros(n)
+        rows.append(np.column_stack([cols.get(name, np.zeros(n)) for name in names]))
     return np.vstack(rows)
+
+
+def _inertia(blocks: list[Block], names: list[str], x: np.ndarray) -> list[np.ndarray]:
+    """Each block's M(phi) = inertia_known + sum x[name] inertia_columns[name]."""
+    return [
+        block.inertia_known
+        + sum(x[names.index(k)] * c for k, c in block.inertia_columns.items() if k in names)
+        for block in blocks
+    ]
+
+
+def _known_jacobian(block: Block, M: np.ndarray, p: int) -> np.ndarray:
+    """(n, p) d rhs / d theta of a block, its M-proportional part with the block's M(phi)."""
+    B = np.zeros((len(block.rhs), p)) if block.known_jacobian is None else block.known_jacobian
+    if block.known_jacobian_inertia is not None:
+        B = B + M[:, None] * block.known_jacobian_inertia
+    return B
 
 
 def solve_blocks(
@@ -208,19 +238,24 @@ def solve_blocks(
         a plan needs).
     """
     names = list(dict.fromkeys(name for block in blocks for name in block.columns))
-    A = _matrix(blocks, names)
     y = np.concatenate([block.rhs for block in blocks])
     rows = np.cumsum([0] + [len(block.rhs) for block in blocks])
+    inertia = None
+    scaled = list(dict.fromkeys(n for block in blocks for n in block.inertia_scaled_columns))
+    if scaled:  # their columns are M(phi) times theirs: M from a first pass without them
+        x_pre, *_ = np.linalg.lstsq(_matrix(blocks, names), y, rcond=None)
+        inertia = _inertia(blocks, names, x_pre)
+        names += [n for n in scaled if n not in names]
+    A = _matrix(blocks, names, inertia)
     # First pass, unweighted: the reduced inertia at each angle for the speed-noise weights.
     x0, *_ = np.linalg.lstsq(A, y, rcond=None)
+    inertia = _inertia(blocks, names, x0)
     speed_var, work_parts = [], []
-    for block in blocks:
-        cols = block.inertia_columns
-        M = block.inertia_known + sum(x0[names.index(k)] * c for k, c in cols.items())
+    for block, M in zip(blocks, inertia):
         speed_var.append(0.25 * np.outer(M, M) * block.balance.speed_sq_cov)
-        h2 = block.work_scale**2
+        hb2, hr2 = (scale**2 for scale in block.work_scales)
         work_parts.append(
-            (h2 * block.balance.braking_work_cov, h2 * block.balance.reverse_work_cov)
+            (hb2 * block.balance.braking_work_cov, hr2 * block.balance.reverse_work_cov)
         )
     work_cov = [b + r for b, r in work_parts]
 
@@ -265,12 +300,7 @@ def solve_blocks(
     nuisance = None
     if known_cov is not None and any(b.known_jacobian is not None for b in blocks):
         p = known_cov.shape[0]
-        B = np.vstack(
-            [
-                b.known_jacobian if b.known_jacobian is not None else np.zeros((len(b.rhs), p))
-                for b in blocks
-            ]
-        )
+        B = np.vstack([_known_jacobian(b, M, p) for b, M in zip(blocks, inertia)])
         gain = cov_x @ Aw.T @ whiten(B, factors)  # dx / dtheta
         cov_parts[CALIBRATION_SOURCE] = gain @ known_cov @ gain.T
         cov = cov + cov_parts[CALIBRATION_SOURCE]

@@ -30,7 +30,7 @@ from rsp_inertia.estimation.model_tests import model_warnings
 from rsp_inertia.estimation.nodes import NodeEstimate, node_formula
 from rsp_inertia.estimation.pendulum import estimate_pendulum
 from rsp_inertia.estimation.results import AxisResult, Identification, PendulumResult
-from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs
+from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs, corrected_log
 from rsp_inertia.estimation.tensor import (
     KnownTerms,
     axis_values,
@@ -98,6 +98,7 @@ def _combine_directions(found: list[NodeEstimate]) -> NodeEstimate:
         M_plain=mean("M_plain"),
         M_plain_std=std_of_mean("M_plain_std"),
         pairs=sum(n.pairs for n in found),
+        M_parts=tuple(float(np.mean([n.M_parts[j] for n in found])) for j in range(2)),
     )
 
 
@@ -138,7 +139,7 @@ def identify_logs(
     say = progress or (lambda _text: None)
     device = logs.device
     warnings = list(warnings)
-    balances, nodes = balance_runs(logs, warnings, say)
+    balances, nodes = balance_runs(logs, warnings, say, known.encoder)
     fit = fit_tensor(balances, known)
     # The axes are the device's design (a lambda = 0 stage gives one, whatever its nodes),
     # in its order; the node formula estimates M at each axis's node, in every run.
@@ -151,7 +152,7 @@ def identify_logs(
     for k, (stage, sign, b_est, r_est) in enumerate(nodes):
         for n in node_formula(
             device, stage, b_est, r_est, axis_nodes_deg(device.stages[stage - 1]),
-            fit.speed_noise_scale[k], sign, known.work_scale,
+            fit.speed_noise_scale[k], sign, known.gains,
             fit.friction_slope[k], fit.friction_slope_cov[k],
         ):
             by_node[n.stage, n.node_deg].append(n)
@@ -184,11 +185,15 @@ def identify_logs(
         empty = known.empty_inertia(n.stage, phi)
         # The known terms' uncertainty (calibration, or device.toml's stated stds) adds to
         # the node formula's own, as it does to the least squares'.
-        known_var = known.node_variance(n.stage, phi, n.M) if known.calibrated else 0.0
+        known_var = known.node_variance(n.stage, phi, n.M_parts, n.M) if known.calibrated else 0.0
         J_node.append(axial_moment(n.M, st, empty))
         J_node_std.append(axial_std(math.sqrt(n.M_std**2 + known_var), st))
         J_plain.append(axial_moment(n.M_plain, st, empty))
-        plain_var = known.node_variance(n.stage, phi, n.M_plain) if known.calibrated else 0.0
+        # The plain formula's shares as the full one's, scaled to its M.
+        plain_parts = [part * n.M_plain / n.M for part in n.M_parts] if n.M else n.M_parts
+        plain_var = (
+            known.node_variance(n.stage, phi, plain_parts, n.M_plain) if known.calibrated else 0.0
+        )
         J_plain_std.append(axial_std(math.sqrt(n.M_plain_std**2 + plain_var), st))
     node_entries, node_cov = tensor_from_axes(
         np.array(J_node), np.array(J_node_std), directions
@@ -285,12 +290,15 @@ def pendulum_baseline(
             f"{logs.sources.device}: pendulum: pendulum logs are present but the "
             "[pendulum] table (its stiffness) is missing"
         )
+    # The pendulum reads the same encoder: its readings are corrected as the RSP runs' are.
+    encoder = () if known is None else known.encoder
+    pendulum_logs = {key: corrected_log(logs.pendulum[key], encoder) for key in found}
     runs, directions = [], []
     for stage, k in found:
         st = device.stages[stage - 1]
         runs.append(
             estimate_pendulum(
-                logs.pendulum[stage, k], device.pendulum.stiffness, stage, st.nodes_deg[k - 1],
+                pendulum_logs[stage, k], device.pendulum.stiffness, stage, st.nodes_deg[k - 1],
                 logs.sources.pendulum_log(stage, k),
             )
         )
@@ -314,7 +322,8 @@ def pendulum_baseline(
     best_parts = {}
     if gravity is not None:
         best_parts = _best_practice(
-            logs, found, runs, known, gravity, gravity_cov, stiffness, warnings, complete
+            logs, pendulum_logs, found, runs, known, gravity, gravity_cov, stiffness, warnings,
+            complete,
         )
     if progress is not None:
         progress(f"pendulum: {len(runs)} run(s) reduced")
@@ -331,7 +340,7 @@ def pendulum_baseline(
 
 
 def _best_practice(
-    logs, found, runs, known, gravity, gravity_cov, calibrated, warnings, complete
+    logs, pendulum_logs, found, runs, known, gravity, gravity_cov, calibrated, warnings, complete
 ) -> dict:
     """The best-practice reduction of every pendulum run (rsp_inertia.estimation.pendulum) and, when
     every node has one, its tensor through V with the axes at the runs' equilibria.
@@ -341,7 +350,7 @@ def _best_practice(
     G_cov = np.zeros((2, 2)) if gravity_cov is None else np.asarray(gravity_cov, dtype=float)
     if known is not None:
         G = G + known.gravity
-        G_cov = G_cov + known.cov[-2:, -2:]
+        G_cov = G_cov + known.cov[known.gravity_slice, known.gravity_slice]
     if calibrated is not None:
         c, c_std, source = *calibrated, "calibration.toml"
     else:
@@ -358,7 +367,7 @@ def _best_practice(
     best, budgets, J, J_std, phi = [], [], [], [], []
     for (stage, k), run in zip(found, runs):
         st = device.stages[stage - 1]
-        log = logs.pendulum[stage, k]
+        log = pendulum_logs[stage, k]
         try:
             fit = half_cycle_fit(
                 log, run.period, device.encoder.quantum, logs.sources.pendulum_log(stage, k)

@@ -7,7 +7,8 @@ pass (from a to b) and A' on the reverse (from b back to a), dPi = Pi(phi_b) - P
 
     M = 2 (A' - A + 2 dPi) / (Omega_a^2 + Omega'_a^2 - Omega_b^2 - Omega'_b^2)
 
-With perfect symmetry (Omega' = Omega) it is the paper's formula (6),
+A and A' the work the body received: the drive's gains h_d and h_b times the logged work's
+driving and back-driven parts (docs/method.md §3, rsp_inertia.plant.transducers). With perfect symmetry (Omega' = Omega) it is the paper's formula (6),
 M = (A' - A + 2 dPi) / (Omega_a^2 - Omega_b^2). The passes, their common range and the
 tracking mismatch's regressors are the stage balance's (rsp_inertia.estimation.balance).
 """
@@ -28,6 +29,7 @@ from rsp_inertia.estimation.balance import (
 )
 from rsp_inertia.estimation.passes import (
     PassEstimate,
+    mainly_back_driven,
     sample_at,
     speed_error_covariance,
     work_covariance,
@@ -56,6 +58,9 @@ class NodeEstimate:
     """kg m^2."""
     pairs: int
     """Number of one-turn pairs used."""
+    M_parts: tuple[float, float] = (0.0, 0.0)
+    """kg m^2, the shares of ``M`` from the drive's driving and back-driven work (h_d and h_b
+    times the logged works' parts): dM/dh_d = M_parts[0] / h_d, likewise h_b."""
 
 
 def node_formula(
@@ -66,7 +71,7 @@ def node_formula(
     nodes_deg: Sequence[float],
     speed_noise_scale: float = 1.0,
     direction: int = 1,
-    work_scale: float = 1.0,
+    gains: tuple[float, float] = (1.0, 1.0),
     friction_slope: np.ndarray | None = None,
     friction_slope_cov: np.ndarray | None = None,
 ) -> list[NodeEstimate]:
@@ -80,8 +85,10 @@ def node_formula(
     rsp_inertia.estimation.tensor), and work noise from the torque logs (rsp_inertia.estimation.passes).
     ``direction`` -1: a backward run's passes, mirrored by
     :func:`rsp_inertia.estimation.balance.mirror_log`; its node phi
-    sits at -phi in the mirrored coordinate. ``work_scale``: h = 1 / torque gain, the factor
-    that makes the logged motor work physical (a calibration's, rsp_inertia.estimation.calibration).
+    sits at -phi in the mirrored coordinate. ``gains``: (h_d, h_b), the drive's gains that make
+    the logged motor work's driving and back-driven parts the work the body received
+    (rsp_inertia.plant.transducers.drive_gains; a calibration's,
+    rsp_inertia.estimation.calibration).
 
     ``friction_slope`` [d1, d2] (with its (2, 2) covariance): the run's tracking-mismatch
     slopes that the least squares fits (module docstring). The balance of a pair then reads
@@ -104,15 +111,23 @@ def node_formula(
         b = sample_at(braking, passages)
         r = sample_at(reverse, passages)
         a_, b_ = slice(None, -1), slice(1, None)
-        A = b.work[b_] - b.work[a_]  # braking work a -> b (negative)
-        A_rev = r.work[a_] - r.work[b_]  # reverse work b -> a (positive when driving)
+        # Received work [driving, back-driven] of each pair: braking a -> b (negative) taken
+        # from the reverse's b -> a (positive when driving).
+        parts = []
+        for h, kind in zip(gains, ("driving", "back")):
+            wb = b.work_back if kind == "back" else b.work - b.work_back
+            wr = r.work_back if kind == "back" else r.work - r.work_back
+            parts.append(h * ((wr[a_] - wr[b_]) - (wb[b_] - wb[a_])))
         true_angle = direction * passages
         dPi = spring_potential(true_angle[b_], device) - spring_potential(true_angle[a_], device)
-        num = work_scale * (A_rev - A) + 2 * dPi
-        # Work errors at the passages, differenced into the pairs' numerators.
+        num = parts[0] + parts[1] + 2 * dPi
+        # Work errors at the passages, differenced into the pairs' numerators; each torque
+        # log's noise times the gain of its pass's power flow.
         step = np.diff(np.eye(passages.size), axis=0)
-        num_cov = step @ (work_covariance(braking, b) + work_covariance(reverse, r)) @ step.T
-        num_cov = num_cov * work_scale**2
+        scale_b, scale_r = (gains[1] if mainly_back_driven(p) else gains[0] for p in (braking, reverse))
+        num_cov = step @ (
+            scale_b**2 * work_covariance(braking, b) + scale_r**2 * work_covariance(reverse, r)
+        ) @ step.T
         plain_num, plain_cov = num, num_cov
         if friction_slope is not None and np.all(np.isfinite(friction_slope)):
             R = _mismatch_at(braking, reverse, lo, passages)
@@ -127,8 +142,8 @@ def node_formula(
         den = wb2[a_] + wr2[a_] - wb2[b_] - wr2[b_]
         M = 2 * num / den
         M_plain = plain_num / (wb2[a_] - wb2[b_])
-        M_mean, M_std = _combine_pairs(M, num_cov, den, vb + vr)
-        P_mean, P_std = _combine_pairs(M_plain, plain_cov / 4, wb2[a_] - wb2[b_], vb)
+        M_mean, M_std, weights = _combine_pairs(M, num_cov, den, vb + vr)
+        P_mean, P_std, _ = _combine_pairs(M_plain, plain_cov / 4, wb2[a_] - wb2[b_], vb)
         estimates.append(
             NodeEstimate(
                 stage=stage,
@@ -138,6 +153,7 @@ def node_formula(
                 M_plain=P_mean,
                 M_plain_std=P_std,
                 pairs=int(M.size),
+                M_parts=tuple(float(weights @ (2 * part / den)) for part in parts),
             )
         )
     return estimates
@@ -152,8 +168,9 @@ def _mismatch_at(braking: PassEstimate, reverse: PassEstimate, lo: float, at: np
     return np.column_stack([np.interp(at, phi, R[:, j]) for j in range(2)])
 
 
-def _combine_pairs(M, num_cov, den, passage_var) -> tuple[float, float]:
-    """Generalised mean of the consecutive pairs' M, with its standard deviation.
+def _combine_pairs(M, num_cov, den, passage_var) -> tuple[float, float, np.ndarray]:
+    """Generalised mean of the consecutive pairs' M, with its standard deviation and the
+    pairs' weights (summing to 1).
 
     Pair i runs from passage i to i+1, so consecutive pairs share a passage: the speed error
     there enters pair i's denominator with a minus sign and pair i+1's with a plus sign. To
@@ -181,5 +198,5 @@ def _combine_pairs(M, num_cov, den, passage_var) -> tuple[float, float]:
         weights = np.linalg.pinv(cov) @ ones
     total = float(ones @ weights)
     if not total > 0.0 or not math.isfinite(total):
-        return float(np.mean(M)), 0.0
-    return float(weights @ M / total), float(1 / math.sqrt(total))
+        return float(np.mean(M)), 0.0, ones / ones.size
+    return float(weights @ M / total), float(1 / math.sqrt(total)), weights / total

@@ -49,6 +49,7 @@ from scipy.stats import chi2
 from rsp_inertia.estimation.smoothing import Smoothed, hermite, smooth_log
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.logs import Log, dropped_samples
+from rsp_inertia.plant.transducers import power_flow_split
 
 __all__ = [
     "CONSTANCY_CHUNK",
@@ -59,7 +60,9 @@ __all__ = [
     "constancy_p_value",
     "estimate_pass",
     "gap_work",
+    "mainly_back_driven",
     "motor_work",
+    "received_work",
     "sample_at",
     "speed_error_covariance",
     "torque_noise",
@@ -102,6 +105,10 @@ class PassEstimate:
     """Smoothed angle, speed, acceleration at every row."""
     work: np.ndarray
     """J, motor work from the first row to each row (Stieltjes sum, ZOH)."""
+    work_back: np.ndarray
+    """J, the back-driven part of ``work`` (where torque x angle increment < 0: the body
+    drives the motor, rsp_inertia.plant.transducers.power_flow_split); ``work - work_back``
+    is the driving part."""
     work_var_steps: np.ndarray
     """rad^2, cumulative sum of squared angle increments to each row: var(work) = sigma^2 x it."""
     sigma_torque: float
@@ -173,17 +180,19 @@ def estimate_pass(
     sigma = torque_noise(log) if sigma_torque is None else sigma_torque
     p_value = constancy_p_value(log, smoothed.phi, sigma) if constant_torque else None
     constant = p_value is not None and p_value >= CONSTANCY_TAIL
-    work, steps, mean = motor_work(log.torque, smoothed.phi, constant)
+    work, work_back, steps, mean = motor_work(log.torque, smoothed.phi, constant)
     gaps = None
     if mean is None:
         rate = 1.0 / float(np.median(np.diff(log.t))) if sample_rate is None else sample_rate
-        correction, gaps = gap_work(log, smoothed, rate)
+        correction, correction_back, gaps = gap_work(log, smoothed, rate)
         if gaps is not None:
             work = work + correction
+            work_back = work_back + correction_back
     return PassEstimate(
         log=log,
         smoothed=smoothed,
         work=work,
+        work_back=work_back,
         work_var_steps=steps,
         sigma_torque=sigma,
         source=source,
@@ -195,7 +204,7 @@ def estimate_pass(
 
 def gap_work(
     log: Log, smoothed: Smoothed, sample_rate: float
-) -> tuple[np.ndarray, np.ndarray | None]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """What the zero-order-hold sum misses over the log's gaps of dropped samples (module
     docstring), as cumulative arrays per row.
 
@@ -203,6 +212,8 @@ def gap_work(
     -------
     correction : np.ndarray, shape (n,), J
         Work to add to the sample-by-sample sum from the first row to each row.
+    correction_back : np.ndarray, shape (n,), J
+        Its back-driven part (:func:`motor_work`).
     variance : np.ndarray, shape (n,), J^2, or None
         Cumulative variance of that work from the interpolated torques' errors; None (and a
         zero correction) when nothing is missing.
@@ -211,9 +222,10 @@ def gap_work(
     missing = dropped_samples(log.t, sample_rate)
     rows = np.flatnonzero(missing)
     if rows.size == 0:
-        return np.zeros(n), None
+        return np.zeros(n), np.zeros(n), None
     u, t, sm = log.torque, log.t, smoothed
     add = np.zeros(n)
+    add_back = np.zeros(n)
     var = np.zeros(n)
     for gap in np.unique(missing[rows]).tolist():
         at = rows[missing[rows] == gap]
@@ -227,8 +239,11 @@ def gap_work(
         held = np.diff(edges, axis=1)  # (gaps, gap) angle each missing torque acts over
         u_m = u[at, None] + (u[at + 1] - u[at])[:, None] * frac
         add[at + 1] += np.sum((u_m - u[at, None]) * held, axis=1)
+        back_m = power_flow_split(u_m, held)[1]
+        back_k = power_flow_split(np.broadcast_to(u[at, None], held.shape), held)[1]
+        add_back[at + 1] += np.sum((back_m - back_k) * held, axis=1)
         var[at + 1] += held**2 @ mean_square
-    return np.cumsum(add), np.cumsum(var)
+    return np.cumsum(add), np.cumsum(add_back), np.cumsum(var)
 
 
 def _interpolation_mean_square(
@@ -251,20 +266,25 @@ def _interpolation_mean_square(
 
 def motor_work(
     torque: np.ndarray, phi: np.ndarray, constant: bool
-) -> tuple[np.ndarray, np.ndarray, float | None]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, float | None]:
     """Motor work from a pass's first row to each row, and its noise factors (module docstring).
 
-    Returns the work W (J), the cumulative sum of squared angle increments (rad^2: the work's
-    noise variance per unit sigma^2 for the sample-by-sample sum) and, for a ``constant``
-    applied torque, the log's mean torque (N m; the work is then mean x (phi - phi_0)),
-    else None (the Stieltjes sum of the logged torque over the increments of ``phi``).
+    Returns the work W (J), its back-driven part (J: the sum over the increments where the
+    held torque opposes the motion, rsp_inertia.plant.transducers.power_flow_split; a drive
+    with losses delivers h_d x the rest and h_b x this, docs/method.md §3), the cumulative sum
+    of squared angle increments (rad^2: the work's noise variance per unit sigma^2 for the
+    sample-by-sample sum) and, for a ``constant`` applied torque, the log's mean torque (N m;
+    the work is then mean x (phi - phi_0)), else None (the Stieltjes sum of the logged torque
+    over the increments of ``phi``).
     """
     dphi = np.diff(phi)
     steps = np.concatenate([[0.0], np.cumsum(dphi * dphi)])
+    mean = float(np.mean(torque)) if constant else None
+    held = np.full(dphi.size, mean) if constant else np.asarray(torque[:-1], dtype=float)
+    back = np.concatenate([[0.0], np.cumsum(power_flow_split(held, dphi)[1] * dphi)])
     if constant:
-        mean = float(np.mean(torque))
-        return mean * (phi - phi[0]), steps, mean
-    return np.concatenate([[0.0], np.cumsum(torque[:-1] * dphi)]), steps, None
+        return mean * (phi - phi[0]), back, steps, mean
+    return np.concatenate([[0.0], np.cumsum(held * dphi)]), back, steps, None
 
 
 @dataclass(frozen=True)
@@ -281,6 +301,8 @@ class AngleSample:
     """rad/s, std of ``omega``."""
     work: np.ndarray
     """J, motor work from the pass's first row to there."""
+    work_back: np.ndarray
+    """J, its back-driven part (:attr:`PassEstimate.work_back`)."""
     work_var_steps: np.ndarray
     """rad^2, sum of squared encoder increments to there (torque-noise variance factor)."""
     work_var_gaps: np.ndarray | None = None
@@ -321,13 +343,16 @@ def sample_at(est: PassEstimate, phi: np.ndarray) -> AngleSample:
     # Motor work at the smoothed angle (module docstring): last row at or before time t.
     K = k
     held = est.log.torque[K] if est.torque_mean is None else est.torque_mean
-    work = est.work[K] + held * (phi - sm.phi[K])
+    rest = phi - sm.phi[K]
+    work = est.work[K] + held * rest
+    work_back = est.work_back[K] + power_flow_split(held, rest)[1] * rest
     return AngleSample(
         phi=phi,
         time=t,
         omega=omega,
         omega_std=omega_std,
         work=work,
+        work_back=work_back,
         work_var_steps=est.work_var_steps[K],
         work_var_gaps=None if est.work_var_gaps is None else est.work_var_gaps[K],
     )
@@ -359,3 +384,16 @@ def speed_error_covariance(est: PassEstimate, a: AngleSample) -> np.ndarray:
     pass is at those angles.
     """
     return est.smoothed.speed_error_covariance(a.time, a.omega_std)
+
+
+def received_work(sample: AngleSample, gains: tuple[float, float]) -> np.ndarray:
+    """J, the work the body received up to the sample's angles: h_d x the logged work's driving
+    part + h_b x its back-driven part (rsp_inertia.plant.transducers.drive_gains)."""
+    return gains[0] * (sample.work - sample.work_back) + gains[1] * sample.work_back
+
+
+def mainly_back_driven(est: PassEstimate) -> bool:
+    """Whether most of the pass's work is back-driven (a braking), not driving (a reverse):
+    its main direction of power flow sets the gain (h_b or h_d) on its torque log's noise."""
+    back = abs(float(est.work_back[-1]))
+    return back > abs(float(est.work[-1]) - float(est.work_back[-1]))

@@ -102,11 +102,12 @@ def planned_estimate(
         noise_density=r,
     )
     log = Log(t=planned.t, phi=planned.phi, torque=planned.torque)
-    work, steps, mean = motor_work(planned.torque, planned.phi, constant_torque)
+    work, work_back, steps, mean = motor_work(planned.torque, planned.phi, constant_torque)
     return PassEstimate(
         log=log,
         smoothed=smoothed,
         work=work,
+        work_back=work_back,
         work_var_steps=steps,
         sigma_torque=sigma_torque,
         source=source,

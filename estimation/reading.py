@@ -135,8 +135,9 @@ def _calibration_document(exp: Experiment) -> dict | None:
         raise InputError(f"{path}: cannot read as TOML: {' '.join(str(error).split())}") from None
 
 
-def load_calibration(exp: Experiment) -> KnownTerms | None:
-    """``EXP/calibration.toml`` as KnownTerms, checked to be made for this device; None if absent.
+def load_calibration(exp: Experiment) -> tuple[KnownTerms, list[str]] | None:
+    """``EXP/calibration.toml`` as KnownTerms, checked to be made for this device, with the
+    warnings it gives (a file of an older rsp-inertia); None if absent.
 
     Raises
     ------
@@ -162,7 +163,7 @@ def known_terms(exp: Experiment) -> tuple[KnownTerms, list[str]]:
     (rsp_inertia.estimation.calibration.device_known_terms), with the warnings they give."""
     calibrated = load_calibration(exp)
     if calibrated is not None:
-        return calibrated, []
+        return calibrated
     return device_known_terms(exp.device, str(exp.root / CALIBRATION_FILE))
 
 

@@ -13,13 +13,16 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from rsp_inertia.estimation.balance import StageBalance, mirror_log, stage_balance
 from rsp_inertia.estimation.passes import PassEstimate, check_braking_monotone, estimate_pass
 from rsp_inertia.estimation.smoothing import Smoothed
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.logs import Log
+from rsp_inertia.plant.transducers import true_angle
 
-__all__ = ["ExperimentLogs", "Sources", "balance_runs", "estimate_run", "runs"]
+__all__ = ["ExperimentLogs", "Sources", "balance_runs", "corrected_log", "estimate_run", "runs"]
 
 
 @dataclass(frozen=True)
@@ -71,6 +74,21 @@ def runs(device: Device) -> list[tuple[int, str]]:
     ]
 
 
+def corrected_log(log: Log, encoder) -> Log:
+    """The log with its readings taken back to the true angle: phi with phi + e(phi) = reading
+    (rsp_inertia.plant.transducers.true_angle), ``encoder`` the error's coefficients theta_e.
+
+    The reading floor((phi + e) / q) q bounds the read angle from below, so its true angle
+    bounds the true one from below: the floor convention the smoother assumes holds, the
+    count's width changed by the factor 1 - e' (|e'| of a few 1e-4). An empty ``encoder``
+    returns the log itself.
+    """
+    encoder = np.asarray(encoder, dtype=float)
+    if encoder.size == 0 or not np.any(encoder):
+        return log
+    return Log(t=log.t, phi=true_angle(log.phi, encoder), torque=log.torque)
+
+
 def estimate_run(
     device: Device,
     braking: Log,
@@ -80,11 +98,15 @@ def estimate_run(
     braking_source: str = "braking",
     reverse_source: str = "reverse",
     braking_smoothed: Smoothed | None = None,
+    encoder=(),
 ) -> tuple[PassEstimate, PassEstimate]:
     """Both passes of one run from their logs in memory, checked and estimated (a backward
     run mirrored); the sources name the logs in messages. ``braking_smoothed``: the
-    (mirrored) braking log's smoothed states when already computed (rsp_inertia.ocp.program's)."""
+    (mirrored) braking log's smoothed states when already computed (rsp_inertia.ocp.program's).
+    ``encoder``: the encoder's error coefficients; the readings are taken back to the true
+    angle first (:func:`corrected_log`)."""
     q = device.encoder.quantum
+    braking, reverse = corrected_log(braking, encoder), corrected_log(reverse, encoder)
     if direction == "backward":
         braking, reverse = mirror_log(braking, q), mirror_log(reverse, q)
     check_braking_monotone(braking, braking_source)
@@ -111,10 +133,12 @@ def balance_runs(
     logs: ExperimentLogs,
     warnings: list[str],
     progress: Callable[[str], None] | None = None,
+    encoder=(),
 ) -> tuple[list[StageBalance], list[tuple[int, int, PassEstimate, PassEstimate]]]:
     """Every run's balance equations (rsp_inertia.estimation.balance), in the device's order of
     runs, and its passes for the node formula as (stage, sign, braking, reverse), sign +1
-    forward and -1 backward.
+    forward and -1 backward. ``encoder``: the encoder's error coefficients, taken off every
+    log's readings (:func:`corrected_log`).
 
     Raises
     ------
@@ -132,7 +156,8 @@ def balance_runs(
     for stage, direction in expected:
         braking, reverse = logs.runs[stage, direction]
         b_est, r_est = estimate_run(
-            device, braking, reverse, direction, warnings, *logs.sources.run(stage, direction)
+            device, braking, reverse, direction, warnings, *logs.sources.run(stage, direction),
+            encoder=encoder,
         )
         sign = 1 if direction == "forward" else -1
         balances.append(stage_balance(device, stage, b_est, r_est, sign))

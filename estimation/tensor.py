@@ -25,7 +25,7 @@ the model tests and the uncertainty budget: rsp_inertia.estimation.gls.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -34,15 +34,18 @@ from rsp_inertia.estimation.gls import NOISE_SOURCES, Block, solve_blocks
 from rsp_inertia.estimation.model_tests import ModelTest
 from rsp_inertia.plant.geometry import design_matrix, physical_margins, tensor_from_entries
 from rsp_inertia.plant.model import gravity_basis, inertia_basis, tensor_basis
+from rsp_inertia.plant.transducers import error_slope_basis
 
 __all__ = [
     "ENTRY_KEYS",
+    "HARMONIC_NAMES",
     "NOISE_SOURCES",
     "KnownTerms",
     "TensorFit",
     "axis_values",
     "balance_rhs",
     "both_directions",
+    "encoder_columns",
     "fit_tensor",
     "format_run",
     "gravity_rows",
@@ -104,18 +107,25 @@ class TensorFit:
     """(stage, direction) of each run, in the order of the balances."""
 
 
+HARMONIC_NAMES = ("M0", "Mc2", "Ms2", "Ms1", "Mc1")
+"""Names of the harmonics of M(phi) (rsp_inertia.plant.model.inertia_harmonics), in order."""
+
+
 @dataclass(frozen=True)
 class KnownTerms:
-    """What the balances take as known about the rig (docs/method.md §2-3).
+    """What the balances take as known about the rig (docs/method.md §2-3, §5 Calibration).
 
-    From ``calibration.toml`` (rsp_inertia.estimation.calibration), or device.toml's tares alone: the
-    empty system's reduced inertia per stage (tare and fixture), the fixture's gravity terms,
-    and the factor h = 1 / torque gain that turns the logged motor work into the physical
-    one; with the covariance of theta = [h, harmonics of stage 1..n, Gs_f, Gc_f].
+    From ``calibration.toml`` (rsp_inertia.estimation.calibration), or device.toml's tares alone:
+    the drive's gains by direction of power flow (h_d, h_b: the torque the body receives per
+    unit of logged torque while the motor drives it and while it is back-driven,
+    rsp_inertia.plant.transducers.drive_gains), the empty system's reduced inertia per stage
+    (tare and fixture), the fixture's gravity terms and the encoder's error harmonics, with
+    the covariance of theta = [h_d, h_b, harmonics of stage 1..n, Gs_f, Gc_f, c_1, s_1, ...]
+    (:meth:`names`).
     """
 
-    work_scale: float
-    """h = 1 / torque gain."""
+    gains: tuple[float, float]
+    """(h_d, h_b); (1, 1) for an exact torque constant and a lossless drive."""
     inertia: np.ndarray
     """(stages, 5) harmonics [M0, Mc2, Ms2, Ms1, Mc1] of the empty system, kg m^2."""
     gravity: np.ndarray
@@ -124,66 +134,157 @@ class KnownTerms:
     """Covariance of theta (class docstring); zero when nothing was calibrated."""
     calibrated: bool = False
     """Whether theta carries an uncertainty to propagate: a calibration, or the stds that
-    device.toml states for its tares and torque constant (else they are taken as exact)."""
+    device.toml states for its tares, torque constant and encoder (else they are exact)."""
+    encoder: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """theta_e = [c_1, s_1, c_2, s_2, ...], rad: the encoder's reading error e(phi)
+    (rsp_inertia.plant.transducers); identify takes every log's readings back to the true
+    angle with it. Empty: an exact encoder."""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "gains", (float(self.gains[0]), float(self.gains[1])))
+        object.__setattr__(self, "encoder", np.asarray(self.encoder, dtype=float).reshape(-1))
+        if self.cov.shape != (len(self.names()),) * 2:
+            raise ValueError(
+                f"KnownTerms.cov must be {len(self.names())} x {len(self.names())} (names()), "
+                f"got {self.cov.shape}"
+            )
 
     @classmethod
     def from_tares(cls, tares) -> KnownTerms:
-        """device.toml's tares as exact: M_empty = M_tare, no fixture terms, gain 1."""
+        """device.toml's tares as exact: M_empty = M_tare, no fixture terms, an exact torque
+        constant, a lossless drive and an exact encoder."""
         tares = np.asarray(tares, dtype=float)
         inertia = np.zeros((len(tares), 5))
         inertia[:, 0] = tares
-        size = 1 + inertia.size + 2
-        return cls(1.0, inertia, np.zeros(2), np.zeros((size, size)))
+        size = 2 + inertia.size + 2
+        return cls((1.0, 1.0), inertia, np.zeros(2), np.zeros((size, size)))
+
+    @property
+    def orders(self) -> int:
+        """Orders of the encoder's error series (len(encoder) / 2)."""
+        return self.encoder.size // 2
+
+    def names(self) -> list[str]:
+        """The names of theta, in order: h_d, h_b, M0[1] .. Mc1[n], Gs, Gc, c1, s1, ..."""
+        names = ["h_d", "h_b"]
+        for s in range(1, len(self.inertia) + 1):
+            names += [f"{h}[{s}]" for h in HARMONIC_NAMES]
+        names += ["Gs", "Gc"]
+        for n in range(1, self.orders + 1):
+            names += [f"c{n}", f"s{n}"]
+        return names
+
+    def harmonics_slice(self, stage: int) -> slice:
+        """theta's entries of the empty system's harmonics of stage ``stage`` (from 1)."""
+        return slice(2 + 5 * (stage - 1), 7 + 5 * (stage - 1))
+
+    @property
+    def gravity_slice(self) -> slice:
+        """theta's entries of the fixture's gravity terms."""
+        start = 2 + 5 * len(self.inertia)
+        return slice(start, start + 2)
+
+    @property
+    def encoder_slice(self) -> slice:
+        """theta's entries of the encoder's error coefficients."""
+        start = 4 + 5 * len(self.inertia)
+        return slice(start, start + self.encoder.size)
+
+    @property
+    def std(self) -> np.ndarray:
+        """Standard deviations of theta."""
+        return np.sqrt(np.maximum(np.diag(self.cov), 0.0))
 
     def empty_inertia(self, stage: int, phi) -> np.ndarray | float:
         """M_empty(phi) of stage ``stage`` (from 1), kg m^2."""
         value = inertia_basis(np.atleast_1d(phi)) @ self.inertia[stage - 1]
         return float(value[0]) if np.ndim(phi) == 0 else value
 
-    def node_variance(self, stage: int, phi: float, M: float) -> float:
-        """Variance the known terms give a node's J (1 + lam^2)^2, kg^2 m^4: J = (M -
-        M_empty(phi)) / (1 + lam^2) with M = h x (logged motor work's share), so to first
-        order dM = M dh / h (a spring's potential, exact, is left out of that share) and
-        dM_empty = basis(phi) d(harmonics of the stage)."""
+    def node_variance(self, stage: int, phi: float, M_parts, M: float) -> float:
+        """Variance the known terms give a node's J (1 + lam^2)^2, kg^2 m^4.
+
+        J = (M - M_empty(phi)) / (1 + lam^2), M the node formula's, ``M_parts`` its shares
+        from the driving and the back-driven work (h_d and h_b times the works' parts, so
+        dM/dh_d = M_parts[0] / h_d and likewise for h_b; a spring's potential, exact, is in
+        neither). The encoder's error scales both passes' squared speeds at the node by
+        1 + 2 e'(phi) alike, so dM/dtheta_e = 2 M e'_theta(phi); dM_empty = basis(phi) d(the
+        stage's harmonics).
+        """
         g = np.zeros(self.cov.shape[0])
-        g[0] = M / self.work_scale
-        s = stage - 1
-        g[1 + 5 * s : 6 + 5 * s] = -inertia_basis(np.atleast_1d(phi))[0]
+        g[0] = M_parts[0] / self.gains[0]
+        g[1] = M_parts[1] / self.gains[1]
+        g[self.harmonics_slice(stage)] = -inertia_basis(np.atleast_1d(phi))[0]
+        if self.orders:
+            g[self.encoder_slice] = 2 * M * error_slope_basis(phi, self.orders)
         return float(g @ self.cov @ g)
 
     def empty_variance(self, stage: int, phi: float) -> float:
         """Variance of M_empty(phi) of stage ``stage``, kg^2 m^4."""
         g = np.zeros(self.cov.shape[0])
-        s = stage - 1
-        g[1 + 5 * s : 6 + 5 * s] = inertia_basis(np.atleast_1d(phi))[0]
+        g[self.harmonics_slice(stage)] = inertia_basis(np.atleast_1d(phi))[0]
         return float(g @ self.cov @ g)
 
     def summary(self) -> dict | None:
         """result.json's ``calibration``: what was applied (None when nothing was)."""
         if not self.calibrated:
             return None
-        std = np.sqrt(np.diag(self.cov))
+        std = self.std
         n = len(self.inertia)
+        encoder = self.encoder_slice
         return {
-            "torque_gain": 1.0 / self.work_scale,
-            "torque_gain_std": float(std[0] / self.work_scale**2),
+            "drive_gains": [float(v) for v in self.gains],
+            "drive_gains_std": [float(v) for v in std[:2]],
+            "round_trip_efficiency": float(self.gains[0] / self.gains[1]),
+            "round_trip_efficiency_std": float(self.round_trip_std()),
             "empty_inertia": [[float(v) for v in row] for row in self.inertia],
             "empty_inertia_std": [
-                [float(v) for v in std[1 + 5 * s : 6 + 5 * s]] for s in range(n)
+                [float(v) for v in std[self.harmonics_slice(s)]] for s in range(1, n + 1)
             ],
             "fixture_gravity": [float(v) for v in self.gravity],
-            "fixture_gravity_std": [float(v) for v in std[-2:]],
+            "fixture_gravity_std": [float(v) for v in std[self.gravity_slice]],
+            "encoder_error": [float(v) for v in self.encoder],
+            "encoder_error_std": [float(v) for v in std[encoder]],
         }
 
+    def round_trip_std(self) -> float:
+        """Std of the round-trip efficiency h_d / h_b = eta_d eta_b (first order)."""
+        g = np.zeros(self.cov.shape[0])
+        g[0] = 1.0 / self.gains[1]
+        g[1] = -self.gains[0] / self.gains[1] ** 2
+        return float(np.sqrt(max(g @ self.cov @ g, 0.0)))
+
     def jacobian(self, bal: StageBalance) -> np.ndarray:
-        """(n, p) d rhs / d theta of one run's equations (:func:`balance_rhs`)."""
-        n_stages = len(self.inertia)
-        B = np.zeros((len(bal.phi), 1 + 5 * n_stages + 2))
-        B[:, 0] = bal.motor_work
-        s = bal.stage - 1
-        B[:, 1 + 5 * s : 6 + 5 * s] = -0.5 * bal.speed_sq[:, None] * inertia_basis(bal.phi)
-        B[:, -2:] = -gravity_rows(bal.phi)
+        """(n, p) d rhs / d theta of one run's equations (:func:`balance_rhs`), but for the
+        encoder's columns, which are M(phi) times :meth:`jacobian_inertia`."""
+        B = np.zeros((len(bal.phi), self.cov.shape[0]))
+        B[:, :2] = bal.motor_work_parts
+        B[:, self.harmonics_slice(bal.stage)] = -0.5 * bal.speed_sq[:, None] * inertia_basis(
+            bal.phi
+        )
+        B[:, self.gravity_slice] = -gravity_rows(bal.phi)
         return B
+
+    def jacobian_inertia(self, bal: StageBalance) -> np.ndarray | None:
+        """(n, p) the part of d rhs / d theta that is the reduced inertia M(phi) times this:
+        the encoder's, :func:`encoder_columns` (None without encoder terms)."""
+        if not self.orders:
+            return None
+        B = np.zeros((len(bal.phi), self.cov.shape[0]))
+        B[:, self.encoder_slice] = encoder_columns(bal, self.orders)
+        return B
+
+
+def encoder_columns(bal: StageBalance, orders: int) -> np.ndarray:
+    """(n, 2 orders) how an error of the encoder's coefficients moves one run's balance, per
+    unit of M(phi) (docs/method.md §5 Calibration).
+
+    A reading error e left in the logs scales both passes' speeds at an angle by 1 + e'(phi),
+    so 1/2 M S reads 1/2 M S (1 + 2 e'): the balance gains M S e'_theta(phi) per unit of each
+    coefficient (rsp_inertia.plant.transducers.error_slope_basis, at the body's angle). The
+    error's smaller effects (the angle's own shift in M, the potential and the work: a few
+    percent of this at order 1) are left out: calibrate iterates on the corrected logs.
+    """
+    return bal.speed_sq[:, None] * error_slope_basis(bal.phi, orders)
 
 
 def gravity_rows(phi: np.ndarray) -> np.ndarray:
@@ -193,17 +294,17 @@ def gravity_rows(phi: np.ndarray) -> np.ndarray:
 
 
 def balance_rhs(bal: StageBalance, known: KnownTerms) -> np.ndarray:
-    """The known side of one run's equations: h W - 2 Pi_spring - 1/2 S M_empty - 2 Pi_f.
+    """The known side of one run's equations: h_d W_d + h_b W_b - 2 Pi_spring - 1/2 S M_empty
+    - 2 Pi_f.
 
-    W the logged motor work of both passes, M_empty(phi) the empty system's reduced inertia
-    and Pi_f the fixture's gravity potential (docs/method.md §5, with the rig's terms of
-    :class:`KnownTerms`).
+    W_d, W_b the driving and back-driven parts of the logged motor work of both passes,
+    M_empty(phi) the empty system's reduced inertia and Pi_f the fixture's gravity potential
+    (docs/method.md §5, with the rig's terms of :class:`KnownTerms`).
     """
     M_empty = inertia_basis(bal.phi) @ known.inertia[bal.stage - 1]
-    rhs = bal.work - 0.5 * bal.speed_sq * M_empty - gravity_rows(bal.phi) @ known.gravity
-    if known.work_scale != 1.0:
-        rhs = rhs + (known.work_scale - 1.0) * bal.motor_work
-    return rhs
+    spring = 0.0 if bal.spring is None else bal.spring
+    received = bal.work if known.gains == (1.0, 1.0) else bal.received_work(known.gains) - spring
+    return received - 0.5 * bal.speed_sq * M_empty - gravity_rows(bal.phi) @ known.gravity
 
 
 def run_key(bal: StageBalance) -> tuple[int, str]:
@@ -268,8 +369,9 @@ def tensor_block(bal: StageBalance, run: str, known: KnownTerms, asymmetry: bool
         rhs=balance_rhs(bal, known),
         inertia_columns={name: v[:, i] for i, name in enumerate(ENTRY_KEYS)},
         inertia_known=inertia_basis(bal.phi) @ known.inertia[bal.stage - 1],
-        work_scale=known.work_scale,
+        work_scales=bal.work_scales(known.gains),
         known_jacobian=known.jacobian(bal) if known.calibrated else None,
+        known_jacobian_inertia=known.jacobian_inertia(bal) if known.calibrated else None,
         groups={name: run_label(bal) for name in ENTRY_KEYS},
         joint_only=frozenset(name for name in cols if name.startswith("e")),
     )

@@ -94,6 +94,34 @@ class Encoder:
         doc="Width of the drive's position counter, when logs give integer ``counts`` that "
         "wrap around at 2**counter_bits; None: counts never wrap.",
     )
+    error_cos: tuple[float, ...] | None = key(
+        None,
+        unit="rad",
+        doc="The encoder's reading error e(phi) = sum_n c_n cos(n phi) + s_n sin(n phi), as the "
+        "maker's calibration certificate states it (rsp_inertia.plant.transducers): c_n for "
+        "n = 1, 2, ...; identify takes every reading back to the true angle with it, unless "
+        "a calibration.toml measured the error. None: the encoder is taken as exact.",
+    )
+    error_sin: tuple[float, ...] | None = key(
+        None, unit="rad", doc="s_n of the same series (as many entries as ``error_cos``)."
+    )
+    error_std: tuple[float, ...] | None = key(
+        None,
+        unit="rad",
+        bound=">= 0",
+        doc="Standard deviation of c_n and of s_n, one per order (as many entries); None (not "
+        "stated): the stated error is taken as exact.",
+    )
+
+    @property
+    def error(self) -> np.ndarray:
+        """theta_e = [c_1, s_1, c_2, s_2, ...] of the stated reading error, rad; empty when
+        none is stated."""
+        if self.error_cos is None:
+            return np.zeros(0)
+        out = np.empty(2 * len(self.error_cos))
+        out[0::2], out[1::2] = self.error_cos, self.error_sin
+        return out
 
     @property
     def quantum(self) -> float:
@@ -368,6 +396,19 @@ def write_device(path: str | os.PathLike, device: Device) -> None:
 def _device(doc: dict) -> Device:
     """The Device of a parsed device.toml, with the rules that join its tables."""
     device = read_table(Device, doc)
+    encoder = device.encoder
+    orders = None if encoder.error_cos is None else len(encoder.error_cos)
+    for name in ("error_sin", "error_std"):
+        value = getattr(encoder, name)
+        if value is not None and orders is None:
+            raise ContentError(f"encoder.{name}", "needs encoder.error_cos")
+        if orders is not None and name == "error_sin" and value is None:
+            raise ContentError("encoder.error_sin", "missing: encoder.error_cos needs it")
+        if value is not None and len(value) != orders:
+            raise ContentError(
+                f"encoder.{name}",
+                f"must have one entry per order of encoder.error_cos ({orders}), got {len(value)}",
+            )
     if device.plan is not None:
         if device.plan.inertia is not None and device.plan.box is not None:
             raise ContentError("plan", "give either inertia or box, not both")

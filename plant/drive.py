@@ -1,13 +1,16 @@
 """The virtual device's drive and its logger: what leaves the device of a simulated pass.
 
-A rig's drive reads the encoder, floor(phi/q) q (:func:`encoder_reading`), at its sampling
-instants: one per period of the sample rate, each off the regular grid by up to
+A rig's drive reads the encoder, floor((phi + e(phi))/q) q with the encoder's reading error e
+(:func:`encoder_reading`, ``[rig]``), at its sampling instants: one per period of the sample
+rate, each off the regular grid by up to
 ``[logger] time_jitter`` of a period (:func:`sampling_instants`). Its controller estimates
 the speed from the encoder alone (:class:`SpeedObserver`). The log records the drive's
 command plus the torque channel's noise, less the rows the logger drops
-(``[logger] dropped_fraction``); the body receives command / torque_gain (``[rig]``). The
-true states are returned beside the log (:class:`SimulatedPass`) for tests and benchmarks,
-never written where ``identify`` or ``program`` could read them.
+(``[logger] dropped_fraction``); the body receives the command times h_d while the motor drives
+it and h_b while it back-drives the motor (``[rig]``: torque gain and the transmission's
+efficiencies, rsp_inertia.plant.transducers). The true states are returned beside the log
+(:class:`SimulatedPass`) for tests and benchmarks, never written where ``identify`` or
+``program`` could read them.
 
 Every pass draws from its own reproducible random streams, numbered per stage: the noise of
 its log, the jitter of its instants and the rows its logger drops.
@@ -20,9 +23,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rsp_inertia.plant import transducers
 from rsp_inertia.plant.config import DIRECTIONS, Stage, Virtual
 from rsp_inertia.plant.integrate import Pair, advance
 from rsp_inertia.plant.logs import Log
+from rsp_inertia.plant.transducers import delivered_torque
 
 __all__ = [
     "STREAM_BRAKING",
@@ -66,18 +71,21 @@ def direction_sign(direction: str) -> float:
 
 
 def braking_torque(stage: Stage, virtual: Virtual, s: float) -> tuple[float, float]:
-    """The braking pass's motor torque, N m: (the logged command, the torque applied).
+    """The braking pass's motor torque, N m: (the logged command, the torque the body receives).
 
     The command is the constant braking torque against the motion, -s braking_torque; the
-    drive applies command / torque_gain (``[rig]``).
+    body, moving in direction s, back-drives the motor and receives h_b x the command
+    (``[rig]``: torque gain and back-driven efficiency,
+    :func:`rsp_inertia.plant.transducers.delivered_torque`).
     """
     command = -s * stage.braking_torque
-    return command, command / virtual.rig.torque_gain
+    return command, delivered_torque(command, s, virtual.rig.drive_gains)
 
 
-def encoder_reading(phi: np.ndarray, quantum: float) -> np.ndarray:
-    """Incremental encoder: floor(phi / q) q (docs/files.md, logs)."""
-    return np.floor(np.asarray(phi) / quantum) * quantum
+def encoder_reading(phi: np.ndarray, quantum: float, error=()) -> np.ndarray:
+    """Incremental encoder: floor((phi + e(phi)) / q) q (docs/files.md, logs), ``error`` the
+    coefficients of its reading error e (``[rig]``, rsp_inertia.plant.transducers); none: e = 0."""
+    return transducers.encoder_reading(phi, quantum, error)
 
 
 @dataclass(frozen=True)
@@ -173,7 +181,7 @@ def logged(
     torque = command + (rng.normal(0.0, noise, len(command)) if noise > 0 else 0.0)
     log = Log(
         t=np.asarray(truth.t),
-        phi=encoder_reading(truth.phi, quantum),
+        phi=encoder_reading(truth.phi, quantum, virtual.rig.encoder_error),
         torque=np.asarray(torque),
     )
     fraction = virtual.logger.dropped_fraction

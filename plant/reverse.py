@@ -30,6 +30,7 @@ from rsp_inertia.plant.drive import (
 from rsp_inertia.plant.integrate import BLOCK, advance, step_block, true_pair, true_parameters
 from rsp_inertia.plant.logs import Program
 from rsp_inertia.plant.model import acceleration, motor_torque, reduced_inertia, static_torque
+from rsp_inertia.plant.transducers import delivered_torque, logged_torque
 
 __all__ = ["IDEAL_BANDWIDTH", "ideal_program", "run_program", "simulate_ideal_reverse"]
 
@@ -60,10 +61,13 @@ def run_program(
 
     limits the change from the previous sample to torque_rate_limit times the step, and holds
     u until its next instant; with a wrapping position counter (``counter_bits``) phi - phi_ref
-    is taken modulo the counter's range. u is the drive's command: the log records it (plus
-    noise), the body receives u / torque_gain (``[rig]``). Before the program the motor holds
-    the body at rest, so the rate limiter starts from the command that held it there
-    (torque_gain times the static torque at the start angle).
+    is taken modulo the counter's range. The encoder reads phi + e(phi) (``[rig]``'s reading
+    error): the drive regulates on what it reads. u is the drive's command: the log records it
+    (plus noise), the body receives h_d u while the motor drives it and h_b u while the body
+    back-drives it (``[rig]``, rsp_inertia.plant.transducers.delivered_torque; from rest, the
+    direction the net torque moves it). Before the program the motor holds the body at rest,
+    so the rate limiter starts from the command that held it there (the static torque at the
+    start angle over h_d).
 
     Parameters
     ----------
@@ -76,7 +80,8 @@ def run_program(
     ideal : bool
         An ideal drive for the ideal reverse: no torque or rate limit, feedback on the true
         state instead of the encoder and the speed observer, and u applied physically exactly
-        (the log records the command torque_gain u). The log is still the encoder's.
+        (the log records the command that gives u: u / h_d driving, u / h_b back-driven).
+        The log is still the encoder's.
     direction : {"forward", "backward"}
         The direction of the stage's run whose reverse pass this is; it only selects the
         pass's noise stream (the motion follows the program, in whichever direction).
@@ -93,7 +98,8 @@ def run_program(
     """
     s = direction_sign(direction)
     pair = true_pair(device, stage, virtual)
-    gain = virtual.rig.torque_gain
+    gains = virtual.rig.drive_gains
+    reading_error = virtual.rig.encoder_error
     enc = device.encoder
     dt = enc.dt
     q = enc.quantum
@@ -113,9 +119,11 @@ def run_program(
 
     x = np.array(start, dtype=float)
     held = float(static_torque(x[0], pair[0]))
-    u_prev = held if ideal else held * gain
+    # The command that held the body at rest (a drive that holds, drives: power_flow_split).
+    u_prev = held if ideal else logged_torque(held, 0.0, gains)
     observer = SpeedObserver(
-        float(encoder_reading(x[0], q)), x[1], virtual.controller.speed_observer_bandwidth, dt
+        float(encoder_reading(x[0], q, reading_error)), x[1], virtual.controller.speed_observer_bandwidth,
+        dt,
     )
     phi_true = np.empty(n)
     omega_true = np.empty(n)
@@ -138,7 +146,7 @@ def run_program(
     h_prev = dt
     for k in range(n):
         phi_true[k], omega_true[k] = x
-        y = math.floor(x[0] / q) * q
+        y = float(encoder_reading(x[0], q, reading_error))
         omega_hat = observer.update(y, h_prev)
         if ideal:
             y, omega_hat = x
@@ -149,9 +157,13 @@ def run_program(
         u = min(max(u, -u_max), u_max)
         du_max = rate_max * h_prev
         u = min(max(u, u_prev - du_max), u_prev + du_max)
-        physical = u if ideal else u / gain
-        applied[k] = physical
-        commands[k] = u * gain if ideal else u
+        if ideal:  # u is the torque the body receives; the log has the command that gives it
+            motion = _motion(x, u, pair)
+            applied[k], commands[k] = u, logged_torque(u, motion, gains)
+        else:  # u is the command; from rest, the body moves where the command would drive it
+            motion = _motion(x, delivered_torque(u, u, gains), pair)
+            applied[k], commands[k] = delivered_torque(u, motion, gains), u
+        physical = applied[k]
         u_prev = u
         h_prev = float(steps[k])
         x = advance(x, physical, h_prev, pair, coarse)
@@ -165,6 +177,14 @@ def run_program(
         end_omega=float(x[1]),
     )
     return logged(truth, commands, virtual, (stage, stream), q)
+
+
+def _motion(x: np.ndarray, torque: float, pair) -> float:
+    """The direction the body moves in over the next sample: its speed's sign, or from rest
+    the sign of the net torque (``torque`` less the static one; 0 if they balance)."""
+    if x[1] != 0.0:
+        return math.copysign(1.0, x[1])
+    return float(np.sign(torque - static_torque(x[0], pair[0])))
 
 
 def ideal_program(

@@ -17,8 +17,10 @@ A stage runs forward (phi increases while braking) or backward (the mirror: rele
 -release_angle_deg with speed -launch_speed, phi decreases while braking and increases on the
 reverse pass); one sign s = +1 / -1 carries the direction through every pass. The rig may be
 imperfect (``virtual.toml``): a fixture on the shaft with the body, a true tare other than
-device.toml's, friction that differs backward (Omega < 0) from forward, and a torque gain:
-the log records the drive's command, the body receives command / torque_gain.
+device.toml's, friction that differs backward (Omega < 0) from forward, a torque gain and a
+transmission that loses power by its direction of flow (the log records the drive's command,
+the body receives h_d or h_b times it), and an encoder that reads phi + e(phi)
+(rsp_inertia.plant.transducers).
 
 This module is the virtual device's interface: it also exposes the public names of
 :mod:`rsp_inertia.plant.integrate`, :mod:`rsp_inertia.plant.drive` and
@@ -62,6 +64,7 @@ from rsp_inertia.plant.integrate import (
     true_parameters,
 )
 from rsp_inertia.plant.reverse import ideal_program, run_program, simulate_ideal_reverse
+from rsp_inertia.plant.transducers import delivered_torque
 
 __all__ = [
     "MAX_BRAKING_TIME",
@@ -123,8 +126,8 @@ def simulate_braking(
     Forward: release at the release angle (:func:`release_angle`) with the stage's launch
     speed. Backward, the mirror: release at minus that angle with -launch speed. The
     drive's command is the constant ``braking_torque`` against the motion (-braking_torque
-    forward, +braking_torque backward), which the log records; the body receives command /
-    torque_gain. The pass ends at the first instant the speed reaches zero (an event located
+    forward, +braking_torque backward), which the log records; the body back-drives the motor
+    and receives h_b x the command (``[rig]``). The pass ends at the first instant the speed reaches zero (an event located
     inside its sample by Brent's method on the step length). The log holds every sample up
     to that instant.
 
@@ -254,8 +257,8 @@ def simulate_pilot(device: Device, stage: int, virtual: Virtual) -> SimulatedPas
        :func:`simulate_braking`) or until PILOT_MAX_COAST seconds of coast, whichever
        comes first.
 
-    The log records the command plus ``run.torque_noise``; the body receives command /
-    ``rig.torque_gain``, like every pass. Samples at the encoder rate, t from 0; when the
+    The log records the command plus ``run.torque_noise``; the body receives h_d x the
+    command (``[rig]``: the motor drives it), like every pass. Samples at the encoder rate, t from 0; when the
     body comes to rest the log ends at the last sample before the stop (at the stop if it
     falls on a sample), otherwise at the last sample within PILOT_MAX_COAST of the switch-off.
     The command steps at t = 0 and at the switch-off: the drive's torque rate limit is not
@@ -285,7 +288,7 @@ def simulate_pilot(device: Device, stage: int, virtual: Virtual) -> SimulatedPas
     p = pair[0]
     dt = device.encoder.dt
     command = PILOT_TORQUE_FRACTION * device.motor.torque_limit
-    u = command / virtual.rig.torque_gain
+    u = delivered_torque(command, 1.0, virtual.rig.drive_gains)  # the motor drives it forward
     # Powered part, whole blocks at once: states up to the first sample at the launch speed.
     x = np.array([math.radians(virtual.run.release_angle_deg), 0.0])
     states = [x[None, :]]
@@ -332,7 +335,7 @@ def simulate_pilot(device: Device, stage: int, virtual: Virtual) -> SimulatedPas
         t=t,
         phi=traj[:, 0],
         omega=traj[:, 1],
-        torque=commands / virtual.rig.torque_gain,
+        torque=delivered_torque(commands, 1.0, virtual.rig.drive_gains),
         end_time=float(end_time),
         end_phi=float(end_phi),
         end_omega=float(end_omega),

@@ -24,6 +24,7 @@ from rsp_inertia.plant.toml_schema import (
     read_table,
 )
 from rsp_inertia.plant.toml_writer import write_file
+from rsp_inertia.plant.transducers import drive_gains, error_coefficients
 
 _INERTIA_NAMES = ("Jx", "Jy", "Jz", "Jxy", "Jyz", "Jxz")
 
@@ -192,6 +193,46 @@ class Rig:
         doc="True stiffness of the pendulum's torsion element (device.toml's ``[pendulum] "
         "stiffness`` only approximates it); None: device.toml's is exact.",
     )
+    efficiency_driving: float = key(
+        1.0,
+        bound=("> 0", "<= 1"),
+        doc="Efficiency of the drive's transmission while the motor drives the body "
+        "(torque x speed > 0): the body receives this x the motor's torque; 1 = lossless "
+        "(rsp_inertia.plant.transducers).",
+    )
+    efficiency_backdriven: float = key(
+        1.0,
+        bound=("> 0", "<= 1"),
+        doc="Efficiency while the body drives the motor back (torque x speed < 0, a braking "
+        "torque): the body gives the motor's torque / this; 1 = lossless.",
+    )
+    encoder_error_amplitude: tuple[float, ...] | None = key(
+        None,
+        unit="rad",
+        bound=">= 0",
+        doc="The encoder reads phi + e(phi), e = sum_n A_n sin(n phi + p_n): A_n for the orders "
+        "n = 1, 2, ... (eccentricity, runout); None = an exact encoder. Acts on every log and "
+        "inside the closed loop.",
+    )
+    encoder_error_phase_deg: tuple[float, ...] | None = key(
+        None,
+        unit="deg",
+        doc="p_n of each order of ``encoder_error_amplitude`` (as many entries).",
+    )
+
+    @property
+    def drive_gains(self) -> tuple[float, float]:
+        """(h_d, h_b): torque received per unit logged torque, driving and back-driven
+        (rsp_inertia.plant.transducers.drive_gains)."""
+        return drive_gains(self.torque_gain, self.efficiency_driving, self.efficiency_backdriven)
+
+    @property
+    def encoder_error(self) -> np.ndarray:
+        """theta_e = [c_1, s_1, c_2, s_2, ...] of the encoder's error, rad
+        (rsp_inertia.plant.transducers.error_coefficients); empty for an exact encoder."""
+        if self.encoder_error_amplitude is None:
+            return np.zeros(0)
+        return error_coefficients(self.encoder_error_amplitude, self.encoder_error_phase_deg)
 
     def true_tare(self, device: Device, stage: int, source: str = "virtual.toml") -> float:
         """The true M_tare of stage ``stage`` (1-based), kg m^2 (docs/method.md §2).
@@ -332,6 +373,16 @@ def write_virtual(path: str | os.PathLike, virtual: Virtual) -> None:
 def _virtual(doc: dict) -> Virtual:
     """The Virtual of a parsed virtual.toml, with the rule that joins its friction tables."""
     virtual = read_table(Virtual, doc)
+    amplitude, phase = virtual.rig.encoder_error_amplitude, virtual.rig.encoder_error_phase_deg
+    if (amplitude is None) != (phase is None) or (
+        amplitude is not None and len(amplitude) != len(phase)
+    ):
+        raise ContentError(
+            "rig.encoder_error_phase_deg",
+            "must have one entry per order of rig.encoder_error_amplitude "
+            f"({0 if amplitude is None else len(amplitude)}), got "
+            f"{0 if phase is None else len(phase)}",
+        )
     if virtual.friction_backward is not None and virtual.friction.backward_scale != 1.0:
         raise ContentError(
             "friction_backward",

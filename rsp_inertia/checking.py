@@ -275,6 +275,8 @@ def _check_constants(exp, report: CheckReport) -> None:
         return
     if calibrated is not None:
         report.add("ok", f"{path}: made for this device; identify applies it")
+        for warning in calibrated[1]:
+            report.add("suspicious", warning)
     else:
         unstated = [
             f"stage[{k}].tare_inertia_std"

@@ -233,11 +233,24 @@ def format_identification(result: Identification, truth: np.ndarray | None = Non
                 )
     if result.calibration is not None:
         cal = result.calibration
+        (h_d, h_b), (s_d, s_b) = cal["drive_gains"], cal["drive_gains_std"]
+        encoder = np.asarray(cal["encoder_error"])
+        amplitude = np.hypot(encoder[0::2], encoder[1::2])
         lines.append(
-            f"calibration applied: torque gain {cal['torque_gain']:.6f} +- "
-            f"{cal['torque_gain_std']:.1e}, empty-system M0 per stage "
+            f"calibration applied: drive gains h_d {h_d:.6f} +- {s_d:.1e}, h_b {h_b:.6f} +- "
+            f"{s_b:.1e} (round-trip efficiency {cal['round_trip_efficiency']:.5f}), "
+            "empty-system M0 per stage "
             + ", ".join(f"{row[0]:.6f}" for row in cal["empty_inertia"])
             + " kg m^2"
+            + (
+                ", encoder error "
+                + ", ".join(
+                    f"order {n}: {np.degrees(a) * 3600:.2f} arcsec"
+                    for n, a in enumerate(amplitude, 1)
+                )
+                if amplitude.size
+                else ""
+            )
         )
     if result.pendulum is not None:
         pend = result.pendulum

@@ -189,12 +189,21 @@ class CalibrateResult:
 
     Attributes
     ----------
-    torque_gain : float
-        Logged torque / applied torque (1 without a reference experiment).
-    torque_gain_std : float
-        Its standard deviation (0 without a reference experiment: taken as exact).
+    drive_gains : numpy.ndarray, shape (2,)
+        ``[h_d, h_b]``: the torque the body receives per unit of logged torque while the
+        motor drives it (eta_d / torque gain) and while the body drives the motor back
+        (1 / (eta_b torque gain)); ``[1, 1]`` without a reference experiment.
+    drive_gains_std : numpy.ndarray, shape (2,)
+        Their standard deviations (0 without a reference experiment: taken as exact).
+    round_trip_efficiency, round_trip_efficiency_std : float
+        h_d / h_b = eta_d eta_b, the drive's round-trip efficiency, and its std.
+    encoder_error : numpy.ndarray, shape (2 orders,)
+        rad, ``[c_1, s_1, c_2, s_2, ...]`` of the encoder's reading error
+        e(phi) = sum c_n cos(n phi) + s_n sin(n phi).
+    encoder_error_std : numpy.ndarray, shape (2 orders,)
+        rad.
     reference : bool
-        Whether a reference experiment fixed the torque gain.
+        Whether a reference experiment fixed the drive's gains and the encoder's error.
     empty_inertia : numpy.ndarray, shape (stages, 5)
         kg m^2, per stage the empty system's reduced inertia in harmonic form
         ``[M0, Mc2, Ms2, Ms1, Mc1]`` (tare and fixture).
@@ -219,12 +228,16 @@ class CalibrateResult:
     Examples
     --------
     >>> cal = rsp_inertia.calibrate("bench-A", "empty", "reference")    # doctest: +SKIP
-    >>> cal.torque_gain, cal.torque_gain_std                            # doctest: +SKIP
-    (1.002999..., 4.5e-06)
+    >>> cal.drive_gains, cal.round_trip_efficiency                      # doctest: +SKIP
+    (array([0.94713..., 1.08697...]), 0.87135...)
     """
 
-    torque_gain: float
-    torque_gain_std: float
+    drive_gains: np.ndarray
+    drive_gains_std: np.ndarray
+    round_trip_efficiency: float
+    round_trip_efficiency_std: float
+    encoder_error: np.ndarray
+    encoder_error_std: np.ndarray
     reference: bool
     empty_inertia: np.ndarray
     empty_inertia_std: np.ndarray
@@ -243,9 +256,21 @@ class CalibrateResult:
 
         doc = _calibration_document(calibration)
         head, stages, pendulum = doc["calibration"], doc["stage"], doc.get("pendulum")
+        drive, encoder = doc["drive"], doc["encoder"]
+
+        def interleaved(cos, sin):
+            out = np.empty(2 * len(cos))
+            out[0::2], out[1::2] = cos, sin
+            return out
+
+        known = calibration.known
         return cls(
-            torque_gain=head["torque_gain"],
-            torque_gain_std=head["torque_gain_std"],
+            drive_gains=np.array([drive["gain_driving"], drive["gain_backdriven"]]),
+            drive_gains_std=np.array([drive["gain_driving_std"], drive["gain_backdriven_std"]]),
+            round_trip_efficiency=drive["gain_driving"] / drive["gain_backdriven"],
+            round_trip_efficiency_std=known.round_trip_std(),
+            encoder_error=interleaved(encoder["error_cos"], encoder["error_sin"]),
+            encoder_error_std=interleaved(encoder["error_cos_std"], encoder["error_sin_std"]),
             reference=head["reference"],
             empty_inertia=np.array([s["empty_inertia"] for s in stages]),
             empty_inertia_std=np.array([s["empty_inertia_std"] for s in stages]),
@@ -268,8 +293,8 @@ class CalibrateResult:
         Returns
         -------
         str
-            ``{"calibration": {"device", "counts_per_rev", "reference", "torque_gain",
-            "torque_gain_std", "chi2_dof"}, "fixture": {...}, "stage": [...], "pendulum":
+            ``{"calibration": {"device", "counts_per_rev", "reference", "chi2_dof"},
+            "drive": {...}, "encoder": {...}, "fixture": {...}, "stage": [...], "pendulum":
             {...} (when calibrated), "covariance": {...}, "inputs": {...}, "warnings": [...]}``
             (NaN written as null).
         """

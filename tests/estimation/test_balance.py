@@ -22,6 +22,7 @@ from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.geometry import relative_errors
 from rsp_inertia.plant.logs import Log
 from rsp_inertia.plant.model import acceleration, gravity_basis, reduced_inertia, tensor_basis
+from rsp_inertia.plant.transducers import power_flow_split
 from tests.estimation.conftest import STAGES
 
 EXACT_REL = 1e-6
@@ -51,10 +52,12 @@ def exact_pass(sim: vd.SimulatedPass, params, direction: float) -> PassEstimate:
         noise_density=12e-12 / 100.0**3,  # speed error variance r w_c^3 / 12 = (1e-6)^2
     )
     log = Log(t=truth.t, phi=truth.phi, torque=truth.torque)
+    back = power_flow_split(truth.torque[:-1], np.diff(truth.phi))[1] * np.diff(truth.phi)
     return PassEstimate(
         log=log,
         smoothed=smoothed,
         work=log.motor_work(),  # exact: the torque is held over each row (ZOH)
+        work_back=np.concatenate([[0.0], np.cumsum(back)]),
         work_var_steps=np.concatenate([[0.0], np.cumsum(np.diff(truth.phi) ** 2)]),
         sigma_torque=0.0,
         source="exact",

@@ -16,7 +16,7 @@ import pytest
 import tomlkit
 
 from rsp_inertia.estimation.balance import NODE_GAP_SAMPLES, check_node_gaps
-from rsp_inertia.estimation.passes import gap_work
+from rsp_inertia.estimation.passes import gap_work, motor_work
 from rsp_inertia.estimation.smoothing import Smoothed
 from rsp_inertia.pipeline import create_default_experiment, identify, simulate
 from rsp_inertia.plant.config import load_virtual
@@ -35,20 +35,27 @@ def _smoothed(t, phi, omega) -> Smoothed:
 def test_gap_work_restores_the_work_of_a_torque_that_is_linear_across_the_gap():
     """A motion at constant acceleration (Hermite exact) under a torque linear in time: the
     zero-order-hold sum over the rows kept, plus the gap correction, is the full log's sum
-    to rounding, and the interpolation's variance, measured on the log's own rows, is 0."""
+    to rounding, and the interpolation's variance, measured on the log's own rows, is 0. So
+    is its back-driven part, for a torque that changes sign (0.05 - 0.5 t: the motor drives
+    the body until t = 0.1 s, then brakes it, the gap of three rows inside the braking)."""
     dt = 1e-3
     t = np.arange(200) * dt
     omega = 5.0 + 3.0 * t
     phi = 5.0 * t + 1.5 * t**2
-    torque = 0.2 - 0.5 * t
-    full = Log(t=t, phi=phi, torque=torque)
     keep = np.ones(t.size, bool)
     keep[[50, 120, 121, 122]] = False  # a single row and a gap of three
-    log = Log(t=t[keep], phi=phi[keep], torque=torque[keep])
-    correction, variance = gap_work(log, _smoothed(t[keep], phi[keep], omega[keep]), 1 / dt)
-    work = log.motor_work() + correction
-    np.testing.assert_allclose(work, full.motor_work()[keep], rtol=0, atol=1e-15)
-    np.testing.assert_allclose(variance, 0.0, atol=1e-30)
+    for torque in (0.2 - 0.5 * t, 0.05 - 0.5 * t):
+        full = Log(t=t, phi=phi, torque=torque)
+        log = Log(t=t[keep], phi=phi[keep], torque=torque[keep])
+        smoothed = _smoothed(t[keep], phi[keep], omega[keep])
+        correction, correction_back, variance = gap_work(log, smoothed, 1 / dt)
+        work = log.motor_work() + correction
+        np.testing.assert_allclose(work, full.motor_work()[keep], rtol=0, atol=1e-15)
+        np.testing.assert_allclose(variance, 0.0, atol=1e-30)
+        _, back, _, _ = motor_work(log.torque, log.phi, False)
+        _, full_back, _, _ = motor_work(full.torque, full.phi, False)
+        np.testing.assert_allclose(back + correction_back, full_back[keep], rtol=0, atol=1e-15)
+        assert (full_back[-1] < 0) == (torque[-1] < 0)
 
 
 def test_gap_work_variance_is_the_interpolation_error_of_white_noise():
@@ -63,7 +70,7 @@ def test_gap_work_variance_is_the_interpolation_error_of_white_noise():
     keep[1000:19000:1000] = False
     phi, u = speed * t[keep], rng.normal(0.0, sigma, t.size)[keep]
     log = Log(t=t[keep], phi=phi, torque=u)
-    _, variance = gap_work(log, _smoothed(t[keep], phi, np.full(phi.size, speed)), 1 / dt)
+    _, _, variance = gap_work(log, _smoothed(t[keep], phi, np.full(phi.size, speed)), 1 / dt)
     expected = 18 * 1.5 * sigma**2 * (speed * dt) ** 2
     assert variance[-1] == pytest.approx(expected, rel=0.05)
 

@@ -183,9 +183,12 @@ def test_torque_gain_logs_the_command_and_applies_command_over_gain(device, virt
     run = vd.simulate_braking(device, 1, dataclasses.replace(virtual, rig=Rig(gain)), direction)
     s = 1.0 if direction == "forward" else -1.0
     np.testing.assert_array_equal(run.log.torque, -s * st.braking_torque)
-    np.testing.assert_array_equal(run.log.torque, gain * run.truth.torque)
+    # The body receives the command times h_b = 1 / gain (rounding aside, command / gain).
+    h_b = Rig(gain).drive_gains[1]
+    assert h_b == 1 / gain
+    np.testing.assert_array_equal(run.truth.torque, -s * st.braking_torque * h_b)
     # Physically, a braking torque of braking_torque / gain on an exact rig.
-    weaker = dataclasses.replace(st, braking_torque=st.braking_torque / gain)
+    weaker = dataclasses.replace(st, braking_torque=st.braking_torque * h_b)
     exact = dataclasses.replace(device, stages=(weaker, *device.stages[1:]))
     assert_same_truth(run, vd.simulate_braking(exact, 1, virtual, direction))
 

@@ -1,0 +1,166 @@
+"""The rig's transducers: the angle encoder's reading error and the drive's transmission, the
+two imperfections that act on every pass (docs/method.md §3, "Encoder and drive").
+
+**Encoder.** A real encoder reads phi_r = phi + e(phi), e periodic in the encoder's angle (an
+eccentric disc or ring, bearing runout, graduation errors). Its harmonic series,
+
+    e(phi) = sum_n c_n cos(n phi) + s_n sin(n phi),      n = 1 .. N,
+
+is linear in the coefficients theta_e = [c_1, s_1, c_2, s_2, ...] (rad): :func:`error_basis`
+gives the columns, :func:`error_slope_basis` their derivative e'(phi). The simulator reads
+floor((phi + e(phi)) / q) q (:func:`encoder_reading`); the estimators take the reading back
+to the true angle (:func:`true_angle`). An error curve stated as an amplitude and a phase per
+order, e = sum_n A_n sin(n phi + p_n), has c_n = A_n sin p_n and s_n = A_n cos p_n
+(:func:`error_coefficients`).
+
+**Drive.** The logged torque tau is the motor's. Between motor and body a transmission loses
+a fraction of the power it carries: while the motor drives the body (tau Omega > 0) the body
+receives eta_d tau; while the body drives the motor back (tau Omega < 0) the body must give
+tau / eta_b. With the torque constant's gain g (logged = g x the motor's actual torque),
+the body receives h_d tau or h_b tau (:func:`drive_gains`),
+
+    h_d = eta_d / g,       h_b = 1 / (eta_b g),
+
+by the direction of power flow (:func:`power_flow_split`, the one place the split is made:
+the simulator's :func:`delivered_torque` and the estimators' split of the logged work both
+call it). Only h_d and h_b enter any work-energy balance: the torque constant and the two
+efficiencies are not separable by such a measurement, only their two combinations are.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = [
+    "angle_error",
+    "delivered_torque",
+    "drive_gains",
+    "encoder_reading",
+    "error_basis",
+    "error_coefficients",
+    "error_slope_basis",
+    "logged_torque",
+    "power_flow_split",
+    "true_angle",
+]
+
+
+def error_basis(phi, orders: int) -> np.ndarray:
+    """de/dtheta_e at each angle: columns cos(phi), sin(phi), cos(2 phi), ... sin(orders phi),
+    shape phi.shape + (2 orders,) (module docstring)."""
+    phi = np.asarray(phi, dtype=float)
+    n = np.arange(1, orders + 1)
+    angle = phi[..., None] * n
+    out = np.empty(phi.shape + (2 * orders,))
+    out[..., 0::2] = np.cos(angle)
+    out[..., 1::2] = np.sin(angle)
+    return out
+
+
+def error_slope_basis(phi, orders: int) -> np.ndarray:
+    """de'/dtheta_e, e' = de/dphi: columns -n sin(n phi), n cos(n phi), shape as
+    :func:`error_basis`."""
+    phi = np.asarray(phi, dtype=float)
+    n = np.arange(1, orders + 1)
+    angle = phi[..., None] * n
+    out = np.empty(phi.shape + (2 * orders,))
+    out[..., 0::2] = -n * np.sin(angle)
+    out[..., 1::2] = n * np.cos(angle)
+    return out
+
+
+def angle_error(phi, coefficients) -> np.ndarray:
+    """e(phi), rad: the encoder's reading error at true angle ``phi`` (rad) for coefficients
+    theta_e = [c_1, s_1, c_2, s_2, ...] (module docstring)."""
+    coefficients = np.asarray(coefficients, dtype=float)
+    if coefficients.size == 0:
+        return np.zeros(np.shape(phi))
+    return error_basis(phi, coefficients.size // 2) @ coefficients
+
+
+def error_coefficients(amplitude, phase_deg) -> np.ndarray:
+    """theta_e of e = sum_n A_n sin(n phi + p_n): c_n = A_n sin p_n, s_n = A_n cos p_n."""
+    amplitude = np.asarray(amplitude, dtype=float)
+    phase = np.radians(np.asarray(phase_deg, dtype=float))
+    out = np.empty(2 * amplitude.size)
+    out[0::2] = amplitude * np.sin(phase)
+    out[1::2] = amplitude * np.cos(phase)
+    return out
+
+
+def encoder_reading(phi, quantum: float, coefficients=()) -> np.ndarray | float:
+    """What the encoder reads at true angle ``phi``: floor((phi + e(phi)) / q) q (docs/files.md,
+    logs); e = 0 without ``coefficients``."""
+    if np.ndim(phi) == 0:  # one sample (a drive's loop): plain numbers, fast
+        phi = float(phi)
+        error = sum(
+            coefficients[2 * k] * math.cos((k + 1) * phi)
+            + coefficients[2 * k + 1] * math.sin((k + 1) * phi)
+            for k in range(len(coefficients) // 2)
+        )
+        return math.floor((phi + error) / quantum) * quantum
+    phi = np.asarray(phi, dtype=float)
+    if len(coefficients):
+        phi = phi + angle_error(phi, coefficients)
+    return np.floor(phi / quantum) * quantum
+
+
+def true_angle(reading, coefficients) -> np.ndarray:
+    """The true angle phi whose reading is ``reading``: phi + e(phi) = reading, solved by
+    fixed-point iteration (|e'| << 1: each step gains the factor |e'|, so four steps leave
+    (|e'|)^4 of e, far below rounding for any real encoder)."""
+    reading = np.asarray(reading, dtype=float)
+    coefficients = np.asarray(coefficients, dtype=float)
+    if coefficients.size == 0 or not np.any(coefficients):
+        return reading
+    phi = reading - angle_error(reading, coefficients)
+    for _ in range(3):
+        phi = reading - angle_error(phi, coefficients)
+    return phi
+
+
+def drive_gains(
+    torque_gain: float = 1.0, efficiency_driving: float = 1.0, efficiency_backdriven: float = 1.0
+) -> tuple[float, float]:
+    """(h_d, h_b): the torque the body receives per unit of logged torque while the motor
+    drives it, and while the body drives the motor back (module docstring)."""
+    return efficiency_driving / torque_gain, 1.0 / (efficiency_backdriven * torque_gain)
+
+
+def _back_driven(torque, motion):
+    """Where the body drives the motor back: torque x motion < 0 (numbers or arrays)."""
+    return torque * motion < 0.0
+
+
+def power_flow_split(torque, motion) -> tuple[np.ndarray, np.ndarray]:
+    """``torque`` split by the direction of power flow: (its driving part, where torque x motion
+    >= 0, and its back-driven part, where torque x motion < 0); the two add up to ``torque``.
+
+    ``motion`` is the sign of the speed, or an angle increment (its sign is the direction).
+    Where nothing moves (motion 0) the torque counts as driving: it does no work anyway, and
+    a drive that starts a body from rest drives it.
+    """
+    torque = np.asarray(torque, dtype=float)
+    back = _back_driven(torque, np.asarray(motion, dtype=float))
+    return np.where(back, 0.0, torque), np.where(back, torque, 0.0)
+
+
+def delivered_torque(command, motion, gains: tuple[float, float]) -> np.ndarray | float:
+    """The torque the body receives, N m, for the logged ``command`` (N m) while it moves in
+    direction ``motion`` (sign): h_d x the driving part + h_b x the back-driven part."""
+    if np.ndim(command) == 0 and np.ndim(motion) == 0:  # one sample: plain numbers, fast
+        return float(command) * (gains[1] if _back_driven(command, motion) else gains[0])
+    driving, back = power_flow_split(command, motion)
+    return gains[0] * driving + gains[1] * back
+
+
+def logged_torque(torque, motion, gains: tuple[float, float]) -> np.ndarray | float:
+    """The logged command, N m, that makes the body receive ``torque`` (N m) while it moves in
+    direction ``motion``: the inverse of :func:`delivered_torque` (both gains are positive, so
+    the command has the torque's sign and the same split applies)."""
+    if np.ndim(torque) == 0 and np.ndim(motion) == 0:
+        return float(torque) / (gains[1] if _back_driven(torque, motion) else gains[0])
+    driving, back = power_flow_split(torque, motion)
+    return driving / gains[0] + back / gains[1]
