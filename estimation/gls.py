@@ -17,9 +17,19 @@ way:
   regulator's jitter). A run's own fit can absorb a systematic misfit into that scale, so
   the runs are also checked against each other (rsp_inertia.estimation.model_tests);
 - **known terms**: the right-hand side may depend on calibrated parameters theta (their
-  covariance known); their share of the estimate's covariance is K B cov(theta) B^T K^T,
-  K the GLS gain and B = d rhs / d theta;
-- **budget**: the covariance of the estimate split by independent noise source.
+  calibration's estimate and covariance known, B = d rhs / d theta). They join the unknowns
+  with their calibration as a prior: theta = theta_cal + S z, S a square root of cov(theta)
+  and z ~ N(0, I) a priori (one pseudo-equation z = 0 each), so that the runs refine theta
+  where they carry information on it (the drive's gains through the friction's share of the
+  work, the encoder's error through its harmonics) and the estimate's covariance holds the
+  calibration's uncertainty; where the runs know nothing of theta this is the linear
+  propagation K B cov(theta) B^T K^T, K the GLS gain;
+- **budget**: the covariance of the estimate split by independent noise source: each torque
+  log, the encoder's speed noise, and the calibration by groups of theta (S is the Cholesky
+  factor in the groups' order, so each group's line is what it adds to the ones before);
+- **probes**: a block may declare the columns a suspected cause would add (a drive's loss,
+  an encoder's error); the model tests say whether the runs call for them
+  (rsp_inertia.estimation.model_tests).
 """
 
 from __future__ import annotations
@@ -72,6 +82,11 @@ class Block:
     """Unknown name -> its column per unit of M(phi): the column is M(phi) times this, M from
     a first pass without these unknowns (an encoder coefficient's, whose effect on the balance
     is proportional to the kinetic energy)."""
+    probes: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
+    """Cause -> {name: column} of the terms a suspected cause would add to the equations
+    (rsp_inertia.estimation.model_tests probe tests)."""
+    probes_per_inertia: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
+    """The same for columns per unit of M(phi) (the first pass's M times these)."""
     groups: dict[str, str] = field(default_factory=dict)
     """Unknown name -> group label (e.g. the run) for the consistency tests."""
     fixed_in_tests: frozenset[str] = frozenset()
@@ -106,6 +121,11 @@ class BalanceFit:
     """The consistency tests, when blocks declare groups."""
     labels: list[str] = field(default_factory=list)
     """Per block, its label."""
+    known_shift: np.ndarray | None = None
+    """theta - theta_cal: how far the runs move the calibrated terms from their calibration
+    (module docstring, known terms); None without known terms."""
+    known_shift_cov: np.ndarray | None = None
+    """Covariance of theta after the runs (the calibration's and theirs together)."""
 
     def index(self, name: str) -> int:
         """Position of unknown ``name``."""
@@ -211,11 +231,34 @@ def _known_jacobian(block: Block, M: np.ndarray, p: int) -> np.ndarray:
     return B
 
 
+def _prior_root(cov: np.ndarray, groups: dict[str, list[int]]) -> tuple[np.ndarray, list[str]]:
+    """(S, group of each column): cov = S S^T, S lower-triangular in the groups' order
+    (Cholesky), the parameters of zero variance left out (their columns dropped).
+
+    Each group's columns carry what that group adds to the groups before it, so their shares
+    of an estimate's variance add up to the whole (module docstring, budget). The factor is
+    taken of the correlation matrix, with a relative ridge of 1e-12 (parameters of very
+    different units, some fully correlated).
+    """
+    order = [(name, i) for name, indices in groups.items() for i in indices if cov[i, i] > 0]
+    p = cov.shape[0]
+    if not order:
+        return np.zeros((p, 0)), []
+    idx = [i for _, i in order]
+    d = np.sqrt(np.diag(cov)[idx])
+    corr = cov[np.ix_(idx, idx)] / np.outer(d, d)
+    L = np.linalg.cholesky(corr + 1e-12 * np.eye(len(idx)))
+    S = np.zeros((p, len(idx)))
+    S[idx] = d[:, None] * L
+    return S, [name for name, _ in order]
+
+
 def solve_blocks(
     blocks: list[Block],
     known_cov: np.ndarray | None = None,
     predict: bool = False,
     tests: bool = True,
+    known_groups: dict[str, list[int]] | None = None,
 ) -> BalanceFit:
     """Generalised least squares over the blocks, with the model tests (module docstring).
 
@@ -228,7 +271,7 @@ def solve_blocks(
         One per run.
     known_cov : array, shape (p, p), optional
         Covariance of the calibrated parameters theta that the blocks' ``known_jacobian``
-        refers to.
+        refers to (module docstring: they join the unknowns with this prior).
     predict : bool
         The blocks hold noise-free balances of a planned run (rsp_inertia.estimation.predict): the
         covariance is the noise model's as it stands (every speed-noise scale 1, no
@@ -236,6 +279,9 @@ def solve_blocks(
     tests : bool
         Make the model tests (False: the estimate and its covariance only, as a rehearsal of
         a plan needs).
+    known_groups : dict of str to list of int, optional
+        Budget lines of theta: name -> its indices, in the order the budget adds them
+        (default: one line, CALIBRATION_SOURCE, for all of theta).
     """
     names = list(dict.fromkeys(name for block in blocks for name in block.columns))
     y = np.concatenate([block.rhs for block in blocks])
@@ -259,6 +305,23 @@ def solve_blocks(
         )
     work_cov = [b + r for b, r in work_parts]
 
+    # Calibrated terms: unknowns z with the prior z = 0 +- 1 (module docstring, known terms).
+    N = np.zeros((len(y), 0))
+    prior_groups: list[str] = []
+    p = 0 if known_cov is None else known_cov.shape[0]
+    if p and any(
+        b.known_jacobian is not None or b.known_jacobian_inertia is not None for b in blocks
+    ):
+        B = np.vstack([_known_jacobian(b, M, p) for b, M in zip(blocks, inertia)])
+        groups = known_groups or {CALIBRATION_SOURCE: list(range(p))}
+        S, prior_groups = _prior_root(known_cov, groups)
+        N = -B @ S  # rhs(theta_cal + S z) = rhs + B S z: on the unknowns' side, -B S z
+    else:
+        S = None
+    q = N.shape[1]
+    A_all = np.hstack([A, N])
+    n_x = A.shape[1]
+
     def run_scales(y_own: np.ndarray) -> list[float]:
         """Each run's own fit (its own unknowns, joint-only ones left out) sets its scale."""
         scales = []
@@ -272,44 +335,50 @@ def solve_blocks(
 
     def joint_fit(scales: list[float]):
         factors = cholesky_factors([w + s * v for w, v, s in zip(work_cov, speed_var, scales)])
-        Aw, yw = whiten(A, factors), whiten(y, factors)
+        Aw, yw = whiten(A_all, factors), whiten(y, factors)
+        if q:  # the prior's pseudo-equations z = 0, unit weight
+            Aw = np.vstack([Aw, np.hstack([np.zeros((q, n_x)), np.eye(q)])])
+            yw = np.concatenate([yw, np.zeros(q)])
         return factors, Aw, yw, *_weighted_solution(Aw, yw)
 
     scales = [1.0] * len(blocks) if predict else run_scales(y)
     factors, Aw, yw, x, cov_x = joint_fit(scales)
     joint = [j for j, name in enumerate(names) if any(name in b.joint_only for b in blocks)]
-    if joint and not predict:
-        # The joint-only terms, now known, are taken off each run's own fit, whose speed-noise
-        # scale they would otherwise inflate; then the joint fit again with those scales.
-        scales = run_scales(y - A[:, joint] @ x[joint])
+    if (joint or q) and not predict:
+        # The joint-only terms and the calibrated ones, now known, are taken off each run's
+        # own fit, whose speed-noise scale they would otherwise inflate; then the joint fit
+        # again with those scales.
+        scales = run_scales(y - A[:, joint] @ x[joint] - N @ x[n_x:])
         factors, Aw, yw, x, cov_x = joint_fit(scales)
+    n_data = len(y)
     r = yw - Aw @ x
-    dof = max(len(y) - A.shape[1], 1)
+    dof = max(n_data - n_x, 1)
     chi2_dof = float(r @ r / dof)
     sources = {
         NOISE_SOURCES[0]: [b for b, _ in work_parts],
         NOISE_SOURCES[1]: [r_ for _, r_ in work_parts],
         NOISE_SOURCES[2]: [s * v for s, v in zip(scales, speed_var)],
     }
-    # Whatever the noise model leaves unexplained in the joint fit inflates the covariance.
+    # Whatever the noise model leaves unexplained in the joint fit inflates the covariance
+    # (of the runs' noise: the calibration's prior is what it is).
     inflation = 1.0 if predict else max(chi2_dof, 1.0)
+    Aw_data = Aw[:n_data]
     cov_parts = {
-        name: _budget(Aw, factors, parts, cov_x) * inflation for name, parts in sources.items()
+        name: _budget(Aw_data, factors, parts, cov_x)[:n_x, :n_x] * inflation
+        for name, parts in sources.items()
     }
-    cov = cov_x * inflation
-    nuisance = None
-    if known_cov is not None and any(b.known_jacobian is not None for b in blocks):
-        p = known_cov.shape[0]
-        B = np.vstack([_known_jacobian(b, M, p) for b, M in zip(blocks, inertia)])
-        gain = cov_x @ Aw.T @ whiten(B, factors)  # dx / dtheta
-        cov_parts[CALIBRATION_SOURCE] = gain @ known_cov @ gain.T
-        cov = cov + cov_parts[CALIBRATION_SOURCE]
-        # For the tests, the calibrated terms are unknowns with their calibration as prior:
-        # their errors are common to all runs and would otherwise pass for a disagreement.
-        lam, U = np.linalg.eigh(known_cov)
-        live = lam > lam.max() * 1e-12 if lam.max() > 0 else np.zeros(len(lam), bool)
-        if live.any():
-            nuisance = (B @ (U[:, live] * np.sqrt(lam[live])), int(live.sum()))
+    for name in dict.fromkeys(prior_groups):  # each group's pseudo-equations
+        rows_g = n_data + np.array([j for j, g in enumerate(prior_groups) if g == name])
+        P = Aw[rows_g]
+        cov_parts[name] = (cov_x @ P.T @ P @ cov_x)[:n_x, :n_x]
+    cov = sum(cov_parts.values())
+    nuisance = (N, q) if q else None
+    known_shift = known_shift_cov = None
+    if S is not None:
+        known_shift = S @ x[n_x:]
+        known_shift_cov = S @ cov_x[n_x:, n_x:] @ S.T
+    x = x[:n_x]
+    probes = _probe_matrices(blocks, inertia)
 
     return BalanceFit(
         names=names,
@@ -322,9 +391,37 @@ def solve_blocks(
         tests=(
             []
             if predict or not tests
-            else run_model_tests(blocks, names, A, y, x, factors, nuisance)
+            else run_model_tests(blocks, names, A, y, x, factors, nuisance, probes)
         ),
         labels=[block.label for block in blocks],
+        known_shift=known_shift,
+        known_shift_cov=known_shift_cov,
     )
+
+
+def _probe_matrices(blocks: list[Block], inertia: list[np.ndarray]) -> dict[str, np.ndarray]:
+    """Cause -> the stacked columns its probe adds (Block.probes, and probes_per_inertia
+    times each block's M), zeros in the blocks that do not declare it."""
+    causes = list(
+        dict.fromkeys(c for b in blocks for c in (*b.probes, *b.probes_per_inertia))
+    )
+    out = {}
+    for cause in causes:
+        names = list(
+            dict.fromkeys(
+                n
+                for b in blocks
+                for n in (*b.probes.get(cause, {}), *b.probes_per_inertia.get(cause, {}))
+            )
+        )
+        rows = []
+        for block, M in zip(blocks, inertia):
+            cols = dict(block.probes.get(cause, {}))
+            for name, col in block.probes_per_inertia.get(cause, {}).items():
+                cols[name] = M * col
+            n = len(block.rhs)
+            rows.append(np.column_stack([cols.get(name, np.zeros(n)) for name in names]))
+        out[cause] = np.vstack(rows)
+    return out
 
 

@@ -12,6 +12,18 @@ fast and slow turns, alike: friction that differs between the directions of rota
 work grows with speed), a wrong spring or gear ratio, a torque gain that differs between
 runs.
 
+Probes. A suspected cause with a known signature (rsp_inertia.estimation.gls Block.probes)
+is tested the same way: its columns added to the joint model, the chi^2 drop against its
+rank. A drive that loses power by its direction of flow scales the driving and the
+back-driven work differently, a signature no tensor and no gain can take up (the friction's
+share of the work changes from turn to turn and between stages); an encoder's reading error
+scales the kinetic energy by 1 + 2 e'(phi), at harmonics of the angle whose size grows with
+the whole M, where the body's harmonics do not. Each probe test is one more test of the
+family (Bonferroni), and its fitted terms (``estimate``) are what the warning reports. A
+wrong model takes up any column it is offered, so each probe is tested given the others (its
+columns added to a model that has theirs): with an encoder's error alone, the drive's probe
+explains nothing the encoder's does not, and the other way round.
+
 A smooth regressor per run (a drift in the angle, the shape of friction work) is no test
 here: the kinetic energy along the braking is itself such a smooth function, so it would
 stand in for the noisy measured speeds and reject every run. Nor is a per-node term (M let
@@ -28,7 +40,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.stats import chi2
 
-from rsp_inertia.estimation.whitening import weighted_chi2
+from rsp_inertia.estimation.whitening import weighted_chi2, whiten
 
 if TYPE_CHECKING:
     from rsp_inertia.estimation.gls import Block
@@ -59,6 +71,13 @@ class ModelTest:
     """P(chi^2_dof >= statistic) under the model."""
     significant: bool
     """p_value below the family-wise level (Bonferroni over the fit's tests)."""
+    estimate: np.ndarray | None = None
+    """A probe test's fitted terms (the probe's columns' coefficients), else None."""
+    estimate_cov: np.ndarray | None = None
+    """Their covariance."""
+    detail: str = ""
+    """What the fitted terms mean, in words and numbers, for the warning (set by the code
+    that knows the physics of the probe, rsp_inertia.estimation.tensor)."""
 
     def to_json(self) -> dict:
         """The result.json entry."""
@@ -72,38 +91,77 @@ class ModelTest:
         }
 
 
-def run_model_tests(blocks, names, A, y, x, factors, nuisance=None) -> list[ModelTest]:
-    """The three tests (between runs, early against late turns, per turn) of a joint fit.
+def run_model_tests(
+    blocks, names, A, y, x, factors, nuisance=None, probes=None
+) -> list[ModelTest]:
+    """The three tests (between runs, early against late turns, per turn) of a joint fit, and
+    one per probe.
 
     ``names``, ``A``, ``y``: the stacked equations of ``blocks``, ``x`` their joint estimate,
     ``factors`` the Cholesky factors of their covariance (rsp_inertia.estimation.whitening);
     the unknowns of ``fixed_in_tests`` are held at ``x``. ``nuisance``: see
-    :func:`_consistency`.
+    :func:`_consistency`. ``probes``: cause -> the columns it would add (module docstring).
     """
     found_tests = []
+    fixed = [j for j, n in enumerate(names) if any(n in b.fixed_in_tests for b in blocks)]
+    kept = [j for j in range(len(names)) if j not in fixed]
+    y_kept = y - A[:, fixed] @ x[fixed]
     splits = ((None, "consistency"), ("halves", "early/late"), ("turns", "per turn"))
     for split, kind in splits:
-        fixed = [j for j, n in enumerate(names) if any(n in b.fixed_in_tests for b in blocks)]
-        kept = [j for j in range(len(names)) if j not in fixed]
         found = _consistency(
-            blocks,
-            [names[j] for j in kept],
-            A[:, kept],
-            y - A[:, fixed] @ x[fixed],
-            factors,
-            split,
-            nuisance,
+            blocks, [names[j] for j in kept], A[:, kept], y_kept, factors, split, nuisance
         )
         if found is not None:
-            found_tests.append(((kind, found[0]), found[1], found[2]))
+            found_tests.append(((kind, found[0]), found[1], found[2], None))
+    probes = probes or {}
+    for cause, columns in probes.items():
+        # Given the other probes: a wrong model takes up any new column, so a cause is named
+        # only for what the others cannot explain (module docstring).
+        others = [cols for other, cols in probes.items() if other != cause]
+        base = np.hstack([A[:, kept], *others])
+        found = _probe(base, columns, y_kept, factors, nuisance)
+        if found is not None:
+            found_tests.append(((cause, cause), *found))
     level = TEST_ALPHA / max(len(found_tests), 1)
     model_tests = []
-    for (kind, label), stat, dof_ in found_tests:
+    for (kind, label), stat, dof_, fitted in found_tests:
         p_value = float(chi2.sf(max(stat, 0.0), dof_))
+        estimate, estimate_cov = (None, None) if fitted is None else fitted
         model_tests.append(
-            ModelTest(kind, label, float(stat), int(dof_), p_value, p_value < level)
+            ModelTest(
+                kind, label, float(stat), int(dof_), p_value, p_value < level,
+                estimate, estimate_cov,
+            )
         )
     return model_tests
+
+
+def _with_nuisance(A, y, factors, nuisance):
+    """Equations with the calibrated terms' standardised errors as unknowns with the prior
+    N(0, 1) (:func:`_consistency`)."""
+    if nuisance is None:
+        return A, y, list(factors), 0
+    B, p = nuisance
+    A = np.vstack([np.hstack([A, B]), np.hstack([np.zeros((p, A.shape[1])), np.eye(p)])])
+    return A, np.concatenate([y, np.zeros(p)]), list(factors) + [np.eye(p)], p
+
+
+def _probe(A, columns, y, factors, nuisance):
+    """(chi^2 drop, dof, (estimate, covariance)) when the probe's ``columns`` join the joint
+    model's unknowns; None if they add nothing to its rank."""
+    base, y_aug, factors_aug, p = _with_nuisance(A, y, factors, nuisance)
+    extra = np.vstack([columns, np.zeros((p, columns.shape[1]))])
+    joint, rank_joint, _ = weighted_chi2(base, y_aug, factors_aug)
+    freed = np.hstack([base, extra])
+    free, rank_free, _ = weighted_chi2(freed, y_aug, factors_aug)
+    dof = rank_free - rank_joint
+    if dof <= 0:
+        return None
+    Aw = whiten(freed, factors_aug)
+    cov = np.linalg.pinv(Aw.T @ Aw)
+    estimate = np.linalg.lstsq(Aw, whiten(y_aug, factors_aug), rcond=None)[0]
+    k = columns.shape[1]
+    return joint - free, dof, (estimate[-k:], cov[-k:, -k:])
 
 
 def _consistency(
@@ -134,12 +192,8 @@ def _consistency(
         [np.column_stack([cols.get(k, np.zeros(n)) for k in free_names]) for cols, n in parts]
     )
     if nuisance is not None:
-        B, p = nuisance
-        A, A_free = np.hstack([A, B]), np.hstack([A_free, B])
-        prior = [np.hstack([np.zeros((p, M.shape[1] - p)), np.eye(p)]) for M in (A, A_free)]
-        A, A_free = np.vstack([A, prior[0]]), np.vstack([A_free, prior[1]])
-        y = np.concatenate([y, np.zeros(p)])
-        factors = list(factors) + [np.eye(p)]
+        A_free, _, _, _ = _with_nuisance(A_free, y, factors, nuisance)
+        A, y, factors, _ = _with_nuisance(A, y, factors, nuisance)
     joint, rank_joint, _ = weighted_chi2(A, y, factors)
     free, rank_free, _ = weighted_chi2(A_free, y, factors)
     dof = rank_free - rank_joint
@@ -179,6 +233,12 @@ def model_warnings(tests: list[ModelTest], scales: list[float], labels: list[str
             )
     for test in tests:
         if not test.significant:
+            continue
+        if test.detail:  # a probe: the cause is named, with what the runs say of it
+            warnings.append(
+                f"{test.kind}: {test.detail}; chi2 = {test.statistic:.3g} for {test.dof} "
+                f"term(s), p = {test.p_value:.2g}: the result may be off by more than its std"
+            )
             continue
         warnings.append(
             f"the balances do not close: {test.label} disagree beyond their noise (chi2 = "

@@ -25,7 +25,8 @@ the model tests and the uncertainty budget: rsp_inertia.estimation.gls.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import math
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -110,6 +111,21 @@ class TensorFit:
 HARMONIC_NAMES = ("M0", "Mc2", "Ms2", "Ms1", "Mc1")
 """Names of the harmonics of M(phi) (rsp_inertia.plant.model.inertia_harmonics), in order."""
 
+DRIVE_SOURCE = "calibration: drive gains"
+"""Budget line of the drive's calibrated gains h_d, h_b."""
+ENCODER_SOURCE = "calibration: encoder error"
+"""Budget line of the encoder's calibrated error harmonics."""
+EMPTY_SOURCE = "calibration: tare and fixture"
+"""Budget line of the empty system's calibrated harmonics and the fixture's gravity."""
+
+DRIVE_PROBE = "drive loss"
+"""The model test of a drive that loses power by its direction of flow (probe kind)."""
+ENCODER_PROBE = "encoder error"
+"""The model test of a periodic error of the encoder's reading (probe kind)."""
+PROBE_ORDERS = 3
+"""Orders of the encoder's error the probe looks for (rsp_inertia.estimation.calibration
+ENCODER_ORDERS: orders 1 and 2 bias the tensor, order 3 is still measurable)."""
+
 
 @dataclass(frozen=True)
 class KnownTerms:
@@ -170,9 +186,7 @@ class KnownTerms:
         for s in range(1, len(self.inertia) + 1):
             names += [f"{h}[{s}]" for h in HARMONIC_NAMES]
         names += ["Gs", "Gc"]
-        for n in range(1, self.orders + 1):
-            names += [f"c{n}", f"s{n}"]
-        return names
+        return names + _encoder_names(self.orders)
 
     def harmonics_slice(self, stage: int) -> slice:
         """theta's entries of the empty system's harmonics of stage ``stage`` (from 1)."""
@@ -246,6 +260,17 @@ class KnownTerms:
             "encoder_error_std": [float(v) for v in std[encoder]],
         }
 
+    def budget_groups(self) -> dict[str, list[int]]:
+        """Budget lines of theta (rsp_inertia.estimation.gls), in the order they are added:
+        the drive's gains, the encoder's error, the tare and fixture."""
+        n = self.cov.shape[0]
+        groups = {
+            DRIVE_SOURCE: [0, 1],
+            ENCODER_SOURCE: list(range(n)[self.encoder_slice]),
+            EMPTY_SOURCE: list(range(2, self.gravity_slice.stop)),
+        }
+        return {name: indices for name, indices in groups.items() if indices}
+
     def round_trip_std(self) -> float:
         """Std of the round-trip efficiency h_d / h_b = eta_d eta_b (first order)."""
         g = np.zeros(self.cov.shape[0])
@@ -272,6 +297,49 @@ class KnownTerms:
         B = np.zeros((len(bal.phi), self.cov.shape[0]))
         B[:, self.encoder_slice] = encoder_columns(bal, self.orders)
         return B
+
+
+def _encoder_names(orders: int) -> list[str]:
+    """The encoder's coefficients' names, c1, s1, c2, ... (KnownTerms.names)."""
+    return [f"{kind}{n}" for n in range(1, orders + 1) for kind in ("c", "s")]
+
+
+def probe_detail(test: ModelTest, gains: tuple[float, float]) -> str:
+    """What a probe test's fitted terms say, in words and numbers (its warning's text).
+
+    drive loss: the driving work's gain came out h_d + dh_d against h_b's, so the runs call
+    for the round-trip efficiency (h_d + dh_d) / h_b (the common scale of both gains the
+    tensor takes up). encoder error: each order's amplitude sqrt(c_n^2 + s_n^2), first-order
+    std, in arcseconds.
+    """
+    x, cov = test.estimate, test.estimate_cov
+    if test.kind == DRIVE_PROBE:
+        ratio = (gains[0] + x[0]) / gains[1]
+        std = math.sqrt(max(cov[0, 0], 0.0)) / gains[1]
+        return (
+            "the work the drive delivers while it drives the body and while the body drives "
+            "it back do not share one scale: the balances call for a round-trip efficiency "
+            f"h_d / h_b = {ratio:.4f} +- {std:.1g} where {gains[0] / gains[1]:.4f} is applied "
+            "(a transmission that loses power by its direction of flow; rsp-inertia calibrate "
+            "with a reference run measures h_d and h_b)"
+        )
+    if test.kind == ENCODER_PROBE:
+        parts = []
+        for n in range(len(x) // 2):
+            c, s_ = x[2 * n : 2 * n + 2]
+            a = math.hypot(c, s_)
+            g = np.array([c, s_]) / a if a > 0 else np.zeros(2)
+            std = math.sqrt(max(g @ cov[2 * n : 2 * n + 2, 2 * n : 2 * n + 2] @ g, 0.0))
+            arcsec = math.degrees(1.0) * 3600
+            parts.append(f"order {n + 1} {a * arcsec:.2g} +- {std * arcsec:.1g}")
+        return (
+            "the balances carry a periodic error of the encoder's reading: "
+            + ", ".join(parts)
+            + " arcsec (an eccentric or running-out encoder; rsp-inertia calibrate with a "
+            "reference run measures it, or state the maker's certificate in device.toml "
+            "[encoder] error_cos, error_sin, error_std)"
+        )
+    return ""
 
 
 def encoder_columns(bal: StageBalance, orders: int) -> np.ndarray:
@@ -372,6 +440,15 @@ def tensor_block(bal: StageBalance, run: str, known: KnownTerms, asymmetry: bool
         work_scales=bal.work_scales(known.gains),
         known_jacobian=known.jacobian(bal) if known.calibrated else None,
         known_jacobian_inertia=known.jacobian_inertia(bal) if known.calibrated else None,
+        probes={DRIVE_PROBE: {"dh_d": -bal.motor_work_parts[:, 0]}},
+        probes_per_inertia={
+            ENCODER_PROBE: {
+                name: -col
+                for name, col in zip(
+                    _encoder_names(PROBE_ORDERS), encoder_columns(bal, PROBE_ORDERS).T
+                )
+            }
+        },
         groups={name: run_label(bal) for name in ENTRY_KEYS},
         joint_only=frozenset(name for name in cols if name.startswith("e")),
     )
@@ -398,8 +475,18 @@ def fit_tensor(
     both = both_directions(balances)
     blocks = [tensor_block(bal, str(k), known, bal.stage in both) for k, bal in enumerate(balances)]
     fit = solve_blocks(
-        blocks, known.cov if known.calibrated else None, predict=predict, tests=tests
+        blocks,
+        known.cov if known.calibrated else None,
+        predict=predict,
+        tests=tests,
+        known_groups=known.budget_groups(),
     )
+    model_tests = [
+        replace(test, detail=probe_detail(test, known.gains))
+        if test.kind in (DRIVE_PROBE, ENCODER_PROBE)
+        else test
+        for test in fit.tests
+    ]
     shared = [fit.index(name) for name in (*ENTRY_KEYS, "Gs", "Gc")]
     n_runs, stages = len(balances), sorted({bal.stage for bal in balances})
     slope = np.full((n_runs, 2), np.nan)
@@ -433,7 +520,7 @@ def fit_tensor(
         cov_parts={name: part[sub] for name, part in fit.cov_parts.items()},
         friction_asymmetry=asym,
         friction_asymmetry_std=asym_std,
-        tests=fit.tests,
+        tests=model_tests,
         runs=[run_key(bal) for bal in balances],
     )
 

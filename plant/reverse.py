@@ -29,10 +29,19 @@ from rsp_inertia.plant.drive import (
 )
 from rsp_inertia.plant.integrate import BLOCK, advance, step_block, true_pair, true_parameters
 from rsp_inertia.plant.logs import Program
-from rsp_inertia.plant.model import acceleration, motor_torque, reduced_inertia, static_torque
+from rsp_inertia.plant.model import (
+    PARAMETER_NAMES,
+    acceleration,
+    motor_torque,
+    reduced_inertia,
+    static_torque,
+)
 from rsp_inertia.plant.transducers import delivered_torque, logged_torque
 
 __all__ = ["IDEAL_BANDWIDTH", "ideal_program", "run_program", "simulate_ideal_reverse"]
+
+_COULOMB = PARAMETER_NAMES.index("a1")
+"""Index of a1 in the parameter vector: the static friction at rest."""
 
 IDEAL_BANDWIDTH = 5.0
 """rad/s: closed-loop bandwidth of the ideal reverse's feedback (it only mops up the
@@ -160,9 +169,8 @@ def run_program(
         if ideal:  # u is the torque the body receives; the log has the command that gives it
             motion = _motion(x, u, pair)
             applied[k], commands[k] = u, logged_torque(u, motion, gains)
-        else:  # u is the command; from rest, the body moves where the command would drive it
-            motion = _motion(x, delivered_torque(u, u, gains), pair)
-            applied[k], commands[k] = delivered_torque(u, motion, gains), u
+        else:  # u is the command
+            applied[k], commands[k] = _received(x, u, gains, pair), u
         physical = applied[k]
         u_prev = u
         h_prev = float(steps[k])
@@ -180,11 +188,34 @@ def run_program(
 
 
 def _motion(x: np.ndarray, torque: float, pair) -> float:
-    """The direction the body moves in over the next sample: its speed's sign, or from rest
-    the sign of the net torque (``torque`` less the static one; 0 if they balance)."""
+    """The direction the body moves in over the next sample under the torque it receives:
+    its speed's sign, or from rest the sign of the net torque (``torque`` less the static
+    one; 0 if they balance)."""
     if x[1] != 0.0:
         return math.copysign(1.0, x[1])
     return float(np.sign(torque - static_torque(x[0], pair[0])))
+
+
+def _received(x: np.ndarray, command: float, gains: tuple[float, float], pair) -> float:
+    """The torque the body receives over the next sample for the drive's ``command``.
+
+    Moving, h_d or h_b times the command by the direction of power flow
+    (rsp_inertia.plant.transducers.delivered_torque). From rest the body moves in the
+    direction d whose delivered torque (h_d u if d is the command's, h_b u against it) beats
+    the static torque and the static friction in d: at most one does, h_b >= h_d. If neither
+    does, the body stays, and the transmission passes whatever torque between h_d u and h_b u
+    holds it (a lossy transmission self-locks when h_d u < static torque < h_b u); outside
+    that band the nearer bound, the rest held by static friction.
+    """
+    if x[1] != 0.0:
+        return delivered_torque(command, math.copysign(1.0, x[1]), gains)
+    static = float(static_torque(x[0], pair[0]))
+    for d, p in ((1.0, pair[0]), (-1.0, pair[1])):
+        torque = delivered_torque(command, d, gains)
+        if d * (torque - static) > p[_COULOMB]:
+            return torque
+    low, high = sorted((gains[0] * command, gains[1] * command))
+    return min(max(static, low), high)
 
 
 def ideal_program(

@@ -158,10 +158,17 @@ def test_calibration_makes_the_result_true(rig, capsys):
     J = np.array([a.J for a in result.axes])
     J_std = np.array([a.J_std for a in result.axes])
     assert np.all(np.abs(J - J_true) < 3 * J_std)
-    # The calibration's share is its own line of the budget, and here the largest.
+    # The calibration's share is in lines of its own (drive gains, encoder error, tare and
+    # fixture), together here the largest; all the lines' variances add up to the total.
     budget = result.std_budget
-    assert "calibration" in budget
-    assert np.all(budget["calibration"]["axes"] > budget["encoder (speed)"]["axes"])
+    lines = [name for name in budget if name.startswith("calibration: ")]
+    assert set(lines) == {
+        "calibration: drive gains", "calibration: encoder error", "calibration: tare and fixture"
+    }
+    calibration = np.sqrt(sum(budget[name]["axes"] ** 2 for name in lines))
+    assert np.all(calibration > budget["encoder (speed)"]["axes"])
+    total = np.sqrt(sum(part["axes"] ** 2 for part in budget.values()))
+    np.testing.assert_allclose(total, J_std, rtol=1e-6)
 
 
 def test_calibration_folder_with_other_stages_is_refused(rig, tmp_path, capsys):

@@ -88,6 +88,15 @@ mass = 4.0                   # kg; with it, identify reports the centre of mass
 
 DEVICE_TOML = DEVICE_HEAD + STAGE_1 + STAGE_2 + DEVICE_BODY
 
+SAMPLE_RATE = "sample_rate = 1000.0         # Hz\n"
+
+CERTIFICATE = """\
+error_cos = [2.0e-5, -5.0e-6]   # rad: e = sum c_n cos(n phi) + s_n sin(n phi)
+error_sin = [1.5e-5, 3.0e-6]
+error_std = [2.0e-6, 1.0e-6]
+"""
+"""The [encoder] keys of a maker's certificate of the reading error, orders 1 and 2."""
+
 VIRTUAL_TOML = """\
 [body]
 mass = 4.0
@@ -287,6 +296,49 @@ DEVICE_FAULTS = [
         id="missing table",
     ),
     pytest.param("[motor]", "[motor", "line", "invalid TOML", id="bad TOML syntax"),
+    # The encoder's certificate: sine and cosine coefficients of each order come in pairs.
+    pytest.param(
+        SAMPLE_RATE,
+        SAMPLE_RATE + "error_sin = [1.5e-5]\n",
+        "encoder.error_sin",
+        "needs encoder.error_cos",
+        id="error_sin without error_cos",
+    ),
+    pytest.param(
+        SAMPLE_RATE,
+        SAMPLE_RATE + "error_cos = [2.0e-5]\n",
+        "encoder.error_sin",
+        "missing: encoder.error_cos needs it",
+        id="error_cos without error_sin",
+    ),
+    pytest.param(
+        SAMPLE_RATE,
+        SAMPLE_RATE + "error_std = [2.0e-6]\n",
+        "encoder.error_std",
+        "needs encoder.error_cos",
+        id="error_std without error_cos",
+    ),
+    pytest.param(
+        SAMPLE_RATE,
+        SAMPLE_RATE + CERTIFICATE.replace("[2.0e-6, 1.0e-6]", "[2.0e-6]"),
+        "encoder.error_std",
+        "one entry per order of encoder.error_cos (2), got 1",
+        id="error_std of another length",
+    ),
+    pytest.param(
+        SAMPLE_RATE,
+        SAMPLE_RATE + CERTIFICATE.replace("[1.5e-5, 3.0e-6]", "[1.5e-5, 3.0e-6, 0.0]"),
+        "encoder.error_sin",
+        "one entry per order of encoder.error_cos (2), got 3",
+        id="error_sin of another length",
+    ),
+    pytest.param(
+        SAMPLE_RATE,
+        SAMPLE_RATE + CERTIFICATE.replace("[2.0e-6, 1.0e-6]", "[2.0e-6, -1.0e-6]"),
+        "encoder.error_std[2]",
+        "must be >= 0, got -1e-06",
+        id="negative error_std",
+    ),
 ]
 
 
@@ -441,6 +493,18 @@ torque_gain = 1.02
 tare_inertia = [0.004, 0.085]
 """
 
+TRANSMISSION = """\
+efficiency_driving = 0.95
+efficiency_backdriven = 0.9
+"""
+"""[rig] keys of a transmission that loses power by the direction of its flow."""
+
+ENCODER_ERROR = """\
+encoder_error_amplitude = [2.0e-4, 5.0e-5]   # rad, e = sum A_n sin(n phi + p_n)
+encoder_error_phase_deg = [30.0, -60.0]
+"""
+"""[rig] keys of an encoder that reads phi + e(phi), orders 1 and 2."""
+
 
 def test_the_rigs_imperfections_load(tmp_path):
     text = edited(
@@ -466,6 +530,42 @@ def test_the_rig_tables_default_to_an_exact_symmetric_rig(tmp_path):
     assert virtual.rig == Rig() and virtual.rig.torque_gain == 1.0
     assert virtual.friction.backward_scale == 1.0
     assert virtual.friction_for(-1) == virtual.friction_for(1) == virtual.friction
+    # A lossless transmission and an exact encoder.
+    assert virtual.rig.drive_gains == (1.0, 1.0)
+    assert virtual.rig.encoder_error.size == 0
+    encoder = load_device(write(tmp_path, "device.toml", DEVICE_TOML)).encoder
+    assert (encoder.error_cos, encoder.error_sin, encoder.error_std) == (None, None, None)
+    assert encoder.error.size == 0
+
+
+def test_the_rigs_transducers_load(tmp_path):
+    rig = load_virtual(
+        write(tmp_path, "virtual.toml", VIRTUAL_TOML + RIG + TRANSMISSION + ENCODER_ERROR)
+    ).rig
+    assert (rig.efficiency_driving, rig.efficiency_backdriven) == (0.95, 0.9)
+    assert rig.encoder_error_amplitude == (2e-4, 5e-5)
+    assert rig.encoder_error_phase_deg == (30.0, -60.0)
+    # h_d = eta_d / gain, h_b = 1 / (eta_b gain): received per unit of logged torque.
+    assert rig.drive_gains == (0.95 / 1.02, 1 / (0.9 * 1.02))
+    # theta_e = [c_1, s_1, c_2, s_2] of e = sum A_n sin(n phi + p_n): c = A sin p, s = A cos p.
+    p = np.radians([30.0, -60.0])
+    np.testing.assert_allclose(
+        rig.encoder_error,
+        [2e-4 * np.sin(p[0]), 2e-4 * np.cos(p[0]), 5e-5 * np.sin(p[1]), 5e-5 * np.cos(p[1])],
+        rtol=1e-15,
+    )
+
+
+def test_an_encoder_certificate_loads(tmp_path):
+    text = edited(DEVICE_TOML, SAMPLE_RATE, SAMPLE_RATE + CERTIFICATE)
+    encoder = load_device(write(tmp_path, "device.toml", text)).encoder
+    assert (encoder.error_cos, encoder.error_sin) == ((2e-5, -5e-6), (1.5e-5, 3e-6))
+    assert encoder.error_std == (2e-6, 1e-6)
+    # theta_e interleaves the orders: [c_1, s_1, c_2, s_2].
+    np.testing.assert_array_equal(encoder.error, [2e-5, 1.5e-5, -5e-6, 3e-6])
+    # The standard deviation may be left out (the stated error is then exact).
+    exact = edited(text, "error_std = [2.0e-6, 1.0e-6]\n", "")
+    assert load_device(write(tmp_path, "device.toml", exact)).encoder.error_std is None
 
 
 def test_friction_backward_table_sets_the_backward_coefficients(tmp_path):
@@ -522,6 +622,62 @@ RIG_FAULTS = [
         id="unknown backward friction key",
     ),
     pytest.param("\n[rigg]\ntorque_gain = 1.0\n", "rigg", "unknown table", id="unknown table"),
+    # An efficiency is a fraction of the power passed on: in (0, 1].
+    pytest.param(
+        RIG + "efficiency_driving = 0\n",
+        "rig.efficiency_driving",
+        "must be > 0, got 0.0",
+        id="zero efficiency",
+    ),
+    pytest.param(
+        RIG + "efficiency_backdriven = 1.5\n",
+        "rig.efficiency_backdriven",
+        "must be <= 1, got 1.5",
+        id="efficiency above 1",
+    ),
+    pytest.param(
+        RIG + "efficiency_driving = -0.1\n",
+        "rig.efficiency_driving",
+        "must be > 0, got -0.1",
+        id="negative efficiency",
+    ),
+    pytest.param(
+        RIG + "efficiency_driving = 1.5\n",
+        "rig.efficiency_driving",
+        "must be <= 1, got 1.5",
+        id="driving efficiency above 1",
+    ),
+    pytest.param(
+        RIG + "efficiency_backdriven = 0.0\n",
+        "rig.efficiency_backdriven",
+        "must be > 0, got 0.0",
+        id="zero back-driven efficiency",
+    ),
+    # The encoder's error curve: one phase per amplitude, amplitudes >= 0.
+    pytest.param(
+        RIG + "encoder_error_amplitude = [2.0e-4, 5.0e-5]\n",
+        "rig.encoder_error_phase_deg",
+        "one entry per order of rig.encoder_error_amplitude (2), got 0",
+        id="amplitude without phase",
+    ),
+    pytest.param(
+        RIG + "encoder_error_phase_deg = [30.0, -60.0]\n",
+        "rig.encoder_error_phase_deg",
+        "one entry per order of rig.encoder_error_amplitude (0), got 2",
+        id="phase without amplitude",
+    ),
+    pytest.param(
+        RIG + ENCODER_ERROR.replace("[30.0, -60.0]", "[30.0, -60.0, 110.0]"),
+        "rig.encoder_error_phase_deg",
+        "one entry per order of rig.encoder_error_amplitude (2), got 3",
+        id="phase of another length",
+    ),
+    pytest.param(
+        RIG + ENCODER_ERROR.replace("[2.0e-4, 5.0e-5]", "[2.0e-4, -5.0e-5]"),
+        "rig.encoder_error_amplitude[2]",
+        "must be >= 0, got -5e-05",
+        id="negative amplitude",
+    ),
 ]
 
 
@@ -604,7 +760,7 @@ EVERY_DEVICE_KEY = (
         "torque_rate_limit = 20.0     # N m/s, |du/dt| <= this\n",
         "torque_rate_limit = 20.0\ntorque_gain_std = 0.002\n",
     )
-    .replace("sample_rate = 1000.0         # Hz\n", "sample_rate = 1000.0\ncounter_bits = 32\n")
+    .replace(SAMPLE_RATE, "sample_rate = 1000.0\ncounter_bits = 32\n" + CERTIFICATE)
     .replace(
         STAGE_1_END,
         STAGE_1_END + 'directions = ["backward", "forward"]\ntare_inertia_std = 4e-5\n'
@@ -626,6 +782,8 @@ max_duration = 120.0
 """
 
 EVERY_VIRTUAL_KEY = VIRTUAL_TOML + FIXTURE + RIG + "pendulum_stiffness = 2.01\n" + (
+    TRANSMISSION + ENCODER_ERROR
+) + (
     "\n[logger]\ntime_jitter = 0.1\ndropped_fraction = 0.001\ncounts = true\n"
 ) + BACKWARD_TABLE
 
@@ -633,6 +791,8 @@ EVERY_VIRTUAL_KEY = VIRTUAL_TOML + FIXTURE + RIG + "pendulum_stiffness = 2.01\n"
 def test_every_optional_key_round_trips(tmp_path):
     device = load_device(write(tmp_path, "in-device.toml", EVERY_DEVICE_KEY))
     assert None not in (device.motor.torque_gain_std, device.encoder.counter_bits, device.plan)
+    encoder = device.encoder
+    assert None not in (encoder.error_cos, encoder.error_sin, encoder.error_std)
     write_device(tmp_path / "device.toml", device)
     assert load_device(tmp_path / "device.toml") == device
     inertia = dataclasses.replace(device.plan, box=None, inertia=(0.02, 0.025, 0.03))
@@ -643,6 +803,8 @@ def test_every_optional_key_round_trips(tmp_path):
     virtual = load_virtual(write(tmp_path, "in-virtual.toml", EVERY_VIRTUAL_KEY))
     assert None not in (virtual.fixture, virtual.friction_backward, virtual.rig.tare_inertia)
     assert virtual.logger.counts and virtual.rig.pendulum_stiffness == 2.01
+    assert (virtual.rig.efficiency_driving, virtual.rig.efficiency_backdriven) == (0.95, 0.9)
+    assert virtual.rig.encoder_error.size == 4
     write_virtual(tmp_path / "virtual.toml", virtual)
     assert load_virtual(tmp_path / "virtual.toml") == virtual
 
@@ -704,6 +866,12 @@ def test_writing_what_the_loader_refuses_raises_and_writes_nothing(tmp_path):
             ),
             "stage[1].nodes_deg[2]: must be in [0, 360), got 360.0",
         ),
+        (
+            dataclasses.replace(
+                device, encoder=dataclasses.replace(device.encoder, error_sin=(1e-5,))
+            ),
+            "encoder.error_sin: needs encoder.error_cos",
+        ),
     ]
     for value, fault in bad:
         with pytest.raises(ValueError) as error:
@@ -725,6 +893,14 @@ def test_writing_what_the_loader_refuses_raises_and_writes_nothing(tmp_path):
         ),
         (dataclasses.replace(virtual, models=("a model",)), "models: ('a model',)"),
         (dataclasses.replace(virtual, run=RunSettings(seed=-1)), "run.seed: must be >= 0, got -1"),
+        (
+            dataclasses.replace(virtual, rig=Rig(efficiency_backdriven=0.0)),
+            "rig.efficiency_backdriven: must be > 0, got 0.0",
+        ),
+        (
+            dataclasses.replace(virtual, rig=Rig(encoder_error_amplitude=(1e-4,))),
+            "rig.encoder_error_phase_deg: must have one entry per order",
+        ),
     ]
     for value, fault in bad:
         with pytest.raises(ValueError) as error:
@@ -756,6 +932,14 @@ def maybe(values):
 
 def triples(values):
     return st.tuples(values, values, values)
+
+
+@st.composite
+def harmonics(draw, *values):
+    """Coefficient arrays of one harmonic series, one per strategy of ``values``: as many
+    entries each (the orders, none to four)."""
+    orders = draw(st.integers(0, 4))
+    return tuple(tuple(draw(st.lists(v, min_size=orders, max_size=orders))) for v in values)
 
 
 @st.composite
@@ -793,6 +977,10 @@ def stages(draw):
 @st.composite
 def devices(draw):
     body = draw(maybe(st.builds(Body, mass=positive)))
+    # An encoder's certificate: cosine and sine coefficients, with or without their stds.
+    cos, sin, std = draw(maybe(harmonics(finite, finite, non_negative))) or (None, None, None)
+    if std is not None and draw(st.booleans()):
+        std = None
     shape = draw(st.sampled_from(["none", "inertia"] + (["box"] if body else [])))
     plan = draw(
         maybe(
@@ -813,7 +1001,12 @@ def devices(draw):
         spring=Spring(stiffness=draw(non_negative), zero_angle=draw(finite)),
         motor=Motor(draw(positive), draw(positive), draw(maybe(non_negative))),
         encoder=Encoder(
-            draw(st.integers(1, 2**62)), draw(positive), draw(maybe(st.integers(1, 64)))
+            draw(st.integers(1, 2**62)),
+            draw(positive),
+            draw(maybe(st.integers(1, 64))),
+            error_cos=cos,
+            error_sin=sin,
+            error_std=std,
         ),
         stages=draw(stages()),
         body=body,
@@ -849,6 +1042,8 @@ def virtuals(draw):
     friction = st.builds(Friction, non_negative, non_negative, non_negative)
     scaled = draw(st.builds(Friction, non_negative, non_negative, non_negative, non_negative))
     backward = draw(maybe(friction))
+    efficiency = st.floats(0.0, 1.0, exclude_min=True)
+    amplitude, phase = draw(maybe(harmonics(non_negative, finite))) or (None, None)
     return Virtual(
         body=draw(maybe(true_bodies())),
         friction=dataclasses.replace(scaled, backward_scale=1.0) if backward else scaled,
@@ -859,6 +1054,10 @@ def virtuals(draw):
             torque_gain=draw(positive),
             tare_inertia=draw(maybe(st.lists(non_negative, max_size=4).map(tuple))),
             pendulum_stiffness=draw(maybe(positive)),
+            efficiency_driving=draw(efficiency),
+            efficiency_backdriven=draw(efficiency),
+            encoder_error_amplitude=amplitude,
+            encoder_error_phase_deg=phase,
         ),
         friction_backward=backward,
         logger=LoggerSettings(
