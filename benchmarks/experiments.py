@@ -26,6 +26,7 @@ __all__ = [
     "vary",
     "with_com",
     "with_encoder_bits",
+    "with_rig",
     "with_stage",
     "with_stages",
     "write",
@@ -119,6 +120,12 @@ def with_com(virtual: Virtual, com_mm: float) -> Virtual:
 def with_encoder_bits(device: Device, bits: int) -> Device:
     """An encoder of 2**bits counts per revolution."""
     return replace(device, encoder=replace(device.encoder, counts_per_rev=2**bits))
+
+
+def with_rig(virtual: Virtual, **changes) -> Virtual:
+    """The rig's imperfections (virtual.toml ``[rig]``, :class:`rsp_inertia.plant.config.Rig`)
+    with the given fields changed."""
+    return replace(virtual, rig=replace(virtual.rig, **changes))
 
 
 def with_stage(device: Device, stage: int, **changes) -> Device:

@@ -52,6 +52,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from rsp_inertia.estimation.calibration_file import (
+    calibration_file,
+    calibration_text,
+    read_calibration_file,
+)
 from rsp_inertia.estimation.gls import BalanceFit, Block, solve_blocks
 from rsp_inertia.estimation.model_tests import ModelTest, model_warnings
 from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs, corrected_log
@@ -123,62 +128,9 @@ class Calibration:
     """The pendulum's torsion stiffness, when both folders have pendulum runs at a node."""
 
     def to_toml(self) -> str:
-        """The calibration.toml text (deterministic: the same inputs give the same bytes)."""
-        k = self.known
-        std = k.std
-        enc = k.encoder_slice
-        lines = [
-            "# Rig calibration written by rsp-inertia calibrate; identify applies it.",
-            "# theta = [h_d, h_b, empty-system harmonics per stage, fixture gravity, encoder",
-            "# error coefficients c_1, s_1, ...] (docs/files.md, calibration.toml).",
-            "",
-            "[calibration]",
-            f"device = {_toml_str(self.device_name)}",
-            f"counts_per_rev = {self.counts_per_rev}",
-            f"reference = {'true' if self.reference else 'false'}",
-            f"chi2_dof = {self.chi2_dof!r}",
-            "",
-            "[drive]                      # torque the body receives per unit of logged torque",
-            f"gain_driving = {k.gains[0]!r}        # h_d = eta_d / torque gain",
-            f"gain_driving_std = {float(std[0])!r}",
-            f"gain_backdriven = {k.gains[1]!r}     # h_b = 1 / (eta_b torque gain)",
-            f"gain_backdriven_std = {float(std[1])!r}",
-            "",
-            "[encoder]                    # reading error sum_n c_n cos(n phi) + s_n sin(n phi), rad",
-            f"error_cos = {_toml_list(k.encoder[0::2])}",
-            f"error_sin = {_toml_list(k.encoder[1::2])}",
-            f"error_cos_std = {_toml_list(std[enc][0::2])}",
-            f"error_sin_std = {_toml_list(std[enc][1::2])}",
-            "",
-            "[fixture]",
-            f"gravity = {_toml_list(k.gravity)}     # [m g x_c, m g y_c] of the fixture, N m",
-            f"gravity_std = {_toml_list(std[k.gravity_slice])}",
-        ]
-        for s, (lam, nodes) in enumerate(zip(self.gear_ratios, self.nodes_deg)):
-            lines += [
-                "",
-                "[[stage]]",
-                f"gear_ratio = {lam!r}",
-                f"nodes_deg = {_toml_list(nodes)}",
-                f"empty_inertia = {_toml_list(k.inertia[s])}   # [M0, Mc2, Ms2, Ms1, Mc1], kg m^2",
-                f"empty_inertia_std = {_toml_list(std[k.harmonics_slice(s + 1)])}",
-            ]
-        if self.stiffness is not None:
-            c = self.stiffness
-            lines += [
-                "",
-                "[pendulum]                   # the torsion element, from the pendulum runs",
-                f"stiffness = {c.stiffness!r}      # N m/rad",
-                f"stiffness_std = {c.stiffness_std!r}",
-                f"nodes = {len(c.per_node)}",
-            ]
-        names = k.names()
-        lines += ["", "[covariance]", f"parameters = [{', '.join(map(_toml_str, names))}]"]
-        lines.append("matrix = [")
-        lines += [f"  {_toml_list(row)}," for row in k.cov]
-        lines += ["]", "", "[inputs]                     # sha256 of every file used"]
-        lines += [f"{_toml_str(path)} = {_toml_str(digest)}" for path, digest in self.inputs.items()]
-        return "\n".join(lines) + "\n"
+        """The calibration.toml text (rsp_inertia.estimation.calibration_file): deterministic,
+        the same calibration gives the same bytes, and checked to read back equal."""
+        return calibration_text(calibration_file(self))
 
     def __str__(self) -> str:
         k = self.known
@@ -242,14 +194,6 @@ class Calibration:
             )
         out += [f"warning: {w}" for w in self.warnings]
         return "\n".join(out)
-
-
-def _toml_str(text: str) -> str:
-    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
-
-
-def _toml_list(values) -> str:
-    return "[" + ", ".join(repr(float(v)) for v in values) + "]"
 
 
 def _blocks(
@@ -323,6 +267,8 @@ def fit_calibration(
     reference: list | None = None,
     reference_body: TrueBody | None = None,
     encoder: np.ndarray | None = None,
+    scales: list[float] | None = None,
+    tests: bool = True,
 ) -> tuple[KnownTerms, BalanceFit]:
     """The calibrated terms from the empty runs' and the reference runs' balances.
 
@@ -338,6 +284,9 @@ def fit_calibration(
         With a reference: the encoder's error coefficients (ENCODER_ORDERS orders) already
         taken off the logs of the balances; the fit measures what is left and adds it.
         Without a reference the encoder is device.toml's (:func:`device_known_terms`).
+    scales, tests
+        The runs' speed-noise scales when an earlier fit found them, and whether to make the
+        model tests (rsp_inertia.estimation.gls.solve_blocks).
 
     Returns
     -------
@@ -350,7 +299,7 @@ def fit_calibration(
     blocks = _blocks(device, empty, "empty", None, has_gain, orders)
     if has_gain:
         blocks += _blocks(device, reference, "reference", reference_body, has_gain, orders)
-    fit = solve_blocks(blocks)
+    fit = solve_blocks(blocks, scales=scales, tests=tests)
     stated, _ = device_known_terms(device)
     n_stages = len(device.stages)
     layout = KnownTerms(
@@ -419,6 +368,7 @@ def calibrate_logs(
         Bad logs; a pendulum run the best-practice fit cannot take.
     """
     encoder = np.zeros(2 * ENCODER_ORDERS) if reference is not None else None
+    scales = None
     for iteration in range(ENCODER_ITERATIONS if reference is not None else 1):
         warnings: list[str] = []
         applied = () if encoder is None else encoder
@@ -427,7 +377,12 @@ def calibrate_logs(
         ref_bal = None
         if reference is not None:
             ref_bal, _ = balance_runs(reference, warnings, say, applied)
-        known, fit = fit_calibration(device, empty_bal, ref_bal, reference_body, encoder)
+        # The runs' speed-noise scales come from the first fit (taken with the encoder's
+        # terms off each run's own fit); the model tests from the fit that is kept.
+        known, fit = fit_calibration(
+            device, empty_bal, ref_bal, reference_body, encoder, scales, tests=False
+        )
+        scales = fit.scales
         if encoder is None:
             break
         step = known.encoder - encoder
@@ -441,6 +396,9 @@ def calibrate_logs(
                 f"encoder error: correction moved by up to {largest:.2g} std; the logs corrected "
                 f"with it are balanced again (fit {iteration + 2})"
             )
+    known, fit = fit_calibration(
+        device, empty_bal, ref_bal, reference_body, applied if len(applied) else None, scales
+    )
     warnings += model_warnings(fit.tests, fit.scales, fit.labels)
     stiffness = None
     if reference is not None:
@@ -487,84 +445,42 @@ def known_terms_from_toml(doc: dict, device: Device, source: str) -> tuple[Known
     Raises
     ------
     InputError
-        A malformed document, or one made for another device (name, encoder or stages differ).
+        A malformed document (rsp_inertia.estimation.calibration_file.read_calibration_file),
+        or one made for another device (name, encoder or stages differ).
     """
     path = source
+    calibration = read_calibration_file(doc, source)
+    head = calibration.calibration
+    if head.device != device.name:
+        raise InputError(
+            f"{path}: made for device {head.device!r}, not {device.name!r} "
+            "(run rsp-inertia calibrate for this device)"
+        )
+    if head.counts_per_rev != device.encoder.counts_per_rev:
+        raise InputError(f"{path}: made for another device (encoder counts_per_rev differ)")
+    stages = calibration.stages
+    if len(stages) != len(device.stages):
+        raise InputError(
+            f"{path}: made for another device: {len(stages)} stage(s), device.toml has "
+            f"{len(device.stages)}"
+        )
+    for k, (entry, st) in enumerate(zip(stages, device.stages), 1):
+        if not math.isclose(entry.gear_ratio, st.gear_ratio, rel_tol=1e-9) or (
+            entry.nodes_deg != tuple(st.nodes_deg)
+        ):
+            raise InputError(
+                f"{path}: stage[{k}]: made for another device (gear ratio or nodes differ "
+                "from device.toml's)"
+            )
     warnings = []
-    try:
-        head = doc["calibration"]
-        stages = doc["stage"]
-        if head["device"] != device.name:
-            raise InputError(
-                f"{path}: made for device {head['device']!r}, not {device.name!r} "
-                "(run rsp-inertia calibrate for this device)"
-            )
-        if int(head["counts_per_rev"]) != device.encoder.counts_per_rev:
-            raise InputError(f"{path}: made for another device (encoder counts_per_rev differ)")
-        if len(stages) != len(device.stages):
-            raise InputError(
-                f"{path}: made for another device: {len(stages)} stage(s), device.toml has "
-                f"{len(device.stages)}"
-            )
-        for k, (entry, st) in enumerate(zip(stages, device.stages), 1):
-            if not math.isclose(float(entry["gear_ratio"]), st.gear_ratio, rel_tol=1e-9) or (
-                tuple(float(v) for v in entry["nodes_deg"]) != tuple(st.nodes_deg)
-            ):
-                raise InputError(
-                    f"{path}: stage[{k}]: made for another device (gear ratio or nodes differ "
-                    "from device.toml's)"
-                )
-        inertia = np.array([[float(v) for v in entry["empty_inertia"]] for entry in stages])
-        gravity = np.array([float(v) for v in doc["fixture"]["gravity"]])
-        cov = np.array(doc["covariance"]["matrix"], dtype=float)
-        legacy = "drive" not in doc
-        if legacy:
-            gain = float(head["torque_gain"])
-            if not gain > 0:
-                raise InputError(f"{path}: calibration.torque_gain: must be > 0, got {gain!r}")
-            gains = (1.0 / gain, 1.0 / gain)
-            encoder = np.zeros(0)
-        else:
-            drive = doc["drive"]
-            gains = (float(drive["gain_driving"]), float(drive["gain_backdriven"]))
-            for name, value in zip(("gain_driving", "gain_backdriven"), gains):
-                if not (value > 0 and math.isfinite(value)):
-                    raise InputError(f"{path}: drive.{name}: must be > 0, got {value!r}")
-            table = doc["encoder"]
-            cos = [float(v) for v in table["error_cos"]]
-            sin = [float(v) for v in table["error_sin"]]
-            if len(cos) != len(sin):
-                raise InputError(
-                    f"{path}: encoder.error_sin: must have one entry per order of "
-                    f"encoder.error_cos ({len(cos)}), got {len(sin)}"
-                )
-            encoder = np.empty(2 * len(cos))
-            encoder[0::2], encoder[1::2] = cos, sin
-    except InputError:
-        raise
-    except (KeyError, TypeError, ValueError) as error:
-        raise InputError(f"{path}: malformed calibration file ({error!r})") from None
-    size = 2 + inertia.size + 2 + encoder.size
-    if legacy:  # theta = [h, ...]: h's row and column become both gains', fully correlated
-        old = 1 + inertia.size + 2
-        if cov.shape == (old, old):
-            cov = cov[np.ix_([0, *range(old)], [0, *range(old)])]
-    if inertia.shape != (len(device.stages), 5) or gravity.shape != (2,) or cov.shape != (
-        size,
-        size,
-    ):
-        raise InputError(f"{path}: malformed calibration file (array sizes)")
-    if not np.all(np.isfinite(cov)) or not np.all(np.isfinite(encoder)):
-        raise InputError(f"{path}: malformed calibration file (covariance or encoder error)")
-    if legacy:
+    if calibration.legacy:
         warnings.append(
             f"{path}: written by an older rsp-inertia, without the drive's gains by direction "
             "of power flow and the encoder's error: the drive is taken as lossless (its "
             "torque_gain for both) and the encoder as exact, and their errors are not in the "
             "stds (calibrate again)"
         )
-    known = KnownTerms(gains, inertia, gravity, cov, calibrated=True, encoder=encoder)
-    return known, warnings
+    return calibration.known_terms(), warnings
 
 
 def stiffness_from_toml(doc: dict, source: str) -> tuple[float, float] | None:
@@ -573,18 +489,13 @@ def stiffness_from_toml(doc: dict, source: str) -> tuple[float, float] | None:
     Raises
     ------
     InputError
-        A malformed ``[pendulum]`` table (``source`` names the file).
+        A malformed document (rsp_inertia.estimation.calibration_file.read_calibration_file;
+        ``source`` names the file).
     """
-    table = doc.get("pendulum")
-    if table is None:
+    pendulum = read_calibration_file(doc, source).pendulum
+    if pendulum is None:
         return None
-    try:
-        c, std = float(table["stiffness"]), float(table["stiffness_std"])
-    except (KeyError, TypeError, ValueError) as error:
-        raise InputError(f"{source}: pendulum: malformed ({error!r})") from None
-    if not (c > 0 and std >= 0):
-        raise InputError(f"{source}: pendulum: stiffness must be > 0 and its std >= 0")
-    return c, std
+    return pendulum.stiffness, pendulum.stiffness_std
 
 
 def device_known_terms(

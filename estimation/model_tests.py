@@ -92,7 +92,7 @@ class ModelTest:
 
 
 def run_model_tests(
-    blocks, names, A, y, x, factors, nuisance=None, probes=None
+    blocks, names, A, y, x, factors, nuisance=None, probes=None, probe_factors=None
 ) -> list[ModelTest]:
     """The three tests (between runs, early against late turns, per turn) of a joint fit, and
     one per probe.
@@ -100,7 +100,9 @@ def run_model_tests(
     ``names``, ``A``, ``y``: the stacked equations of ``blocks``, ``x`` their joint estimate,
     ``factors`` the Cholesky factors of their covariance (rsp_inertia.estimation.whitening);
     the unknowns of ``fixed_in_tests`` are held at ``x``. ``nuisance``: see
-    :func:`_consistency`. ``probes``: cause -> the columns it would add (module docstring).
+    :func:`_consistency`. ``probes``: cause -> the columns it would add (module docstring);
+    ``probe_factors``: the covariance's factors for the probe tests when they differ (speed
+    noise scales taken with the probes in each run's own fit, rsp_inertia.estimation.gls).
     """
     found_tests = []
     fixed = [j for j, n in enumerate(names) if any(n in b.fixed_in_tests for b in blocks)]
@@ -119,7 +121,7 @@ def run_model_tests(
         # only for what the others cannot explain (module docstring).
         others = [cols for other, cols in probes.items() if other != cause]
         base = np.hstack([A[:, kept], *others])
-        found = _probe(base, columns, y_kept, factors, nuisance)
+        found = _probe(base, columns, y_kept, probe_factors or factors, nuisance)
         if found is not None:
             found_tests.append(((cause, cause), *found))
     level = TEST_ALPHA / max(len(found_tests), 1)

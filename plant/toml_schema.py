@@ -6,15 +6,20 @@ file holds is made by :func:`key`, and that field is the whole contract of its k
 - the TOML key is the field's name (``name=`` where the file spells it otherwise);
 - the type is the annotation: ``float`` (integers accepted), ``int``, ``str``, ``bool``;
   ``tuple[float, ...]``, ``tuple[str, ...]`` or ``np.ndarray`` for an array (``names=``
-  fixes its length and names its entries in messages); another config class for a table;
-  ``tuple[C, ...]`` for an array of tables; ``X | None`` for a key whose absence means
-  None;
+  fixes its length and names its entries in messages; it may be empty unless a check
+  refuses that); ``tuple[tuple[float, ...], ...]`` for a matrix (an array of arrays of
+  one length); ``dict[str, str]`` for a free table (any keys, each a value of that type);
+  another config class for a table; ``tuple[C, ...]`` for an array of tables; ``X | None``
+  for a key whose absence means None;
 - the default is the field's default, or ``absent=`` for a field the constructor requires
   while the file may leave it out; a table whose class has a default for every key may
   be left out, and so may a table typed ``C | None``;
 - the metadata holds the unit, the bounds (:class:`Bound`, checked on a number or on each
-  entry of an array), a ``check`` of the whole value for semantics beyond bounds, and the
-  doc (which :func:`config_class` puts into the class docstring's Attributes section).
+  entry of an array, a matrix or a free table), a ``check`` of the whole value for
+  semantics beyond bounds, and the doc (which :func:`config_class` puts into the class
+  docstring's Attributes section);
+- numbers are finite, unless ``nan=True`` lets a float be NaN (an undefined value; TOML
+  spells it ``nan``), which the bounds then leave alone.
 
 :func:`read_table` walks a class's fields to read a table: unknown keys are errors, types
 are converted, bounds and checks applied. A fault is a :class:`ContentError` naming the
@@ -25,6 +30,7 @@ fields to write an instance back.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import functools
 import inspect
@@ -93,6 +99,8 @@ def key(
     name: str | None = None,
     table: str | None = None,
     without: tuple[str, ...] = (),
+    nan: bool = False,
+    free_key: str = "key",
 ) -> Any:
     """A dataclass field that a TOML file holds.
 
@@ -119,6 +127,12 @@ def key(
     without : tuple of str
         For a table: keys of its class that this table does not hold (they keep their
         defaults).
+    nan : bool
+        Whether a float (or each entry of an array of floats) may be NaN, an undefined
+        value; infinities never may.
+    free_key : str
+        For a free table: what its keys stand for, as the docs name them
+        (``inputs.<file>`` for ``free_key="file"``; :func:`accepted_keys`).
     """
     bounds = (bound,) if isinstance(bound, (str, Bound)) else bound
     metadata = {
@@ -131,6 +145,8 @@ def key(
         "name": name,
         "table": table,
         "without": without,
+        "nan": nan,
+        "free_key": free_key,
     }
     return dataclasses.field(default=default, metadata=metadata)
 
@@ -147,6 +163,8 @@ def config_class(cls: type) -> type:
         facts = [f"unit {meta['unit']}"] if meta["unit"] else []
         if meta["bounds"]:
             facts.append("must be " + " and ".join(bound.text for bound in meta["bounds"]))
+        if meta["nan"]:
+            facts.append("may be nan")
         default = field.default if field.default is not REQUIRED else meta["absent"]
         if default is not REQUIRED and not dataclasses.is_dataclass(default):
             facts.append(f"default {default!r}")
@@ -171,9 +189,14 @@ class Key:
     kind: type
     """float, int, str, bool, or a config class (a table)."""
     array: bool
+    """An array of ``kind`` (of values, or of tables); a matrix too."""
     default: Any
     """The value when the file leaves the key out; REQUIRED when it must be there."""
     meta: typing.Mapping[str, Any]
+    matrix: bool = False
+    """An array of arrays of ``kind``, all of one length (``tuple[tuple[float, ...], ...]``)."""
+    free: bool = False
+    """A free table: any keys, each a value of ``kind`` (``dict[str, kind]``)."""
 
 
 @functools.cache
@@ -184,14 +207,18 @@ def keys(cls: type) -> tuple[Key, ...]:
     for field in dataclasses.fields(cls):
         if "doc" not in field.metadata:
             continue
-        kind, array, optional = _kind(hints[field.name])
+        kind, form, optional = _kind(hints[field.name])
+        array = form in ("array", "matrix")
         meta = field.metadata
         default = field.default if field.default is not REQUIRED else meta["absent"]
         if default is REQUIRED and optional:
             default = None
         if default is REQUIRED and is_table(kind) and not array and _all_defaults(kind):
             default = kind()
-        found.append(Key(field.name, meta["name"] or field.name, kind, array, default, meta))
+        name = meta["name"] or field.name
+        found.append(
+            Key(field.name, name, kind, array, default, meta, form == "matrix", form == "free")
+        )
     return tuple(found)
 
 
@@ -213,28 +240,37 @@ def layout(cls: type, without: tuple[str, ...] = ()) -> dict[str, Key | tuple[Ke
 
 def accepted_keys(cls: type) -> dict[str, set[str]]:
     """Per table of a file of class ``cls`` ('' for the top level), the keys its reader
-    accepts; tables named as in the file (``stage`` for ``[[stage]]``)."""
+    accepts; tables named as in the file (``stage`` for ``[[stage]]``), a free table's keys
+    as the one placeholder ``<free_key>``."""
     out: dict[str, set[str]] = {"": set(layout(cls))}
     for name, entry in layout(cls).items():
         if isinstance(entry, tuple):
             out[name] = {member.name for member in entry}
         elif is_table(entry.kind):
             out[name] = set(layout(entry.kind, entry.meta["without"]))
+        elif entry.free:
+            out[name] = {f"<{entry.meta['free_key']}>"}
     return out
 
 
-def _kind(hint: Any) -> tuple[type, bool, bool]:
-    """(entry type, is an array, may be None) of a field's annotation."""
+def _kind(hint: Any) -> tuple[type, str, bool]:
+    """(entry type, form, may be None) of a field's annotation; the form is 'value',
+    'array', 'matrix' (an array of arrays) or 'free' (a free table)."""
     optional = False
     if isinstance(hint, types.UnionType) or typing.get_origin(hint) is typing.Union:
         args = [arg for arg in typing.get_args(hint) if arg is not type(None)]
         optional, (hint,) = True, args
     if hint is np.ndarray:
-        return float, True, optional
+        return float, "array", optional
+    if typing.get_origin(hint) is dict:
+        return typing.get_args(hint)[1], "free", optional
     if typing.get_origin(hint) is tuple:
         (entry,) = set(typing.get_args(hint)) - {Ellipsis}
-        return entry, True, optional
-    return hint, False, optional
+        if typing.get_origin(entry) is tuple:
+            (entry,) = set(typing.get_args(entry)) - {Ellipsis}
+            return entry, "matrix", optional
+        return entry, "array", optional
+    return hint, "value", optional
 
 
 def is_table(kind: type) -> bool:
@@ -304,16 +340,29 @@ def _value(table: dict[str, Any], where: str, entry: Key) -> Any:
     if entry.name not in table:
         if entry.default is REQUIRED:
             raise ContentError(dotted, "missing required key")
-        return entry.default
+        # A free table's default is a dict: each reading gets its own.
+        return copy.copy(entry.default) if entry.free else entry.default
     raw = table[entry.name]
-    if entry.array:
+    if entry.free:
+        value = _free(raw, dotted, entry)
+    elif entry.matrix:
+        value = _matrix(raw, dotted, entry)
+    elif entry.array:
         value = _array(raw, dotted, entry)
     else:
-        value = _convert(raw, entry.kind, dotted)
-        for bound in entry.meta["bounds"]:
-            bound.check(value, dotted)
+        value = _entry(raw, dotted, entry)
     if entry.meta["check"] is not None:
         entry.meta["check"](value, dotted)
+    return value
+
+
+def _entry(value: Any, dotted: str, entry: Key) -> Any:
+    """One value of the key's type (a value, or an entry of an array, a matrix or a free
+    table), checked against the key's bounds (NaN, where allowed, against none)."""
+    value = _convert(value, entry.kind, dotted, entry.meta["nan"])
+    if not (isinstance(value, float) and math.isnan(value)):
+        for bound in entry.meta["bounds"]:
+            bound.check(value, dotted)
     return value
 
 
@@ -327,13 +376,32 @@ def _array(values: Any, dotted: str, entry: Key) -> tuple:
         raise ContentError(
             dotted, f"must have {len(names)} entries [{', '.join(names)}], got {len(values)}"
         )
+    return tuple(_entry(value, f"{dotted}[{k}]", entry) for k, value in enumerate(values, 1))
+
+
+def _matrix(rows: Any, dotted: str, entry: Key) -> tuple:
+    """A matrix's rows, each an array (:func:`_array`) as long as the first."""
+    if not isinstance(rows, list):
+        raise ContentError(dotted, f"must be an array of arrays, got {_describe(rows)}")
     out = []
-    for k, value in enumerate(values, 1):
-        value = _convert(value, entry.kind, f"{dotted}[{k}]")
-        for bound in entry.meta["bounds"]:
-            bound.check(value, f"{dotted}[{k}]")
-        out.append(value)
+    for k, row in enumerate(rows, 1):
+        if not isinstance(row, list):
+            raise ContentError(f"{dotted}[{k}]", f"must be an array, got {_describe(row)}")
+        if out and len(row) != len(out[0]):
+            raise ContentError(
+                f"{dotted}[{k}]", f"must have {len(out[0])} entries as row 1, got {len(row)}"
+            )
+        out.append(_array(row, f"{dotted}[{k}]", entry))
     return tuple(out)
+
+
+def _free(holder: Any, dotted: str, entry: Key) -> dict:
+    """A free table's keys and values, each value converted and checked."""
+    if not isinstance(holder, dict):
+        raise ContentError(dotted, f"must be a table, got {_describe(holder)}")
+    return {
+        name: _entry(value, _dotted(dotted, _quoted(name)), entry) for name, value in holder.items()
+    }
 
 
 def _table(table: dict[str, Any], name: str, dotted: str, required: bool) -> dict | None:
@@ -374,8 +442,9 @@ def _known(table: dict[str, Any], where: str, allowed: set[str]) -> None:
             raise ContentError(_dotted(where, name), f"unknown {kind}")
 
 
-def _convert(value: Any, kind: type, key: str) -> Any:
-    """Check the TOML type of ``value``; integers are accepted as floats, booleans never."""
+def _convert(value: Any, kind: type, key: str, nan: bool = False) -> Any:
+    """Check the TOML type of ``value``; integers are accepted as floats, booleans never;
+    NaN only where ``nan``."""
     if kind is str:
         if not isinstance(value, str):
             raise ContentError(key, f"must be a string, got {_describe(value)}")
@@ -391,7 +460,7 @@ def _convert(value: Any, kind: type, key: str) -> Any:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ContentError(key, f"must be a number, got {_describe(value)}")
     value = float(value)
-    if not math.isfinite(value):
+    if not (math.isfinite(value) or (nan and math.isnan(value))):
         raise ContentError(key, f"must be finite, got {value!r}")
     return value
 
@@ -413,3 +482,10 @@ def _describe(value: Any) -> str:
 
 def _dotted(where: str, name: str) -> str:
     return f"{where}.{name}" if where else name
+
+
+def _quoted(name: str) -> str:
+    """A free table's key as TOML spells it: bare, or in quotes."""
+    if re.fullmatch(r"[A-Za-z0-9_-]+", name):
+        return name
+    return '"' + name.replace("\\", "\\\\").replace('"', '\\"') + '"'

@@ -1,14 +1,16 @@
 """Config instances written as TOML files that their readers give back equal.
 
 The writer walks the fields of a config class (rsp_inertia.plant.toml_schema) as the reader
-does: every key whose value is not None, in field order, each with its unit as a comment.
-Before anything is written, the text is read back with the file's reader; a value the reader
-refuses, or one that would not come back equal, is refused.
+does: every key whose value is not None, in field order, each with its unit as a comment (a
+matrix one row per line, a free table's keys in their order). Before anything is written, the
+text is read back with the file's reader; a value the reader refuses, or one that would not
+come back equal, is refused.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import tomllib
 from collections.abc import Callable
@@ -29,6 +31,14 @@ def write_text(value: Any, header: str) -> str:
     doc.add(tomlkit.nl())
     _fill(doc, value)
     return tomlkit.dumps(doc)
+
+
+def document(value: Any) -> dict[str, Any]:
+    """The parsed TOML document of config instance ``value``: plain dicts, lists, strings,
+    numbers and booleans, as tomllib reads :func:`write_text`'s text."""
+    doc = tomlkit.document()
+    _fill(doc, value)
+    return doc.unwrap()
 
 
 def _fill(container: Any, value: Any, without: tuple[str, ...] = ()) -> None:
@@ -58,8 +68,21 @@ def _put(container: Any, entry: Key, value: Any) -> None:
             _fill(table, value, entry.meta["without"])
             container.add(entry.name, table)
         return
-    plain = [entry.kind(v) for v in value] if entry.array else entry.kind(value)
-    item = tomlkit.item(plain)
+    if entry.free:
+        table = tomlkit.table()
+        for name, entry_value in value.items():
+            table.add(name, entry.kind(entry_value))
+        container.add(entry.name, table)
+        return
+    if entry.matrix:
+        item = tomlkit.array()
+        for row in value:
+            item.append([entry.kind(v) for v in row])
+        item.multiline(True)
+    elif entry.array:
+        item = tomlkit.item([entry.kind(v) for v in value])
+    else:
+        item = tomlkit.item(entry.kind(value))
     if entry.meta["unit"]:
         item.comment(entry.meta["unit"])
         item.trivia.comment_ws = "  "
@@ -79,23 +102,39 @@ def write_file(
         front) or holds something the file cannot (a key the table does not have, a field
         no file holds).
     """
-    text = write_text(value, header)
-    try:
-        back = read(tomllib.loads(text))
-    except ContentError as error:
-        raise ValueError(f"{path}: {error}") from None
-    fault = difference(value, back)
-    if fault is not None:
-        raise ValueError(f"{path}: {fault}")
+    text = checked_text(value, header, read, str(path))
     # Imported here: rsp_inertia.plant.logs imports the config module that imports this one.
     from rsp_inertia.plant.logs import write_atomic
 
     write_atomic(path, text)
 
 
+def checked_text(
+    value: Any, header: str, read: Callable[[dict[str, Any]], Any], source: str
+) -> str:
+    """:func:`write_text`'s text of config instance ``value``, once ``read`` (the file's
+    reader, from the parsed document) gives ``value`` back from it.
+
+    Raises
+    ------
+    ValueError
+        As :func:`write_file`, the message beginning with ``source`` (the file's name).
+    """
+    text = write_text(value, header)
+    try:
+        back = read(tomllib.loads(text))
+    except ContentError as error:
+        raise ValueError(f"{source}: {error}") from None
+    fault = difference(value, back)
+    if fault is not None:
+        raise ValueError(f"{source}: {fault}")
+    return text
+
+
 def difference(written: Any, read: Any, where: str = "") -> str | None:
     """Where config instance ``written`` and its file's reading ``read`` first differ
-    (dotted field: both values), or None when they are equal (arrays entry by entry)."""
+    (dotted field: both values), or None when they are equal (arrays entry by entry, NaN
+    equal to NaN)."""
     if dataclasses.is_dataclass(written) and type(written) is type(read):
         for field in dataclasses.fields(written):
             child = f"{where}.{field.name}" if where else field.name
@@ -111,6 +150,8 @@ def difference(written: Any, read: Any, where: str = "") -> str | None:
             and len(written) == len(read)
             and all(difference(a, b) is None for a, b in zip(written, read, strict=True))
         )
+    elif isinstance(written, float) and isinstance(read, float):
+        same = written == read or (math.isnan(written) and math.isnan(read))
     else:
         same = written == read
     return None if same else f"{where}: {written!r} would be read back as {read!r}"

@@ -390,18 +390,24 @@ def program(
     return [summary.details for summary in program_summaries(root, stage, progress)]
 
 
+ENCODER_FIGURE = "encoder_error.png"
+"""The encoder's error curve that ``calibrate`` draws into EXP when it measured one."""
+
+
 def calibrate(
     root: str | Path,
     empty: str | Path,
     reference: str | Path | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> Calibration:
-    """``rsp-inertia calibrate``: EMPTY's and REF's logs -> EXP/calibration.toml (atomically).
+    """``rsp-inertia calibrate``: EMPTY's and REF's logs -> EXP/calibration.toml (atomically),
+    and the encoder's error curve EXP/encoder_error.png when the calibration has one.
 
     Nothing is written when an input is bad (stages that differ from EXP's, a missing or
     unphysical reference.toml, bad logs).
     """
     from rsp_inertia.estimation.reading import CALIBRATION_FILE, calibrate_experiment
+    from rsp_inertia.plots import encoder_error_figure
 
     exp = open_experiment(root)
     result = calibrate_experiment(
@@ -411,6 +417,12 @@ def calibrate(
         progress,
     )
     write_atomic(exp.root / CALIBRATION_FILE, result.to_toml())
+    if result.known.orders:
+        encoder_error_figure(
+            result.known,
+            exp.root / ENCODER_FIGURE,
+            f"{exp.device.name}: encoder reading error from the calibration",
+        )
     return result
 
 

@@ -14,7 +14,10 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-__all__ = ["plan_figure", "plot_tracking", "save_figure"]
+__all__ = ["encoder_error_figure", "plan_figure", "plot_tracking", "save_figure"]
+
+ARCSEC = np.degrees(1.0) * 3600.0
+"""Arcseconds per radian."""
 
 
 def save_figure(fig: Figure, path: str | os.PathLike) -> None:
@@ -159,6 +162,51 @@ def plan_figure(plan, path: str | os.PathLike) -> Path:
     right.set_yscale("log")
     right.legend(fontsize=8)
     right.grid(alpha=0.3)
+    fig.tight_layout()
+    save_figure(fig, path)
+    return Path(path)
+
+
+def encoder_error_figure(known, path: str | os.PathLike, title: str = "") -> Path:
+    """``rsp-inertia calibrate``'s encoder error curve: what the encoder reads beyond the true
+    angle, e(phi), over a turn, with its 1-std band, and each order's part; below, e'(phi), by
+    which the encoder scales every speed (the kinetic energy by 2 e').
+
+    ``known``: the calibrated terms (rsp_inertia.estimation.tensor.KnownTerms) with encoder
+    coefficients theta_e and their covariance.
+    """
+    from rsp_inertia.plant.transducers import error_basis, error_slope_basis
+
+    orders = known.orders
+    phi = np.linspace(0.0, 2.0 * np.pi, 721)
+    cov = known.cov[known.encoder_slice, known.encoder_slice]
+    fig = Figure(figsize=(8.0, 6.0), dpi=120)
+    FigureCanvasAgg(fig)
+    top, bottom = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [3, 2]})
+    deg = np.degrees(phi)
+    for ax, basis, scale, label in (
+        (top, error_basis(phi, orders), ARCSEC, "reading error e [arcsec]"),
+        (bottom, error_slope_basis(phi, orders), 1e6, "speed scale error e' [1e-6]"),
+    ):
+        value = basis @ known.encoder * scale
+        std = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", basis, cov, basis), 0.0)) * scale
+        unit = "arcsec" if ax is top else "1e-6"
+        ax.fill_between(
+            deg, value - std, value + std, color="C0", alpha=0.3, lw=0,
+            label=f"+- 1 std (at most {std.max():.2g} {unit})",
+        )
+        ax.plot(deg, value, color="C0", lw=2, label="e, all orders" if ax is top else "e'")
+        if ax is top:
+            for n in range(orders):
+                part = basis[:, 2 * n : 2 * n + 2] @ known.encoder[2 * n : 2 * n + 2] * scale
+                ax.plot(deg, part, lw=1, ls="--", color=f"C{n + 1}", label=f"order {n + 1}")
+        ax.axhline(0.0, color="0.5", lw=0.8)
+        ax.set_ylabel(label)
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="upper right", fontsize="small", ncol=2)
+    bottom.set_xlabel("encoder angle phi [deg]")
+    bottom.set_xticks(np.arange(0, 361, 45))
+    top.set_title(title or "encoder reading error from the calibration")
     fig.tight_layout()
     save_figure(fig, path)
     return Path(path)

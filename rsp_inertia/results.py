@@ -20,6 +20,7 @@ if TYPE_CHECKING:
 
     from rsp_inertia.checking import CheckReport
     from rsp_inertia.estimation.calibration import Calibration
+    from rsp_inertia.estimation.calibration_file import CalibrationFile
     from rsp_inertia.pipeline import PassSummary, ProgramSummary
 
 __all__ = ["CalibrateResult", "CheckResult", "ProgramResult", "SimulateResult", "json_text"]
@@ -221,6 +222,9 @@ class CalibrateResult:
         What the calibration's own checks found.
     path : pathlib.Path
         The calibration.toml written.
+    figure : pathlib.Path or None
+        The encoder's error curve drawn (``EXP/encoder_error.png``: e(phi) and e'(phi) over a
+        turn with their 1-std band), when the calibration has encoder terms.
     calibration : rsp_inertia.estimation.calibration.Calibration
         The full record (the calibrated terms with their covariance, the input files'
         sha256, the model tests).
@@ -249,43 +253,48 @@ class CalibrateResult:
     warnings: tuple[str, ...]
     path: Path
     calibration: Calibration = field(repr=False)
+    figure: Path | None = None
 
     @classmethod
     def _from(cls, calibration: Calibration, root: str | Path) -> CalibrateResult:
         import numpy as np
 
-        doc = _calibration_document(calibration)
-        head, stages, pendulum = doc["calibration"], doc["stage"], doc.get("pendulum")
-        drive, encoder = doc["drive"], doc["encoder"]
+        file = _calibration_file(calibration)
+        head, drive, encoder, pendulum = file.calibration, file.drive, file.encoder, file.pendulum
 
         def interleaved(cos, sin):
             out = np.empty(2 * len(cos))
             out[0::2], out[1::2] = cos, sin
             return out
 
-        known = calibration.known
         return cls(
-            drive_gains=np.array([drive["gain_driving"], drive["gain_backdriven"]]),
-            drive_gains_std=np.array([drive["gain_driving_std"], drive["gain_backdriven_std"]]),
-            round_trip_efficiency=drive["gain_driving"] / drive["gain_backdriven"],
-            round_trip_efficiency_std=known.round_trip_std(),
-            encoder_error=interleaved(encoder["error_cos"], encoder["error_sin"]),
-            encoder_error_std=interleaved(encoder["error_cos_std"], encoder["error_sin_std"]),
-            reference=head["reference"],
-            empty_inertia=np.array([s["empty_inertia"] for s in stages]),
-            empty_inertia_std=np.array([s["empty_inertia_std"] for s in stages]),
-            fixture_gravity=np.array(doc["fixture"]["gravity"]),
-            fixture_gravity_std=np.array(doc["fixture"]["gravity_std"]),
-            stiffness=None if pendulum is None else pendulum["stiffness"],
-            stiffness_std=None if pendulum is None else pendulum["stiffness_std"],
-            chi2_dof=head["chi2_dof"],
+            drive_gains=np.array([drive.gain_driving, drive.gain_backdriven]),
+            drive_gains_std=np.array([drive.gain_driving_std, drive.gain_backdriven_std]),
+            round_trip_efficiency=drive.gain_driving / drive.gain_backdriven,
+            round_trip_efficiency_std=file.known_terms().round_trip_std(),
+            encoder_error=interleaved(encoder.error_cos, encoder.error_sin),
+            encoder_error_std=interleaved(encoder.error_cos_std, encoder.error_sin_std),
+            reference=head.reference,
+            empty_inertia=np.array([s.empty_inertia for s in file.stages]),
+            empty_inertia_std=np.array([s.empty_inertia_std for s in file.stages]),
+            fixture_gravity=np.array(file.fixture.gravity),
+            fixture_gravity_std=np.array(file.fixture.gravity_std),
+            stiffness=None if pendulum is None else pendulum.stiffness,
+            stiffness_std=None if pendulum is None else pendulum.stiffness_std,
+            chi2_dof=head.chi2_dof,
             warnings=tuple(calibration.warnings),
             path=Path(root) / "calibration.toml",
+            figure=(
+                Path(root) / "encoder_error.png" if calibration.known.orders else None
+            ),
             calibration=calibration,
         )
 
     def __str__(self) -> str:
-        return f"{self.calibration}\ncalibration -> {self.path}"
+        lines = [str(self.calibration), f"calibration -> {self.path}"]
+        if self.figure is not None:
+            lines.append(f"encoder error curve -> {self.figure}")
+        return "\n".join(lines)
 
     def to_json(self) -> str:
         """The calibration as JSON: calibration.toml's tables and keys, plus ``warnings``.
@@ -298,16 +307,21 @@ class CalibrateResult:
             {...} (when calibrated), "covariance": {...}, "inputs": {...}, "warnings": [...]}``
             (NaN written as null).
         """
-        doc = _calibration_document(self.calibration)
+        from rsp_inertia.plant.toml_writer import document
+
+        doc = document(_calibration_file(self.calibration))
         doc["warnings"] = list(self.calibration.warnings)
         return json_text(doc)
 
 
-def _calibration_document(calibration: Calibration) -> dict:
-    """calibration.toml's content, parsed from the text calibrate writes (one source)."""
+def _calibration_file(calibration: Calibration) -> CalibrationFile:
+    """calibration.toml as identify reads it: the text calibrate writes, parsed by its reader
+    (one source: rsp_inertia.estimation.calibration_file)."""
     import tomllib
 
-    return tomllib.loads(calibration.to_toml())
+    from rsp_inertia.estimation.calibration_file import read_calibration_file
+
+    return read_calibration_file(tomllib.loads(calibration.to_toml()))
 
 
 # --- check ----------------------------------------------------------------------------------

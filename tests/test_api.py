@@ -385,7 +385,11 @@ def test_calibrate_prints_and_writes_what_the_command_line_does(tmp_path, capsys
     result = rsp_inertia.calibrate(root, empty, progress=lines.append)
     text = (root / "calibration.toml").read_text()
     document = tomllib.loads(text)
-    assert result.torque_gain == 1.0 and result.torque_gain_std == 0.0 and not result.reference
+    # No reference: the drive taken as exact (both gains 1, std 0), no encoder terms.
+    np.testing.assert_array_equal(result.drive_gains, [1.0, 1.0])
+    np.testing.assert_array_equal(result.drive_gains_std, [0.0, 0.0])
+    assert result.round_trip_efficiency == 1.0 and not result.reference
+    assert result.encoder_error.size == result.encoder_error_std.size == 0
     assert result.empty_inertia.shape == result.empty_inertia_std.shape == (2, 5)
     np.testing.assert_array_equal(result.empty_inertia[1], document["stage"][1]["empty_inertia"])
     np.testing.assert_array_equal(result.fixture_gravity, document["fixture"]["gravity"])

@@ -36,7 +36,7 @@ import rsp_inertia.plant
 from rsp_inertia.cli import _parser, main
 from rsp_inertia.plant import config, virtual_config
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.toml_schema import Key, accepted_keys, is_table, layout
+from rsp_inertia.plant.toml_schema import REQUIRED, Key, accepted_keys, is_table, layout
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
@@ -350,6 +350,21 @@ def _plain(value):
     return value
 
 
+TOGETHER = (
+    ("encoder", {"error_cos", "error_sin", "error_std"}),
+    ("rig", {"encoder_error_amplitude", "encoder_error_phase_deg"}),
+)
+"""Optional keys that a file gives together or not at all (an encoder's error series)."""
+
+
+def _together(table: str, key: str) -> set[str]:
+    """The keys left out with ``key``: itself, and the keys it only comes with."""
+    for group_table, keys in TOGETHER:
+        if table == group_table and key in keys:
+            return keys
+    return {key}
+
+
 @pytest.mark.parametrize("file", list(LOADERS))
 def test_documented_requirements_and_defaults_hold(file, tmp_path):
     """Each key left out of the example that shows it: a required key is missed, an optional
@@ -364,7 +379,8 @@ def test_documented_requirements_and_defaults_hold(file, tmp_path):
             continue
         block = json.loads(json.dumps(holders[0]))
         entry = block[table][0] if isinstance(block[table], list) else block[table]
-        del entry[key]
+        for other in _together(table, key):
+            entry.pop(other, None)
         path = _merged(file, block, tmp_path, dotted)
         spec = row[1].strip()
         if spec == "required":
@@ -472,10 +488,50 @@ def test_result_json_placeholders_name_the_real_keys(result):
 
 # --- calibration.toml -----------------------------------------------------------------------
 
+def _calibration_keys() -> dict[str, Key]:
+    """Dotted key (docs notation: ``stage.gear_ratio``, ``inputs.<file>``) -> the field of
+    rsp_inertia.estimation.calibration_file that declares it, for every key its reader accepts
+    (rsp_inertia.plant.toml_schema.accepted_keys)."""
+    from rsp_inertia.estimation.calibration_file import CalibrationFile
+
+    out = {}
+    for name, entry in layout(CalibrationFile).items():
+        if entry.free:
+            out[f"{name}.<{entry.meta['free_key']}>"] = entry
+        else:
+            members = layout(entry.kind, entry.meta["without"])
+            out |= {f"{name}.{key}": member for key, member in members.items()}
+    accepted = accepted_keys(CalibrationFile)
+    assert set(out) == {f"{t}.{k}" for t, keys in accepted.items() if t for k in keys}
+    return out
+
+
+CALIBRATION_OLDER_KEYS = {"calibration.torque_gain", "calibration.torque_gain_std"}
+"""The keys only a calibration.toml of an older rsp-inertia has (read, never written)."""
+
+
 def test_calibration_toml_keys_are_documented_and_exist():
+    """docs/files.md documents the keys calibration.toml's reader accepts, with their units
+    and whether they are required; calibrate writes every one but the older files' keys."""
     from rsp_inertia.estimation.calibration import Calibration
     from rsp_inertia.estimation.stiffness import StiffnessCalibration
     from rsp_inertia.estimation.tensor import KnownTerms
+
+    fields = _calibration_keys()
+    documented = _documented("calibration.toml")
+    assert set(documented) == set(fields), (
+        f"calibration.toml: documented only {sorted(set(documented) - set(fields))}, "
+        f"accepted only {sorted(set(fields) - set(documented))}"
+    )
+    faults = []
+    for dotted, row in documented.items():
+        unit = fields[dotted].meta["unit"]
+        if unit and not (row[2] == unit or row[2].startswith(unit + ",")):
+            faults.append(f"{dotted}: documented unit {row[2]!r}, the field's is {unit!r}")
+        required = fields[dotted].default is REQUIRED
+        if (row[1] == "required") != required:
+            faults.append(f"{dotted}: documented as {row[1]!r}, the reader's required={required}")
+    assert not faults, "\n".join(faults)
 
     calibration = Calibration(
         device_name="bench-A",
@@ -489,19 +545,18 @@ def test_calibration_toml_keys_are_documented_and_exist():
         stiffness=StiffnessCalibration(2.0, 1e-3, [(1, 0.0, 2.0, 1e-3)], math.nan, []),
     )
     doc = tomllib.loads(calibration.to_toml())
-    real = set()
+    written = set()
     for table, value in doc.items():
         if table == "inputs":
-            real.add("inputs.<file>")
-        elif isinstance(value, list):
-            real |= {f"{table}[].{key}" for entry in value for key in entry}
+            written.add("inputs.<file>")
         else:
-            real |= {f"{table}.{key}" for key in value}
-    documented = set(_documented("calibration.toml"))
-    assert documented == real, (
-        f"calibration.toml: documented only {sorted(documented - real)}, "
-        f"written only {sorted(real - documented)}"
-    )
+            written |= {f"{table}.{key}" for entry in _all(value) for key in entry}
+    assert written == set(fields) - CALIBRATION_OLDER_KEYS
+
+
+def _all(table) -> list[dict]:
+    """The tables of a table or of an array of tables."""
+    return table if isinstance(table, list) else [table]
 
 
 # --- links and references -------------------------------------------------------------------
