@@ -66,6 +66,7 @@ from rsp_inertia.estimation.tensor import (
     KnownTerms,
     both_directions,
     encoder_columns,
+    encoder_names,
     gravity_rows,
     run_columns,
     run_label,
@@ -145,9 +146,9 @@ class Calibration:
             )
             out.append(
                 "  with the logged torque's scale exact, eta_d = h_d and eta_b = 1 / h_b: "
-                f"eta_d = {k.gains[0]:.4f}, eta_b = {1 / k.gains[1]:.4f} (a work balance "
-                "measures only h_d and h_b: the torque constant and the two efficiencies "
-                "are not separable)"
+                f"eta_d = {k.gains[0]:.5f} +- {std[0]:.1e}, eta_b = {1 / k.gains[1]:.5f} +- "
+                f"{std[1] / k.gains[1] ** 2:.1e} (a work balance measures only h_d and h_b: "
+                "the torque constant and the two efficiencies are not separable)"
             )
         else:
             out.append(
@@ -224,7 +225,7 @@ def _blocks(
         scaled = {}
         if encoder_orders:
             E = encoder_columns(bal, encoder_orders)
-            scaled = {name: -E[:, j] for j, name in enumerate(_encoder_names(encoder_orders))}
+            scaled = {name: -E[:, j] for j, name in enumerate(encoder_names(encoder_orders))}
         known_M = np.zeros(len(bal.phi))
         if reference is not None:
             st = device.stages[s - 1]
@@ -254,11 +255,6 @@ def _blocks(
             )
         )
     return blocks
-
-
-def _encoder_names(orders: int) -> list[str]:
-    """The encoder's coefficients' names, c1, s1, c2, ... (KnownTerms.names)."""
-    return [f"{kind}{n}" for n in range(1, orders + 1) for kind in ("c", "s")]
 
 
 def fit_calibration(
@@ -295,57 +291,38 @@ def fit_calibration(
     """
     has_gain = reference is not None
     orders = ENCODER_ORDERS if has_gain else 0
-    applied = np.zeros(2 * orders) if encoder is None or not has_gain else np.asarray(encoder)
     blocks = _blocks(device, empty, "empty", None, has_gain, orders)
     if has_gain:
         blocks += _blocks(device, reference, "reference", reference_body, has_gain, orders)
     fit = solve_blocks(blocks, scales=scales, tests=tests)
-    stated, _ = device_known_terms(device)
-    n_stages = len(device.stages)
-    layout = KnownTerms(
-        (1.0, 1.0),
-        np.zeros((n_stages, 5)),
-        np.zeros(2),
-        _zero_cov(n_stages, orders or stated.orders),
-        encoder=applied if has_gain else stated.encoder,
-    )
-    names = layout.names()
-    fitted = [n for n in names if n not in ("h_d", "h_b") or has_gain]
-    if not has_gain:
-        fitted = [n for n in fitted if n not in _encoder_names(stated.orders)]
-    missing = [n for n in fitted if n not in fit.names]
-    if missing:
-        raise InputError(f"the calibration runs leave {', '.join(missing)} undetermined")
-    theta = np.array([fit.x[fit.index(n)] if n in fitted else 0.0 for n in names])
-    if not has_gain:
-        theta[:2] = 1.0
-        theta[layout.encoder_slice] = stated.encoder
+    # What the fit does not measure stays as it was: without a reference, gains 1 and the
+    # encoder error device.toml states (with its std); with one, the encoder error already
+    # taken off the logs, to which the fit adds what it finds left.
+    if has_gain:
+        applied = np.zeros(2 * orders) if encoder is None else np.asarray(encoder, dtype=float)
+        start = KnownTerms.exact(len(device.stages), applied)
+        measured = start.names()
     else:
-        theta[layout.encoder_slice] += applied
-    cov = np.zeros((len(names), len(names)))
-    live = [j for j, n in enumerate(names) if n in fitted]
-    where = [fit.index(names[j]) for j in live]
-    cov[np.ix_(live, live)] = fit.cov[np.ix_(where, where)]
-    if not has_gain and stated.orders:  # the stated encoder error and its std, as it is
-        cov[layout.encoder_slice, layout.encoder_slice] = stated.cov[
+        stated, _ = device_known_terms(device)
+        start = KnownTerms.exact(len(device.stages), stated.encoder)
+        cov = start.cov.copy()
+        cov[start.encoder_slice, start.encoder_slice] = stated.cov[
             stated.encoder_slice, stated.encoder_slice
         ]
-    known = KnownTerms(
-        gains=(float(theta[0]), float(theta[1])),
-        inertia=theta[layout.harmonics_slice(1).start : layout.gravity_slice.start].reshape(
-            n_stages, 5
-        ),
-        gravity=theta[layout.gravity_slice],
-        cov=cov,
-        calibrated=True,
-        encoder=theta[layout.encoder_slice],
-    )
-    return known, fit
-
-
-def _zero_cov(n_stages: int, orders: int) -> np.ndarray:
-    size = 2 + 5 * n_stages + 2 + 2 * orders
-    return np.zeros((size, size))
+        start = start.with_theta(start.theta, cov)
+        measured = start.names()[2 : start.gravity_slice.stop]  # the empty system, fixture
+    missing = [n for n in measured if n not in fit.names]
+    if missing:
+        raise InputError(f"the calibration runs leave {', '.join(missing)} undetermined")
+    names = start.names()
+    theta, cov = start.theta, start.cov.copy()
+    which = [names.index(n) for n in measured]
+    where = [fit.index(n) for n in measured]
+    added = set(encoder_names(orders))  # the encoder's: what is left, added to the applied
+    for i, j, name in zip(which, where, measured):
+        theta[i] = theta[i] + fit.x[j] if name in added else fit.x[j]
+    cov[np.ix_(which, which)] = fit.cov[np.ix_(where, where)]
+    return start.with_theta(theta, cov), fit
 
 
 def calibrate_logs(

@@ -47,6 +47,7 @@ __all__ = [
     "balance_rhs",
     "both_directions",
     "encoder_columns",
+    "encoder_names",
     "fit_tensor",
     "format_run",
     "gravity_rows",
@@ -175,6 +176,32 @@ class KnownTerms:
         size = 2 + inertia.size + 2
         return cls((1.0, 1.0), inertia, np.zeros(2), np.zeros((size, size)))
 
+    @classmethod
+    def exact(cls, stages: int, encoder=()) -> KnownTerms:
+        """Nothing known about the rig yet, but its number of stages: gains 1, no empty
+        system, no fixture, the encoder error ``encoder`` (coefficients), all exact."""
+        encoder = np.asarray(encoder, dtype=float).reshape(-1)
+        size = 2 + 5 * stages + 2 + encoder.size
+        return cls((1.0, 1.0), np.zeros((stages, 5)), np.zeros(2), np.zeros((size, size)),
+                   encoder=encoder)
+
+    @property
+    def theta(self) -> np.ndarray:
+        """The values of theta, in the order of :meth:`names`."""
+        return np.concatenate([self.gains, self.inertia.ravel(), self.gravity, self.encoder])
+
+    def with_theta(self, theta: np.ndarray, cov: np.ndarray, calibrated: bool = True):
+        """These terms' layout with the values ``theta`` and their covariance ``cov``."""
+        theta = np.asarray(theta, dtype=float)
+        return KnownTerms(
+            gains=(float(theta[0]), float(theta[1])),
+            inertia=theta[2 : self.gravity_slice.start].reshape(self.inertia.shape),
+            gravity=theta[self.gravity_slice],
+            cov=cov,
+            calibrated=calibrated,
+            encoder=theta[self.encoder_slice],
+        )
+
     @property
     def orders(self) -> int:
         """Orders of the encoder's error series (len(encoder) / 2)."""
@@ -186,7 +213,7 @@ class KnownTerms:
         for s in range(1, len(self.inertia) + 1):
             names += [f"{h}[{s}]" for h in HARMONIC_NAMES]
         names += ["Gs", "Gc"]
-        return names + _encoder_names(self.orders)
+        return names + encoder_names(self.orders)
 
     def harmonics_slice(self, stage: int) -> slice:
         """theta's entries of the empty system's harmonics of stage ``stage`` (from 1)."""
@@ -299,7 +326,7 @@ class KnownTerms:
         return B
 
 
-def _encoder_names(orders: int) -> list[str]:
+def encoder_names(orders: int) -> list[str]:
     """The encoder's coefficients' names, c1, s1, c2, ... (KnownTerms.names)."""
     return [f"{kind}{n}" for n in range(1, orders + 1) for kind in ("c", "s")]
 
@@ -445,7 +472,7 @@ def tensor_block(bal: StageBalance, run: str, known: KnownTerms, asymmetry: bool
             ENCODER_PROBE: {
                 name: -col
                 for name, col in zip(
-                    _encoder_names(PROBE_ORDERS), encoder_columns(bal, PROBE_ORDERS).T
+                    encoder_names(PROBE_ORDERS), encoder_columns(bal, PROBE_ORDERS).T
                 )
             }
         },
