@@ -62,9 +62,13 @@ from rsp_inertia.estimation.model_tests import ModelTest, model_warnings
 from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs, corrected_log
 from rsp_inertia.estimation.stiffness import StiffnessCalibration, calibrate_stiffness
 from rsp_inertia.estimation.tensor import (
+    DRIVE_PROBE,
+    ENCODER_PROBE,
     HARMONIC_NAMES,
+    PROBE_ORDERS,
     KnownTerms,
     both_directions,
+    described,
     encoder_columns,
     encoder_names,
     gravity_rows,
@@ -226,6 +230,15 @@ def _blocks(
         if encoder_orders:
             E = encoder_columns(bal, encoder_orders)
             scaled = {name: -E[:, j] for j, name in enumerate(encoder_names(encoder_orders))}
+        # Without a reference the drive and the encoder cannot be measured, but the model
+        # tests can still say whether the runs call for them (the probes of identify).
+        probes, probes_per_inertia = {}, {}
+        if not has_gain:
+            probes = {DRIVE_PROBE: {"dh_d": -bal.motor_work_parts[:, 0]}}
+            E = encoder_columns(bal, PROBE_ORDERS)
+            probes_per_inertia = {
+                ENCODER_PROBE: {n: -E[:, j] for j, n in enumerate(encoder_names(PROBE_ORDERS))}
+            }
         known_M = np.zeros(len(bal.phi))
         if reference is not None:
             st = device.stages[s - 1]
@@ -252,6 +265,8 @@ def _blocks(
                 groups={f"{h}[{s}]": f"{role} {run_label(bal)}" for h in HARMONIC_NAMES},
                 fixed_in_tests=frozenset({"h_d", "h_b"}),
                 inertia_scaled_columns=scaled,
+                probes=probes,
+                probes_per_inertia=probes_per_inertia,
             )
         )
     return blocks
@@ -376,7 +391,8 @@ def calibrate_logs(
     known, fit = fit_calibration(
         device, empty_bal, ref_bal, reference_body, applied if len(applied) else None, scales
     )
-    warnings += model_warnings(fit.tests, fit.scales, fit.labels)
+    tests = described(fit.tests, known.gains)
+    warnings += model_warnings(tests, fit.scales, fit.labels)
     stiffness = None
     if reference is not None:
         stiffness = calibrate_stiffness(
@@ -400,7 +416,7 @@ def calibrate_logs(
         known=known,
         reference=reference is not None,
         chi2_dof=fit.chi2_dof,
-        tests=fit.tests,
+        tests=tests,
         warnings=warnings,
         stiffness=stiffness,
     )

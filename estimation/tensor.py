@@ -46,6 +46,7 @@ __all__ = [
     "axis_values",
     "balance_rhs",
     "both_directions",
+    "described",
     "encoder_columns",
     "encoder_names",
     "fit_tensor",
@@ -171,10 +172,9 @@ class KnownTerms:
         """device.toml's tares as exact: M_empty = M_tare, no fixture terms, an exact torque
         constant, a lossless drive and an exact encoder."""
         tares = np.asarray(tares, dtype=float)
-        inertia = np.zeros((len(tares), 5))
-        inertia[:, 0] = tares
-        size = 2 + inertia.size + 2
-        return cls((1.0, 1.0), inertia, np.zeros(2), np.zeros((size, size)))
+        exact = cls.exact(len(tares))
+        exact.inertia[:, 0] = tares
+        return exact
 
     @classmethod
     def exact(cls, stages: int, encoder=()) -> KnownTerms:
@@ -329,6 +329,16 @@ class KnownTerms:
 def encoder_names(orders: int) -> list[str]:
     """The encoder's coefficients' names, c1, s1, c2, ... (KnownTerms.names)."""
     return [f"{kind}{n}" for n in range(1, orders + 1) for kind in ("c", "s")]
+
+
+def described(tests: list[ModelTest], gains: tuple[float, float]) -> list[ModelTest]:
+    """The model tests with their probes' :func:`probe_detail` filled in (their warnings')."""
+    return [
+        replace(test, detail=probe_detail(test, gains))
+        if test.kind in (DRIVE_PROBE, ENCODER_PROBE)
+        else test
+        for test in tests
+    ]
 
 
 def probe_detail(test: ModelTest, gains: tuple[float, float]) -> str:
@@ -508,12 +518,7 @@ def fit_tensor(
         tests=tests,
         known_groups=known.budget_groups(),
     )
-    model_tests = [
-        replace(test, detail=probe_detail(test, known.gains))
-        if test.kind in (DRIVE_PROBE, ENCODER_PROBE)
-        else test
-        for test in fit.tests
-    ]
+    model_tests = described(fit.tests, known.gains)
     shared = [fit.index(name) for name in (*ENTRY_KEYS, "Gs", "Gc")]
     n_runs, stages = len(balances), sorted({bal.stage for bal in balances})
     slope = np.full((n_runs, 2), np.nan)

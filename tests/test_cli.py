@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -66,6 +67,43 @@ def test_bad_device_key(experiment, capsys):
     path.write_text(path.read_text().replace("gear_ratio = 0.7639320225", "gear_ratio = -0.5"))
     assert main(["simulate", str(experiment)]) == 2
     one_line_error(capsys, "device.toml", "stage[1].gear_ratio")
+
+
+@pytest.mark.parametrize(
+    "file, table, lines, needles",
+    [
+        ("virtual.toml", "[rig]", "efficiency_driving = 1.5", ("rig.efficiency_driving", "<= 1")),
+        ("virtual.toml", "[rig]", "efficiency_backdriven = 0.0", ("rig.efficiency_backdriven",)),
+        (
+            "virtual.toml",
+            "[rig]",
+            "encoder_error_amplitude = [2e-4, 5e-5]\nencoder_error_phase_deg = [30.0]",
+            ("rig.encoder_error_phase_deg", "one entry per order"),
+        ),
+        (
+            "device.toml",
+            "[encoder]",
+            "error_cos = [1e-4]\nerror_sin = [1e-4, 2e-5]",
+            ("encoder.error_sin", "one entry per order"),
+        ),
+        ("device.toml", "[encoder]", "error_cos = [1e-4]", ("encoder.error_sin", "missing")),
+    ],
+)
+def test_bad_drive_or_encoder_keys(experiment, capsys, file, table, lines, needles):
+    # A drive's efficiency outside (0, 1] or a malformed encoder error series: one line,
+    # exit status 2, nothing written.
+    path = experiment / file
+    text = path.read_text()
+    header = re.search(rf"^{re.escape(table)}.*\n", text, flags=re.MULTILINE)
+    if header is None:
+        text += f"\n{table}\n{lines}\n"
+    else:
+        text = text[: header.end()] + f"{lines}\n" + text[header.end() :]
+    path.write_text(text)
+    before = sorted(p.name for p in experiment.rglob("*"))
+    assert main(["simulate", str(experiment), "--stage", "1"]) == 2
+    one_line_error(capsys, file, *needles)
+    assert sorted(p.name for p in experiment.rglob("*")) == before
 
 
 def test_no_such_stage(experiment, capsys):

@@ -20,7 +20,7 @@ from rsp_inertia.estimation.passes import estimate_pass
 from rsp_inertia.estimation.reading import load_calibration
 from rsp_inertia.estimation.runs import ExperimentLogs
 from rsp_inertia.estimation.tensor import KnownTerms, axis_values, fit_tensor
-from rsp_inertia.pipeline import create_default_experiment, identify, simulate
+from rsp_inertia.pipeline import calibrate, create_default_experiment, identify, simulate
 from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.config import Pendulum, load_device, write_device
 from rsp_inertia.plant.experiment import open_experiment
@@ -351,3 +351,15 @@ def test_the_pendulum_baseline_reads_the_corrected_encoder(rig, monkeypatch):
     np.testing.assert_array_equal(seen[0].phi, true_angle(log.phi, theta))
     # 41 arcsec of order 1: two counts of this encoder
     assert np.max(np.abs(seen[0].phi - log.phi)) > exp_.device.encoder.quantum
+
+
+def test_calibration_without_a_reference_names_the_drive_it_cannot_measure(rig, tmp_path):
+    # Without a reference the drive's gains are taken as 1, but the empty runs' balances
+    # still show the loss (the friction's share of the work changes between stages and
+    # turns): calibrate says so instead of passing it on silently.
+    exp, empty, _ = rig
+    target = tmp_path / "exp"
+    shutil.copytree(exp, target)
+    calibration = calibrate(target, empty)
+    assert calibration.known.gains == (1.0, 1.0)
+    assert any(w.startswith("drive loss: ") for w in calibration.warnings)
