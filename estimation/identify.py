@@ -247,7 +247,7 @@ def identify_logs(
         friction_asymmetry=fit.friction_asymmetry,
         friction_asymmetry_std=fit.friction_asymmetry_std,
         model_tests=fit.tests,
-        calibration=known.summary(),
+        calibration=known.summary(fit.known_after),
     )
 
 

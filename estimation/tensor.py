@@ -108,6 +108,9 @@ class TensorFit:
     late turns."""
     runs: list[tuple[int, str]] | None = None
     """(stage, direction) of each run, in the order of the balances."""
+    known_after: KnownTerms | None = None
+    """The calibrated terms after the runs refined them (rsp_inertia.estimation.gls: the
+    calibration as prior, the runs' information added); None without calibrated terms."""
 
 
 HARMONIC_NAMES = ("M0", "Mc2", "Ms2", "Ms1", "Mc1")
@@ -265,10 +268,25 @@ class KnownTerms:
         g[self.harmonics_slice(stage)] = inertia_basis(np.atleast_1d(phi))[0]
         return float(g @ self.cov @ g)
 
-    def summary(self) -> dict | None:
-        """result.json's ``calibration``: what was applied (None when nothing was)."""
+    def summary(self, after: KnownTerms | None = None) -> dict | None:
+        """result.json's ``calibration``: what was applied (None when nothing was), and with
+        ``after`` (the terms after the runs refined them) the drive's gains and the encoder's
+        error as the runs left them (``refined``)."""
         if not self.calibrated:
             return None
+        out = self._summary()
+        if after is not None:
+            refined = after._summary()
+            out["refined"] = {
+                name: refined[name]
+                for name in (
+                    "drive_gains", "drive_gains_std", "round_trip_efficiency",
+                    "round_trip_efficiency_std", "encoder_error", "encoder_error_std",
+                )
+            }
+        return out
+
+    def _summary(self) -> dict:
         std = self.std
         n = len(self.inertia)
         encoder = self.encoder_slice
@@ -554,6 +572,11 @@ def fit_tensor(
         friction_asymmetry_std=asym_std,
         tests=model_tests,
         runs=[run_key(bal) for bal in balances],
+        known_after=(
+            None
+            if fit.known_shift is None
+            else known.with_theta(known.theta + fit.known_shift, fit.known_shift_cov)
+        ),
     )
 
 
