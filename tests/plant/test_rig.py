@@ -28,13 +28,6 @@ def device(default_device):
     return dataclasses.replace(default_device, stages=(stage, *default_device.stages[1:]))
 
 
-@pytest.fixture(scope="module")
-def virtual(default_virtual):
-    """The default truth without torque noise, so that logged torques are exact."""
-    run = dataclasses.replace(default_virtual.run, torque_noise=0.0)
-    return dataclasses.replace(default_virtual, run=run)
-
-
 def with_friction(virtual, **changes):
     return dataclasses.replace(virtual, friction=dataclasses.replace(virtual.friction, **changes))
 

@@ -68,13 +68,6 @@ def device(default_device):
     )
 
 
-@pytest.fixture(scope="module")
-def virtual(default_virtual):
-    """The default truth without torque noise, so that logged torques are exact."""
-    run = dataclasses.replace(default_virtual.run, torque_noise=0.0)
-    return dataclasses.replace(default_virtual, run=run)
-
-
 def with_rig(virtual, **changes):
     return dataclasses.replace(virtual, rig=dataclasses.replace(virtual.rig, **changes))
 
