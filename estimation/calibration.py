@@ -391,7 +391,12 @@ def calibrate_logs(
     known, fit = fit_calibration(
         device, empty_bal, ref_bal, reference_body, applied if len(applied) else None, scales
     )
-    tests = described(fit.tests, known.gains)
+    one_direction = any(
+        len(both_directions(runs)) < len({bal.stage for bal in runs})
+        for runs in (empty_bal, ref_bal or [])
+        if runs
+    )
+    tests = described(fit.tests, known, one_direction)
     warnings += model_warnings(tests, fit.scales, fit.labels)
     stiffness = None
     if reference is not None:
@@ -530,7 +535,8 @@ def device_known_terms(
     else:
         warnings.append(
             f"{calibration_source}: not found, and device.toml states no tare_inertia_std "
-            "and torque_gain_std: the tares of device.toml and a torque gain of 1 are taken as "
-            "exact, and their errors are not in the stds (calibrate with rsp-inertia calibrate)"
+            "and torque_gain_std: the tares of device.toml, a torque gain of 1 and a lossless "
+            "drive are taken as exact, and their errors are not in the stds (calibrate with "
+            "rsp-inertia calibrate)"
         )
     return dataclasses.replace(known, cov=cov, calibrated=stated), warnings

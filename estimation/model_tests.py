@@ -233,6 +233,7 @@ def model_warnings(tests: list[ModelTest], scales: list[float], labels: list[str
                 f"{label}: the balance residuals exceed the encoder's speed-noise model even "
                 f"{scale:.0f}-fold: the balances do not close; the stds are not reliable"
             )
+    named = [test.kind for test in tests if test.significant and test.detail]
     for test in tests:
         if not test.significant:
             continue
@@ -245,7 +246,9 @@ def model_warnings(tests: list[ModelTest], scales: list[float], labels: list[str
         warnings.append(
             f"the balances do not close: {test.label} disagree beyond their noise (chi2 = "
             f"{test.statistic:.3g} for {test.dof} terms, p = {test.p_value:.2g}); likely "
-            "causes: friction that differs between the directions of rotation (run the "
+            "causes: "
+            + "".join(f"the {kind} named below, " for kind in named)
+            + "friction that differs between the directions of rotation (run the "
             'stages both ways: directions = ["forward", "backward"]), a reverse that does not '
             "track the mirror, a wrong spring stiffness or gear ratio in device.toml, a torque "
             "gain that differs between the passes or runs; the result may be off by more "

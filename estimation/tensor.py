@@ -349,34 +349,58 @@ def encoder_names(orders: int) -> list[str]:
     return [f"{kind}{n}" for n in range(1, orders + 1) for kind in ("c", "s")]
 
 
-def described(tests: list[ModelTest], gains: tuple[float, float]) -> list[ModelTest]:
-    """The model tests with their probes' :func:`probe_detail` filled in (their warnings')."""
+def described(
+    tests: list[ModelTest], known: KnownTerms, one_direction: bool = False
+) -> list[ModelTest]:
+    """The model tests with their probes' :func:`probe_detail` filled in (their warnings');
+    ``one_direction``: some stage was run in one direction only."""
     return [
-        replace(test, detail=probe_detail(test, gains))
+        replace(test, detail=probe_detail(test, known, one_direction))
         if test.kind in (DRIVE_PROBE, ENCODER_PROBE)
         else test
         for test in tests
     ]
 
 
-def probe_detail(test: ModelTest, gains: tuple[float, float]) -> str:
+def probe_detail(test: ModelTest, known: KnownTerms, one_direction: bool = False) -> str:
     """What a probe test's fitted terms say, in words and numbers (its warning's text).
 
     drive loss: the driving work's gain came out h_d + dh_d against h_b's, so the runs call
     for the round-trip efficiency (h_d + dh_d) / h_b (the common scale of both gains the
     tensor takes up). encoder error: each order's amplitude sqrt(c_n^2 + s_n^2), first-order
-    std, in arcseconds.
+    std, in arcseconds. What to do depends on what is known: a calibration of the drive or of
+    the encoder that the runs contradict (the rig changed since), or none (calibrate). In a
+    stage run one way only, friction that differs between the directions of rotation leaves
+    the same shape as a drive's loss (the braking turns one way, the reverse the other),
+    so the drive's warning names it too.
     """
     x, cov = test.estimate, test.estimate_cov
+    gains = known.gains
+    std = known.std if known.calibrated else np.zeros(known.cov.shape[0])
     if test.kind == DRIVE_PROBE:
         ratio = (gains[0] + x[0]) / gains[1]
-        std = math.sqrt(max(cov[0, 0], 0.0)) / gains[1]
+        ratio_std = math.sqrt(max(cov[0, 0], 0.0)) / gains[1]
+        if np.any(std[:2] > 0):
+            cause = (
+                "the calibrated gains do not fit these runs: a drive whose losses changed "
+                "since the calibration (calibrate again)"
+            )
+        else:
+            cause = (
+                "a transmission that loses power by its direction of flow; rsp-inertia "
+                "calibrate with a reference run measures h_d and h_b"
+            )
+        if one_direction:
+            cause += (
+                ", or friction that differs between the directions of rotation, which in a "
+                "stage run one way looks the same (run the stages both ways: directions = "
+                '["forward", "backward"])'
+            )
         return (
             "the work the drive delivers while it drives the body and while the body drives "
             "it back do not share one scale: the balances call for a round-trip efficiency "
-            f"h_d / h_b = {ratio:.4f} +- {std:.1g} where {gains[0] / gains[1]:.4f} is applied "
-            "(a transmission that loses power by its direction of flow; rsp-inertia calibrate "
-            "with a reference run measures h_d and h_b)"
+            f"h_d / h_b = {ratio:.4f} +- {ratio_std:.1g} where {gains[0] / gains[1]:.4f} is "
+            f"applied ({cause})"
         )
     if test.kind == ENCODER_PROBE:
         parts = []
@@ -384,15 +408,24 @@ def probe_detail(test: ModelTest, gains: tuple[float, float]) -> str:
             c, s_ = x[2 * n : 2 * n + 2]
             a = math.hypot(c, s_)
             g = np.array([c, s_]) / a if a > 0 else np.zeros(2)
-            std = math.sqrt(max(g @ cov[2 * n : 2 * n + 2, 2 * n : 2 * n + 2] @ g, 0.0))
+            a_std = math.sqrt(max(g @ cov[2 * n : 2 * n + 2, 2 * n : 2 * n + 2] @ g, 0.0))
             arcsec = math.degrees(1.0) * 3600
-            parts.append(f"order {n + 1} {a * arcsec:.2g} +- {std * arcsec:.1g}")
+            parts.append(f"order {n + 1} {a * arcsec:.2g} +- {a_std * arcsec:.1g}")
+        if np.any(std[known.encoder_slice] > 0):
+            cause = (
+                "left after the calibrated correction: an encoder that moved or was remounted "
+                "since the calibration (calibrate again)"
+            )
+        else:
+            cause = (
+                "an eccentric or running-out encoder; rsp-inertia calibrate with a reference "
+                "run measures it, or state the maker's certificate in device.toml [encoder] "
+                "error_cos, error_sin, error_std"
+            )
         return (
             "the balances carry a periodic error of the encoder's reading: "
             + ", ".join(parts)
-            + " arcsec (an eccentric or running-out encoder; rsp-inertia calibrate with a "
-            "reference run measures it, or state the maker's certificate in device.toml "
-            "[encoder] error_cos, error_sin, error_std)"
+            + f" arcsec ({cause})"
         )
     return ""
 
@@ -536,7 +569,8 @@ def fit_tensor(
         tests=tests,
         known_groups=known.budget_groups(),
     )
-    model_tests = described(fit.tests, known.gains)
+    one_direction = len(both) < len({bal.stage for bal in balances})
+    model_tests = described(fit.tests, known, one_direction)
     shared = [fit.index(name) for name in (*ENTRY_KEYS, "Gs", "Gc")]
     n_runs, stages = len(balances), sorted({bal.stage for bal in balances})
     slope = np.full((n_runs, 2), np.nan)

@@ -235,9 +235,12 @@ def calibrate(
 ) -> CalibrateResult:
     """Calibrate the rig from empty-fixture and reference-body runs (``rsp-inertia calibrate``).
 
-    Fits the empty system's reduced inertia per stage, the fixture's gravity terms and the
-    torque gain (and, from pendulum runs in both folders, the torsion stiffness) in one
-    generalised least squares, and writes ``EXP/calibration.toml`` (atomically).
+    Fits the empty system's reduced inertia per stage and the fixture's gravity terms, and
+    with a reference the drive's gains h_d, h_b (by the direction of power flow) and the
+    encoder's error harmonics (orders 1 to 3), in one generalised least squares (repeated on
+    the logs corrected with the encoder's estimate); from pendulum runs in both folders, the
+    torsion stiffness. Writes ``EXP/calibration.toml`` (atomically) and, with encoder terms,
+    the error curve ``EXP/encoder_error.png``.
 
     Parameters
     ----------
@@ -247,15 +250,16 @@ def calibrate(
         The experiment folder of the empty fixture (same stages as EXP), with its logs.
     reference : str or pathlib.Path, optional
         The experiment folder of the reference body, with ``reference.toml`` (same stages);
-        without it the torque gain is taken as 1.
+        without it the drive is taken as lossless with a torque gain of 1 and the encoder's
+        error as device.toml states it (none: exact).
     progress : callable, optional
         Called with each progress line (str); silent by default.
 
     Returns
     -------
     CalibrateResult
-        The torque gain, the empty system's inertia, the fixture's gravity terms, with
-        their standard deviations.
+        The drive's gains, the encoder's error, the empty system's inertia and the fixture's
+        gravity terms, with their standard deviations.
 
     Raises
     ------

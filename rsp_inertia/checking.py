@@ -289,8 +289,8 @@ def _check_constants(exp, report: CheckReport) -> None:
             report.add(
                 "suspicious",
                 f"{path}: not found, and device.toml states no {', '.join(unstated)}: identify "
-                "will take the tares and a torque gain of 1 as exact, and warn (rsp-inertia "
-                "calibrate)",
+                "will take the tares, a torque gain of 1 and a lossless drive as exact, and "
+                "warn (rsp-inertia calibrate)",
             )
     if device.pendulum is not None and stiffness is None and device.pendulum.stiffness_std is None:
         report.add(

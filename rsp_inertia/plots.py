@@ -186,11 +186,11 @@ def encoder_error_figure(known, path: str | os.PathLike, title: str = "") -> Pat
     deg = np.degrees(phi)
     for ax, basis, scale, label in (
         (top, error_basis(phi, orders), ARCSEC, "reading error e [arcsec]"),
-        (bottom, error_slope_basis(phi, orders), 1e6, "speed scale error e' [1e-6]"),
+        (bottom, error_slope_basis(phi, orders), 1e6, "speed scale error e' [ppm]"),
     ):
         value = basis @ known.encoder * scale
         std = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", basis, cov, basis), 0.0)) * scale
-        unit = "arcsec" if ax is top else "1e-6"
+        unit = "arcsec" if ax is top else "ppm"
         ax.fill_between(
             deg, value - std, value + std, color="C0", alpha=0.3, lw=0,
             label=f"+- 1 std (at most {std.max():.2g} {unit})",

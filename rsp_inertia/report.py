@@ -26,7 +26,7 @@ __all__ = ["FIGURES", "PACKAGES", "REPORT_FILE", "write_report"]
 REPORT_FILE = "report.html"
 """Written into the experiment folder."""
 
-FIGURES = ("errors.png", "design.png", "plan.png")
+FIGURES = ("errors.png", "design.png", "plan.png", "encoder_error.png")
 """Figures inlined when present, then every motion_stageN.png and tracking_stageN.png."""
 
 PACKAGES = ("rsp-inertia", "numpy", "scipy", "casadi", "filterpy", "control", "matplotlib")
