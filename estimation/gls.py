@@ -3,7 +3,7 @@
 Every run (one stage in one direction) contributes one equation per balance angle
 (rsp_inertia.estimation.balance, docs/method.md §5). Which unknowns those equations share
 depends on the question: the body's tensor (rsp_inertia.estimation.tensor) or the empty
-fixture's harmonics and the torque gain (rsp_inertia.estimation.calibration). Both build
+fixture's harmonics, the drive's gains and the encoder's error (rsp_inertia.estimation.calibration). Both build
 :class:`Block` s, named columns and a right-hand side, and this module solves them the same
 way:
 
@@ -91,7 +91,7 @@ class Block:
     """Unknown name -> group label (e.g. the run) for the consistency tests."""
     fixed_in_tests: frozenset[str] = frozenset()
     """Unknowns the consistency tests hold at the joint estimate: a scale on the whole
-    equation (the torque gain's h, with a right-hand side that is zero without the
+    equation (the drive's gains h_d, h_b, with a right-hand side that is zero without the
     reference's known terms) would let a freed fit collapse to the trivial solution."""
     joint_only: frozenset[str] = frozenset()
     """Unknowns left out of the run's own fit that sets its speed-noise scale: terms that only

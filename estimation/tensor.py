@@ -9,7 +9,7 @@ columns from its Pi). Each balance angle of a run (one
 stage, one direction of rotation) gives
 
     1/2 S v(phi) . J + 2 Gs sin phi + 2 Gc cos phi - C_run - d . R - dir e_s . Q
-        = h W(phi) - 2 Pi_spring - 1/2 S M_empty(phi) - 2 Pi_fixture(phi)
+        = h_d W_d(phi) + h_b W_b(phi) - 2 Pi_spring - 1/2 S M_empty(phi) - 2 Pi_fixture(phi)
 
 (rsp_inertia.estimation.balance), linear in the six entries, the gravity terms Gs = m g x_c,
 Gc = m g y_c shared by all runs, one constant per run, per run the two slopes d of the
@@ -17,10 +17,14 @@ friction torque that the closed loop's tracking mismatch leaves in the balance (
 and, for a stage run in both directions, its friction asymmetry e_s (regressors Q, sign
 dir = +1 forward, -1 backward: the first-order effect of a friction that differs between the
 directions of rotation cancels between the runs). The right-hand side holds what the rig's
-calibration knows (:class:`KnownTerms`): the torque gain's h = 1 / gain on the logged motor
-work W, the empty system's reduced inertia M_empty (tare and fixture) and the fixture's
-gravity; without a calibration, device.toml's tare as exact. Weights, the speed-noise scale,
-the model tests and the uncertainty budget: rsp_inertia.estimation.gls.
+calibration knows (:class:`KnownTerms`): the drive's gains h_d, h_b on the logged motor work's
+driving and back-driven parts W_d, W_b (docs/method.md §3, encoder and drive), the empty
+system's reduced inertia M_empty (tare and fixture), the fixture's gravity and the encoder's
+error (taken off the readings before the balances); without a calibration, device.toml's
+tare as exact. The calibrated terms also join the unknowns with their calibration as prior,
+and the model tests' probes look for a drive's loss and an encoder's error left in the runs
+(:func:`probe_detail`). Weights, the speed-noise scale, the model tests and the uncertainty
+budget: rsp_inertia.estimation.gls.
 """
 
 from __future__ import annotations
