@@ -3,9 +3,9 @@
 Every run (one stage in one direction) contributes one equation per balance angle
 (rsp_inertia.estimation.balance, docs/method.md §5). Which unknowns those equations share
 depends on the question: the body's tensor (rsp_inertia.estimation.tensor) or the empty
-fixture's harmonics, the drive's gains and the encoder's error (rsp_inertia.estimation.calibration). Both build
-:class:`Block` s, named columns and a right-hand side, and this module solves them the same
-way:
+fixture's harmonics, the drive's gains and the encoder's error
+(rsp_inertia.estimation.calibration). Both build :class:`Block` s, named columns and a
+right-hand side, and this module solves them the same way:
 
 - **weights**: the covariance of a run's equations is the motor work's (the torque logs'
   own noise, rsp_inertia.estimation.passes) plus the speed noise's, 1/4 M_i M_j cov(S_i, S_j),
