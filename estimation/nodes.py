@@ -8,7 +8,8 @@ pass (from a to b) and A' on the reverse (from b back to a), dPi = Pi(phi_b) - P
     M = 2 (A' - A + 2 dPi) / (Omega_a^2 + Omega'_a^2 - Omega_b^2 - Omega'_b^2)
 
 A and A' the work the body received: the drive's gains h_d and h_b times the logged work's
-driving and back-driven parts (docs/method.md §3, rsp_inertia.plant.transducers). With perfect symmetry (Omega' = Omega) it is the paper's formula (6),
+driving and back-driven parts (docs/method.md §3, rsp_inertia.plant.transducers). With
+perfect symmetry (Omega' = Omega) it is the paper's formula (6),
 M = (A' - A + 2 dPi) / (Omega_a^2 - Omega_b^2). The passes, their common range and the
 tracking mismatch's regressors are the stage balance's (rsp_inertia.estimation.balance).
 """
@@ -124,7 +125,9 @@ def node_formula(
         # Work errors at the passages, differenced into the pairs' numerators; each torque
         # log's noise times the gain of its pass's power flow.
         step = np.diff(np.eye(passages.size), axis=0)
-        scale_b, scale_r = (gains[1] if mainly_back_driven(p) else gains[0] for p in (braking, reverse))
+        scale_b, scale_r = (
+            gains[1] if mainly_back_driven(p) else gains[0] for p in (braking, reverse)
+        )
         num_cov = step @ (
             scale_b**2 * work_covariance(braking, b) + scale_r**2 * work_covariance(reverse, r)
         ) @ step.T

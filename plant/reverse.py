@@ -131,7 +131,9 @@ def run_program(
     # The command that held the body at rest (a drive that holds, drives: power_flow_split).
     u_prev = held if ideal else logged_torque(held, 0.0, gains)
     observer = SpeedObserver(
-        float(encoder_reading(x[0], q, reading_error)), x[1], virtual.controller.speed_observer_bandwidth,
+        float(encoder_reading(x[0], q, reading_error)),
+        x[1],
+        virtual.controller.speed_observer_bandwidth,
         dt,
     )
     phi_true = np.empty(n)

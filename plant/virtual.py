@@ -127,9 +127,9 @@ def simulate_braking(
     speed. Backward, the mirror: release at minus that angle with -launch speed. The
     drive's command is the constant ``braking_torque`` against the motion (-braking_torque
     forward, +braking_torque backward), which the log records; the body back-drives the motor
-    and receives h_b x the command (``[rig]``). The pass ends at the first instant the speed reaches zero (an event located
-    inside its sample by Brent's method on the step length). The log holds every sample up
-    to that instant.
+    and receives h_b x the command (``[rig]``). The pass ends at the first instant the speed
+    reaches zero (an event located inside its sample by Brent's method on the step length).
+    The log holds every sample up to that instant.
 
     Parameters
     ----------
@@ -258,9 +258,10 @@ def simulate_pilot(device: Device, stage: int, virtual: Virtual) -> SimulatedPas
        comes first.
 
     The log records the command plus ``run.torque_noise``; the body receives h_d x the
-    command (``[rig]``: the motor drives it), like every pass. Samples at the encoder rate, t from 0; when the
-    body comes to rest the log ends at the last sample before the stop (at the stop if it
-    falls on a sample), otherwise at the last sample within PILOT_MAX_COAST of the switch-off.
+    command (``[rig]``: the motor drives it), like every pass. Samples at the encoder rate, t
+    from 0; when the body comes to rest the log ends at the last sample before the stop (at
+    the stop if it falls on a sample), otherwise at the last sample within PILOT_MAX_COAST of
+    the switch-off.
     The command steps at t = 0 and at the switch-off: the drive's torque rate limit is not
     modelled (0.0125 s at the default 20 N m/s for the default 0.25 N m). The noise has its
     own random stream: the run is deterministic for a given seed.
