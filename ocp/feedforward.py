@@ -24,8 +24,15 @@ test_feedforward_derivatives.py), at less than half the time: those colour the N
 and sweep the mapped step several times per evaluation, while an expanded SX graph of the
 whole NLP takes seconds to differentiate.
 
-Before the OCP, the mirror's torque is checked against the motor: if the nominal model
-needs more than ``torque_limit`` anywhere, the mirror is impossible and nothing is written.
+Before the OCP, the mirror's torque is checked against the motor (:func:`check_mirror`):
+subtracting the braking's equation of motion from the reverse's at the same angle, inertia,
+spring and gravity cancel and friction doubles, so the mirror needs u' = u_b + 2 D(Omega')
+(:func:`mirror_torque`), from the braking's mean logged torque and the nominal friction
+alone, with the friction fit's uncertainty; no acceleration enters, whose encoder noise on a
+coarse encoder had made the nominal inverse dynamics (:func:`required_torque`) ask for twice
+the torque a feasible mirror needs. If it needs more than ``torque_limit`` beyond two of its
+stds, the mirror is impossible and nothing is written; within 80% of the limit
+(THIN_MARGIN), the program is made and a warning says how little is left for the regulator.
 """
 
 from __future__ import annotations
@@ -41,9 +48,29 @@ from scipy.ndimage import uniform_filter1d
 from rsp_inertia.ocp.reference import Mirror
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.model import MODEL, ModelParameters, motor_torque, rk4_step, static_torque
+from rsp_inertia.plant.model import (
+    MODEL,
+    PARAMETER_NAMES,
+    ModelParameters,
+    dissipation,
+    dissipation_regressor,
+    motor_torque,
+    rk4_step,
+    static_torque,
+)
 
-__all__ = ["GRID_STEP", "RHO", "W_PHI", "OcpSolution", "required_torque", "solve_program_ocp"]
+__all__ = [
+    "GRID_STEP",
+    "REFUSE_STDS",
+    "RHO",
+    "THIN_MARGIN",
+    "W_PHI",
+    "OcpSolution",
+    "check_mirror",
+    "mirror_torque",
+    "required_torque",
+    "solve_program_ocp",
+]
 
 W_PHI = 2.0
 """1/s: weight of the angle error against the speed error (an angle error of 1 rad costs
@@ -58,12 +85,17 @@ GRID_STEP = 0.02
 the torque's variation within a turn (at 12 rad/s a turn lasts ~0.5 s)."""
 
 FEASIBILITY_WINDOW = 0.1
-"""s over which the needed torque is averaged before it is compared with the motor's limit.
+"""s over which the needed torque rate is averaged before it is compared with the motor's
+limit: the mirror's speed carries the encoder's noise through the smoother, whose derivative
+is not a rate the motor must deliver; 100 ms still follows the fastest physical change, the
+2 Omega harmonic of stage 1 (period 0.26 s at 12 rad/s, kept to 77%)."""
 
-Where the body moves about one count per sample the quantization stops being white and the
-smoothed acceleration shows isolated bumps, which a shorter average lets through; 100 ms
-still follows the fastest physical change, the 2 Omega harmonic of stage 1 (period 0.26 s
-at 12 rad/s, kept to 77%)."""
+THIN_MARGIN = 0.8
+"""Fraction of the motor's torque and rate limits above which the mirror's need (plus two of
+its stds) leaves the regulator too little: ``program`` still programs, and says so."""
+
+REFUSE_STDS = 2.0
+"""The mirror is refused only when its need minus this many stds exceeds the motor's limit."""
 
 _DIRECTION = -1.0
 """The reverse pass runs backwards: friction's sign term is that of a negative speed."""
@@ -94,6 +126,80 @@ def required_torque(mirror: Mirror, nominal: ModelParameters) -> np.ndarray:
     return motor_torque(
         mirror.phi, mirror.omega, mirror.eps, nominal, direction=np.full(mirror.t.size, _DIRECTION)
     )
+
+
+def mirror_torque(
+    mirror: Mirror,
+    nominal: ModelParameters,
+    braking_torque: float,
+    friction_cov: np.ndarray | None = None,
+    braking_torque_var: float = 0.0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The torque the mirror needs, N m, at its samples, and its standard deviation.
+
+    u' = u_b + 2 D(Omega') (module docstring; docs/method.md §4), u_b the braking's applied
+    torque (its log's mean), D the nominal dissipation (rsp_inertia.plant.model.dissipation)
+    at the mirror's speed. The std carries the friction slopes' covariance ``friction_cov``
+    ([a2, a3], rsp_inertia.ocp.nominal.fit_nominal_with_covariance) and the mean torque's
+    variance. Coulomb friction a1 is not in it: a braking pass cannot tell it from the braking
+    torque (the nominal model puts it to 0), which leaves the need short by 2 a1 (2e-4 N m at
+    the paper's friction), for the regulator.
+    """
+    omega = mirror.omega
+    need = braking_torque + 2 * dissipation(omega, nominal)
+    var = np.full(omega.size, float(braking_torque_var))
+    if friction_cov is not None:
+        slopes = [PARAMETER_NAMES.index(name) for name in ("a2", "a3")]
+        g = 2 * dissipation_regressor(omega, nominal)[:, slopes]
+        var = var + np.einsum("ij,jk,ik->i", g, friction_cov, g)
+    return need, np.sqrt(np.maximum(var, 0.0))
+
+
+def check_mirror(
+    device: Device, stage: int, mirror: Mirror, need: np.ndarray, std: np.ndarray
+) -> list[str]:
+    """The mirror's need against the motor's limits (module docstring): the warnings of a thin
+    margin (empty when there is room).
+
+    Raises
+    ------
+    InputError
+        When the need exceeds ``torque_limit`` beyond REFUSE_STDS of its stds, with the need,
+        its std and when.
+    """
+    motor = device.motor
+    low = np.abs(need) - REFUSE_STDS * std
+    high = np.abs(need) + REFUSE_STDS * std
+    k = int(np.argmax(low))
+    if low[k] > motor.torque_limit:
+        raise InputError(
+            f"stage {stage}: the mirror of the braking needs {abs(need[k]):.4g} +- "
+            f"{std[k]:.2g} N m at t = {mirror.t[k]:.2f} s of the reverse, the motor has "
+            f"{motor.torque_limit:g} N m (device.toml motor.torque_limit): lower launch_speed "
+            "or braking_torque"
+        )
+    warnings = []
+    k = int(np.argmax(high))
+    if high[k] > THIN_MARGIN * motor.torque_limit:
+        warnings.append(
+            f"stage {stage}: the mirror of the braking needs up to {abs(need[k]):.4g} +- "
+            f"{std[k]:.2g} N m (at t = {mirror.t[k]:.2f} s of the reverse), "
+            f"{100 * high[k] / motor.torque_limit:.0f}% of the motor's {motor.torque_limit:g} "
+            "N m with two stds: little is left for the regulator, which corrects the nominal "
+            "model's errors (a lower launch_speed or braking_torque leaves more)"
+        )
+    dt = mirror.t[1] - mirror.t[0]
+    width = max(round(FEASIBILITY_WINDOW / dt), 1)
+    rate = uniform_filter1d(np.gradient(need, mirror.t), width, mode="nearest")
+    k = int(np.argmax(np.abs(rate)))
+    if abs(rate[k]) > THIN_MARGIN * motor.torque_rate_limit:
+        warnings.append(
+            f"stage {stage}: the mirror of the braking changes its torque at up to "
+            f"{abs(rate[k]):.3g} N m/s (t = {mirror.t[k]:.2f} s), "
+            f"{100 * abs(rate[k]) / motor.torque_rate_limit:.0f}% of the motor's "
+            f"{motor.torque_rate_limit:g} N m/s: little is left for the regulator"
+        )
+    return warnings
 
 
 def _step_function(h: float) -> ca.Function:
@@ -203,28 +309,12 @@ def solve_program_ocp(
 ) -> OcpSolution:
     """Solve the reverse pass's OCP (module docstring).
 
-    Raises
-    ------
-    InputError
-        When the mirror needs more torque than the motor has.
+    The mirror's feasibility is :func:`check_mirror`'s (rsp_inertia.ocp.program calls it
+    first); here the motor's limits are the OCP's bounds.
     """
     start = time.perf_counter()
     motor = device.motor
-    needed = required_torque(mirror, nominal)
-    # The check reads the needed torque averaged over FEASIBILITY_WINDOW: the smoothed
-    # acceleration carries the encoder's noise (0.1 N m peaks on a 12-bit encoder), which is
-    # not torque the motor must deliver; the OCP's smoothness term ignores it as well.
     dt = mirror.t[1] - mirror.t[0]
-    width = max(round(FEASIBILITY_WINDOW / dt), 1)
-    average = uniform_filter1d(needed, width, mode="nearest")  # ends held, not zero-padded
-    peak = float(np.max(np.abs(average)))
-    if peak > motor.torque_limit:
-        k = int(np.argmax(np.abs(average)))
-        raise InputError(
-            f"stage {stage}: the mirror of the braking needs {peak:.4g} N m at t = "
-            f"{mirror.t[k]:.2f} s of the reverse, the motor has {motor.torque_limit:g} N m "
-            "(device.toml motor.torque_limit): lower launch_speed or braking_torque"
-        )
     m = max(round(GRID_STEP / dt), 1)
     idx = np.arange(0, mirror.t.size, m)
     N = idx.size - 1
@@ -264,7 +354,8 @@ def solve_program_ocp(
     lbx[:3] = ubx[:3] = [mirror.rest_angle, 0.0, hold]
     lbv = np.full(N, -motor.torque_rate_limit)
     ubv = np.full(N, motor.torque_rate_limit)
-    # Warm start: the mirror and its torque, rate-limited.
+    # Warm start: the mirror and the nominal model's inverse dynamics along it, rate-limited.
+    needed = required_torque(mirror, nominal)
     u0 = np.clip(needed[idx], -motor.torque_limit, motor.torque_limit)
     u0[0] = hold
     v0 = np.clip(np.diff(u0) / h, lbv, ubv)

@@ -38,7 +38,7 @@ from rsp_inertia.plant.model import (
     spring_parameters,
 )
 
-__all__ = ["UNKNOWN", "fit_energy_windows", "fit_nominal"]
+__all__ = ["UNKNOWN", "fit_energy_windows", "fit_nominal", "fit_nominal_with_covariance"]
 
 UNKNOWN = ("M0", "a2", "a3", "Mc2", "Ms2", "Gs", "Gc", "Ms1", "Mc1")
 """Parameters fitted, most important first: a short pass fits only the first ones (the others
@@ -164,7 +164,17 @@ def fit_energy_windows(
 
 
 def fit_nominal(device: Device, stage: int, log: Log, sm: Smoothed) -> ModelParameters:
-    """Least-squares nominal model of stage ``stage`` from its smoothed braking pass.
+    """Least-squares nominal model of stage ``stage`` from its smoothed braking pass
+    (:func:`fit_nominal_with_covariance`, without the covariance)."""
+    return fit_nominal_with_covariance(device, stage, log, sm)[0]
+
+
+def fit_nominal_with_covariance(
+    device: Device, stage: int, log: Log, sm: Smoothed
+) -> tuple[ModelParameters, np.ndarray]:
+    """Least-squares nominal model of stage ``stage`` from its smoothed braking pass, and the
+    (2, 2) covariance of its friction slopes [a2, a3] (zero where not fitted; an estimate held
+    at its bound 0 keeps the unbounded fit's spread, fit_energy_windows).
 
     The equation of motion is fitted in its integrated form, the energy balance over
     consecutive windows [a, b] of the pass (docs/method.md §3):
@@ -177,14 +187,16 @@ def fit_nominal(device: Device, stage: int, log: Log, sm: Smoothed) -> ModelPara
     the Jacobians of the model's own E and D (rsp_inertia.plant.model); the integral is a trapezoid sum
     over the samples, the motor work the Stieltjes sum of the log.
     """
-    values, _ = fit_energy_windows(device, log, sm, UNKNOWN, f"stage {stage}: braking.csv")
+    values, cov = fit_energy_windows(device, log, sm, UNKNOWN, f"stage {stage}: braking.csv")
     friction = {k: values[k] for k in ("a2", "a3")}
+    slopes = [UNKNOWN.index(k) for k in ("a2", "a3")]
+    friction_cov = np.nan_to_num(cov[np.ix_(slopes, slopes)])
     if values["M0"] <= 0:
         raise InputError(
             f"stage {stage}: braking.csv: the fitted reduced inertia is not positive "
             f"({values['M0']:.3g} kg m^2): is the braking torque logged with its sign?"
         )
-    return ModelParameters(
+    model = ModelParameters(
         inertia_harmonics=np.array([values[k] for k in ("M0", "Mc2", "Ms2", "Ms1", "Mc1")]),
         stiffness=device.spring.stiffness,
         zero_angle=device.spring.zero_angle,
@@ -194,3 +206,4 @@ def fit_nominal(device: Device, stage: int, log: Log, sm: Smoothed) -> ModelPara
         viscous=friction["a2"],
         quadratic=friction["a3"],
     )
+    return model, friction_cov

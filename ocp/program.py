@@ -14,10 +14,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from rsp_inertia.estimation.balance import mirror_log
-from rsp_inertia.estimation.passes import check_braking_monotone
+from rsp_inertia.estimation.passes import check_braking_monotone, torque_noise
 from rsp_inertia.estimation.smoothing import Smoothed, smooth_log
-from rsp_inertia.ocp.feedforward import OcpSolution, required_torque, solve_program_ocp
-from rsp_inertia.ocp.nominal import fit_nominal
+from rsp_inertia.ocp.feedforward import (
+    OcpSolution,
+    check_mirror,
+    mirror_torque,
+    required_torque,
+    solve_program_ocp,
+)
+from rsp_inertia.ocp.nominal import fit_nominal_with_covariance
 from rsp_inertia.ocp.reference import Mirror, mirror
 from rsp_inertia.ocp.regulator import bandwidth, lqr_gains
 from rsp_inertia.plant.config import Device
@@ -43,6 +49,9 @@ class ProgramResult:
     """The braking log's smoothed states (of the mirrored log for a backward run)."""
     seconds: float
     """Wall time of the whole generation."""
+    warnings: tuple[str, ...] = ()
+    """What the program's checks found: a mirror that leaves the regulator little of the
+    motor's limits (rsp_inertia.ocp.feedforward.check_mirror)."""
 
 
 START_FADE_BANDWIDTHS = 3.0
@@ -118,7 +127,18 @@ def make_program(
     check_braking_monotone(braking, source)
     sm = smooth_log(braking, device.encoder.quantum, source)
     ref = mirror(sm, device.encoder.sample_rate, device.encoder.quantum, source)
-    model = nominal if nominal is not None else fit_nominal(device, stage, braking, sm)
+    friction_cov = None
+    if nominal is None:
+        model, friction_cov = fit_nominal_with_covariance(device, stage, braking, sm)
+    else:
+        model = nominal
+    # The mirror's need from the braking's mean torque and the nominal friction, with their
+    # uncertainty (rsp_inertia.ocp.feedforward.mirror_torque): refused only beyond it.
+    sigma = torque_noise(braking)
+    need, need_std = mirror_torque(
+        ref, model, float(np.mean(braking.torque)), friction_cov, sigma**2 / len(braking)
+    )
+    warnings = check_mirror(device, stage, ref, need, need_std)
     sol = solve_program_ocp(device, stage, ref, model)
     torque = np.interp(ref.t, sol.t, sol.torque)  # u is linear between grid points
     phi_ref, omega_ref = start_reference(device, ref, sol, model)
@@ -138,4 +158,5 @@ def make_program(
         ocp=sol,
         smoothed=sm,
         seconds=time.perf_counter() - start,
+        warnings=tuple(warnings),
     )

@@ -349,6 +349,7 @@ class ProgramSummary:
             f"{prog.k_phi.mean():.3g} N m/rad, k_omega {prog.k_omega.mean():.3g} "
             f"N m s/rad, OCP {self.details.ocp.iterations} iterations; "
             f"{self.details.seconds:.2f} s -> {self.path}"
+            + "".join(f"\nwarning: {w}" for w in self.details.warnings)
         )
 
 
