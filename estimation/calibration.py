@@ -62,15 +62,13 @@ from rsp_inertia.estimation.model_tests import ModelTest, model_warnings
 from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs, corrected_log
 from rsp_inertia.estimation.stiffness import StiffnessCalibration, calibrate_stiffness
 from rsp_inertia.estimation.tensor import (
-    DRIVE_PROBE,
-    ENCODER_PROBE,
     HARMONIC_NAMES,
-    PROBE_ORDERS,
     KnownTerms,
     both_directions,
+    cause_probes,
     described,
-    encoder_columns,
     encoder_names,
+    encoder_unknowns,
     gravity_rows,
     run_columns,
     run_label,
@@ -226,19 +224,10 @@ def _blocks(
         else:
             rhs = bal.work.copy()
         # The encoder's remaining error, per unit of M(phi) (the first pass gives M).
-        scaled = {}
-        if encoder_orders:
-            E = encoder_columns(bal, encoder_orders)
-            scaled = {name: -E[:, j] for j, name in enumerate(encoder_names(encoder_orders))}
+        scaled = encoder_unknowns(bal, encoder_orders) if encoder_orders else {}
         # Without a reference the drive and the encoder cannot be measured, but the model
         # tests can still say whether the runs call for them (the probes of identify).
-        probes, probes_per_inertia = {}, {}
-        if not has_gain:
-            probes = {DRIVE_PROBE: {"dh_d": -bal.motor_work_parts[:, 0]}}
-            E = encoder_columns(bal, PROBE_ORDERS)
-            probes_per_inertia = {
-                ENCODER_PROBE: {n: -E[:, j] for j, n in enumerate(encoder_names(PROBE_ORDERS))}
-            }
+        probes, probes_per_inertia = ({}, {}) if has_gain else cause_probes(bal)
         known_M = np.zeros(len(bal.phi))
         if reference is not None:
             st = device.stages[s - 1]

@@ -50,9 +50,11 @@ __all__ = [
     "axis_values",
     "balance_rhs",
     "both_directions",
+    "cause_probes",
     "described",
     "encoder_columns",
     "encoder_names",
+    "encoder_unknowns",
     "fit_tensor",
     "format_run",
     "gravity_rows",
@@ -434,6 +436,23 @@ def probe_detail(test: ModelTest, known: KnownTerms, one_direction: bool = False
     return ""
 
 
+def encoder_unknowns(bal: StageBalance, orders: int) -> dict[str, np.ndarray]:
+    """The encoder coefficients' columns on the unknowns' side, per unit of M(phi), by name
+    (:func:`encoder_columns` negated: an error left in the readings raises the kinetic
+    energy's share)."""
+    return dict(zip(encoder_names(orders), -encoder_columns(bal, orders).T))
+
+
+def cause_probes(bal: StageBalance) -> tuple[dict, dict]:
+    """(probes, probes_per_inertia) of one run's block (rsp_inertia.estimation.gls Block):
+    the drive loss's column (the driving work's gain freed) and the encoder error's (orders
+    1 to PROBE_ORDERS, per unit of M)."""
+    return (
+        {DRIVE_PROBE: {"dh_d": -bal.motor_work_parts[:, 0]}},
+        {ENCODER_PROBE: encoder_unknowns(bal, PROBE_ORDERS)},
+    )
+
+
 def encoder_columns(bal: StageBalance, orders: int) -> np.ndarray:
     """(n, 2 orders) how an error of the encoder's coefficients moves one run's balance, per
     unit of M(phi) (docs/method.md §5 Calibration).
@@ -518,6 +537,7 @@ def tensor_block(bal: StageBalance, run: str, known: KnownTerms, asymmetry: bool
     the run's stage is run in both directions, so its friction asymmetry is an unknown.
     """
     v = tensor_basis(bal.phi, bal.gear_ratio)
+    probes = cause_probes(bal)
     half_s = 0.5 * bal.speed_sq
     cols = {name: half_s * v[:, i] for i, name in enumerate(ENTRY_KEYS)}
     cols["Gs"], cols["Gc"] = gravity_rows(bal.phi).T
@@ -532,15 +552,8 @@ def tensor_block(bal: StageBalance, run: str, known: KnownTerms, asymmetry: bool
         work_scales=bal.work_scales(known.gains),
         known_jacobian=known.jacobian(bal) if known.calibrated else None,
         known_jacobian_inertia=known.jacobian_inertia(bal) if known.calibrated else None,
-        probes={DRIVE_PROBE: {"dh_d": -bal.motor_work_parts[:, 0]}},
-        probes_per_inertia={
-            ENCODER_PROBE: {
-                name: -col
-                for name, col in zip(
-                    encoder_names(PROBE_ORDERS), encoder_columns(bal, PROBE_ORDERS).T
-                )
-            }
-        },
+        probes=probes[0],
+        probes_per_inertia=probes[1],
         groups={name: run_label(bal) for name in ENTRY_KEYS},
         joint_only=frozenset(name for name in cols if name.startswith("e")),
     )

@@ -29,8 +29,6 @@ efficiencies are not separable by such a measurement, only their two combination
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 __all__ = [
@@ -92,19 +90,12 @@ def error_coefficients(amplitude, phase_deg) -> np.ndarray:
 
 def encoder_reading(phi, quantum: float, coefficients=()) -> np.ndarray | float:
     """What the encoder reads at true angle ``phi``: floor((phi + e(phi)) / q) q (docs/files.md,
-    logs); e = 0 without ``coefficients``."""
-    if np.ndim(phi) == 0:  # one sample (a drive's loop): plain numbers, fast
-        phi = float(phi)
-        error = sum(
-            coefficients[2 * k] * math.cos((k + 1) * phi)
-            + coefficients[2 * k + 1] * math.sin((k + 1) * phi)
-            for k in range(len(coefficients) // 2)
-        )
-        return math.floor((phi + error) / quantum) * quantum
-    phi = np.asarray(phi, dtype=float)
+    logs); e = 0 without ``coefficients``. A number for a number (a drive's loop)."""
+    read = np.asarray(phi, dtype=float)
     if len(coefficients):
-        phi = phi + angle_error(phi, coefficients)
-    return np.floor(phi / quantum) * quantum
+        read = read + angle_error(read, coefficients)
+    out = np.floor(read / quantum) * quantum
+    return float(out) if out.ndim == 0 else out
 
 
 def true_angle(reading, coefficients) -> np.ndarray:
