@@ -232,11 +232,27 @@ class StageBalance:
     back_driven: tuple[bool, bool] = (True, False)
     """(braking, reverse): whether each pass's work is mainly back-driven, which sets the gain
     (h_b or h_d) on its torque log's noise."""
+    angle_work_var: tuple[np.ndarray | None, np.ndarray | None] = (None, None)
+    """(braking, reverse): each pass's random walk of the work's variance from its smoothed
+    angle's error under a changing torque, at the balance angles (J^2, rsp_inertia.estimation
+    .passes.angle_work_variance; None: a constant torque)."""
 
     @property
     def work_cov(self) -> np.ndarray:
-        """(n, n) covariance of ``work``: both passes' torque logs (independent noise), J^2."""
-        return self.braking_work_cov + self.reverse_work_cov
+        """(n, n) covariance of ``work``: both passes' torque logs (independent noise) and their
+        smoothed angles' errors (:meth:`encoder_work_cov`), J^2."""
+        return self.braking_work_cov + self.reverse_work_cov + self.encoder_work_cov()
+
+    def encoder_work_cov(self, scales: tuple[float, float] = (1.0, 1.0)) -> np.ndarray:
+        """(n, n) covariance of ``work`` from both passes' smoothed angles' errors, each pass's
+        random walk min(v_i, v_j) times its gain squared (``scales``: (braking, reverse), as
+        :meth:`work_scales` gives), J^2."""
+        n = len(self.phi)
+        cov = np.zeros((n, n))
+        for v, scale in zip(self.angle_work_var, scales):
+            if v is not None:
+                cov += scale**2 * np.minimum.outer(v, v)
+        return cov
 
     @property
     def motor_work(self) -> np.ndarray:
@@ -345,6 +361,7 @@ def stage_balance(
         friction_shape=friction_shape(phi, b.omega),
         motor_work_back=b.work_back + r.work_back,
         back_driven=(mainly_back_driven(braking), mainly_back_driven(reverse)),
+        angle_work_var=(b.work_var_angle, r.work_var_angle),
     )
 
 

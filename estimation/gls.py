@@ -47,7 +47,7 @@ from rsp_inertia.estimation.whitening import cholesky_factors, weighted_chi2, wh
 
 __all__ = ["CALIBRATION_SOURCE", "NOISE_SOURCES", "BalanceFit", "Block", "solve_blocks"]
 
-NOISE_SOURCES = ("braking torque log", "reverse torque log", "encoder (speed)")
+NOISE_SOURCES = ("braking torque log", "reverse torque log", "encoder (speed)", "encoder (work)")
 """The independent noise sources of the balance equations, for the uncertainty budget."""
 
 CALIBRATION_SOURCE = "calibration"
@@ -306,9 +306,13 @@ def solve_blocks(
         speed_var.append(0.25 * np.outer(M, M) * block.balance.speed_sq_cov)
         hb2, hr2 = (scale**2 for scale in block.work_scales)
         work_parts.append(
-            (hb2 * block.balance.braking_work_cov, hr2 * block.balance.reverse_work_cov)
+            (
+                hb2 * block.balance.braking_work_cov,
+                hr2 * block.balance.reverse_work_cov,
+                block.balance.encoder_work_cov(block.work_scales),
+            )
         )
-    work_cov = [b + r for b, r in work_parts]
+    work_cov = [sum(parts) for parts in work_parts]
 
     # Calibrated terms: unknowns z with the prior z = 0 +- 1 (module docstring, known terms).
     N = np.zeros((len(y), 0))
@@ -364,9 +368,10 @@ def solve_blocks(
     dof = max(n_data - n_x, 1)
     chi2_dof = float(r @ r / dof)
     sources = {
-        NOISE_SOURCES[0]: [b for b, _ in work_parts],
-        NOISE_SOURCES[1]: [r_ for _, r_ in work_parts],
+        NOISE_SOURCES[0]: [parts[0] for parts in work_parts],
+        NOISE_SOURCES[1]: [parts[1] for parts in work_parts],
         NOISE_SOURCES[2]: [s * v for s, v in zip(scales, speed_var)],
+        NOISE_SOURCES[3]: [parts[2] for parts in work_parts],
     }
     # Whatever the noise model leaves unexplained in the joint fit inflates the covariance
     # (of the runs' noise: the calibration's prior is what it is).

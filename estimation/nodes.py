@@ -30,6 +30,7 @@ from rsp_inertia.estimation.balance import (
 )
 from rsp_inertia.estimation.passes import (
     PassEstimate,
+    angle_work_covariance,
     mainly_back_driven,
     sample_at,
     speed_error_covariance,
@@ -129,7 +130,8 @@ def node_formula(
             gains[1] if mainly_back_driven(p) else gains[0] for p in (braking, reverse)
         )
         num_cov = step @ (
-            scale_b**2 * work_covariance(braking, b) + scale_r**2 * work_covariance(reverse, r)
+            scale_b**2 * (work_covariance(braking, b) + angle_work_covariance(b))
+            + scale_r**2 * (work_covariance(reverse, r) + angle_work_covariance(r))
         ) @ step.T
         plain_num, plain_cov = num, num_cov
         if friction_slope is not None and np.all(np.isfinite(friction_slope)):

@@ -15,6 +15,21 @@ kinetic energy, on the default stage 2). The smoothed angle's error is ~0.05 q a
 free of the reading's sample-to-sample error, which removes the bias. Between rows the
 work is W(phi*) = W_K + u_K (phi* - phi^_K), K the last row at or before phi*.
 
+The angle's own error. By parts, the sum up to row K is u_{K-1} phi^_K - u_0 phi^_0 -
+sum_{0<k<K} phi^_k (u_k - u_{k-1}); evaluated where the smoothed angle is phi* (as every
+balance is), its end terms are exact, and what the smoothed angle's error e^ leaves in the
+work between two angles is -sum e^_k du_k over the rows between, du_k = u_k - u_{k-1}: nothing
+for a constant torque, but a closed-loop reverse's torque moves with every count the drive
+reads (its regulator's response to the quantization), and on a coarse encoder that error
+reaches 10 times the torque noise's (3e-4 J over a 10-bit default stage 1 against 3e-5 J).
+With e^ the smoother's stationary angle error (autocovariance R_phi,
+rsp_inertia.estimation.smoothing), the error is a random walk along the pass with increments
+du_k sum_j R_phi(t_k - t_j) du_j, whose cumulative sum is ``work_var_angle``
+(:func:`angle_work_variance`, the budget's "encoder (work)"). It takes e^ independent of the
+torque; a drive that regulates on the same readings makes them correlate a little, which
+leaves a bias that grows with the regulator's response to one count (the program keeps that
+response small, rsp_inertia.ocp.regulator).
+
 Braking pass: a constant torque. By protocol the motor holds one constant braking torque
 (or none) over the whole braking pass (docs/method.md §4); the log is that constant plus the
 channel's white noise. Then the best estimate of the applied torque is the mean of every
@@ -46,7 +61,13 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import chi2
 
-from rsp_inertia.estimation.smoothing import Smoothed, hermite, smooth_log
+from rsp_inertia.estimation.smoothing import (
+    KERNEL_SPAN,
+    Smoothed,
+    angle_error_autocovariance,
+    hermite,
+    smooth_log,
+)
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.logs import Log, dropped_samples
 from rsp_inertia.plant.transducers import power_flow_split
@@ -56,6 +77,8 @@ __all__ = [
     "CONSTANCY_TAIL",
     "AngleSample",
     "PassEstimate",
+    "angle_work_covariance",
+    "angle_work_variance",
     "check_braking_monotone",
     "constancy_p_value",
     "estimate_pass",
@@ -123,6 +146,9 @@ class PassEstimate:
     work_var_gaps: np.ndarray | None = None
     """J^2, cumulative variance of the work over the log's gaps of dropped samples to each
     row (:func:`gap_work`); None: no gap, or a constant torque."""
+    work_var_angle: np.ndarray | None = None
+    """J^2, cumulative variance of the work from the smoothed angle's error under the torque's
+    changes, to each row (:func:`angle_work_variance`); None for a constant torque."""
 
 
 def check_braking_monotone(log: Log, source: str) -> None:
@@ -181,13 +207,14 @@ def estimate_pass(
     p_value = constancy_p_value(log, smoothed.phi, sigma) if constant_torque else None
     constant = p_value is not None and p_value >= CONSTANCY_TAIL
     work, work_back, steps, mean = motor_work(log.torque, smoothed.phi, constant)
-    gaps = None
+    gaps = angle = None
     if mean is None:
         rate = 1.0 / float(np.median(np.diff(log.t))) if sample_rate is None else sample_rate
         correction, correction_back, gaps = gap_work(log, smoothed, rate)
         if gaps is not None:
             work = work + correction
             work_back = work_back + correction_back
+        angle = angle_work_variance(log.torque, smoothed)
     return PassEstimate(
         log=log,
         smoothed=smoothed,
@@ -199,7 +226,33 @@ def estimate_pass(
         torque_mean=mean,
         constancy_p=p_value,
         work_var_gaps=gaps,
+        work_var_angle=angle,
     )
+
+
+def angle_work_variance(torque: np.ndarray, smoothed: Smoothed) -> np.ndarray:
+    """J^2, the variance the smoothed angle's error puts into the work from the first row to
+    each row of a sample-by-sample sum (module docstring): the cumulative sum of
+    du_k sum_j R_phi((k - j) dt) du_j over the rows k = 1 .. K - 1, du_k = u_k - u_{k-1}, dt the
+    log's median step (R_phi: :func:`rsp_inertia.estimation.smoothing.angle_error_autocovariance`,
+    zero beyond w_c |tau| = 40), each du_k scaled by the quantization lines' angle error at its
+    row over the white one (:attr:`rsp_inertia.estimation.smoothing.Smoothed.line_scales`)."""
+    u = np.asarray(torque, dtype=float)
+    n = u.size
+    du = np.diff(u)
+    if du.size == 0:
+        return np.zeros(n)
+    dt = float(np.median(np.diff(smoothed.t)))
+    reach = min(int(KERNEL_SPAN / (smoothed.bandwidth * dt)), du.size - 1)
+    lags = np.arange(-reach, reach + 1) * dt
+    kernel = angle_error_autocovariance(lags, smoothed.bandwidth, smoothed.noise_density)
+    # The quantization lines' angle error at each row over the white one (smoothing.py).
+    du = du * smoothed.line_scales[0][1:]
+    spread = np.convolve(du, kernel, mode="same")
+    increments = du * spread
+    out = np.zeros(n)
+    out[2:] = np.cumsum(increments)[: n - 2]
+    return out
 
 
 def gap_work(
@@ -307,6 +360,9 @@ class AngleSample:
     """rad^2, sum of squared encoder increments to there (torque-noise variance factor)."""
     work_var_gaps: np.ndarray | None = None
     """J^2, the work's variance from the gaps of dropped samples to there (None: none)."""
+    work_var_angle: np.ndarray | None = None
+    """J^2, the work's variance from the smoothed angle's error to there (None: a constant
+    torque)."""
 
 
 def sample_at(est: PassEstimate, phi: np.ndarray) -> AngleSample:
@@ -355,6 +411,7 @@ def sample_at(est: PassEstimate, phi: np.ndarray) -> AngleSample:
         work_back=work_back,
         work_var_steps=est.work_var_steps[K],
         work_var_gaps=None if est.work_var_gaps is None else est.work_var_gaps[K],
+        work_var_angle=None if est.work_var_angle is None else est.work_var_angle[K],
     )
 
 
@@ -375,6 +432,16 @@ def work_covariance(est: PassEstimate, a: AngleSample, b: AngleSample | None = N
     if a.work_var_gaps is not None:
         cov += np.minimum.outer(a.work_var_gaps, b.work_var_gaps)
     return cov
+
+
+def angle_work_covariance(a: AngleSample) -> np.ndarray:
+    """(n, n) cov(W(a_i), W(a_j)) that the smoothed angle's error puts into the pass's motor
+    work under a changing torque, J^2: the random walk min(v_i, v_j) of
+    :attr:`AngleSample.work_var_angle` (zeros for a constant torque; module docstring)."""
+    v = a.work_var_angle
+    if v is None:
+        return np.zeros((a.phi.size, a.phi.size))
+    return np.minimum.outer(v, v)
 
 
 def speed_error_covariance(est: PassEstimate, a: AngleSample) -> np.ndarray:

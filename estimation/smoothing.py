@@ -77,6 +77,41 @@ model expects a random jerk where the true motion is smooth. R(tau) changes sign
 w_c tau ~ 2.5 and decays like exp(-w_c tau / 2): the speed error has no low-frequency
 content (its integral is the angle's error, a small fraction of a count), which is what makes
 it nearly harmless to the energy balances' slow trends (rsp_inertia.estimation.balance).
+
+Angle error, derived. The same reading noise through H(w) itself leaves the smoothed angle an
+error of spectral density r H(w)^2, autocovariance
+
+    R_phi(tau) = (1/pi) int_0^inf r H(w)^2 cos(w tau) dw = r w_c g_phi(w_c tau),
+    g_phi(s) = (1/pi) int_0^inf cos(x s) / (1 + x^6)^2 dx,    g_phi(0) = 5/18
+
+(:func:`angle_error_autocovariance`; g_phi(0): int_0^inf dx / (1 + x^6)^2 = 5 pi / 18): an RMS
+error of sqrt(5 w_c dt / 216) of a count whatever the resolution, 0.075 at w_c = 240 rad/s
+and 1 kHz (the default stage 1), where the virtual device's smoothed angles on a 10-bit
+encoder are off by 0.06-0.07 of a count. It is harmless under a constant torque, whose work is the torque times
+the angle travelled; under a torque that changes it is not (the motor work's error,
+rsp_inertia.estimation.passes).
+
+Quantization lines. Both derivations take the readings' errors as white, which holds when
+the body moves many counts per sample. A coarse encoder breaks it: the error of a reading is
+a sawtooth in the angle, e = q/2 - q frac(phi/q) = sum_n (q / (pi n)) sin(2 pi n phi / q),
+and a body moving v = |Omega| dt / q counts per sample samples each harmonic n at the
+aliased frequency w_n = 2 pi dist(n v, Z) / dt (dist to the nearest integer). The smoother
+passes line n to the angle with gain H(w_n) and to the speed with w_n H(w_n), so the errors'
+variances are, at the instant's v,
+
+    var(e^_phi) = sum_n q^2 / (2 pi^2 n^2) H(w_n)^2,
+    var(e^_Omega) = sum_n q^2 / (2 pi^2 n^2) w_n^2 H(w_n)^2
+
+(:func:`quantization_error_variance`; harmonics beyond ``QUANTIZATION_LINES`` at their
+average, the white level). Averaged over v they are the white values above; at a given v they
+are not: below a count per sample few low harmonics alias into the smoother's band, and the
+speed error of the virtual device's 10-bit stage 2 (0.15-0.4 counts per sample) is 0.3-0.7 of
+the white value, while near a whole count per sample it is larger. Over 0.5 s stretches of the
+virtual device's brakings the actual variance over the line value has a median of 1.0 to 1.7
+and a 10-90% range of 2-7x from 10 to 14 bits, against a median of 0.08 to 1.1 and a range
+of 10-100x for the white value. The nominal model of the torque program
+(rsp_inertia.ocp.nominal) and the motor work's angle term (rsp_inertia.estimation.passes)
+take their errors' levels from the lines.
 """
 
 from __future__ import annotations
@@ -96,7 +131,10 @@ __all__ = [
     "BANDWIDTH_FACTOR",
     "BLOCK",
     "BLOCK_BANDWIDTH",
+    "KERNEL_SPAN",
+    "LINE_AVERAGE",
     "Smoothed",
+    "angle_error_autocovariance",
     "block_length",
     "block_speed_bias",
     "hermite",
@@ -115,6 +153,9 @@ BLOCK_BANDWIDTH = 2.0
 
 BANDWIDTH_FACTOR = 10.0
 """Smoother bandwidth over the highest speed harmonic 2 Omega_max (bias (1/10)^6 = 1e-6)."""
+
+LINE_AVERAGE = 0.05
+"""s over which the quantization lines' variances are averaged (:attr:`Smoothed.line_scales`)."""
 
 _MIN_BANDWIDTH = 20.0
 """rad/s: floor on the smoother bandwidth for very slow passes."""
@@ -141,12 +182,36 @@ class Smoothed:
     noise_density: float = 0.0
     """r = (q^2/12) dt, rad^2 s: spectral density of the readings' quantization noise."""
 
+    @functools.cached_property
+    def line_scales(self) -> tuple[np.ndarray, np.ndarray]:
+        """(angle, speed) at every row: the quantization lines' standard deviations of the
+        smoothed angle's and speed's errors over the white values (module docstring), from the
+        smoothed speed, averaged over ``LINE_AVERAGE`` s about the row (the speed's own
+        ripple and noise smear the lines' resonances over that much)."""
+        if self.noise_density <= 0.0:  # exact states: no quantization
+            return np.ones(self.t.size), np.ones(self.t.size)
+        dt = float(np.median(np.diff(self.t)))
+        quantum = math.sqrt(12.0 * self.noise_density / dt)
+        angle, speed = quantization_error_variance(self.omega, quantum, dt, self.bandwidth)
+        width = round(LINE_AVERAGE / dt) | 1
+        kernel = np.ones(width) / width
+        pad = width // 2
+        angle = np.convolve(np.pad(angle, pad, mode="edge"), kernel, mode="valid")
+        speed = np.convolve(np.pad(speed, pad, mode="edge"), kernel, mode="valid")
+        white_angle = float(angle_error_autocovariance(0.0, self.bandwidth, self.noise_density))
+        white_speed = float(speed_error_autocovariance(0.0, self.bandwidth, self.noise_density))
+        return np.sqrt(angle / white_angle), np.sqrt(speed / white_speed)
+
     def speed_error_covariance(self, t: np.ndarray, omega_std: np.ndarray) -> np.ndarray:
         """(n, n) covariance of the speed's errors at times ``t`` (module docstring, R).
 
         Stationary R(t_i - t_j), scaled at each end by the smoother's own standard deviation
         over its steady value: where the smoother starts up (the first and last few 1/w_c of
-        a pass) its error is larger, as its covariance shows.
+        a pass) its error is larger, as its covariance shows. The white readings' R: the
+        quantization lines (:attr:`line_scales`) move the error's level along a coarse pass
+        by up to 10x either way, but their resonances' places are known too roughly for
+        weights (tried: more false alarms of the closure test at 12 and 14 bits); each run's
+        speed-noise scale (rsp_inertia.estimation.gls) takes its level from its residuals.
         """
         t = np.asarray(t, dtype=float)
         ramp = np.asarray(omega_std) / np.median(self.omega_std)
@@ -159,7 +224,7 @@ class Smoothed:
 
 
 def _banded_autocovariance(t: np.ndarray, bandwidth: float, noise_density: float) -> np.ndarray:
-    """R(t_i - t_j) for all pairs, evaluated only where w_c |t_i - t_j| < _KERNEL_SPAN.
+    """R(t_i - t_j) for all pairs, evaluated only where w_c |t_i - t_j| < KERNEL_SPAN.
 
     R is zero beyond that span (:func:`speed_error_autocovariance`), so for monotone times the
     matrix is banded: it is filled diagonal by diagonal up to the widest offset still within
@@ -171,7 +236,7 @@ def _banded_autocovariance(t: np.ndarray, bandwidth: float, noise_density: float
     if n < 2 or not (np.all(steps > 0) or np.all(steps < 0)):
         return speed_error_autocovariance(t[:, None] - t[None, :], bandwidth, noise_density)
     R = np.zeros((n, n))
-    span = _KERNEL_SPAN / bandwidth
+    span = KERNEL_SPAN / bandwidth
     # Diagonals 0 .. width - 1: each diagonal's smallest |tau| grows with its offset (monotone
     # times), and the first one whose smallest |tau| reaches the span is all zeros.
     width = 1
@@ -272,7 +337,7 @@ def block_speed_bias(block: int, bandwidth: float, dt: float) -> float:
     return float(e[1] * dt * dt)
 
 
-_KERNEL_SPAN = 40.0
+KERNEL_SPAN = 40.0
 """g(s) is taken as 0 beyond s = w_c tau = 40, where |g| / g(0) < 1e-6."""
 
 
@@ -283,11 +348,30 @@ def _speed_kernel() -> tuple[np.ndarray, np.ndarray]:
     The integrand falls like x^-10: cut at x = 8 it loses 1e-8 of g(0); 4,000 steps resolve
     cos(x s) to s = 40 (80 steps per period). Checked against g(0) = 1/12 in the tests.
     """
-    s = np.linspace(0.0, _KERNEL_SPAN, 2001)
+    s = np.linspace(0.0, KERNEL_SPAN, 2001)
     x = np.linspace(0.0, 8.0, 4001)
     f = x * x / (1.0 + x**6) ** 2
     g = trapezoid(f[None, :] * np.cos(s[:, None] * x[None, :]), x, axis=1) / math.pi
     return s, g
+
+
+@functools.cache
+def _angle_kernel() -> tuple[np.ndarray, np.ndarray]:
+    """g_phi(s) of the module docstring on the grid of :func:`_speed_kernel` (its integrand
+    falls like x^-12)."""
+    s = np.linspace(0.0, KERNEL_SPAN, 2001)
+    x = np.linspace(0.0, 8.0, 4001)
+    f = 1.0 / (1.0 + x**6) ** 2
+    g = trapezoid(f[None, :] * np.cos(s[:, None] * x[None, :]), x, axis=1) / math.pi
+    return s, g
+
+
+def angle_error_autocovariance(tau, bandwidth: float, noise_density: float) -> np.ndarray:
+    """R_phi(tau) = r w_c g_phi(w_c |tau|) of the smoothed angle's error, rad^2 (module
+    docstring: angle error)."""
+    s_grid, g = _angle_kernel()
+    s = np.abs(np.asarray(tau, dtype=float)) * bandwidth
+    return noise_density * bandwidth * np.interp(s, s_grid, g, right=0.0)
 
 
 def speed_error_autocovariance(tau, bandwidth: float, noise_density: float) -> np.ndarray:
@@ -295,6 +379,40 @@ def speed_error_autocovariance(tau, bandwidth: float, noise_density: float) -> n
     s_grid, g = _speed_kernel()
     s = np.abs(np.asarray(tau, dtype=float)) * bandwidth
     return noise_density * bandwidth**3 * np.interp(s, s_grid, g, right=0.0)
+
+
+QUANTIZATION_LINES = 200
+"""Harmonics of the reading error's sawtooth summed one by one (module docstring:
+quantization lines); beyond them, 1 / QUANTIZATION_LINES / (pi^2 / 6) ~ 0.3% of the power, at
+the white level."""
+
+_LINES_CHUNK = 2048
+"""Instants per block of the line sum (a block is instants x QUANTIZATION_LINES values)."""
+
+
+def quantization_error_variance(
+    omega, quantum: float, dt: float, bandwidth: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Variances of the smoothed angle's and speed's errors (rad^2, rad^2/s^2) at speeds
+    ``omega`` from the reading error's sawtooth lines (module docstring: quantization lines),
+    for an encoder of count ``quantum`` sampled every ``dt`` s and a smoother of bandwidth
+    ``bandwidth``."""
+    omega = np.abs(np.asarray(omega, dtype=float)).reshape(-1)
+    n = np.arange(1, QUANTIZATION_LINES + 1, dtype=float)
+    power = quantum**2 / (2 * math.pi**2 * n * n)
+    r = noise_density(quantum, dt)
+    tail = 1.0 - float(np.sum(1.0 / (n * n))) / (math.pi**2 / 6)
+    angle = np.empty(omega.size)
+    speed = np.empty(omega.size)
+    for start in range(0, omega.size, _LINES_CHUNK):
+        v = omega[start : start + _LINES_CHUNK, None] * dt / quantum * n
+        w = 2 * math.pi * np.abs(v - np.round(v)) / dt
+        H = 1.0 / (1.0 + (w / bandwidth) ** 6)
+        angle[start : start + _LINES_CHUNK] = (power * H * H).sum(axis=1)
+        speed[start : start + _LINES_CHUNK] = (power * (w * H) ** 2).sum(axis=1)
+    angle += tail * float(angle_error_autocovariance(0.0, bandwidth, r))
+    speed += tail * float(speed_error_autocovariance(0.0, bandwidth, r))
+    return angle, speed
 
 
 def hermite(t0, t1, f0, d0, f1, d1, t):
