@@ -355,23 +355,24 @@ def _speed_kernel() -> tuple[np.ndarray, np.ndarray]:
     return s, g
 
 
-@functools.cache
-def _angle_kernel() -> tuple[np.ndarray, np.ndarray]:
-    """g_phi(s) of the module docstring on the grid of :func:`_speed_kernel` (its integrand
-    falls like x^-12)."""
-    s = np.linspace(0.0, KERNEL_SPAN, 2001)
-    x = np.linspace(0.0, 8.0, 4001)
-    f = 1.0 / (1.0 + x**6) ** 2
-    g = trapezoid(f[None, :] * np.cos(s[:, None] * x[None, :]), x, axis=1) / math.pi
-    return s, g
-
-
 def angle_error_autocovariance(tau, bandwidth: float, noise_density: float) -> np.ndarray:
     """R_phi(tau) = r w_c g_phi(w_c |tau|) of the smoothed angle's error, rad^2 (module
-    docstring: angle error)."""
-    s_grid, g = _angle_kernel()
+    docstring: angle error), zero beyond w_c |tau| = KERNEL_SPAN.
+
+    g_phi by the trapezoid rule at each lag itself (not interpolated from a grid: the motor
+    work's angle term, rsp_inertia.estimation.passes, lives on the differences
+    R_phi(0) - R_phi(dt), ~1e-4 of R_phi(0) at 1 kHz, which a grid's linear interpolation
+    would swamp). The integrand falls like x^-12: cut at x = 8; 4,000 steps resolve
+    cos(x s) to s = 40.
+    """
     s = np.abs(np.asarray(tau, dtype=float)) * bandwidth
-    return noise_density * bandwidth * np.interp(s, s_grid, g, right=0.0)
+    x = np.linspace(0.0, 8.0, 4001)
+    f = 1.0 / (1.0 + x**6) ** 2
+    flat = s.reshape(-1)
+    g = np.zeros(flat.size)
+    inside = flat < KERNEL_SPAN
+    g[inside] = trapezoid(f[None, :] * np.cos(flat[inside, None] * x[None, :]), x, axis=1) / math.pi
+    return noise_density * bandwidth * g.reshape(s.shape)
 
 
 def speed_error_autocovariance(tau, bandwidth: float, noise_density: float) -> np.ndarray:

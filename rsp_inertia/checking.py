@@ -12,7 +12,9 @@ missing for the next step and what looks wrong, without stopping at the first pr
   run: a braking that covers few turns past its last node, a logged braking torque that is
   not device.toml's, a program older than the braking it mirrors, a reverse much shorter or
   longer than its braking, constants that identify will take as exact and warn about, a gap
-  of dropped samples near a node.
+  of dropped samples near a node, a program whose regulator the encoder holds too slow to
+  follow the braking's speed harmonics (a coarse encoder: the closed loop then tracks on its
+  feedforward alone, and identify's stds grow).
 - ``ok``: what is in place.
 
 The folder is ready for identify when no line is ``error`` or ``missing``.
@@ -26,12 +28,17 @@ from pathlib import Path
 
 import numpy as np
 
-from rsp_inertia.estimation.balance import NODE_GAP_SAMPLES, check_node_gaps, mirror_log
+from rsp_inertia.estimation.balance import (
+    MIN_SPEED_FRACTION,
+    NODE_GAP_SAMPLES,
+    check_node_gaps,
+    mirror_log,
+)
 from rsp_inertia.estimation.passes import check_braking_monotone
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.geometry import turns_past_last_node
-from rsp_inertia.plant.logs import dropped_samples, read_log
+from rsp_inertia.plant.logs import dropped_samples, read_log, read_program
 
 __all__ = ["LEVELS", "MIN_TURNS_PAST_LAST_NODE", "CheckReport", "check"]
 
@@ -207,6 +214,8 @@ def _check_run(exp, stage: int, direction: str, report: CheckReport) -> None:
             )
         else:
             report.add("ok", f"{p_path}: the torque program")
+            if braking is not None:
+                _check_regulator(exp, p_path, braking, report)
     elif not r_path.is_file():
         report.add(
             "missing",
@@ -235,6 +244,37 @@ def _check_run(exp, stage: int, direction: str, report: CheckReport) -> None:
             )
             return
     report.add("ok", f"{r_path}: {duration:.2f} s")
+
+
+def _check_regulator(exp, path: Path, braking, report: CheckReport) -> None:
+    """``suspicious`` when the program's regulator is slower than the braking's speed
+    harmonics at the balances' slowest speed: its bandwidth w from its gains (the LQR's
+    k_omega = sqrt 2 k_phi / w, rsp_inertia.ocp.regulator) against 2 Omega at
+    MIN_SPEED_FRACTION of the top speed, with the encoder's counts per sample there."""
+    try:
+        program = read_program(path, exp.device.encoder)
+    except InputError as error:
+        report.add("error", str(error))
+        return
+    gains = (program.k_omega > 0) & (program.k_phi > 0)
+    if not np.any(gains) or len(braking) < 2:
+        return
+    w = float(np.median(math.sqrt(2) * program.k_phi[gains] / program.k_omega[gains]))
+    step = min(10, len(braking) - 1)
+    speeds = np.abs(braking.phi[step:] - braking.phi[:-step]) / (braking.t[step:] - braking.t[:-step])
+    slowest = MIN_SPEED_FRACTION * float(speeds.max())
+    if w >= 2 * slowest:
+        return
+    encoder = exp.device.encoder
+    counts = slowest * encoder.dt / encoder.quantum
+    report.add(
+        "suspicious",
+        f"{path}: its regulator's bandwidth, {w:.2g} rad/s, is below the braking's speed "
+        f"harmonics (2 Omega >= {2 * slowest:.2g} rad/s over the balances; {counts:.2g} encoder "
+        "counts per sample there): the encoder's count holds the gains down, the reverse will "
+        "track the mirror on its feedforward alone and identify's stds grow (rsp-inertia plan "
+        "rehearses it; a finer encoder lifts it)",
+    )
 
 
 def _check_pendulum(exp, report: CheckReport) -> None:

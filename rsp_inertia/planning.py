@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import tomlkit
 
+from rsp_inertia.estimation.balance import MIN_SPEED_FRACTION
 from rsp_inertia.ocp.plan import (
     TORQUE_MARGIN,
     Plan,
@@ -25,6 +26,7 @@ from rsp_inertia.ocp.plan import (
     map_stages,
     planned_release,
 )
+from rsp_inertia.ocp.regulator import bandwidth
 from rsp_inertia.ocp.rehearsal import Rehearsal
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
@@ -142,6 +144,34 @@ class PlanReport:
         return format_plan(self)
 
 
+CLOSED_LOOP_COST = 1.5
+"""A stage whose rehearsed std exceeds its ideal-reverse prediction by this factor is named,
+with what its encoder lets the regulator do (:func:`_closed_loop_note`)."""
+
+
+def _closed_loop_note(device: Device, sm: StageModel, c, cost: float) -> str:
+    """Why a stage's closed loop costs ``cost`` x the ideal reverse's std: the regulator's
+    bandwidth that the encoder's count allows (rsp_inertia.ocp.regulator.bandwidth) against the
+    braking's speed harmonics at the balances' slowest speed, and the encoder's counts per
+    sample there."""
+    M0 = float(sm.model.inertia_harmonics[0])
+    w = bandwidth(device, M0)
+    slowest = MIN_SPEED_FRACTION * c.launch_speed
+    counts = slowest * device.encoder.dt / device.encoder.quantum
+    follows = (
+        "follows the mirror's speed harmonics"
+        if w > 2 * slowest
+        else f"cannot follow the speed's harmonics (2 Omega >= {2 * slowest:.2g} rad/s over the "
+        "balances), so the reverse tracks the mirror on the feedforward alone and identify's "
+        "tracking-mismatch terms take information"
+    )
+    return (
+        f"  closed loop: {cost:.1f}x the ideal reverse's std (rehearsed): the encoder's count "
+        f"holds the regulator to {w:.2g} rad/s, which {follows}; {counts:.2g} counts per "
+        "sample at the balances' slowest speed (a finer encoder, or a faster launch, helps)"
+    )
+
+
 def format_plan(report: PlanReport) -> str:
     plan, lines = report.plan, []
     rehearsal = report.rehearsal
@@ -192,6 +222,11 @@ def format_plan(report: PlanReport) -> str:
             + ", ".join(f"{s:.3g}" for s in stds)
             + f" kg m^2{rel}"
         )
+        if rehearsal is not None:
+            ideal = plan.axis_std[plan.axis_stage == c.stage].max()
+            cost = stds.max() / ideal
+            if cost > CLOSED_LOOP_COST:
+                lines.append(_closed_loop_note(report.device, sm, c, cost))
     lines.append(
         "trade-off: per launch speed, the braking torque with the smallest predicted std of the"
         " stage's own J_k (other stages as planned; ideal reverse); stds in kg m^2"

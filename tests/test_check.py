@@ -75,3 +75,21 @@ def test_a_missing_folder_is_one_line(tmp_path, capsys):
     assert main(["check", str(tmp_path / "nowhere")]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "nowhere" in err
+
+
+def test_a_regulator_the_encoder_holds_below_the_speed_harmonics_is_suspicious(tmp_path, capsys):
+    """On a 12-bit encoder the heavy stage 2's program gets gains for about 0.4 rad/s (one
+    count must not step the torque beyond the rate limit, rsp_inertia.ocp.regulator), below
+    the braking's 2 Omega of 1.4 rad/s over the balances: check says so for stage 2 only (stage
+    1's regulator, at about 7 rad/s, follows its 4.8 rad/s)."""
+    from benchmarks.experiments import vary, with_encoder_bits
+    from rsp_inertia.pipeline import program
+
+    root = create_default_experiment(tmp_path / "exp")
+    vary(root, lambda d: with_encoder_bits(d, 12))
+    simulate(root, part="braking")
+    program(root)
+    main(["check", str(root)])
+    flagged = [line for line in _lines(capsys) if "regulator's bandwidth" in line]
+    assert len(flagged) == 1 and flagged[0].startswith("suspicious: ")
+    assert "stage2/program.csv" in flagged[0] and "below the braking's speed harmonics" in flagged[0]

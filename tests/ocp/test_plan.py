@@ -247,3 +247,29 @@ def test_program_serves_a_two_second_spring_pass(paper):
     du = np.abs(np.diff(run.truth.torque * virtual.rig.torque_gain))  # the drive's command
     at_rate = np.mean(du >= device.motor.torque_rate_limit * device.encoder.dt * (1 - 1e-9))
     assert at_rate <= 0.01
+
+
+def test_a_stage_the_closed_loop_costs_is_named_with_what_its_encoder_allows(default_device):
+    """plan's note on a stage whose rehearsal exceeds its ideal prediction: the regulator's
+    bandwidth the encoder allows (rsp_inertia.ocp.regulator.bandwidth) against the braking's 2 Omega
+    at the balances' slowest speed, and the counts per sample there."""
+    from rsp_inertia.planning import _closed_loop_note
+
+    def note(bits, stage, M0, launch):
+        device = dataclasses.replace(
+            default_device,
+            encoder=dataclasses.replace(default_device.encoder, counts_per_rev=2**bits),
+        )
+        model = true_parameters(default_device, stage, load_virtual(DEFAULTS / "virtual.toml"))
+        model = dataclasses.replace(
+            model, inertia_harmonics=np.r_[M0, model.inertia_harmonics[1:]]
+        )
+        sm = StageModel(stage=stage, model=model, torque_noise=1e-4, source="test")
+        chosen = dataclasses.make_dataclass("C", ["launch_speed"])(launch)
+        return _closed_loop_note(device, sm, chosen, 2.0)
+
+    slow = note(10, 2, 0.9, 3.5)  # w 0.085 rad/s against 2 x 0.2 x 3.5 = 1.4 rad/s
+    assert "2.0x the ideal reverse's std" in slow and "cannot follow" in slow
+    assert "0.085 rad/s" in slow and "0.11 counts per sample" in slow
+    fine = note(16, 1, 0.03, 12.0)  # w 45 rad/s (the cap) against 4.8 rad/s
+    assert "45 rad/s, which follows" in fine
