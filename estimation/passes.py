@@ -244,8 +244,10 @@ def angle_work_variance(torque: np.ndarray, smoothed: Smoothed) -> np.ndarray:
         return np.zeros(n)
     dt = float(np.median(np.diff(smoothed.t)))
     reach = min(int(KERNEL_SPAN / (smoothed.bandwidth * dt)), du.size - 1)
-    lags = np.arange(-reach, reach + 1) * dt
-    kernel = angle_error_autocovariance(lags, smoothed.bandwidth, smoothed.noise_density)
+    half = angle_error_autocovariance(
+        np.arange(reach + 1) * dt, smoothed.bandwidth, smoothed.noise_density
+    )
+    kernel = np.concatenate([half[:0:-1], half])  # lags -reach .. reach
     # The quantization lines' angle error at each row over the white one (smoothing.py).
     du = du * smoothed.line_scales[0][1:]
     spread = np.convolve(du, kernel, mode="same")

@@ -192,12 +192,18 @@ class Smoothed:
             return np.ones(self.t.size), np.ones(self.t.size)
         dt = float(np.median(np.diff(self.t)))
         quantum = math.sqrt(12.0 * self.noise_density / dt)
-        angle, speed = quantization_error_variance(self.omega, quantum, dt, self.bandwidth)
-        width = round(LINE_AVERAGE / dt) | 1
+        # Evaluated every LINE_AVERAGE / 10 (the speed changes little in between), averaged
+        # over LINE_AVERAGE, interpolated to the rows.
+        stride = max(round(LINE_AVERAGE / dt / 10), 1)
+        rows = np.unique(np.append(np.arange(0, self.t.size, stride), self.t.size - 1))
+        angle, speed = quantization_error_variance(self.omega[rows], quantum, dt, self.bandwidth)
+        width = 11 if rows.size > 11 else 1
         kernel = np.ones(width) / width
         pad = width // 2
         angle = np.convolve(np.pad(angle, pad, mode="edge"), kernel, mode="valid")
         speed = np.convolve(np.pad(speed, pad, mode="edge"), kernel, mode="valid")
+        angle = np.interp(self.t, self.t[rows], angle)
+        speed = np.interp(self.t, self.t[rows], speed)
         white_angle = float(angle_error_autocovariance(0.0, self.bandwidth, self.noise_density))
         white_speed = float(speed_error_autocovariance(0.0, self.bandwidth, self.noise_density))
         return np.sqrt(angle / white_angle), np.sqrt(speed / white_speed)
