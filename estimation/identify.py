@@ -26,7 +26,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from rsp_inertia.estimation.best_practice import best_practice_inertia, half_cycle_fit
-from rsp_inertia.estimation.model_tests import model_warnings
+from rsp_inertia.estimation.model_tests import coarse_encoder_warnings, model_warnings
 from rsp_inertia.estimation.nodes import NodeEstimate, node_formula
 from rsp_inertia.estimation.pendulum import estimate_pendulum
 from rsp_inertia.estimation.results import AxisResult, Identification, PendulumResult
@@ -159,6 +159,9 @@ def identify_logs(
     nodes = [_combine_directions(found) for found in by_node.values()]
     labels = [format_run(key) for key in fit.runs]
     warnings += model_warnings(fit.tests, fit.speed_noise_scale, labels)
+    warnings += coarse_encoder_warnings(
+        balances, device.encoder.quantum, device.encoder.dt, labels
+    )
 
     directions = design.directions
     cond = design.condition
