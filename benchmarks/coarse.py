@@ -18,6 +18,9 @@ ideal reverse's (median over seeds); worst |err| / std <= 3 or a warning; mean (
 in [0.5, 2] per resolution.
 
     python -m benchmarks.coarse [--seeds 5] [--jobs 2]
+
+Writes benchmarks/results/coarse.md and, beside it, coarse.json (the rows, the command and
+its duration; ``--from-json`` rewrites the report from it).
 """
 
 from __future__ import annotations
@@ -187,6 +190,7 @@ def summary(rows: list[dict]) -> tuple[list[list[str]], list[tuple[str, bool]]]:
             fmt(float(np.median([r["mismatch"][0][0] for r in closed])) if closed else None),
             fmt(float(np.median([r["mismatch"][1][0] for r in closed])) if closed else None),
             fmt(e_ideal), fmt(e_closed), fmt(ratio, ".2f"),
+            fmt(float(np.median([np.median(r["rel_std"]) for r in ideal])) if ideal else None),
             fmt(float(np.median([np.median(r["rel_std"]) for r in closed])) if closed else None),
             fmt(worst, ".1f"),
             str(sum(bool(r["warnings"]) for r in closed)),
@@ -208,7 +212,7 @@ def summary(rows: list[dict]) -> tuple[list[list[str]], list[tuple[str, bool]]]:
 
 HEAD = ["bits", "torque noise N m", "stages", "closed loops identified", "mirror torque / limit",
         "mirror rate / limit", "mismatch stage 1", "mismatch stage 2", "J_k err ideal",
-        "J_k err closed", "closed / ideal", "J_k std closed", "worst z unwarned",
+        "J_k err closed", "closed / ideal", "J_k std ideal", "J_k std closed", "worst z unwarned",
         "runs warned"]
 
 
@@ -265,15 +269,26 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--noise", type=float, nargs="+", default=list(NOISES))
     parser.add_argument("--stages", nargs="+", default=list(STAGE_SETS), choices=STAGE_SETS)
     parser.add_argument("--out", type=Path, default=RESULTS / "coarse.md")
+    parser.add_argument(
+        "--from-json", type=Path, metavar="JSON",
+        help="rewrite the report from a run's saved rows (the .json beside its report)",
+    )
     args = parser.parse_args(argv)
+    if args.from_json is not None:
+        saved = json.loads(args.from_json.read_text())
+        write_report(saved["rows"], saved["command"], saved["seconds"], args.out)
+        print(args.out.read_text())
+        return
     cases = [(b, n, s, seed) for b in args.bits for n in args.noise for s in args.stages
              for seed in range(args.seeds)]
     t0 = time.perf_counter()
     results = Parallel(n_jobs=args.jobs, verbose=5)(delayed(run_case)(*c) for c in cases)
     rows = [row for case in results for row in case]
     seconds = time.perf_counter() - t0
-    args.out.with_suffix(".json").write_text(json.dumps(rows))
-    write_report(rows, command_line("coarse", argv), seconds, args.out)
+    command = command_line("coarse", argv)
+    saved = {"command": command, "seconds": seconds, "rows": rows}
+    args.out.with_suffix(".json").write_text(json.dumps(saved))
+    write_report(rows, command, seconds, args.out)
     print(args.out.read_text())
 
 

@@ -34,9 +34,9 @@ the row (the quantization lines, rsp_inertia.estimation.smoothing.quantization_e
   N the columns' noise from the ends' speed errors (the corrected least squares for
   regressors with known error covariance), kept positive definite (:func:`_corrected_gram`).
 
-Measured on the virtual device (default stages, seeds 0-1): M0 within 1-2% at 16 bits, 5-12%
+Measured on the virtual device (default stages, seeds 0-1): M0 within 3% at 16 bits, 7-12%
 (stage 1) and 1% (stage 2) at 12 bits, 0-2% (stage 2) at 10 bits; the 10-bit stage 1, whose
-braking torque is 5% of its friction, still comes out 34-70% low (its slowest windows are
+braking torque is 5% of its friction, still comes out 36-70% low (its slowest windows are
 a few counts per window: the log hardly holds the scale).
 """
 
@@ -157,19 +157,23 @@ def fit_energy_windows(
     )
     dphi = np.diff(phi)[:, None]
     Dint = np.vstack([np.zeros(Dreg.shape[1]), np.cumsum((Dreg[1:] + Dreg[:-1]) / 2 * dphi, 0)])
-    Ereg = _unbiased(lambda w: energy_regressor(phi, w, spring), omega, var)
-    # d(dE/dp)/dOmega: how one speed error moves a window's energy columns.
-    step = 1e-3 * omega
-    slope = (
-        energy_regressor(phi, omega + step, spring) - energy_regressor(phi, omega - step, spring)
-    ) / (2 * step)[:, None]
     work = log.motor_work()[rows]
     ends = np.arange(0, rows.size, stride)
     a, b = ends[:-1], ends[1:]
+    # The energy columns at the windows' ends only. Their kinetic part, 1/2 Omega^2 dM/dp, is
+    # quadratic in Omega: its speed-noise mean is kinetic var / Omega^2, its slope
+    # 2 kinetic / Omega (how one speed error moves a window's energy columns).
+    at = phi[ends], omega[ends]
+    kinetic = energy_regressor(*at, spring) - energy_regressor(at[0], np.zeros(ends.size), spring)
+    Eends = energy_regressor(*at, spring) - kinetic * (var[ends] / at[1] ** 2)[:, None]
+    slope_ends = 2 * kinetic / at[1][:, None]
+    Ereg = np.zeros((rows.size, Eends.shape[1]))
+    slope = np.zeros_like(Ereg)
+    Ereg[ends], slope[ends] = Eends, slope_ends
     A = Ereg[b] - Ereg[a] + Dint[b] - Dint[a]
     # The spring's energy is the model's energy with every unknown at zero.
-    spring_energy = mechanical_energy(phi, omega, spring)
-    y = work[b] - work[a] - (spring_energy[b] - spring_energy[a])
+    spring_energy = mechanical_energy(at[0], at[1], spring)
+    y = work[b] - work[a] - (spring_energy[1:] - spring_energy[:-1])
     fitted = unknowns[: max(1, min(len(unknowns), a.size // _WINDOWS_PER_UNKNOWN))]
     cols = [PARAMETER_NAMES.index(name) for name in fitted]
     # Friction and the mean inertia cannot be negative: bounded least squares keeps the fit
