@@ -87,9 +87,9 @@ error of spectral density r H(w)^2, autocovariance
 (:func:`angle_error_autocovariance`; g_phi(0): int_0^inf dx / (1 + x^6)^2 = 5 pi / 18): an RMS
 error of sqrt(5 w_c dt / 216) of a count whatever the resolution, 0.075 at w_c = 240 rad/s
 and 1 kHz (the default stage 1), where the virtual device's smoothed angles on a 10-bit
-encoder are off by 0.06-0.07 of a count. It is harmless under a constant torque, whose work is the torque times
-the angle travelled; under a torque that changes it is not (the motor work's error,
-rsp_inertia.estimation.passes).
+encoder are off by 0.06-0.07 of a count. It is harmless under a constant torque, whose work
+is the torque times the angle travelled; under a torque that changes it is not (the motor
+work's error, rsp_inertia.estimation.passes).
 
 Quantization lines. Both derivations take the readings' errors as white, which holds when
 the body moves many counts per sample. A coarse encoder breaks it: the error of a reading is
@@ -105,8 +105,8 @@ variances are, at the instant's v,
 (:func:`quantization_error_variance`; harmonics beyond ``QUANTIZATION_LINES`` at their
 average, the white level). Averaged over v they are the white values above; at a given v they
 are not: below a count per sample few low harmonics alias into the smoother's band, and the
-speed error of the virtual device's 10-bit stage 2 (0.15-0.4 counts per sample) is 0.3-0.7 of
-the white value, while near a whole count per sample it is larger. Over 0.5 s stretches of the
+speed error's variance on the virtual device's 10-bit stage 2 (0.15-0.4 counts per sample) is
+0.1-0.5 of the white value, while near a whole count per sample it is larger. Over 0.5 s stretches of the
 virtual device's brakings the actual variance over the line value has a median of 1.0 to 1.7
 and a 10-90% range of 2-7x from 10 to 14 bits, against a median of 0.08 to 1.1 and a range
 of 10-100x for the white value. The nominal model of the torque program
@@ -133,6 +133,7 @@ __all__ = [
     "BLOCK_BANDWIDTH",
     "KERNEL_SPAN",
     "LINE_AVERAGE",
+    "QUANTIZATION_LINES",
     "Smoothed",
     "angle_error_autocovariance",
     "block_length",
@@ -140,6 +141,7 @@ __all__ = [
     "hermite",
     "jerk_density",
     "noise_density",
+    "quantization_error_variance",
     "smooth_log",
     "smoother_bandwidth",
     "speed_error_autocovariance",

@@ -26,7 +26,8 @@ left the whole mirror to a feedback loop that the encoder keeps slow (62-67% low
 the row (the quantization lines, rsp_inertia.estimation.smoothing.quantization_error_variance):
 
 - each column's mean shift from the speed noise is taken off: for columns up to quadratic in
-  Omega, E[f(Omega + e)] = f(Omega) + f'' var / 2 (:func:`_unbiased`);
+  Omega, E[f(Omega + e)] = f(Omega) + f'' var / 2 (the dissipation's, :func:`_unbiased`; the
+  energy's kinetic part 1/2 Omega^2 dM/dp in closed form);
 - each window is weighted by the inverse of its equation's noise, (Omega_b^2 var_b +
   Omega_a^2 var_a) (M^2 common): the slow windows, whose deceleration holds the scale of M
   against the braking torque, count as much as they know;
@@ -163,16 +164,14 @@ def fit_energy_windows(
     # The energy columns at the windows' ends only. Their kinetic part, 1/2 Omega^2 dM/dp, is
     # quadratic in Omega: its speed-noise mean is kinetic var / Omega^2, its slope
     # 2 kinetic / Omega (how one speed error moves a window's energy columns).
-    at = phi[ends], omega[ends]
-    kinetic = energy_regressor(*at, spring) - energy_regressor(at[0], np.zeros(ends.size), spring)
-    Eends = energy_regressor(*at, spring) - kinetic * (var[ends] / at[1] ** 2)[:, None]
-    slope_ends = 2 * kinetic / at[1][:, None]
-    Ereg = np.zeros((rows.size, Eends.shape[1]))
-    slope = np.zeros_like(Ereg)
-    Ereg[ends], slope[ends] = Eends, slope_ends
-    A = Ereg[b] - Ereg[a] + Dint[b] - Dint[a]
+    at_phi, at_omega = phi[ends], omega[ends]
+    E = energy_regressor(at_phi, at_omega, spring)
+    kinetic = E - energy_regressor(at_phi, np.zeros(ends.size), spring)
+    E = E - kinetic * (var[ends] / at_omega**2)[:, None]
+    slope = 2 * kinetic / at_omega[:, None]
+    A = E[1:] - E[:-1] + Dint[b] - Dint[a]
     # The spring's energy is the model's energy with every unknown at zero.
-    spring_energy = mechanical_energy(at[0], at[1], spring)
+    spring_energy = mechanical_energy(at_phi, at_omega, spring)
     y = work[b] - work[a] - (spring_energy[1:] - spring_energy[:-1])
     fitted = unknowns[: max(1, min(len(unknowns), a.size // _WINDOWS_PER_UNKNOWN))]
     cols = [PARAMETER_NAMES.index(name) for name in fitted]
@@ -193,8 +192,8 @@ def fit_energy_windows(
     scaled = A[:, cols] / norms
     # The speed errors at the windows' ends, E[N^T N] of the columns' noise N (the ends are
     # a window apart, far beyond the smoother's correlation time: independent).
-    Gb = slope[b][:, cols] * weight[:, None] / norms
-    Ga = slope[a][:, cols] * weight[:, None] / norms
+    Gb = slope[1:, cols] * weight[:, None] / norms
+    Ga = slope[:-1, cols] * weight[:, None] / norms
     noise = Gb.T @ (var[b, None] * Gb) + Ga.T @ (var[a, None] * Ga)
     gram = scaled.T @ scaled
     corrected = _corrected_gram(gram, noise)

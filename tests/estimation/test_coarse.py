@@ -77,7 +77,7 @@ def test_quantization_lines_follow_the_smoothed_speeds_error(bits, stage, coarse
     # smoothed speed against the line model's mean at the true speeds. Measured ratios
     # 0.8-1.3, and 2.1 on the 12-bit stage 2's middle third, which brakes through one count
     # per sample (every harmonic aliases near 0 there: the lines' resonance is sharpest); the
-    # white value is off by 0.1-0.35x on the 10-bit stage 2.
+    # white value is off by 0.1-0.5x on the 10-bit stage 2.
     device, _, braking, sm = coarse_brakings[bits, stage]
     err = sm.omega - braking.truth.omega
     n = err.size
