@@ -29,9 +29,9 @@ du_k sum_j R_phi(t_k - t_j) du_j, whose cumulative sum is ``work_var_angle``
 torque; a drive that regulates on the same readings makes them correlate a little, which
 leaves a bias that grows with the regulator's response to one count (the program keeps that
 response small, rsp_inertia.ocp.regulator). A Monte Carlo over reading offsets
-(tests/estimation/test_coarse.py) finds 0.78 of the predicted variance where the readings'
-errors are white and 0.3 below a count per sample, where the quantization lines put less of
-the angle error's power at the low frequencies the torque's changes weigh (conservative).
+(tests/estimation/test_coarse.py) finds 0.8-0.9 of the predicted variance at 2-8 counts per
+sample and 0.65 at 0.6 counts per sample, where the quantization lines put less of the angle
+error's power at the low frequencies the torque's changes weigh (conservative).
 
 Braking pass: a constant torque. By protocol the motor holds one constant braking torque
 (or none) over the whole braking pass (docs/method.md §4); the log is that constant plus the
@@ -76,6 +76,7 @@ from rsp_inertia.plant.logs import Log, dropped_samples
 from rsp_inertia.plant.transducers import power_flow_split
 
 __all__ = [
+    "ANGLE_BLOCK_SPAN",
     "CONSTANCY_CHUNK",
     "CONSTANCY_TAIL",
     "AngleSample",
@@ -233,33 +234,45 @@ def estimate_pass(
     )
 
 
+ANGLE_BLOCK_SPAN = 200.0
+"""w_c x the duration of the stretches over which :func:`angle_work_variance` keeps its random
+walk from falling (five times the kernel's span)."""
+
+
 def angle_work_variance(torque: np.ndarray, smoothed: Smoothed) -> np.ndarray:
     """J^2, the variance the smoothed angle's error puts into the work from the first row to
-    each row of a sample-by-sample sum (module docstring): the cumulative sum of
-    du_k sum_j R_phi((k - j) dt) du_j over the rows k = 1 .. K - 1, du_k = u_k - u_{k-1}, dt the
-    log's median step (R_phi: :func:`rsp_inertia.estimation.smoothing.angle_error_autocovariance`,
-    zero beyond w_c |tau| = 40), each du_k scaled by the quantization lines' angle error at its
-    row over the white one (:attr:`rsp_inertia.estimation.smoothing.Smoothed.line_scales`)."""
+    each row of a sample-by-sample sum (module docstring).
+
+    The cumulative sum of du_k sum_j R_phi((k - j) dt) du_j over the rows k = 1 .. K - 1,
+    du_k = u_k - u_{k-1} each scaled by the quantization lines' angle error at its row over the
+    white one (:attr:`rsp_inertia.estimation.smoothing.Smoothed.line_scales`), dt the log's
+    median step (R_phi: :func:`rsp_inertia.estimation.smoothing.angle_error_autocovariance`,
+    zero beyond w_c |tau| = KERNEL_SPAN). A single increment is a product of one draw of the
+    torque's changes and can be negative; over a stretch of ANGLE_BLOCK_SPAN / w_c their sum is
+    the stretch's variance, which is spread evenly over its rows (never below zero): a random
+    walk, so that min(v_i, v_j) is a covariance.
+    """
     u = np.asarray(torque, dtype=float)
     n = u.size
     du = np.diff(u)
+    out = np.zeros(n)
     if du.size == 0:
-        return np.zeros(n)
+        return out
     dt = float(np.median(np.diff(smoothed.t)))
     reach = min(int(KERNEL_SPAN / (smoothed.bandwidth * dt)), du.size - 1)
     half = angle_error_autocovariance(
         np.arange(reach + 1) * dt, smoothed.bandwidth, smoothed.noise_density
     )
     kernel = np.concatenate([half[:0:-1], half])  # lags -reach .. reach
-    # The quantization lines' angle error at each row over the white one (smoothing.py).
     du = du * smoothed.line_scales[0][1:]
-    spread = np.convolve(du, kernel, mode="same")
-    increments = du * spread
-    out = np.zeros(n)
+    increments = du * np.convolve(du, kernel, mode="same")
+    stretch = max(math.ceil(ANGLE_BLOCK_SPAN / (smoothed.bandwidth * dt)), 1)
+    padded = np.zeros(math.ceil(du.size / stretch) * stretch)
+    padded[: du.size] = increments
+    share = np.maximum(padded.reshape(-1, stretch).sum(axis=1), 0.0)
+    increments = np.repeat(share / stretch, stretch)[: du.size]
     out[2:] = np.cumsum(increments)[: n - 2]
-    # A random walk's variance never falls along the pass (min(v_i, v_j) is a covariance only
-    # then); single increments of the truncated sum can be slightly negative.
-    return np.maximum.accumulate(out)
+    return out
 
 
 def gap_work(
