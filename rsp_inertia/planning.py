@@ -26,7 +26,7 @@ from rsp_inertia.ocp.plan import (
     map_stages,
     planned_release,
 )
-from rsp_inertia.ocp.regulator import bandwidth
+from rsp_inertia.ocp.regulator import MAX_BANDWIDTH, bandwidth
 from rsp_inertia.ocp.rehearsal import Rehearsal
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
@@ -156,6 +156,13 @@ def _closed_loop_note(device: Device, sm: StageModel, c, cost: float) -> str:
     sample there."""
     M0 = float(sm.model.inertia_harmonics[0])
     w = bandwidth(device, M0)
+    head = f"  closed loop: {cost:.1f}x the ideal reverse's std (rehearsed): "
+    if w >= MAX_BANDWIDTH:
+        return head + (
+            f"the regulator runs at its ceiling of {w:.2g} rad/s, so the encoder is not what "
+            "limits it: the tracking mismatch the nominal model's errors leave costs the "
+            "information (a pilot run sharpens the model)"
+        )
     slowest = MIN_SPEED_FRACTION * c.launch_speed
     counts = slowest * device.encoder.dt / device.encoder.quantum
     follows = (
@@ -165,10 +172,10 @@ def _closed_loop_note(device: Device, sm: StageModel, c, cost: float) -> str:
         "balances), so the reverse tracks the mirror on the feedforward alone and identify's "
         "tracking-mismatch terms take information"
     )
-    return (
-        f"  closed loop: {cost:.1f}x the ideal reverse's std (rehearsed): the encoder's count "
-        f"holds the regulator to {w:.2g} rad/s, which {follows}; {counts:.2g} counts per "
-        "sample at the balances' slowest speed (a finer encoder, or a faster launch, helps)"
+    return head + (
+        f"the encoder's count holds the regulator to {w:.2g} rad/s, which {follows}; "
+        f"{counts:.2g} counts per sample at the balances' slowest speed (a finer encoder, or "
+        "a faster launch, helps)"
     )
 
 

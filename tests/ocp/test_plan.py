@@ -271,5 +271,7 @@ def test_a_stage_the_closed_loop_costs_is_named_with_what_its_encoder_allows(def
     slow = note(10, 2, 0.9, 3.5)  # w 0.085 rad/s against 2 x 0.2 x 3.5 = 1.4 rad/s
     assert "2.0x the ideal reverse's std" in slow and "cannot follow" in slow
     assert "0.085 rad/s" in slow and "0.11 counts per sample" in slow
-    fine = note(16, 1, 0.03, 12.0)  # w 45 rad/s (the cap) against 4.8 rad/s
-    assert "45 rad/s, which follows" in fine
+    middle = note(14, 1, 0.03, 12.0)  # w 26 rad/s against 4.8 rad/s
+    assert "holds the regulator to 26 rad/s, which follows" in middle
+    fine = note(16, 1, 0.03, 12.0)  # w 45 rad/s: the ceiling, not the encoder
+    assert "ceiling of 45 rad/s" in fine and "encoder is not what limits it" in fine
