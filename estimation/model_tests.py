@@ -245,7 +245,7 @@ def coarse_encoder_warnings(balances, quantum: float, dt: float, labels: list[st
     noise (rsp_inertia.estimation.smoothing: quantization lines): the speed error's level moves
     10x along the run about what the white model and the run's one speed-noise scale say. The
     stds keep their calibration on the residuals (measured on the virtual device at 10 bits:
-    mean (err/std)^2 1.1 over 30 closed-loop experiments), but the closure tests lose their
+    mean (err/std)^2 0.81 over 30 closed-loop experiments), but the closure tests lose their
     footing: on an ideal reverse of a lossless drive with an exact 10-bit encoder they named a
     drive loss in 17 of 30 experiments and an unclosed balance in nearly all.
     """
