@@ -132,3 +132,20 @@ def test_nominal_model_keeps_the_inertia_scale_on_a_12_bit_braking(coarse_brakin
         true = vd.true_parameters(device, stage, virtual, 1.0)
         M0, M0_true = fit.inertia_harmonics[0], true.inertia_harmonics[0]
         assert abs(M0 / M0_true - 1) < bound, (stage, M0 / M0_true - 1)
+
+
+def test_a_run_under_one_count_per_sample_gets_the_coarse_encoder_warning():
+    # Omega^2 ~ S / 2 at each balance angle: a run at 0.5 counts per sample (median) is
+    # warned, one at 2 counts per sample is not.
+    from types import SimpleNamespace
+
+    from rsp_inertia.estimation.model_tests import coarse_encoder_warnings
+
+    q, dt = 2 * math.pi / 1024, 1e-3
+    def run(counts):
+        speed = counts * q / dt * np.linspace(0.8, 1.2, 101)
+        return SimpleNamespace(speed_sq=2 * speed**2)
+
+    found = coarse_encoder_warnings([run(0.5), run(2.0)], q, dt, ["stage 1 forward", "stage 2 forward"])
+    assert len(found) == 1
+    assert found[0].startswith("stage 1 forward: the encoder reads 0.5 counts per sample")
