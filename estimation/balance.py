@@ -41,6 +41,7 @@ from scipy.integrate import cumulative_trapezoid
 
 from rsp_inertia.estimation.passes import (
     PassEstimate,
+    angle_work_covariance,
     mainly_back_driven,
     sample_at,
     speed_error_covariance,
@@ -57,10 +58,12 @@ __all__ = [
     "NODE_GAP_SAMPLES",
     "NODE_GAP_WINDOW_DEG",
     "POSITION_SPACING_BANDWIDTHS",
+    "HarmonicReach",
     "StageBalance",
     "balance_spacing",
     "check_node_gaps",
     "friction_shape",
+    "harmonic_reach",
     "mirror_log",
     "mismatch_regressors",
     "spring_potential",
@@ -248,11 +251,8 @@ class StageBalance:
         random walk min(v_i, v_j) times its gain squared (``scales``: (braking, reverse), as
         :meth:`work_scales` gives), J^2."""
         n = len(self.phi)
-        cov = np.zeros((n, n))
-        for v, scale in zip(self.angle_work_var, scales):
-            if v is not None:
-                cov += scale**2 * np.minimum.outer(v, v)
-        return cov
+        braking, reverse = (angle_work_covariance(v, n) for v in self.angle_work_var)
+        return scales[0] ** 2 * braking + scales[1] ** 2 * reverse
 
     @property
     def motor_work(self) -> np.ndarray:
@@ -371,6 +371,38 @@ def balance_spacing(braking: PassEstimate, reverse: PassEstimate) -> float:
     bandwidth = min(braking.smoothed.bandwidth, reverse.smoothed.bandwidth)
     top = max(np.abs(braking.smoothed.omega).max(), np.abs(reverse.smoothed.omega).max())
     return POSITION_SPACING_BANDWIDTHS / bandwidth * top
+
+
+@dataclass(frozen=True)
+class HarmonicReach:
+    """A reverse's regulator bandwidth against its braking's speed harmonics over the
+    balances (:func:`harmonic_reach`)."""
+
+    bandwidth: float
+    """w, rad/s."""
+    slowest: float
+    """rad/s, the braking's speed at the balances' slowest (MIN_SPEED_FRACTION of the top)."""
+    counts: float
+    """Encoder counts per sample at that speed."""
+
+    @property
+    def follows(self) -> bool:
+        """Whether w reaches the 2 Omega harmonic there (else the reverse tracks the mirror on
+        its feedforward alone)."""
+        return self.bandwidth >= 2 * self.slowest
+
+
+def harmonic_reach(device: Device, bandwidth: float, top_speed: float) -> HarmonicReach:
+    """Whether a regulator of ``bandwidth`` (rad/s) follows the speed harmonics 2 Omega of a
+    braking from ``top_speed`` (rad/s) over the balances' range, and the encoder's counts per
+    sample at its slowest speed (rsp_inertia.ocp.regulator sets the bandwidth; check and plan
+    ask this)."""
+    slowest = MIN_SPEED_FRACTION * top_speed
+    return HarmonicReach(
+        bandwidth=bandwidth,
+        slowest=slowest,
+        counts=slowest * device.encoder.dt / device.encoder.quantum,
+    )
 
 
 def mismatch_regressors(phi: np.ndarray, omega: np.ndarray, omega_rev: np.ndarray):

@@ -129,9 +129,10 @@ def node_formula(
         scale_b, scale_r = (
             gains[1] if mainly_back_driven(p) else gains[0] for p in (braking, reverse)
         )
+        n = passages.size
         num_cov = step @ (
-            scale_b**2 * (work_covariance(braking, b) + angle_work_covariance(b))
-            + scale_r**2 * (work_covariance(reverse, r) + angle_work_covariance(r))
+            scale_b**2 * (work_covariance(braking, b) + angle_work_covariance(b.work_var_angle, n))
+            + scale_r**2 * (work_covariance(reverse, r) + angle_work_covariance(r.work_var_angle, n))
         ) @ step.T
         plain_num, plain_cov = num, num_cov
         if friction_slope is not None and np.all(np.isfinite(friction_slope)):

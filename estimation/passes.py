@@ -454,14 +454,13 @@ def work_covariance(est: PassEstimate, a: AngleSample, b: AngleSample | None = N
     return cov
 
 
-def angle_work_covariance(a: AngleSample) -> np.ndarray:
-    """(n, n) cov(W(a_i), W(a_j)) that the smoothed angle's error puts into the pass's motor
-    work under a changing torque, J^2: the random walk min(v_i, v_j) of
-    :attr:`AngleSample.work_var_angle` (zeros for a constant torque; module docstring)."""
-    v = a.work_var_angle
-    if v is None:
-        return np.zeros((a.phi.size, a.phi.size))
-    return np.minimum.outer(v, v)
+def angle_work_covariance(variance: np.ndarray | None, n: int) -> np.ndarray:
+    """(n, n) cov(W(a_i), W(a_j)) that the smoothed angle's error puts into a pass's motor work
+    under a changing torque, J^2: the random walk min(v_i, v_j) of its variance at the angles
+    (:attr:`AngleSample.work_var_angle`; module docstring); zeros for None (a constant torque)."""
+    if variance is None:
+        return np.zeros((n, n))
+    return np.minimum.outer(variance, variance)
 
 
 def speed_error_covariance(est: PassEstimate, a: AngleSample) -> np.ndarray:

@@ -145,6 +145,7 @@ __all__ = [
     "smooth_log",
     "smoother_bandwidth",
     "speed_error_autocovariance",
+    "top_speed",
 ]
 
 BLOCK = 10
@@ -209,6 +210,17 @@ class Smoothed:
         white_angle = float(angle_error_autocovariance(0.0, self.bandwidth, self.noise_density))
         white_speed = float(speed_error_autocovariance(0.0, self.bandwidth, self.noise_density))
         return np.sqrt(angle / white_angle), np.sqrt(speed / white_speed)
+
+    def speed_error_variance(self) -> np.ndarray:
+        """rad^2/s^2, the variance of the smoothed speed's error at each row: the derived
+        stationary value (:func:`speed_error_autocovariance` at 0), larger where the smoother's
+        own covariance says so (the pass's ends), times the quantization lines' share at the
+        row's speed (:attr:`line_scales`); zeros for exact states."""
+        if self.noise_density <= 0.0:
+            return np.zeros(self.t.size)
+        stationary = float(speed_error_autocovariance(0.0, self.bandwidth, self.noise_density))
+        ramp = self.omega_std / np.median(self.omega_std) * self.line_scales[1]
+        return stationary * ramp**2
 
     def speed_error_covariance(self, t: np.ndarray, omega_std: np.ndarray) -> np.ndarray:
         """(n, n) covariance of the speed's errors at times ``t`` (module docstring, R).
@@ -295,11 +307,18 @@ def jerk_density(log: Log, quantum: float) -> tuple[float, float]:
     quantization: BLOCK counts of error over BLOCK samples).
     """
     dt = float(np.median(np.diff(log.t)))
-    span = min(BLOCK, len(log) - 1)
-    speeds = np.abs(log.phi[span:] - log.phi[:-span]) / (log.t[span:] - log.t[:-span])
-    omega_max = float(speeds.max()) if speeds.size else 0.0
-    bandwidth = smoother_bandwidth(omega_max)
+    bandwidth = smoother_bandwidth(top_speed(log))
     return noise_density(quantum, dt) * bandwidth**6, bandwidth
+
+
+def top_speed(log: Log) -> float:
+    """rad/s, a log's top speed from differences of its readings over BLOCK samples (robust to
+    the quantization: a count of error over BLOCK samples); 0 for a log of one row."""
+    span = min(BLOCK, len(log) - 1)
+    if span < 1:
+        return 0.0
+    speeds = np.abs(log.phi[span:] - log.phi[:-span]) / (log.t[span:] - log.t[:-span])
+    return float(speeds.max()) if speeds.size else 0.0
 
 
 def smoother_bandwidth(omega_max: float) -> float:

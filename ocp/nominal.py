@@ -48,7 +48,7 @@ from collections.abc import Sequence
 import numpy as np
 from scipy.optimize import lsq_linear
 
-from rsp_inertia.estimation.smoothing import Smoothed, speed_error_autocovariance
+from rsp_inertia.estimation.smoothing import Smoothed
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.logs import Log
@@ -150,7 +150,7 @@ def fit_energy_windows(
         )
     stride = max(round(window / dt), 1)
     phi, omega = sm.phi[rows], sm.omega[rows]
-    var = speed_error_variance(sm)[rows]
+    var = sm.speed_error_variance()[rows]
     # Cumulative integral of dD/dp dphi (trapezoid over the smoothed angle), each row's
     # speed-noise bias taken off (errors in variables, module docstring).
     Dreg = _unbiased(
@@ -215,18 +215,6 @@ def fit_energy_windows(
     covariance = np.full((len(unknowns), len(unknowns)), np.nan)
     covariance[np.ix_(index, index)] = cov_fitted
     return values, covariance
-
-
-def speed_error_variance(sm: Smoothed) -> np.ndarray:
-    """rad^2/s^2, the variance of the smoothed speed's error at each row: the smoother's derived
-    stationary value (rsp_inertia.estimation.smoothing.speed_error_autocovariance at 0), larger
-    where the smoother's own covariance says so (the pass's ends), times the quantization
-    lines' share at the row's speed (rsp_inertia.estimation.smoothing.Smoothed.line_scales)."""
-    if sm.noise_density <= 0.0:  # exact states
-        return np.zeros(sm.t.size)
-    stationary = float(speed_error_autocovariance(0.0, sm.bandwidth, sm.noise_density))
-    ramp = sm.omega_std / np.median(sm.omega_std) * sm.line_scales[1]
-    return stationary * ramp**2
 
 
 def _unbiased(regressor, omega: np.ndarray, var: np.ndarray) -> np.ndarray:

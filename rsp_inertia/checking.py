@@ -29,12 +29,13 @@ from pathlib import Path
 import numpy as np
 
 from rsp_inertia.estimation.balance import (
-    MIN_SPEED_FRACTION,
     NODE_GAP_SAMPLES,
     check_node_gaps,
+    harmonic_reach,
     mirror_log,
 )
 from rsp_inertia.estimation.passes import check_braking_monotone
+from rsp_inertia.estimation.smoothing import top_speed
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.geometry import turns_past_last_node
@@ -260,20 +261,16 @@ def _check_regulator(exp, path: Path, braking, report: CheckReport) -> None:
     if not np.any(gains) or len(braking) < 2:
         return
     w = float(np.median(math.sqrt(2) * program.k_phi[gains] / program.k_omega[gains]))
-    step = min(10, len(braking) - 1)
-    speeds = np.abs(braking.phi[step:] - braking.phi[:-step]) / (braking.t[step:] - braking.t[:-step])
-    slowest = MIN_SPEED_FRACTION * float(speeds.max())
-    if w >= 2 * slowest:
+    reach = harmonic_reach(exp.device, w, top_speed(braking))
+    if reach.follows:
         return
-    encoder = exp.device.encoder
-    counts = slowest * encoder.dt / encoder.quantum
     report.add(
         "suspicious",
         f"{path}: its regulator's bandwidth, {w:.2g} rad/s, is below the braking's speed "
-        f"harmonics (2 Omega >= {2 * slowest:.2g} rad/s over the balances; {counts:.2g} encoder "
-        "counts per sample there): the encoder's count holds the gains down, the reverse will "
-        "track the mirror on its feedforward alone and identify's stds grow (rsp-inertia plan "
-        "rehearses it; a finer encoder lifts it)",
+        f"harmonics (2 Omega >= {2 * reach.slowest:.2g} rad/s over the balances; "
+        f"{reach.counts:.2g} encoder counts per sample there): the encoder's count holds the "
+        "gains down, the reverse will track the mirror on its feedforward alone and identify's "
+        "stds grow (rsp-inertia plan rehearses it; a finer encoder lifts it)",
     )
 
 

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import tomlkit
 
-from rsp_inertia.estimation.balance import MIN_SPEED_FRACTION
+from rsp_inertia.estimation.balance import harmonic_reach
 from rsp_inertia.ocp.plan import (
     TORQUE_MARGIN,
     Plan,
@@ -163,19 +163,18 @@ def _closed_loop_note(device: Device, sm: StageModel, c, cost: float) -> str:
             "limits it: the tracking mismatch the nominal model's errors leave costs the "
             "information (a pilot run sharpens the model)"
         )
-    slowest = MIN_SPEED_FRACTION * c.launch_speed
-    counts = slowest * device.encoder.dt / device.encoder.quantum
+    reach = harmonic_reach(device, w, c.launch_speed)
     follows = (
         "follows the mirror's speed harmonics"
-        if w > 2 * slowest
-        else f"cannot follow the speed's harmonics (2 Omega >= {2 * slowest:.2g} rad/s over the "
-        "balances), so the reverse tracks the mirror on the feedforward alone and identify's "
-        "tracking-mismatch terms take information"
+        if reach.follows
+        else f"cannot follow the speed's harmonics (2 Omega >= {2 * reach.slowest:.2g} rad/s over "
+        "the balances), so the reverse tracks the mirror on the feedforward alone and "
+        "identify's tracking-mismatch terms take information"
     )
     return head + (
         f"the encoder's count holds the regulator to {w:.2g} rad/s, which {follows}; "
-        f"{counts:.2g} counts per sample at the balances' slowest speed (a finer encoder, or "
-        "a faster launch, helps)"
+        f"{reach.counts:.2g} counts per sample at the balances' slowest speed (a finer encoder, "
+        "or a faster launch, helps)"
     )
 
 
