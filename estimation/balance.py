@@ -251,8 +251,12 @@ class StageBalance:
         random walk min(v_i, v_j) times its gain squared (``scales``: (braking, reverse), as
         :meth:`work_scales` gives), J^2."""
         n = len(self.phi)
-        braking, reverse = (angle_work_covariance(v, n) for v in self.angle_work_var)
-        return scales[0] ** 2 * braking + scales[1] ** 2 * reverse
+        parts = [
+            scale**2 * angle_work_covariance(v, n)
+            for v, scale in zip(self.angle_work_var, scales)
+            if v is not None  # a constant torque's: none (no n x n zeros)
+        ]
+        return sum(parts) if parts else np.zeros((n, n))
 
     @property
     def motor_work(self) -> np.ndarray:
