@@ -3,12 +3,13 @@
 A pilot run (``stageN/pilot.csv``, the log format of braking.csv; the virtual device's
 :func:`rsp_inertia.plant.virtual.simulate_pilot`) starts at rest, drives the body forward at a constant
 known torque up to the stage's launch speed (or until a spring stops the speed rising),
-then switches the motor off and lets it coast to rest (or for a while). Its energy balance over windows of the pass (docs/method.md §3),
+then switches the motor off and lets it coast to rest (or for a while). Its equation of
+motion in momentum form, modulated over overlapping windows of the pass (docs/method.md §3),
 
-    E(b) - E(a) + integral_a^b D dphi = motor work from a to b,
+    - integral w' M Omega dt - integral w F dt = integral w u dt,
 
-is fitted by the same windowed least squares as the nominal model of a braking pass
-(:func:`rsp_inertia.ocp.nominal.fit_energy_windows`). What the pilot adds is a change of torque: in a
+is fitted by the same least squares as the nominal model of a braking pass
+(:func:`rsp_inertia.ocp.nominal.fit_modulated_windows`). What the pilot adds is a change of torque: in a
 braking pass the torque is constant, Coulomb friction a1 is a constant torque too, and
 (M, gravity, a2, a3) fit equally well at any common scale (rsp_inertia.ocp.nominal). In a pilot the
 powered part's known work sets the scale of the kinetic energy, so M0 comes out absolutely,
@@ -30,7 +31,7 @@ import numpy as np
 
 from rsp_inertia.estimation.passes import torque_noise
 from rsp_inertia.estimation.smoothing import smooth_log
-from rsp_inertia.ocp.nominal import fit_energy_windows
+from rsp_inertia.ocp.nominal import fit_modulated_windows
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.logs import Log
@@ -40,7 +41,7 @@ __all__ = ["PILOT_UNKNOWNS", "PilotFit", "fit_pilot"]
 
 PILOT_UNKNOWNS = ("M0", "a1", "a2", "a3", "Mc2", "Ms2", "Gs", "Gc", "Ms1", "Mc1")
 """Parameters fitted (names of rsp_inertia.plant.model.PARAMETER_NAMES), most important first: a pilot
-too short for all of them fits only the first ones (rsp_inertia.ocp.nominal.fit_energy_windows). The
+too short for all of them fits only the first ones (rsp_inertia.ocp.nominal.fit_modulated_windows). The
 spring (c, phi0) comes from device.toml."""
 
 POWERED_SIGMAS = 6.0
@@ -121,14 +122,13 @@ class PilotFit:
 def fit_pilot(device: Device, stage: int, log: Log, source: str | None = None) -> PilotFit:
     """Mean reduced inertia and friction of stage ``stage`` from its pilot log.
 
-    The log is smoothed (rsp_inertia.estimation.smoothing.smooth_log with the encoder's quantum) and the
-    energy balance fitted over windows (:func:`rsp_inertia.ocp.nominal.fit_energy_windows`) with the
-    unknowns :data:`PILOT_UNKNOWNS`: M0, M's four harmonics, gravity (Gs, Gc) and the
-    friction a1, a2, a3, all of them when the log is long enough. M0 and a1-a3 are bounded
-    below by 0. The stds are those of ordinary least squares: the residual variance times
-    (A^T A)^-1, as if the windows' errors were independent. They are not: consecutive
-    windows share an endpoint, whose speed error enters both with opposite signs, so the
-    stds overstate the scatter.
+    The log is smoothed (rsp_inertia.estimation.smoothing.smooth_log with the encoder's
+    quantum) and the modulated momentum equation fitted over overlapping windows
+    (:func:`rsp_inertia.ocp.nominal.fit_modulated_windows`) with the unknowns
+    :data:`PILOT_UNKNOWNS`: M0, M's four harmonics, gravity (Gs, Gc) and the friction a1, a2,
+    a3, all of them when the log is long enough. M0 and a1-a3 are bounded below by 0. The
+    stds are the least squares' from its residuals, with the overlapping windows' correlation
+    (Newey-West); they ignore the bounds.
 
     Parameters
     ----------
@@ -179,7 +179,7 @@ def fit_pilot(device: Device, stage: int, log: Log, source: str | None = None) -
             "to tell friction from the inertia's and gravity's exchange within a turn"
         )
     sm = smooth_log(log, device.encoder.quantum, source)
-    values, covariance = fit_energy_windows(device, log, sm, PILOT_UNKNOWNS, source)
+    values, covariance = fit_modulated_windows(device, log, sm, PILOT_UNKNOWNS, source)
     std = dict(zip(PILOT_UNKNOWNS, np.sqrt(np.diag(covariance))))
     if values["M0"] <= 0.0:
         raise InputError(

@@ -44,11 +44,13 @@ __all__ = [
     "dissipation",
     "dissipation_regressor",
     "energy_regressor",
+    "force_regressor",
     "gravity_basis",
     "harmonics_matrix",
     "inertia_basis",
     "inertia_harmonics",
     "mechanical_energy",
+    "momentum_regressor",
     "motor_torque",
     "potential",
     "reduced_inertia",
@@ -185,6 +187,9 @@ class GimbalModel:
         Forward dynamics: the acceleration that torque u produces (the same equation solved).
     E : casadi.SX
         Mechanical energy M Omega^2 / 2 + Pi.
+    F : casadi.SX
+        Generalised force of the momentum form of Lagrange's equation,
+        d(M Omega)/dt = u + F, F = 1/2 M' Omega^2 - D - S (docs/method.md §3).
     """
 
     def __init__(self) -> None:
@@ -214,6 +219,8 @@ class GimbalModel:
         residual = self.tau - self.u
         self.eps = -ca.substitute(residual, self.acc, 0) / ca.jacobian(residual, self.acc)
         self.E = self.M * Omega**2 / 2 + self.Pi
+        # The same equation in momentum form: d(M Omega)/dt = M eps + M' Omega^2 = u + F.
+        self.F = self.dM * Omega**2 / 2 - self.D - self.S
 
         self.functions = {
             "reduced_inertia": ca.Function("reduced_inertia", [phi, self.p], [self.M]),
@@ -248,6 +255,16 @@ class GimbalModel:
                 "dissipation_regressor",
                 [Omega, self.direction, self.p],
                 [ca.jacobian(self.D, self.p)],
+            ),
+            # The momentum form d(M Omega)/dt = u + F is linear in p too (but for the
+            # spring's part of F): the regressors of its modulated integral (rsp_inertia.ocp.nominal).
+            "momentum_regressor": ca.Function(
+                "momentum_regressor", [phi, Omega, self.p], [ca.jacobian(self.M * Omega, self.p)]
+            ),
+            "force_regressor": ca.Function(
+                "force_regressor",
+                [phi, Omega, self.direction, self.p],
+                [ca.jacobian(self.F, self.p)],
             ),
         }
 
@@ -394,6 +411,22 @@ def dissipation_regressor(Omega, params: ModelParameters | np.ndarray, direction
     if direction is None:
         direction = np.sign(Omega)
     return _regressor("dissipation_regressor", (Omega, direction), _p(params))
+
+
+def momentum_regressor(phi, Omega, params: ModelParameters | np.ndarray):
+    """d(M Omega)/dp at each sample, rows of shape (12,): M(phi) Omega = regressor . p
+    exactly (docs/method.md §3, the momentum form)."""
+    return _regressor("momentum_regressor", (phi, Omega), _p(params))
+
+
+def force_regressor(phi, Omega, params: ModelParameters | np.ndarray, direction=None):
+    """dF/dp at each sample, rows of shape (12,), F = 1/2 M' Omega^2 - D - S the generalised
+    force of the momentum form d(M Omega)/dt = u + F (docs/method.md §3): F = regressor . p
+    up to the spring's part of S, which is not linear in (c, phi0). ``direction`` (the sign
+    of the Coulomb and quadratic friction) defaults to sign(Omega)."""
+    if direction is None:
+        direction = np.sign(Omega)
+    return _regressor("force_regressor", (phi, Omega, direction), _p(params))
 
 
 def mechanical_energy(phi, Omega, params: ModelParameters | np.ndarray):
