@@ -9,7 +9,7 @@ motion in momentum form, modulated over overlapping windows of the pass (docs/me
     - integral w' M Omega dt - integral w F dt = integral w u dt,
 
 is fitted by the same least squares as the nominal model of a braking pass
-(:func:`rsp_inertia.ocp.nominal.fit_modulated_windows`). What the pilot adds is a change of torque: in a
+(:func:`rsp_inertia.estimation.modulated.fit_modulated`). What the pilot adds is a change of torque: in a
 braking pass the torque is constant, Coulomb friction a1 is a constant torque too, and
 (M, gravity, a2, a3) fit equally well at any common scale (rsp_inertia.ocp.nominal). In a pilot the
 powered part's known work sets the scale of the kinetic energy, so M0 comes out absolutely,
@@ -29,9 +29,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rsp_inertia.estimation.modulated import fit_modulated
 from rsp_inertia.estimation.passes import torque_noise
 from rsp_inertia.estimation.smoothing import smooth_log
-from rsp_inertia.ocp.nominal import fit_modulated_windows
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.logs import Log
@@ -41,7 +41,7 @@ __all__ = ["PILOT_UNKNOWNS", "PilotFit", "fit_pilot"]
 
 PILOT_UNKNOWNS = ("M0", "a1", "a2", "a3", "Mc2", "Ms2", "Gs", "Gc", "Ms1", "Mc1")
 """Parameters fitted (names of rsp_inertia.plant.model.PARAMETER_NAMES), most important first: a pilot
-too short for all of them fits only the first ones (rsp_inertia.ocp.nominal.fit_modulated_windows). The
+too short for all of them fits only the first ones (rsp_inertia.estimation.modulated.fit_modulated). The
 spring (c, phi0) comes from device.toml."""
 
 POWERED_SIGMAS = 6.0
@@ -124,7 +124,7 @@ def fit_pilot(device: Device, stage: int, log: Log, source: str | None = None) -
 
     The log is smoothed (rsp_inertia.estimation.smoothing.smooth_log with the encoder's
     quantum) and the modulated momentum equation fitted over overlapping windows
-    (:func:`rsp_inertia.ocp.nominal.fit_modulated_windows`) with the unknowns
+    (:func:`rsp_inertia.estimation.modulated.fit_modulated`) with the unknowns
     :data:`PILOT_UNKNOWNS`: M0, M's four harmonics, gravity (Gs, Gc) and the friction a1, a2,
     a3, all of them when the log is long enough. M0 and a1-a3 are bounded below by 0. The
     stds are the least squares' from its residuals, with the overlapping windows' correlation
@@ -179,7 +179,7 @@ def fit_pilot(device: Device, stage: int, log: Log, source: str | None = None) -
             "to tell friction from the inertia's and gravity's exchange within a turn"
         )
     sm = smooth_log(log, device.encoder.quantum, source)
-    values, covariance = fit_modulated_windows(device, log, sm, PILOT_UNKNOWNS, source)
+    values, covariance = fit_modulated(device, [(log, sm)], PILOT_UNKNOWNS, source)
     std = dict(zip(PILOT_UNKNOWNS, np.sqrt(np.diag(covariance))))
     if values["M0"] <= 0.0:
         raise InputError(

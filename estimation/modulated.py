@@ -1,0 +1,248 @@
+"""Lagrange's equation fitted to logged passes by modulating functions (docs/method.md §3-4).
+
+The equation is linear in the harmonic coefficients of M(phi), the gravity terms and the
+dissipation coefficients (a1, a2, a3); the spring is known from device.toml. It is fitted in
+its momentum form, d(M Omega)/dt = u + F with F = 1/2 M' Omega^2 - D - S
+(rsp_inertia.plant.model), multiplied by a weight w(t) that vanishes at both ends of a window
+[a, b] and integrated; by parts,
+
+    - integral w' M Omega dt - integral w F dt = integral w u dt
+
+(Shinbrot's method of modulating functions), one linear equation in p per window. No
+acceleration and no speed at a single instant enters: the speed only under integrals, against
+the smooth weight w(t) = sin^2(pi (t - a) / (b - a)) or its derivative, where the smoothed
+speed's error, which has no low-frequency content, averages out. The regressors are the
+Jacobians of the model's own M Omega and F (:func:`rsp_inertia.plant.model.momentum_regressor`,
+:func:`rsp_inertia.plant.model.force_regressor`); the integrals are Simpson sums over the
+samples.
+
+Why: errors in a regressor bias least squares toward zero (errors in variables), most of all
+along a direction the data determine weakly. Each modulated equation's signal grows with the
+window's length T and its speed-noise term falls with it (as T^-1.5: the smoothed angle's
+error, twice differentiated by parts), so long windows, overlapping to keep their number up,
+remove the bias: on the 10-bit default stage 1 (braking torque 5% of its friction) the energy
+balance over 0.25 s windows that this replaced put M0 36-38% low even with an
+errors-in-variables correction; 1 s windows every 0.25 s put it 2.2-2.8% low, 2.0% of which is
+the Coulomb degeneracy below (seeds 0-2). Columns with Omega^2 (M' and a3) have the speed
+noise's mean taken off (E[f(Omega + e)] = f + f'' var / 2, :func:`_unbiased`).
+
+What a pass can tell. A braking pass alone, under a constant torque, cannot tell Coulomb
+friction a1 from the braking torque, and (M, a1 - u, a2, a3, gravity) fit it equally well at
+any common scale: the program's nominal model puts a1 = 0 (rsp_inertia.ocp.nominal). The exact
+mirror's torque alone is u_b + 2 D(Omega), a function of the speed, which friction mimics.
+Both passes of a run together (:func:`fit_modulated` with both) determine everything: the
+braking says X + D = u_b at each state and the reverse X' - D = u' at its mirror, X the
+inertial, spring and gravity terms. On the default stage 1 at 12 bits that joint fit puts M0
+within 3e-4, a1 within 2e-5 N m, a2 within 1e-5 N m s and a3 within 1e-6 N m s^2 of the
+truth, closed loop or ideal reverse alike: the friction slopes that identify's tracking
+mismatch needs (rsp_inertia.estimation.balance.friction_slope_prior).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from scipy.integrate import simpson
+from scipy.optimize import lsq_linear
+
+from rsp_inertia.estimation.smoothing import Smoothed
+from rsp_inertia.plant.config import Device
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.logs import Log
+from rsp_inertia.plant.model import (
+    PARAMETER_NAMES,
+    force_regressor,
+    momentum_regressor,
+    spring_parameters,
+    static_torque,
+)
+
+__all__ = ["MIN_SPEED_FRACTION", "WINDOW", "fit_modulated", "modulated_rows"]
+
+MIN_SPEED_FRACTION = 0.05
+"""Samples slower than this fraction of a pass's top speed are left out (static friction,
+over-confident smoothing near rest)."""
+
+WINDOW = 1.0
+"""s, the modulating windows' length on a long pass (module docstring: 0.25 s windows left
+M0 6% low on the 10-bit default stage 1, 0.5 s 6%, 1 s 2.5%, 2 s 2.2%, of which 2.0% is the
+Coulomb degeneracy; a longer window averages M's harmonics within it)."""
+
+OVERLAP = 4
+"""Windows start every WINDOW / OVERLAP: overlapping, so that a pass gives enough of them
+(their errors correlate: :func:`_overlap_covariance`)."""
+
+MIN_SPANS = 8
+"""A pass shorter than MIN_SPANS x WINDOW has its windows shortened to pass / MIN_SPANS,
+which still gives OVERLAP (MIN_SPANS - 1) + 1 = 29 windows."""
+
+SHORTEST_WINDOW = 0.02
+"""s: below this a window spans too few samples for the smoother's bandwidth (~1/w_c)."""
+
+NON_NEGATIVE = ("M0", "a1", "a2", "a3")
+"""Parameters bounded below by 0 in the fits: the mean inertia and the friction."""
+
+WINDOWS_PER_UNKNOWN = 2
+"""Unknowns fitted: at most one per this many windows, in the order given (only a pass
+shorter than about 0.16 s, whose windows are the shortest, fits fewer than all)."""
+
+
+def modulated_rows(
+    device: Device, log: Log, sm: Smoothed, source: str
+) -> tuple[np.ndarray, np.ndarray]:
+    """One pass's modulated equations: rows A (n, 12) over every parameter of
+    rsp_inertia.plant.model.PARAMETER_NAMES and their right-hand side y (n,), A p = y for the
+    pass's parameters p but the spring's (module docstring).
+
+    The pass moves in one direction, the sign of its median speed (the friction's sign); the
+    rows faster than MIN_SPEED_FRACTION of its top speed are cut into windows of WINDOW s
+    starting every WINDOW / OVERLAP (shorter on a short pass: MIN_SPANS). The torque is the
+    logged one; the spring's part of F, -S_spring (its regressor is not linear in
+    (c, phi0)), is moved to the right-hand side.
+
+    Raises
+    ------
+    InputError
+        If the pass moves for less than WINDOWS_PER_UNKNOWN shortest windows.
+    """
+    spring = spring_parameters(device.spring.stiffness, device.spring.zero_angle)
+    dt = float(np.median(np.diff(sm.t)))  # the sample period (time stamps may jitter)
+    speed = np.abs(sm.omega)
+    moving = np.nonzero(speed > MIN_SPEED_FRACTION * speed.max())[0]
+    rows = np.arange(moving[0], moving[-1] + 1) if moving.size else moving
+    duration = rows.size * dt
+    window = max(min(WINDOW, duration / MIN_SPANS), SHORTEST_WINDOW)
+    span = max(round(window / dt), 1)
+    starts = np.arange(0, rows.size - span, max(span // OVERLAP, 1))
+    if starts.size < WINDOWS_PER_UNKNOWN:
+        raise InputError(
+            f"{source}: the body moves for only {duration:.3f} s; a model of its motion "
+            f"needs at least {WINDOWS_PER_UNKNOWN * SHORTEST_WINDOW:g} s"
+        )
+    t, phi, omega = sm.t[rows], sm.phi[rows], sm.omega[rows]
+    var = sm.speed_error_variance()[rows]
+    direction = np.full(rows.size, np.sign(np.median(omega)))
+    momentum = momentum_regressor(phi, omega, spring)  # linear in Omega: no noise mean
+    force = _unbiased(lambda w: force_regressor(phi, w, spring, direction=direction), omega, var)
+    known = np.asarray(log.torque, dtype=float)[rows] - static_torque(phi, spring)
+    A = np.empty((starts.size, len(PARAMETER_NAMES)))
+    y = np.empty(starts.size)
+    for j, a in enumerate(starts):
+        s = slice(a, a + span + 1)
+        tt = t[s]
+        T = tt[-1] - tt[0]
+        w = np.sin(np.pi * (tt - tt[0]) / T) ** 2
+        w_dot = np.pi / T * np.sin(2 * np.pi * (tt - tt[0]) / T)
+        A[j] = -simpson(w_dot[:, None] * momentum[s] + w[:, None] * force[s], x=tt, axis=0)
+        y[j] = simpson(w * known[s], x=tt)
+    return A, y
+
+
+def fit_modulated(
+    device: Device,
+    passes: Sequence[tuple[Log, Smoothed]],
+    unknowns: Sequence[str],
+    source: str,
+) -> tuple[dict[str, float], np.ndarray]:
+    """Least squares of the modulated equations of one or more passes of one stage.
+
+    Every parameter not in ``unknowns`` is 0 (the spring's come from device.toml); the
+    parameters are shared by the passes (one body, one friction law for both directions of
+    motion). M0, a1, a2 and a3 are bounded below by 0 (bounded least squares, columns scaled
+    to unit norm). Each pass's equations are weighted by the inverse of its own residuals'
+    mean square in an unweighted first fit (the torque logs and the speeds of a braking and a
+    closed-loop reverse differ in noise).
+
+    Parameters
+    ----------
+    device : Device
+        The gimbal (its spring).
+    passes : sequence of (Log, Smoothed)
+        Each pass's log (its torque) and its smoothed states (:func:`modulated_rows`).
+    unknowns : sequence of str
+        Names of rsp_inertia.plant.model.PARAMETER_NAMES to fit, most important first: passes
+        with fewer than WINDOWS_PER_UNKNOWN windows per unknown fit only the first ones.
+    source : str
+        The logs' name in messages (e.g. "stage 1: braking.csv").
+
+    Returns
+    -------
+    values : dict
+        Every name of ``unknowns`` with its estimate, in its SI unit (0 if not fitted).
+    covariance : numpy.ndarray, shape (len(unknowns), len(unknowns))
+        The estimates' covariance in the order of ``unknowns``, from the residuals with the
+        overlapping windows' correlation (:func:`_overlap_covariance`); NaN for unknowns not
+        fitted. It ignores the bounds (an estimate held at its bound has a smaller spread
+        than it says).
+
+    Raises
+    ------
+    InputError
+        If a pass moves for less than WINDOWS_PER_UNKNOWN shortest windows.
+    """
+    unknowns = tuple(unknowns)
+    blocks = [modulated_rows(device, log, sm, source) for log, sm in passes]
+    n = sum(len(y) for _, y in blocks)
+    fitted = unknowns[: max(1, min(len(unknowns), n // WINDOWS_PER_UNKNOWN))]
+    cols = [PARAMETER_NAMES.index(name) for name in fitted]
+    # Friction and the mean inertia cannot be negative: bounded least squares keeps the fit
+    # physical where the speed noise of a coarse encoder would tip an unbounded one over,
+    # instead of clipping its estimates afterwards. Columns scaled to unit norm, as their
+    # units differ by orders of magnitude.
+    lower = np.array([0.0 if name in NON_NEGATIVE else -np.inf for name in fitted])
+    A = np.vstack([a[:, cols] for a, _ in blocks])
+    norms = np.linalg.norm(A, axis=0)
+    norms[norms == 0.0] = 1.0
+    weights = np.ones(len(blocks))
+    if len(blocks) > 1:
+        first = lsq_linear(A / norms, np.concatenate([y for _, y in blocks]), method="lsmr").x
+        weights = np.array(
+            [1.0 / max(np.sqrt(np.mean((y - a[:, cols] / norms @ first) ** 2)), 1e-300)
+             for a, y in blocks]
+        )
+    scaled = [a[:, cols] / norms * w for (a, _), w in zip(blocks, weights)]
+    targets = [y * w for (_, y), w in zip(blocks, weights)]
+    fit = lsq_linear(
+        np.vstack(scaled), np.concatenate(targets), bounds=(lower * norms, np.inf), method="bvls"
+    )
+    residuals = [y - a @ fit.x for a, y in zip(scaled, targets)]
+    cov_fitted = _overlap_covariance(scaled, residuals) / np.outer(norms, norms)
+    values = dict.fromkeys(unknowns, 0.0) | dict(zip(fitted, fit.x / norms))
+    index = [unknowns.index(name) for name in fitted]
+    covariance = np.full((len(unknowns), len(unknowns)), np.nan)
+    covariance[np.ix_(index, index)] = cov_fitted
+    return values, covariance
+
+
+def _overlap_covariance(A: Sequence[np.ndarray], residuals: Sequence[np.ndarray]) -> np.ndarray:
+    """Covariance of the least squares A x = y over the passes' stacked windows, from their
+    residuals, each window's error correlated with the OVERLAP - 1 windows of its pass it
+    shares samples with: the sandwich (A^T A)^-1 S (A^T A)^-1, S the residual-weighted outer
+    products of the rows summed over lags below OVERLAP with Bartlett weights
+    1 - lag / OVERLAP (Newey and West's estimator, positive semi-definite), times
+    n / (n - unknowns); NaN without a degree of freedom."""
+    k = A[0].shape[1]
+    n = sum(len(r) for r in residuals)
+    if n <= k:
+        return np.full((k, k), np.nan)
+    meat = np.zeros((k, k))
+    for a, r in zip(A, residuals):
+        scores = a * r[:, None]
+        meat += scores.T @ scores
+        for lag in range(1, min(OVERLAP, len(r))):
+            cross = scores[:-lag].T @ scores[lag:]
+            meat += (1.0 - lag / OVERLAP) * (cross + cross.T)
+    gram = sum(a.T @ a for a in A)
+    bread = np.linalg.pinv(gram)
+    return bread @ meat @ bread * n / (n - k)
+
+
+def _unbiased(regressor, omega: np.ndarray, var: np.ndarray) -> np.ndarray:
+    """``regressor(omega)`` less the mean that a speed error of variance ``var`` adds to it:
+    for columns up to quadratic in Omega, E[f(Omega + e)] = f(Omega) + f''(Omega) var / 2,
+    f'' by a central second difference (exact for quadratics)."""
+    h = np.maximum(1e-3 * np.abs(omega), 1e-9)
+    f0 = regressor(omega)
+    curvature = (regressor(omega + h) + regressor(omega - h) - 2 * f0) / (h * h)[:, None]
+    return f0 - curvature * (var / 2)[:, None]
