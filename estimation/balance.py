@@ -29,16 +29,31 @@ unknowns of each run with the regressors R1 = int_lo^phi delta dphi and
 R2 = int_lo^phi (|Omega| delta + delta^2 / 2) dphi from the measured speeds. The second-order
 part matters where the loop tracks loosely (a large delta); on an ideal reverse delta is only
 speed noise and the slopes come out undetermined, at little cost.
+
+The slopes' prior. Free, the slopes take information from the tensor wherever delta's shape
+resembles M's harmonics, which a closed loop on a coarse encoder makes it do (its regulator
+lags the mirror in angle by the feedforward's error over its position gain, and a lag in
+angle is a speed mismatch at 2 phi). Both passes of the run determine the friction directly:
+their equations of motion, fitted together by modulating functions
+(rsp_inertia.estimation.modulated), give a1, a2, a3 with M absolutely (the reverse's changing
+torque breaks the braking's scale degeneracy). :func:`friction_slope_prior` turns them into a
+prior d = (a2, 2 a3) with the fit's covariance and a relative allowance
+(FRICTION_PRIOR_ALLOWANCE) for what that fit assumes and a rig may break (one friction law for
+both directions of motion, the logged torque as the one received); the least squares takes it
+as two pseudo-equations and tests it against the balances
+(rsp_inertia.estimation.gls, priors).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.integrate import cumulative_trapezoid
 
+from rsp_inertia.estimation.modulated import fit_modulated
 from rsp_inertia.estimation.passes import (
     PassEstimate,
     angle_work_covariance,
@@ -54,6 +69,7 @@ from rsp_inertia.plant.model import potential, spring_parameters
 
 __all__ = [
     "EDGE_MARGIN",
+    "FRICTION_PRIOR_ALLOWANCE",
     "MIN_SPEED_FRACTION",
     "NODE_GAP_SAMPLES",
     "NODE_GAP_WINDOW_DEG",
@@ -63,6 +79,7 @@ __all__ = [
     "balance_spacing",
     "check_node_gaps",
     "friction_shape",
+    "friction_slope_prior",
     "harmonic_reach",
     "mirror_log",
     "mismatch_regressors",
@@ -77,6 +94,18 @@ near rest the mirror cannot be exact (torque-rate limit, static friction, docs/m
 
 EDGE_MARGIN = 0.1
 """rad left out at each end of the common range (smoother start-up, release transient)."""
+
+FRICTION_PRIOR_ALLOWANCE = 0.2
+"""Relative std added to each friction slope of the prior (:func:`friction_slope_prior`), for
+what the passes' joint fit assumes: one friction law for both directions of motion (a
+friction that differs by 20% between them, or a drive whose efficiency is 0.9, moves the
+fitted slopes by about this much) and a friction law quadratic in the speed. The slopes only
+multiply the small tracking mismatch, so even this allowance leaves the prior 5 to 500 times
+tighter than the balances' own estimate of them (default stages, 12 bits)."""
+
+PRIOR_UNKNOWNS = ("M0", "a1", "a2", "a3", "Mc2", "Ms2", "Gs", "Gc", "Ms1", "Mc1")
+"""What the passes' joint fit estimates (:func:`friction_slope_prior`): all of the model but
+the spring, which device.toml gives."""
 
 POSITION_SPACING_BANDWIDTHS = 1.0
 """Balance angles are spaced by one smoother time constant (1 / w_c) at the top speed.
@@ -239,6 +268,9 @@ class StageBalance:
     """(braking, reverse): each pass's random walk of the work's variance from its smoothed
     angle's error under a changing torque, at the balance angles (J^2, rsp_inertia.estimation
     .passes.angle_work_variance; None: a constant torque)."""
+    slope_prior: tuple[np.ndarray, np.ndarray] | None = None
+    """(mean (2,), covariance (2, 2)) of the friction slopes [d1, d2] from the passes' own
+    dynamics (:func:`friction_slope_prior`); None: not made (a planned run) or not possible."""
 
     @property
     def work_cov(self) -> np.ndarray:
@@ -317,10 +349,13 @@ def stage_balance(
     braking: PassEstimate,
     reverse: PassEstimate,
     direction: int = 1,
+    slope_prior: bool = True,
 ) -> StageBalance:
     """The balance equations of one run of stage ``stage`` at evenly spaced common angles.
 
     ``direction`` -1: the passes are a backward run's, mirrored by :func:`mirror_log`.
+    ``slope_prior``: make the friction slopes' prior (:func:`friction_slope_prior`; a planned
+    run of exact passes has no tracking mismatch and needs none).
     """
     st: Stage = device.stages[stage - 1]
     lo, hi = usable_range(braking, reverse, stage)
@@ -366,7 +401,41 @@ def stage_balance(
         motor_work_back=b.work_back + r.work_back,
         back_driven=(mainly_back_driven(braking), mainly_back_driven(reverse)),
         angle_work_var=(b.work_var_angle, r.work_var_angle),
+        slope_prior=(
+            friction_slope_prior(device, braking, reverse, direction) if slope_prior else None
+        ),
     )
+
+
+def friction_slope_prior(
+    device: Device, braking: PassEstimate, reverse: PassEstimate, direction: int = 1
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """The friction slopes [d1, d2] = [a2, 2 a3] of a run from its passes' dynamics, with
+    their covariance (module docstring, the slopes' prior).
+
+    Both passes' modulated equations of motion, fitted together
+    (rsp_inertia.estimation.modulated.fit_modulated, the unknowns PRIOR_UNKNOWNS), in the
+    passes' coordinate (a backward run's mirrored, its spring's zero angle with it). The
+    covariance is the fit's plus (FRICTION_PRIOR_ALLOWANCE d)^2 on each slope. None when the
+    passes are too short for the fit or its covariance is not finite.
+    """
+    if direction < 0:
+        spring = dataclasses.replace(device.spring, zero_angle=-device.spring.zero_angle)
+        device = dataclasses.replace(device, spring=spring)
+    passes = [(braking.log, braking.smoothed), (reverse.log, reverse.smoothed)]
+    try:
+        values, cov = fit_modulated(
+            device, passes, PRIOR_UNKNOWNS, f"{braking.source} and {reverse.source}"
+        )
+    except InputError:
+        return None
+    index = [PRIOR_UNKNOWNS.index(name) for name in ("a2", "a3")]
+    jacobian = np.diag([1.0, 2.0])  # d1 = a2, d2 = 2 a3 (module docstring)
+    mean = jacobian @ np.array([values["a2"], values["a3"]])
+    covariance = jacobian @ cov[np.ix_(index, index)] @ jacobian
+    if not np.all(np.isfinite(covariance)):
+        return None
+    return mean, covariance + np.diag((FRICTION_PRIOR_ALLOWANCE * mean) ** 2)
 
 
 def balance_spacing(braking: PassEstimate, reverse: PassEstimate) -> float:

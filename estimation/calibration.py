@@ -71,6 +71,7 @@ from rsp_inertia.estimation.tensor import (
     encoder_unknowns,
     gravity_rows,
     run_columns,
+    run_priors,
     run_label,
 )
 from rsp_inertia.plant.config import Device, TrueBody
@@ -256,6 +257,7 @@ def _blocks(
                 inertia_scaled_columns=scaled,
                 probes=probes,
                 probes_per_inertia=probes_per_inertia,
+                priors=run_priors(bal, cols, f"{role}{k}"),
             )
         )
     return blocks
@@ -387,6 +389,7 @@ def calibrate_logs(
     )
     tests = described(fit.tests, known, one_direction)
     warnings += model_warnings(tests, fit.scales, fit.labels)
+    warnings += fit.prior_warnings
     stiffness = None
     if reference is not None:
         stiffness = calibrate_stiffness(

@@ -27,6 +27,16 @@ right-hand side, and this module solves them the same way:
 - **budget**: the covariance of the estimate split by independent noise source: each torque
   log, the encoder's speed noise, and the calibration by groups of theta (S is the Cholesky
   factor in the groups' order, so each group's line is what it adds to the ones before);
+- **priors**: a block may carry a prior on some of its own unknowns (a run's friction slopes
+  from its passes' dynamics, rsp_inertia.estimation.balance.friction_slope_prior): mean m and
+  covariance C = L L^T give the pseudo-equations L^-1 x = L^-1 m, unit weight, in the joint fit
+  (not in a run's own fit that sets its speed-noise scale, nor in the model tests, which keep
+  those unknowns free). Each prior is tested against the balances: its pseudo-equations'
+  residuals r, of covariance I - P cov_x P^T (P their rows), give chi^2 = r^T (I - P cov_x
+  P^T)^-1 r on as many degrees of freedom as it has rows; the worst prior rejected at
+  PRIOR_ALPHA is dropped, the fit made again without it and the rest tested again, and the
+  fit says so (BalanceFit.prior_warnings).
+  The priors' share of the covariance is the budget line PRIOR_SOURCE;
 - **probes**: a block may declare the columns a suspected cause would add (a drive's loss,
   an encoder's error); the model tests say whether the runs call for them
   (rsp_inertia.estimation.model_tests).
@@ -40,18 +50,47 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg
 from scipy.optimize import brentq
+from scipy.stats import chi2 as chi2_distribution
 
 from rsp_inertia.estimation.balance import StageBalance
 from rsp_inertia.estimation.model_tests import SCALE_CAP, ModelTest, run_model_tests
 from rsp_inertia.estimation.whitening import cholesky_factors, weighted_chi2, whiten
 
-__all__ = ["CALIBRATION_SOURCE", "NOISE_SOURCES", "BalanceFit", "Block", "solve_blocks"]
+__all__ = [
+    "CALIBRATION_SOURCE",
+    "NOISE_SOURCES",
+    "PRIOR_ALPHA",
+    "PRIOR_SOURCE",
+    "BalanceFit",
+    "Block",
+    "Prior",
+    "solve_blocks",
+]
 
 NOISE_SOURCES = ("braking torque log", "reverse torque log", "encoder (speed)", "encoder (work)")
 """The independent noise sources of the balance equations, for the uncertainty budget."""
 
 CALIBRATION_SOURCE = "calibration"
 """Budget line of the calibrated terms (tare, fixture, torque gain)."""
+
+PRIOR_SOURCE = "friction slopes"
+"""Budget line of the blocks' priors (the runs' friction slopes from their passes' dynamics)."""
+
+PRIOR_ALPHA = 1e-3
+"""A block's prior whose chi^2 against the balances has a p-value below this is dropped
+(module docstring, priors)."""
+
+
+@dataclass(frozen=True)
+class Prior:
+    """A prior on some of a block's unknowns (module docstring, priors)."""
+
+    names: tuple[str, ...]
+    """The unknowns it bears on."""
+    mean: np.ndarray
+    """(k,) their prior means."""
+    cov: np.ndarray
+    """(k, k) their prior covariance, positive definite."""
 
 
 @dataclass(frozen=True)
@@ -97,6 +136,8 @@ class Block:
     """Unknowns left out of the run's own fit that sets its speed-noise scale: terms that only
     the runs together determine (a friction asymmetry's work shape, alone in one run, would
     stand in for the kinetic energy and absorb the speed noise)."""
+    priors: tuple[Prior, ...] = ()
+    """Priors on the block's own unknowns (module docstring, priors)."""
 
 
 @dataclass(frozen=True)
@@ -126,6 +167,8 @@ class BalanceFit:
     (module docstring, known terms); None without known terms."""
     known_shift_cov: np.ndarray | None = None
     """Covariance of theta after the runs (the calibration's and theirs together)."""
+    prior_warnings: list[str] = field(default_factory=list)
+    """One line per prior the balances rejected (module docstring, priors)."""
 
     def index(self, name: str) -> int:
         """Position of unknown ``name``."""
@@ -344,12 +387,18 @@ def solve_blocks(
             scales.append(_calibrated_scale(A_own, y_own[mine], work_cov[k], speed_var[k]))
         return scales
 
+    priors = [(k, prior) for k, block in enumerate(blocks) for prior in block.priors]
+    priors = [(k, prior) for k, prior in priors if all(n in names for n in prior.names)]
+
     def joint_fit(scales: list[float]):
         factors = cholesky_factors([w + s * v for w, v, s in zip(work_cov, speed_var, scales)])
         Aw, yw = whiten(A_all, factors), whiten(y, factors)
         if q:  # the prior's pseudo-equations z = 0, unit weight
             Aw = np.vstack([Aw, np.hstack([np.zeros((q, n_x)), np.eye(q)])])
             yw = np.concatenate([yw, np.zeros(q)])
+        if priors:  # the blocks' priors' pseudo-equations (module docstring, priors)
+            P, m = _prior_rows([prior for _, prior in priors], names, n_x + q)
+            Aw, yw = np.vstack([Aw, P]), np.concatenate([yw, m])
         return factors, Aw, yw, *_weighted_solution(Aw, yw)
 
     given = scales is not None
@@ -364,6 +413,17 @@ def solve_blocks(
         scales = run_scales(y - A[:, joint] @ x[joint] - N @ x[n_x:])
         factors, Aw, yw, x, cov_x = joint_fit(scales)
     n_data = len(y)
+    prior_warnings = []
+    while priors and not predict:
+        # The worst rejected prior is dropped and the others tested again without it (a prior
+        # far off pulls the fit, and with it the residuals of the others).
+        rejected = _rejected_priors(priors, Aw, yw, x, cov_x, n_data + q, blocks)
+        if not rejected:
+            break
+        worst, line = min(rejected, key=lambda found: found[2])[:2]
+        prior_warnings.append(line)
+        priors = [(k, prior) for k, prior in priors if prior is not worst]
+        factors, Aw, yw, x, cov_x = joint_fit(scales)
     r = yw - Aw @ x
     dof = max(n_data - n_x, 1)
     chi2_dof = float(r @ r / dof)
@@ -385,6 +445,9 @@ def solve_blocks(
         rows_g = n_data + np.array([j for j, g in enumerate(prior_groups) if g == name])
         P = Aw[rows_g]
         cov_parts[name] = (cov_x @ P.T @ P @ cov_x)[:n_x, :n_x]
+    if priors:  # the blocks' priors' pseudo-equations, after the calibration's
+        P = Aw[n_data + q :]
+        cov_parts[PRIOR_SOURCE] = (cov_x @ P.T @ P @ cov_x)[:n_x, :n_x]
     cov = sum(cov_parts.values())
     nuisance = (N, q) if q else None
     known_shift = known_shift_cov = None
@@ -421,7 +484,49 @@ def solve_blocks(
         labels=[block.label for block in blocks],
         known_shift=known_shift,
         known_shift_cov=known_shift_cov,
+        prior_warnings=prior_warnings,
     )
+
+
+def _prior_rows(priors: list[Prior], names: list[str], width: int):
+    """The priors' whitened pseudo-equations L^-1 x = L^-1 m (C = L L^T) over the unknowns
+    ``names`` (then zeros up to ``width`` columns): rows (k, width) and right-hand side (k,)."""
+    rows, rhs = [], []
+    for prior in priors:
+        L = np.linalg.cholesky(prior.cov)
+        E = np.zeros((len(prior.names), width))
+        E[np.arange(len(prior.names)), [names.index(n) for n in prior.names]] = 1.0
+        rows.append(scipy.linalg.solve_triangular(L, E, lower=True))
+        rhs.append(scipy.linalg.solve_triangular(L, prior.mean, lower=True))
+    return np.vstack(rows), np.concatenate(rhs)
+
+
+def _rejected_priors(priors, Aw, yw, x, cov_x, start: int, blocks: list[Block]):
+    """(prior, warning, p-value) of each prior whose pseudo-equations (rows from ``start`` of
+    the whitened system, in the order of ``priors``) the balances reject at PRIOR_ALPHA
+    (module docstring, priors)."""
+    rejected, row = [], start
+    for k, prior in priors:
+        P = Aw[row : row + len(prior.names)]
+        r = yw[row : row + len(prior.names)] - P @ x
+        row += len(prior.names)
+        spread = np.eye(len(r)) - P @ cov_x @ P.T
+        stat = float(r @ np.linalg.lstsq(spread, r, rcond=None)[0])
+        p_value = float(chi2_distribution.sf(max(stat, 0.0), len(r)))
+        if p_value < PRIOR_ALPHA:
+            rejected.append(
+                (
+                    prior,
+                    f"{blocks[k].label}: the friction slopes its passes' dynamics give "
+                    f"({', '.join(f'{v:.3g}' for v in prior.mean)}) disagree with its "
+                    f"balances (chi2 = {stat:.3g} for {len(r)}, p = {p_value:.2g}); its tracking "
+                    "mismatch's friction is taken from the balances alone, at a cost in the "
+                    "stds (friction that differs between the directions of rotation, or a "
+                    "drive loss, does this)",
+                    p_value,
+                )
+            )
+    return rejected
 
 
 def _probe_matrices(blocks: list[Block], inertia: list[np.ndarray]) -> dict[str, np.ndarray]:

@@ -159,6 +159,7 @@ def identify_logs(
     nodes = [_combine_directions(found) for found in by_node.values()]
     labels = [format_run(key) for key in fit.runs]
     warnings += model_warnings(fit.tests, fit.speed_noise_scale, labels)
+    warnings += fit.prior_warnings
     warnings += coarse_encoder_warnings(
         balances, device.encoder.quantum, device.encoder.dt, labels
     )

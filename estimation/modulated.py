@@ -13,8 +13,9 @@ acceleration and no speed at a single instant enters: the speed only under integ
 the smooth weight w(t) = sin^2(pi (t - a) / (b - a)) or its derivative, where the smoothed
 speed's error, which has no low-frequency content, averages out. The regressors are the
 Jacobians of the model's own M Omega and F (:func:`rsp_inertia.plant.model.momentum_regressor`,
-:func:`rsp_inertia.plant.model.force_regressor`); the integrals are Simpson sums over the
-samples.
+:func:`rsp_inertia.plant.model.force_regressor`); their integrals are Simpson sums over the
+samples, the torque's the exact sum of the logged torque held over each sample times the
+weight's integral there.
 
 Why: errors in a regressor bias least squares toward zero (errors in variables), most of all
 along a direction the data determine weakly. Each modulated equation's signal grows with the
@@ -125,7 +126,8 @@ def modulated_rows(
     direction = np.full(rows.size, np.sign(np.median(omega)))
     momentum = momentum_regressor(phi, omega, spring)  # linear in Omega: no noise mean
     force = _unbiased(lambda w: force_regressor(phi, w, spring, direction=direction), omega, var)
-    known = np.asarray(log.torque, dtype=float)[rows] - static_torque(phi, spring)
+    torque = np.asarray(log.torque, dtype=float)[rows]
+    spring_torque = static_torque(phi, spring)
     A = np.empty((starts.size, len(PARAMETER_NAMES)))
     y = np.empty(starts.size)
     for j, a in enumerate(starts):
@@ -135,7 +137,12 @@ def modulated_rows(
         w = np.sin(np.pi * (tt - tt[0]) / T) ** 2
         w_dot = np.pi / T * np.sin(2 * np.pi * (tt - tt[0]) / T)
         A[j] = -simpson(w_dot[:, None] * momentum[s] + w[:, None] * force[s], x=tt, axis=0)
-        y[j] = simpson(w * known[s], x=tt)
+        # The logged torque is held over each row's sample (docs/files.md): integral w u dt
+        # is sum u_k (W(t_k+1) - W(t_k)), W(s) = s/2 - T sin(2 pi s / T) / (4 pi) the
+        # weight's own integral, exactly.
+        held = tt - tt[0]
+        weight = held / 2 - T * np.sin(2 * np.pi * held / T) / (4 * np.pi)
+        y[j] = torque[s][:-1] @ np.diff(weight) - simpson(w * spring_torque[s], x=tt)
     return A, y
 
 
@@ -196,7 +203,7 @@ def fit_modulated(
     norms[norms == 0.0] = 1.0
     weights = np.ones(len(blocks))
     if len(blocks) > 1:
-        first = lsq_linear(A / norms, np.concatenate([y for _, y in blocks]), method="lsmr").x
+        first = np.linalg.lstsq(A / norms, np.concatenate([y for _, y in blocks]), rcond=None)[0]
         weights = np.array(
             [1.0 / max(np.sqrt(np.mean((y - a[:, cols] / norms @ first) ** 2)), 1e-300)
              for a, y in blocks]

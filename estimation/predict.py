@@ -131,7 +131,7 @@ def predicted_balance(
     q = device.encoder.quantum
     b = planned_estimate(braking, q, sigma_torque, True, f"stage {stage} planned braking")
     r = planned_estimate(reverse, q, sigma_torque, False, f"stage {stage} planned reverse")
-    balance = stage_balance(device, stage, b, r)
+    balance = stage_balance(device, stage, b, r, slope_prior=False)
     # An exact mirror has no tracking mismatch; what rounding leaves of it (1e-15 rad/s)
     # would enter the least squares as two friction slopes of arbitrary shape.
     return dataclasses.replace(balance, mismatch=np.zeros_like(balance.mismatch))

@@ -35,7 +35,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from rsp_inertia.estimation.balance import StageBalance
-from rsp_inertia.estimation.gls import NOISE_SOURCES, Block, solve_blocks
+from rsp_inertia.estimation.gls import NOISE_SOURCES, Block, Prior, solve_blocks
 from rsp_inertia.estimation.model_tests import ModelTest
 from rsp_inertia.plant.geometry import design_matrix, physical_margins, tensor_from_entries
 from rsp_inertia.plant.model import gravity_basis, inertia_basis, tensor_basis
@@ -61,6 +61,7 @@ __all__ = [
     "physical_warnings",
     "principal",
     "run_columns",
+    "run_priors",
     "run_key",
     "run_label",
     "tensor_block",
@@ -117,6 +118,9 @@ class TensorFit:
     known_after: KnownTerms | None = None
     """The calibrated terms after the runs refined them (rsp_inertia.estimation.gls: the
     calibration as prior, the runs' information added); None without calibrated terms."""
+    prior_warnings: list[str] = field(default_factory=list)
+    """A line per run whose friction slopes' prior its balances rejected
+    (rsp_inertia.estimation.gls, priors)."""
 
 
 HARMONIC_NAMES = ("M0", "Mc2", "Ms2", "Ms1", "Mc1")
@@ -522,6 +526,16 @@ def run_columns(
     return cols
 
 
+def run_priors(bal: StageBalance, columns: dict[str, np.ndarray], key: str) -> tuple[Prior, ...]:
+    """The run's priors on its own unknowns among ``columns`` (:func:`run_columns`): its
+    friction slopes' from its passes' dynamics (rsp_inertia.estimation.balance
+    .friction_slope_prior), when it has slope columns and the prior was made."""
+    names = (f"d1[{key}]", f"d2[{key}]")
+    if bal.slope_prior is None or not all(name in columns for name in names):
+        return ()
+    return (Prior(names, *bal.slope_prior),)
+
+
 def both_directions(balances: list[StageBalance]) -> set[int]:
     """Stages with runs in both directions."""
     seen: dict[int, set[int]] = {}
@@ -556,6 +570,7 @@ def tensor_block(bal: StageBalance, run: str, known: KnownTerms, asymmetry: bool
         probes_per_inertia=probes[1],
         groups={name: run_label(bal) for name in ENTRY_KEYS},
         joint_only=frozenset(name for name in cols if name.startswith("e")),
+        priors=run_priors(bal, cols, run),
     )
 
 
@@ -628,6 +643,7 @@ def fit_tensor(
             if fit.known_shift is None
             else known.with_theta(known.theta + fit.known_shift, fit.known_shift_cov)
         ),
+        prior_warnings=list(fit.prior_warnings),
     )
 
 

@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from rsp_inertia.estimation.balance import stage_balance
+from rsp_inertia.estimation.balance import FRICTION_PRIOR_ALLOWANCE, stage_balance
 from rsp_inertia.estimation.passes import estimate_pass
 from rsp_inertia.estimation.tensor import axis_values, fit_tensor
 from rsp_inertia.ocp.program import make_program
@@ -144,3 +144,55 @@ def test_identification_corrects_the_tracking_mismatch(
     asymmetry -= asymmetry.mean()
     fitted -= fitted.mean()
     assert np.std(fitted - asymmetry) < np.std(asymmetry) / 3, (np.std(fitted - asymmetry), np.std(asymmetry))
+
+
+@pytest.fixture(scope="module")
+def closed_balances(default_device, brakings, reverses):
+    """The default stages' balances with the closed-loop reverses (forward runs)."""
+    q = default_device.encoder.quantum
+    out = []
+    for s in STAGES:
+        b = estimate_pass(brakings[s].log, q, "braking", constant_torque=True)
+        r = estimate_pass(reverses[s].log, q, "reverse", sigma_torque=b.sigma_torque)
+        out.append(stage_balance(default_device, s, b, r))
+    return out
+
+
+def test_the_passes_dynamics_give_the_virtual_bearings_friction_slopes(
+    default_virtual, closed_balances
+):
+    # Both passes' equations of motion, fitted together, know the friction absolutely
+    # (rsp_inertia.estimation.modulated): the prior's slopes are the virtual bearing's
+    # d1 = a2, d2 = 2 a3 within 3 of the fit's own stds (the prior's covariance less its
+    # allowance), and those stds are a small part of the slopes (measured: 4-10% of d1, well
+    # under 1% of d2 on stage 1): a prior that tells.
+    friction = default_virtual.friction
+    expected = np.array([friction.viscous, 2 * friction.quadratic])
+    for bal in closed_balances:
+        mean, cov = bal.slope_prior
+        fit_cov = cov - np.diag((FRICTION_PRIOR_ALLOWANCE * mean) ** 2)
+        std = np.sqrt(np.diag(fit_cov))
+        assert np.all(np.abs(mean - expected) < 3 * std), ((mean - expected) / std, std)
+    std = np.sqrt(np.diag(closed_balances[0].slope_prior[1]))
+    assert np.all(std <= 0.25 * expected)
+
+
+def test_a_prior_the_balances_reject_is_dropped_with_a_warning(closed_balances):
+    # The run's balances test its prior (rsp_inertia.estimation.gls): the passes' own slopes
+    # pass; a prior ten times off with a tight covariance is rejected, named (and only it: the
+    # other run's prior, pulled by it at first, is tested again without it), and the run's
+    # slopes are then its balances' own, as without its prior.
+    stage_1, stage_2 = closed_balances
+    good = fit_tensor(closed_balances)
+    assert good.prior_warnings == []
+    mean, cov = stage_1.slope_prior
+    wrong = dataclasses.replace(stage_1, slope_prior=(10 * mean, 1e-4 * cov))
+    rejected = fit_tensor([wrong, stage_2])
+    assert len(rejected.prior_warnings) == 1
+    assert rejected.prior_warnings[0].startswith("stage 1 forward: the friction slopes")
+    without = fit_tensor([dataclasses.replace(stage_1, slope_prior=None), stage_2])
+    np.testing.assert_allclose(rejected.friction_slope, without.friction_slope, rtol=1e-9)
+    # The prior narrows the slopes where it holds, and with them the tensor.
+    free = fit_tensor([dataclasses.replace(b, slope_prior=None) for b in closed_balances])
+    assert np.all(good.friction_slope_std < free.friction_slope_std)
+    assert np.all(np.diag(good.entries_cov) <= np.diag(free.entries_cov) * (1 + 1e-9))
