@@ -71,8 +71,8 @@ from rsp_inertia.estimation.tensor import (
     encoder_unknowns,
     gravity_rows,
     run_columns,
-    run_priors,
     run_label,
+    run_priors,
 )
 from rsp_inertia.plant.config import Device, TrueBody
 from rsp_inertia.plant.errors import InputError

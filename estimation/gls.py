@@ -514,18 +514,15 @@ def _rejected_priors(priors, Aw, yw, x, cov_x, start: int, blocks: list[Block]):
         stat = float(r @ np.linalg.lstsq(spread, r, rcond=None)[0])
         p_value = float(chi2_distribution.sf(max(stat, 0.0), len(r)))
         if p_value < PRIOR_ALPHA:
-            rejected.append(
-                (
-                    prior,
-                    f"{blocks[k].label}: the friction slopes its passes' dynamics give "
-                    f"({', '.join(f'{v:.3g}' for v in prior.mean)}) disagree with its "
-                    f"balances (chi2 = {stat:.3g} for {len(r)}, p = {p_value:.2g}); its tracking "
-                    "mismatch's friction is taken from the balances alone, at a cost in the "
-                    "stds (friction that differs between the directions of rotation, or a "
-                    "drive loss, does this)",
-                    p_value,
-                )
+            slopes = ", ".join(f"{v:.3g}" for v in prior.mean)
+            line = (
+                f"{blocks[k].label}: the friction slopes its passes' dynamics give ({slopes}) "
+                f"disagree with its balances (chi2 = {stat:.3g} for {len(r)}, "
+                f"p = {p_value:.2g}); its tracking mismatch's friction is taken from the "
+                "balances alone, at a cost in the stds (friction that differs between the "
+                "directions of rotation, or a drive loss, does this)"
             )
+            rejected.append((prior, line, p_value))
     return rejected
 
 

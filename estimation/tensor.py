@@ -61,9 +61,9 @@ __all__ = [
     "physical_warnings",
     "principal",
     "run_columns",
-    "run_priors",
     "run_key",
     "run_label",
+    "run_priors",
     "tensor_block",
     "tensor_from_axes",
 ]
