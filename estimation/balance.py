@@ -103,6 +103,13 @@ fitted slopes by about this much) and a friction law quadratic in the speed. The
 multiply the small tracking mismatch, so even this allowance leaves the prior 5 to 500 times
 tighter than the balances' own estimate of them (default stages, 12 bits)."""
 
+PRIOR_QUADRATURE = 4e-3
+"""s between the samples whose regressors the prior's fit integrates (Simpson; the torque is
+still summed over every sample): 4 ms against the smoothed speed's band (w_c = 10 x 2
+Omega_max, 240 rad/s on the default stages, sampled at up to 785 rad/s), Simpson's error
+~(2 Omega h)^4 / 180 ~ 5e-7 at the default top speed, far below the prior's allowance; a
+quarter of the cost of every sample at 1 kHz."""
+
 PRIOR_UNKNOWNS = ("M0", "a1", "a2", "a3", "Mc2", "Ms2", "Gs", "Gc", "Ms1", "Mc1")
 """What the passes' joint fit estimates (:func:`friction_slope_prior`): all of the model but
 the spring, which device.toml gives."""
@@ -414,8 +421,8 @@ def friction_slope_prior(
     their covariance (module docstring, the slopes' prior).
 
     Both passes' modulated equations of motion, fitted together
-    (rsp_inertia.estimation.modulated.fit_modulated, the unknowns PRIOR_UNKNOWNS), in the
-    passes' coordinate (a backward run's mirrored, its spring's zero angle with it). The
+    (rsp_inertia.estimation.modulated.fit_modulated, the unknowns PRIOR_UNKNOWNS, the
+    regressors every PRIOR_QUADRATURE), in the passes' coordinate (a backward run's mirrored, its spring's zero angle with it). The
     covariance is the fit's plus (FRICTION_PRIOR_ALLOWANCE d)^2 on each slope. None when the
     passes are too short for the fit or its covariance is not finite.
     """
@@ -423,9 +430,11 @@ def friction_slope_prior(
         spring = dataclasses.replace(device.spring, zero_angle=-device.spring.zero_angle)
         device = dataclasses.replace(device, spring=spring)
     passes = [(braking.log, braking.smoothed), (reverse.log, reverse.smoothed)]
+    step = max(1, round(PRIOR_QUADRATURE / float(np.median(np.diff(braking.smoothed.t)))))
     try:
         values, cov = fit_modulated(
-            device, passes, PRIOR_UNKNOWNS, f"{braking.source} and {reverse.source}"
+            device, passes, PRIOR_UNKNOWNS, f"{braking.source} and {reverse.source}", step,
+            torque_noise=[braking.sigma_torque] * 2,  # the torque channel's, both passes
         )
     except InputError:
         return None

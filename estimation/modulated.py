@@ -25,7 +25,8 @@ remove the bias: on the 10-bit default stage 1 (braking torque 5% of its frictio
 balance over 0.25 s windows that this replaced put M0 36-38% low even with an
 errors-in-variables correction; 1 s windows every 0.25 s put it 2.2-2.8% low, 2.0% of which is
 the Coulomb degeneracy below (seeds 0-2). Columns with Omega^2 (M' and a3) have the speed
-noise's mean taken off (E[f(Omega + e)] = f + f'' var / 2, :func:`_unbiased`).
+noise's mean taken off (E[F(Omega + e)] = F + F'' var / 2,
+:func:`rsp_inertia.plant.model.force_curvature_regressor`).
 
 What a pass can tell. A braking pass alone, under a constant torque, cannot tell Coulomb
 friction a1 from the braking torque, and (M, a1 - u, a2, a3, gravity) fit it equally well at
@@ -53,6 +54,7 @@ from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.logs import Log
 from rsp_inertia.plant.model import (
     PARAMETER_NAMES,
+    force_curvature_regressor,
     force_regressor,
     momentum_regressor,
     spring_parameters,
@@ -90,17 +92,25 @@ shorter than about 0.16 s, whose windows are the shortest, fits fewer than all).
 
 
 def modulated_rows(
-    device: Device, log: Log, sm: Smoothed, source: str
-) -> tuple[np.ndarray, np.ndarray]:
+    device: Device,
+    log: Log,
+    sm: Smoothed,
+    source: str,
+    step: int = 1,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One pass's modulated equations: rows A (n, 12) over every parameter of
     rsp_inertia.plant.model.PARAMETER_NAMES and their right-hand side y (n,), A p = y for the
-    pass's parameters p but the spring's (module docstring).
+    pass's parameters p but the spring's (module docstring), and Q (n, n), the covariance of
+    y from white noise of unit variance in the logged torque (Q_jl = sum_k dW_jk dW_lk, dW_jk
+    the weight's integral over sample k of window j).
 
     The pass moves in one direction, the sign of its median speed (the friction's sign); the
     rows faster than MIN_SPEED_FRACTION of its top speed are cut into windows of WINDOW s
     starting every WINDOW / OVERLAP (shorter on a short pass: MIN_SPANS). The torque is the
-    logged one; the spring's part of F, -S_spring (its regressor is not linear in
-    (c, phi0)), is moved to the right-hand side.
+    logged one, held over each sample and integrated exactly; the spring's part of F,
+    -S_spring (its regressor is not linear in (c, phi0)), is moved to the right-hand side.
+    ``step``: the regressors' Simpson sums take every step-th sample (the windows' ends among
+    them); 1, every sample.
 
     Raises
     ------
@@ -114,36 +124,52 @@ def modulated_rows(
     rows = np.arange(moving[0], moving[-1] + 1) if moving.size else moving
     duration = rows.size * dt
     window = max(min(WINDOW, duration / MIN_SPANS), SHORTEST_WINDOW)
-    span = max(round(window / dt), 1)
-    starts = np.arange(0, rows.size - span, max(span // OVERLAP, 1))
+    step = max(1, min(int(step), round(window / dt) // 8))  # 8 Simpson steps a window at least
+    span = max(round(window / dt / (step * OVERLAP)), 1) * step * OVERLAP
+    starts = np.arange(0, rows.size - span, span // OVERLAP)
+    times = sm.t[rows]
     if starts.size < WINDOWS_PER_UNKNOWN:
         raise InputError(
             f"{source}: the body moves for only {duration:.3f} s; a model of its motion "
             f"needs at least {WINDOWS_PER_UNKNOWN * SHORTEST_WINDOW:g} s"
         )
-    t, phi, omega = sm.t[rows], sm.phi[rows], sm.omega[rows]
-    var = sm.speed_error_variance()[rows]
-    direction = np.full(rows.size, np.sign(np.median(omega)))
+    # The regressors at every step-th row (the windows' starts and ends are among them).
+    grid = rows[: rows.size - (rows.size - 1) % step : step]
+    t, phi, omega = sm.t[grid], sm.phi[grid], sm.omega[grid]
+    var = sm.speed_error_variance()[grid]
+    direction = np.full(grid.size, np.sign(np.median(omega)))
     momentum = momentum_regressor(phi, omega, spring)  # linear in Omega: no noise mean
-    force = _unbiased(lambda w: force_regressor(phi, w, spring, direction=direction), omega, var)
-    torque = np.asarray(log.torque, dtype=float)[rows]
+    # F is quadratic in Omega: the speed noise's mean, var / 2 F'', taken off.
+    force = force_regressor(phi, omega, spring, direction=direction)
+    force -= force_curvature_regressor(phi, spring, direction=direction) * (var / 2)[:, None]
     spring_torque = static_torque(phi, spring)
+    torque = np.asarray(log.torque, dtype=float)[rows]
     A = np.empty((starts.size, len(PARAMETER_NAMES)))
     y = np.empty(starts.size)
+    increments = np.empty((starts.size, span))
     for j, a in enumerate(starts):
-        s = slice(a, a + span + 1)
+        s = slice(a // step, (a + span) // step + 1)
         tt = t[s]
         T = tt[-1] - tt[0]
         w = np.sin(np.pi * (tt - tt[0]) / T) ** 2
         w_dot = np.pi / T * np.sin(2 * np.pi * (tt - tt[0]) / T)
         A[j] = -simpson(w_dot[:, None] * momentum[s] + w[:, None] * force[s], x=tt, axis=0)
         # The logged torque is held over each row's sample (docs/files.md): integral w u dt
-        # is sum u_k (W(t_k+1) - W(t_k)), W(s) = s/2 - T sin(2 pi s / T) / (4 pi) the
-        # weight's own integral, exactly.
-        held = tt - tt[0]
+        # is sum u_k (W(t_k+1) - W(t_k)) over every row, W(s) = s/2 - T sin(2 pi s / T) /
+        # (4 pi) the weight's own integral, exactly.
+        held = times[a : a + span + 1] - tt[0]
         weight = held / 2 - T * np.sin(2 * np.pi * held / T) / (4 * np.pi)
-        y[j] = torque[s][:-1] @ np.diff(weight) - simpson(w * spring_torque[s], x=tt)
-    return A, y
+        increments[j] = np.diff(weight)
+        y[j] = torque[a : a + span] @ increments[j] - simpson(w * spring_torque[s], x=tt)
+    # Windows share samples only with their neighbours less than a span away.
+    Q = np.zeros((starts.size, starts.size))
+    for j in range(starts.size):
+        for m in range(j, starts.size):
+            shift = starts[m] - starts[j]
+            if shift >= span:
+                break
+            Q[j, m] = Q[m, j] = increments[j, shift:] @ increments[m, : span - shift]
+    return A, y, Q
 
 
 def fit_modulated(
@@ -151,6 +177,8 @@ def fit_modulated(
     passes: Sequence[tuple[Log, Smoothed]],
     unknowns: Sequence[str],
     source: str,
+    step: int = 1,
+    torque_noise: Sequence[float] | None = None,
 ) -> tuple[dict[str, float], np.ndarray]:
     """Least squares of the modulated equations of one or more passes of one stage.
 
@@ -172,6 +200,11 @@ def fit_modulated(
         with fewer than WINDOWS_PER_UNKNOWN windows per unknown fit only the first ones.
     source : str
         The logs' name in messages (e.g. "stage 1: braking.csv").
+    step : int
+        The regressors' Simpson sums take every step-th sample (:func:`modulated_rows`).
+    torque_noise : sequence of float, optional
+        Per pass, the std of its torque log's white noise, N m: its share of the covariance
+        is then added exactly (:func:`modulated_rows`' Q) to the residuals' estimate.
 
     Returns
     -------
@@ -179,9 +212,12 @@ def fit_modulated(
         Every name of ``unknowns`` with its estimate, in its SI unit (0 if not fitted).
     covariance : numpy.ndarray, shape (len(unknowns), len(unknowns))
         The estimates' covariance in the order of ``unknowns``, from the residuals with the
-        overlapping windows' correlation (:func:`_overlap_covariance`); NaN for unknowns not
-        fitted. It ignores the bounds (an estimate held at its bound has a smaller spread
-        than it says).
+        overlapping windows' correlation (:func:`_overlap_covariance`), plus the torque
+        noise's share exactly where ``torque_noise`` is given (the residuals hold a part of
+        it too: an upper bound; the residuals alone understated M0's spread on a pilot by
+        1.5x, the fit taking up much of the few independent windows' noise); NaN for
+        unknowns not fitted. It ignores the bounds (an estimate held at its bound has a
+        smaller spread than it says).
 
     Raises
     ------
@@ -189,7 +225,9 @@ def fit_modulated(
         If a pass moves for less than WINDOWS_PER_UNKNOWN shortest windows.
     """
     unknowns = tuple(unknowns)
-    blocks = [modulated_rows(device, log, sm, source) for log, sm in passes]
+    blocks = [modulated_rows(device, log, sm, source, step) for log, sm in passes]
+    noise_cov = [Q for _, _, Q in blocks]
+    blocks = [(a, y) for a, y, _ in blocks]
     n = sum(len(y) for _, y in blocks)
     fitted = unknowns[: max(1, min(len(unknowns), n // WINDOWS_PER_UNKNOWN))]
     cols = [PARAMETER_NAMES.index(name) for name in fitted]
@@ -214,7 +252,15 @@ def fit_modulated(
         np.vstack(scaled), np.concatenate(targets), bounds=(lower * norms, np.inf), method="bvls"
     )
     residuals = [y - a @ fit.x for a, y in zip(scaled, targets)]
-    cov_fitted = _overlap_covariance(scaled, residuals) / np.outer(norms, norms)
+    cov_scaled = _overlap_covariance(scaled, residuals)
+    if torque_noise is not None:  # the torque noise's share, exactly
+        bread = np.linalg.pinv(sum(a.T @ a for a in scaled))
+        meat = sum(
+            (w * sigma) ** 2 * a.T @ Q @ a
+            for a, w, sigma, Q in zip(scaled, weights, torque_noise, noise_cov)
+        )
+        cov_scaled = cov_scaled + bread @ meat @ bread
+    cov_fitted = cov_scaled / np.outer(norms, norms)
     values = dict.fromkeys(unknowns, 0.0) | dict(zip(fitted, fit.x / norms))
     index = [unknowns.index(name) for name in fitted]
     covariance = np.full((len(unknowns), len(unknowns)), np.nan)
@@ -228,10 +274,13 @@ def _overlap_covariance(A: Sequence[np.ndarray], residuals: Sequence[np.ndarray]
     shares samples with: the sandwich (A^T A)^-1 S (A^T A)^-1, S the residual-weighted outer
     products of the rows summed over lags below OVERLAP with Bartlett weights
     1 - lag / OVERLAP (Newey and West's estimator, positive semi-definite), times
-    n / (n - unknowns); NaN without a degree of freedom."""
+    m / (m - unknowns) with m the passes' independent windows (n + OVERLAP - 1) / OVERLAP
+    each: the fit takes up that many of them (a pilot of 81 overlapping windows, 21 of them
+    independent, and 10 unknowns: a Monte Carlo of its torque noise found M0's spread 1.7
+    times the uncorrected estimate's). NaN without a degree of freedom."""
     k = A[0].shape[1]
-    n = sum(len(r) for r in residuals)
-    if n <= k:
+    independent = sum((len(r) + OVERLAP - 1) / OVERLAP for r in residuals)
+    if independent <= k:
         return np.full((k, k), np.nan)
     meat = np.zeros((k, k))
     for a, r in zip(A, residuals):
@@ -240,16 +289,5 @@ def _overlap_covariance(A: Sequence[np.ndarray], residuals: Sequence[np.ndarray]
         for lag in range(1, min(OVERLAP, len(r))):
             cross = scores[:-lag].T @ scores[lag:]
             meat += (1.0 - lag / OVERLAP) * (cross + cross.T)
-    gram = sum(a.T @ a for a in A)
-    bread = np.linalg.pinv(gram)
-    return bread @ meat @ bread * n / (n - k)
-
-
-def _unbiased(regressor, omega: np.ndarray, var: np.ndarray) -> np.ndarray:
-    """``regressor(omega)`` less the mean that a speed error of variance ``var`` adds to it:
-    for columns up to quadratic in Omega, E[f(Omega + e)] = f(Omega) + f''(Omega) var / 2,
-    f'' by a central second difference (exact for quadratics)."""
-    h = np.maximum(1e-3 * np.abs(omega), 1e-9)
-    f0 = regressor(omega)
-    curvature = (regressor(omega + h) + regressor(omega - h) - 2 * f0) / (h * h)[:, None]
-    return f0 - curvature * (var / 2)[:, None]
+    bread = np.linalg.pinv(sum(a.T @ a for a in A))
+    return bread @ meat @ bread * independent / (independent - k)

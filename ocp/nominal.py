@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from rsp_inertia.estimation.modulated import fit_modulated
+from rsp_inertia.estimation.passes import torque_noise
 from rsp_inertia.estimation.smoothing import Smoothed
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
@@ -54,7 +55,10 @@ def fit_nominal_with_covariance(
     whose noise in a regressor would bias the least squares toward zero (errors in
     variables).
     """
-    values, cov = fit_modulated(device, [(log, sm)], UNKNOWN, f"stage {stage}: braking.csv")
+    values, cov = fit_modulated(
+        device, [(log, sm)], UNKNOWN, f"stage {stage}: braking.csv",
+        torque_noise=[torque_noise(log)],
+    )
     friction = {k: values[k] for k in ("a2", "a3")}
     slopes = [UNKNOWN.index(k) for k in ("a2", "a3")]
     friction_cov = np.nan_to_num(cov[np.ix_(slopes, slopes)])

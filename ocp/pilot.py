@@ -128,7 +128,8 @@ def fit_pilot(device: Device, stage: int, log: Log, source: str | None = None) -
     :data:`PILOT_UNKNOWNS`: M0, M's four harmonics, gravity (Gs, Gc) and the friction a1, a2,
     a3, all of them when the log is long enough. M0 and a1-a3 are bounded below by 0. The
     stds are the least squares' from its residuals, with the overlapping windows' correlation
-    (Newey-West); they ignore the bounds.
+    (Newey-West), plus the torque noise's share exactly (an upper bound); they ignore the
+    bounds.
 
     Parameters
     ----------
@@ -179,7 +180,9 @@ def fit_pilot(device: Device, stage: int, log: Log, source: str | None = None) -
             "to tell friction from the inertia's and gravity's exchange within a turn"
         )
     sm = smooth_log(log, device.encoder.quantum, source)
-    values, covariance = fit_modulated(device, [(log, sm)], PILOT_UNKNOWNS, source)
+    values, covariance = fit_modulated(
+        device, [(log, sm)], PILOT_UNKNOWNS, source, torque_noise=[sigma]
+    )
     std = dict(zip(PILOT_UNKNOWNS, np.sqrt(np.diag(covariance))))
     if values["M0"] <= 0.0:
         raise InputError(

@@ -44,6 +44,7 @@ __all__ = [
     "dissipation",
     "dissipation_regressor",
     "energy_regressor",
+    "force_curvature_regressor",
     "force_regressor",
     "gravity_basis",
     "harmonics_matrix",
@@ -266,6 +267,13 @@ class GimbalModel:
                 [phi, Omega, self.direction, self.p],
                 [ca.jacobian(self.F, self.p)],
             ),
+            # d^2 F / d Omega^2 per parameter: the mean a speed error of variance var adds to
+            # F is var / 2 times it (F is quadratic in Omega).
+            "force_curvature_regressor": ca.Function(
+                "force_curvature_regressor",
+                [phi, self.direction, self.p],
+                [ca.jacobian(ca.hessian(self.F, Omega)[0], self.p)],
+            ),
         }
 
     def state_derivative(self) -> ca.Function:
@@ -427,6 +435,13 @@ def force_regressor(phi, Omega, params: ModelParameters | np.ndarray, direction=
     if direction is None:
         direction = np.sign(Omega)
     return _regressor("force_regressor", (phi, Omega, direction), _p(params))
+
+
+def force_curvature_regressor(phi, params: ModelParameters | np.ndarray, direction=1.0):
+    """d^3 F / dOmega^2 dp at each sample, rows of shape (12,): F is quadratic in Omega, so a
+    speed error e of variance var moves its mean by var / 2 times regressor . p
+    (E[F(Omega + e)] = F(Omega) + F'' var / 2). ``direction``: the sign of the motion."""
+    return _regressor("force_curvature_regressor", (phi, direction), _p(params))
 
 
 def mechanical_energy(phi, Omega, params: ModelParameters | np.ndarray):

@@ -102,7 +102,7 @@ def test_regulator_holds_the_mirror_with_a_wrong_nominal_model(
 
 
 def test_identification_corrects_the_tracking_mismatch(
-    default_device, default_virtual, brakings, reverses
+    default_device, default_virtual, brakings, reverses, closed_balances
 ):
     # The closed loop tracks to a few 1e-4, and friction then does different work on the two
     # passes: ~1e-4 of stage 1's kinetic energy, several times the noise floor. The least
@@ -110,12 +110,7 @@ def test_identification_corrects_the_tracking_mismatch(
     # (rsp_inertia.estimation.balance, rsp_inertia.estimation.tensor): stage 1 here. Its axes must then be within
     # 4 reported stds of the truth, and the slope must be the virtual bearing's own
     # (d1 = a2, d2 = 2 a3 for the paper's D), also within 4 stds.
-    q = default_device.encoder.quantum
-    balances = []
-    for s in STAGES:
-        b = estimate_pass(brakings[s].log, q, "braking", constant_torque=True)
-        r = estimate_pass(reverses[s].log, q, "reverse", sigma_torque=b.sigma_torque)
-        balances.append(stage_balance(default_device, s, b, r))
+    balances = closed_balances
     fit = fit_tensor(balances)
     assert fit.mismatch_terms[0]
     directions = np.array([

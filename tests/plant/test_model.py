@@ -11,13 +11,17 @@ from hypothesis import strategies as st
 
 from rsp_inertia.plant.geometry import axis_direction, entries_from_tensor
 from rsp_inertia.plant.model import (
+    PARAMETER_NAMES,
     ModelParameters,
     acceleration,
     dissipation,
+    force_curvature_regressor,
+    force_regressor,
     gravity_basis,
     harmonics_matrix,
     inertia_harmonics,
     mechanical_energy,
+    momentum_regressor,
     motor_torque,
     potential,
     reduced_inertia,
@@ -289,6 +293,39 @@ def test_energy_balance_along_the_equation_of_motion(params, phi, Omega, u):
     assert dE_dt == pytest.approx(
         power, rel=0, abs=1e-13 * torque_scale(params, Omega, u) * abs(Omega)
     )
+
+
+@PROPERTY
+@given(params=stage_parameters(), phi=angles, Omega=speeds, u=st.floats(-1.0, 1.0))
+def test_momentum_form_is_lagranges_equation(params, phi, Omega, u):
+    # d(M Omega)/dt = M eps + M' Omega^2 = u + F, F = 1/2 M' Omega^2 - D - S: the momentum
+    # form the modulated fit uses (rsp_inertia.estimation.modulated), from its regressors,
+    # which give M Omega and F exactly (but the spring's part of F, not linear in (c, phi0):
+    # -S_spring, added here).
+    params = params[0]
+    direction = math.copysign(1.0, Omega)
+    M = reduced_inertia(phi, params)
+    eps = acceleration(phi, Omega, u, params)
+    p = params.vector.copy()
+    spring = ModelParameters(
+        inertia_harmonics=np.zeros(5), stiffness=params.stiffness, zero_angle=params.zero_angle
+    )
+    p[[PARAMETER_NAMES.index("c"), PARAMETER_NAMES.index("phi0")]] = 0.0
+    assert momentum_regressor(phi, Omega, params) @ p == pytest.approx(M * Omega, rel=1e-14)
+    F = force_regressor(phi, Omega, params, direction) @ p - static_torque(phi, spring)
+    dp_dt = M * eps + reduced_inertia_slope(phi, params) * Omega**2
+    assert dp_dt == pytest.approx(
+        u + F, rel=0, abs=1e-13 * torque_scale(params, Omega, u) * (1 + abs(Omega))
+    )
+    # F is quadratic in Omega: its second difference is h^2 F'' exactly, up to rounding.
+    h = 0.1
+    second = (
+        force_regressor(phi, Omega + h, params, direction)
+        + force_regressor(phi, Omega - h, params, direction)
+        - 2 * force_regressor(phi, Omega, params, direction)
+    ) @ p / h**2
+    curvature = force_curvature_regressor(phi, params, direction) @ p
+    assert second == pytest.approx(curvature, rel=0, abs=1e-9 * torque_scale(params, Omega, u) * (1 + Omega**2))
 
 
 # --- 6. numeric functions broadcast --------------------------------------------------------
