@@ -97,11 +97,13 @@ EDGE_MARGIN = 0.1
 
 FRICTION_PRIOR_ALLOWANCE = 0.2
 """Relative std added to each friction slope of the prior (:func:`friction_slope_prior`), for
-what the passes' joint fit assumes: one friction law for both directions of motion (a
-friction that differs by 20% between them, or a drive whose efficiency is 0.9, moves the
-fitted slopes by about this much) and a friction law quadratic in the speed. The slopes only
-multiply the small tracking mismatch, so even this allowance leaves the prior 5 to 500 times
-tighter than the balances' own estimate of them (default stages, 12 bits)."""
+what the passes' joint fit assumes: one friction law for both directions of motion and the
+logged torque as the one received (measured on the default stages in closed loop, against
+the reverse's own friction: a backward friction 1.2 times the forward one moved d2 by 9%, a
+driving efficiency of 0.9 by 10%, efficiencies of 0.95 and 0.92 by 5%; d1 stayed within the
+fit's own std, which such a misfit inflates), and a friction law quadratic in the speed. The
+slopes only multiply the small tracking mismatch, so even this allowance leaves the prior 5 to
+500 times tighter than the balances' own estimate of them (default stages, 12 bits)."""
 
 PRIOR_QUADRATURE = 4e-3
 """s between the samples whose regressors the prior's fit integrates (Simpson; the torque is
@@ -422,9 +424,10 @@ def friction_slope_prior(
 
     Both passes' modulated equations of motion, fitted together
     (rsp_inertia.estimation.modulated.fit_modulated, the unknowns PRIOR_UNKNOWNS, the
-    regressors every PRIOR_QUADRATURE), in the passes' coordinate (a backward run's mirrored, its spring's zero angle with it). The
-    covariance is the fit's plus (FRICTION_PRIOR_ALLOWANCE d)^2 on each slope. None when the
-    passes are too short for the fit or its covariance is not finite.
+    regressors every PRIOR_QUADRATURE), in the passes' coordinate (a backward run's mirrored,
+    its spring's zero angle with it). The covariance is the fit's plus
+    (FRICTION_PRIOR_ALLOWANCE d)^2 on each slope. None when the passes are too short for the
+    fit or its covariance is not positive definite.
     """
     if direction < 0:
         spring = dataclasses.replace(device.spring, zero_angle=-device.spring.zero_angle)
@@ -442,9 +445,10 @@ def friction_slope_prior(
     jacobian = np.diag([1.0, 2.0])  # d1 = a2, d2 = 2 a3 (module docstring)
     mean = jacobian @ np.array([values["a2"], values["a3"]])
     covariance = jacobian @ cov[np.ix_(index, index)] @ jacobian
-    if not np.all(np.isfinite(covariance)):
+    covariance = covariance + np.diag((FRICTION_PRIOR_ALLOWANCE * mean) ** 2)
+    if not np.all(np.isfinite(covariance)) or np.linalg.eigvalsh(covariance)[0] <= 0.0:
         return None
-    return mean, covariance + np.diag((FRICTION_PRIOR_ALLOWANCE * mean) ** 2)
+    return mean, covariance
 
 
 def balance_spacing(braking: PassEstimate, reverse: PassEstimate) -> float:

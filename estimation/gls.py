@@ -424,7 +424,7 @@ def solve_blocks(
         prior_warnings.append(line)
         priors = [(k, prior) for k, prior in priors if prior is not worst]
         factors, Aw, yw, x, cov_x = joint_fit(scales)
-    r = yw - Aw @ x
+    r = (yw - Aw @ x)[: n_data + q]  # the balances and the calibration's prior
     dof = max(n_data - n_x, 1)
     chi2_dof = float(r @ r / dof)
     sources = {

@@ -9,8 +9,8 @@ motion in momentum form, modulated over overlapping windows of the pass (docs/me
     - integral w' M Omega dt - integral w F dt = integral w u dt,
 
 is fitted by the same least squares as the nominal model of a braking pass
-(:func:`rsp_inertia.estimation.modulated.fit_modulated`). What the pilot adds is a change of torque: in a
-braking pass the torque is constant, Coulomb friction a1 is a constant torque too, and
+(:func:`rsp_inertia.estimation.modulated.fit_modulated`). What the pilot adds is a change of
+torque: in a braking pass the torque is constant, Coulomb friction a1 is a constant torque too, and
 (M, gravity, a2, a3) fit equally well at any common scale (rsp_inertia.ocp.nominal). In a pilot the
 powered part's known work sets the scale of the kinetic energy, so M0 comes out absolutely,
 and the coast, where only friction works, then separates a1, a2, a3 by how the loss changes
@@ -40,9 +40,10 @@ from rsp_inertia.plant.model import ModelParameters
 __all__ = ["PILOT_UNKNOWNS", "PilotFit", "fit_pilot"]
 
 PILOT_UNKNOWNS = ("M0", "a1", "a2", "a3", "Mc2", "Ms2", "Gs", "Gc", "Ms1", "Mc1")
-"""Parameters fitted (names of rsp_inertia.plant.model.PARAMETER_NAMES), most important first: a pilot
-too short for all of them fits only the first ones (rsp_inertia.estimation.modulated.fit_modulated). The
-spring (c, phi0) comes from device.toml."""
+"""Parameters fitted (names of rsp_inertia.plant.model.PARAMETER_NAMES), most important first:
+a pilot too short for all of them fits only the first ones
+(rsp_inertia.estimation.modulated.fit_modulated). The spring (c, phi0) comes from
+device.toml."""
 
 POWERED_SIGMAS = 6.0
 """A row is powered when its logged torque stands out of the log's noise by this many

@@ -258,7 +258,8 @@ class GimbalModel:
                 [ca.jacobian(self.D, self.p)],
             ),
             # The momentum form d(M Omega)/dt = u + F is linear in p too (but for the
-            # spring's part of F): the regressors of its modulated integral (rsp_inertia.ocp.nominal).
+            # spring's part of F): the regressors of its modulated integral
+            # (rsp_inertia.estimation.modulated).
             "momentum_regressor": ca.Function(
                 "momentum_regressor", [phi, Omega, self.p], [ca.jacobian(self.M * Omega, self.p)]
             ),

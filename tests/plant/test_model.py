@@ -325,7 +325,8 @@ def test_momentum_form_is_lagranges_equation(params, phi, Omega, u):
         - 2 * force_regressor(phi, Omega, params, direction)
     ) @ p / h**2
     curvature = force_curvature_regressor(phi, params, direction) @ p
-    assert second == pytest.approx(curvature, rel=0, abs=1e-9 * torque_scale(params, Omega, u) * (1 + Omega**2))
+    scale = torque_scale(params, Omega, u) * (1 + Omega**2)
+    assert second == pytest.approx(curvature, rel=0, abs=1e-9 * scale)
 
 
 # --- 6. numeric functions broadcast --------------------------------------------------------
