@@ -146,7 +146,8 @@ def modulated_rows(
     torque = np.asarray(log.torque, dtype=float)[rows]
     A = np.empty((starts.size, len(PARAMETER_NAMES)))
     y = np.empty(starts.size)
-    increments = np.empty((starts.size, span))
+    Q = np.zeros((starts.size, starts.size))
+    recent: list[tuple[int, np.ndarray]] = []  # the windows a later one may still overlap
     for j, a in enumerate(starts):
         s = slice(a // step, (a + span) // step + 1)
         tt = t[s]
@@ -159,16 +160,15 @@ def modulated_rows(
         # (4 pi) the weight's own integral, exactly.
         held = times[a : a + span + 1] - tt[0]
         weight = held / 2 - T * np.sin(2 * np.pi * held / T) / (4 * np.pi)
-        increments[j] = np.diff(weight)
-        y[j] = torque[a : a + span] @ increments[j] - simpson(w * spring_torque[s], x=tt)
-    # Windows share samples only with their neighbours less than a span away.
-    Q = np.zeros((starts.size, starts.size))
-    for j in range(starts.size):
-        for m in range(j, starts.size):
-            shift = starts[m] - starts[j]
-            if shift >= span:
-                break
-            Q[j, m] = Q[m, j] = increments[j, shift:] @ increments[m, : span - shift]
+        increments = np.diff(weight)
+        y[j] = torque[a : a + span] @ increments - simpson(w * spring_torque[s], x=tt)
+        # Windows share samples only with the ones that started less than a span before.
+        recent = [(m, v) for m, v in recent if a - starts[m] < span]
+        Q[j, j] = increments @ increments
+        for m, v in recent:
+            shift = a - starts[m]
+            Q[j, m] = Q[m, j] = v[shift:] @ increments[: span - shift]
+        recent.append((j, increments))
     return A, y, Q
 
 
