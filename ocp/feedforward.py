@@ -142,8 +142,10 @@ def mirror_torque(
     at the mirror's speed. The std carries the friction slopes' covariance ``friction_cov``
     ([a2, a3], rsp_inertia.ocp.nominal.fit_nominal_with_covariance) and the mean torque's
     variance. Coulomb friction a1 is not in it: a braking pass cannot tell it from the braking
-    torque (the nominal model puts it to 0), which leaves the need short by 2 a1 (2e-4 N m at
-    the paper's friction), for the regulator.
+    torque, so the nominal model puts it to 0 and its friction slopes come out scaled by
+    u_b / (u_b + a1) (rsp_inertia.ocp.nominal), which leaves the need short by
+    2 a1 (1 + D / (u_b + a1)) ~ a1 (u' + u_b) / u_b: 7.5e-3 N m (1.7%) at 15 rad/s on the default
+    stage 1, whose braking torque is 0.005 N m (:func:`check_mirror` says so).
     """
     omega = mirror.omega
     need = braking_torque + 2 * dissipation(omega, nominal)
@@ -156,10 +158,17 @@ def mirror_torque(
 
 
 def check_mirror(
-    device: Device, stage: int, mirror: Mirror, need: np.ndarray, std: np.ndarray
+    device: Device,
+    stage: int,
+    mirror: Mirror,
+    need: np.ndarray,
+    std: np.ndarray,
+    braking_torque: float | None = None,
 ) -> list[str]:
     """The mirror's need against the motor's limits (module docstring): the warnings of a thin
-    margin (empty when there is room).
+    margin (empty when there is room). With the braking's torque u_b given, the messages say
+    how much Coulomb friction a1, which a braking cannot see, adds to the need: a1 times
+    (|u'| + |u_b|) / |u_b| (:func:`mirror_torque`).
 
     Raises
     ------
@@ -170,20 +179,30 @@ def check_mirror(
     motor = device.motor
     low = np.abs(need) - REFUSE_STDS * std
     high = np.abs(need) + REFUSE_STDS * std
+
+    def coulomb(k: int) -> str:
+        if not braking_torque:
+            return ""
+        factor = (abs(need[k]) + abs(braking_torque)) / abs(braking_torque)
+        return (
+            f", plus {factor:.3g} times the Coulomb friction a1, which the braking cannot tell "
+            "from its torque"
+        )
+
     k = int(np.argmax(low))
     if low[k] > motor.torque_limit:
         raise InputError(
             f"stage {stage}: the mirror of the braking needs {abs(need[k]):.4g} +- "
-            f"{std[k]:.2g} N m at t = {mirror.t[k]:.2f} s of the reverse, the motor has "
-            f"{motor.torque_limit:g} N m (device.toml motor.torque_limit): lower launch_speed "
-            "or braking_torque"
+            f"{std[k]:.2g} N m{coulomb(k)} at t = {mirror.t[k]:.2f} s of the reverse, the "
+            f"motor has {motor.torque_limit:g} N m (device.toml motor.torque_limit): lower "
+            "launch_speed or braking_torque"
         )
     warnings = []
     k = int(np.argmax(high))
     if high[k] > THIN_MARGIN * motor.torque_limit:
         warnings.append(
             f"stage {stage}: the mirror of the braking needs up to {abs(need[k]):.4g} +- "
-            f"{std[k]:.2g} N m (at t = {mirror.t[k]:.2f} s of the reverse), "
+            f"{std[k]:.2g} N m{coulomb(k)} (at t = {mirror.t[k]:.2f} s of the reverse), "
             f"{100 * high[k] / motor.torque_limit:.0f}% of the motor's {motor.torque_limit:g} "
             "N m with two stds: little is left for the regulator, which corrects the nominal "
             "model's errors (a lower launch_speed or braking_torque leaves more)"

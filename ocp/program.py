@@ -135,10 +135,9 @@ def make_program(
     # The mirror's need from the braking's mean torque and the nominal friction, with their
     # uncertainty (rsp_inertia.ocp.feedforward.mirror_torque): refused only beyond it.
     sigma = torque_noise(braking)
-    need, need_std = mirror_torque(
-        ref, model, float(np.mean(braking.torque)), friction_cov, sigma**2 / len(braking)
-    )
-    warnings = check_mirror(device, stage, ref, need, need_std)
+    u_b = float(np.mean(braking.torque))
+    need, need_std = mirror_torque(ref, model, u_b, friction_cov, sigma**2 / len(braking))
+    warnings = check_mirror(device, stage, ref, need, need_std, u_b)
     sol = solve_program_ocp(device, stage, ref, model)
     torque = np.interp(ref.t, sol.t, sol.torque)  # u is linear between grid points
     phi_ref, omega_ref = start_reference(device, ref, sol, model)
