@@ -21,11 +21,11 @@ from tests.ocp.conftest import NODE_SPEED_FRACTION, STAGES, exact_states
 
 SCALE_MARGIN = 0.04
 """Relative room, beyond the a1 = 0 scale, for the fit on the real (smoothed, noisy) log.
-The smoother's speed noise enters the energy regressors; errors in variables shrink a least
-squares toward zero, and most of all along the one direction the braking determines weakly,
-the common scale (ocp/nominal.py, on _WINDOW). That shrink is a few % on stage 1, where
-friction nearly balances the braking; 4% is still far inside the +-30% of inertia and
-+-50% of friction that the regulator absorbs (test_closed_loop)."""
+The smoother's speed noise enters the modulated regressors only under integrals, but errors
+in variables still shrink a least squares toward zero, most of all along the one direction
+the braking determines weakly, the common scale (rsp_inertia.estimation.modulated, on
+WINDOW). On the 16-bit default stages that shrink is about 0.1%; 4% is still far inside the
++-30% of inertia and +-50% of friction that the regulator absorbs (test_closed_loop)."""
 
 
 def degeneracy(device, virtual, stage: int) -> float:
