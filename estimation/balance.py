@@ -82,6 +82,7 @@ __all__ = [
     "friction_slope_prior",
     "harmonic_reach",
     "mirror_log",
+    "mirrored_device",
     "mismatch_regressors",
     "spring_potential",
     "stage_balance",
@@ -332,6 +333,14 @@ def mirror_log(log: Log, quantum: float) -> Log:
     return Log(t=log.t, phi=-np.asarray(log.phi) - quantum, torque=-np.asarray(log.torque))
 
 
+def mirrored_device(device: Device) -> Device:
+    """The device seen in the mirrored coordinate phi_m = -phi of :func:`mirror_log`: the
+    spring c/2 (phi - phi0)^2 = c/2 (phi_m + phi0)^2 has its zero angle at -phi0 (the gravity
+    terms and M's odd harmonics, which change sign too, are fitted, never given)."""
+    spring = dataclasses.replace(device.spring, zero_angle=-device.spring.zero_angle)
+    return dataclasses.replace(device, spring=spring)
+
+
 def friction_shape(phi: np.ndarray, omega: np.ndarray) -> np.ndarray:
     """Work of a dissipative torque e1 + e2 |Omega| + e3 Omega^2 from phi[0], per coefficient.
 
@@ -430,8 +439,7 @@ def friction_slope_prior(
     fit or its covariance is not positive definite.
     """
     if direction < 0:
-        spring = dataclasses.replace(device.spring, zero_angle=-device.spring.zero_angle)
-        device = dataclasses.replace(device, spring=spring)
+        device = mirrored_device(device)
     passes = [(braking.log, braking.smoothed), (reverse.log, reverse.smoothed)]
     step = max(1, round(PRIOR_QUADRATURE / float(np.median(np.diff(braking.smoothed.t)))))
     try:

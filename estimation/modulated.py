@@ -100,9 +100,10 @@ def modulated_rows(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One pass's modulated equations: rows A (n, 12) over every parameter of
     rsp_inertia.plant.model.PARAMETER_NAMES and their right-hand side y (n,), A p = y for the
-    pass's parameters p but the spring's (module docstring), and Q (n, n), the covariance of
-    y from white noise of unit variance in the logged torque (Q_jl = sum_k dW_jk dW_lk, dW_jk
-    the weight's integral over sample k of window j).
+    pass's parameters p but the spring's (module docstring), and Q (OVERLAP, n), the banded
+    covariance of y from white noise of unit variance in the logged torque:
+    Q[lag, j] = cov(y_j, y_j+lag) = sum_k dW_jk dW_j+lag,k, dW_jk the weight's integral over
+    sample k of window j (windows OVERLAP or more apart share no sample).
 
     The pass moves in one direction, the sign of its median speed (the friction's sign); the
     rows faster than MIN_SPEED_FRACTION of its top speed are cut into windows of WINDOW s
@@ -146,7 +147,7 @@ def modulated_rows(
     torque = np.asarray(log.torque, dtype=float)[rows]
     A = np.empty((starts.size, len(PARAMETER_NAMES)))
     y = np.empty(starts.size)
-    Q = np.zeros((starts.size, starts.size))
+    Q = np.zeros((OVERLAP, starts.size))
     recent: list[tuple[int, np.ndarray]] = []  # the windows a later one may still overlap
     for j, a in enumerate(starts):
         s = slice(a // step, (a + span) // step + 1)
@@ -164,10 +165,10 @@ def modulated_rows(
         y[j] = torque[a : a + span] @ increments - simpson(w * spring_torque[s], x=tt)
         # Windows share samples only with the ones that started less than a span before.
         recent = [(m, v) for m, v in recent if a - starts[m] < span]
-        Q[j, j] = increments @ increments
+        Q[0, j] = increments @ increments
         for m, v in recent:
             shift = a - starts[m]
-            Q[j, m] = Q[m, j] = v[shift:] @ increments[: span - shift]
+            Q[j - m, m] = v[shift:] @ increments[: span - shift]
         recent.append((j, increments))
     return A, y, Q
 
@@ -256,7 +257,7 @@ def fit_modulated(
     if torque_noise is not None:  # the torque noise's share, exactly
         bread = np.linalg.pinv(sum(a.T @ a for a in scaled))
         meat = sum(
-            (w * sigma) ** 2 * a.T @ Q @ a
+            (w * sigma) ** 2 * _banded_gram(a, Q)
             for a, w, sigma, Q in zip(scaled, weights, torque_noise, noise_cov)
         )
         cov_scaled = cov_scaled + bread @ meat @ bread
@@ -266,6 +267,15 @@ def fit_modulated(
     covariance = np.full((len(unknowns), len(unknowns)), np.nan)
     covariance[np.ix_(index, index)] = cov_fitted
     return values, covariance
+
+
+def _banded_gram(a: np.ndarray, band: np.ndarray) -> np.ndarray:
+    """a^T Q a for the symmetric banded Q of :func:`modulated_rows` (band[lag, j] = Q_j,j+lag)."""
+    gram = (a * band[0][:, None]).T @ a
+    for lag in range(1, min(len(band), len(a))):
+        cross = (a[:-lag] * band[lag, :-lag, None]).T @ a[lag:]
+        gram += cross + cross.T
+    return gram
 
 
 def _overlap_covariance(A: Sequence[np.ndarray], residuals: Sequence[np.ndarray]) -> np.ndarray:

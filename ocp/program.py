@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rsp_inertia.estimation.balance import mirror_log
+from rsp_inertia.estimation.balance import mirror_log, mirrored_device
 from rsp_inertia.estimation.passes import check_braking_monotone, torque_noise
 from rsp_inertia.estimation.smoothing import Smoothed, smooth_log
 from rsp_inertia.ocp.feedforward import (
@@ -105,9 +105,8 @@ def make_program(
         change sign, the gains stay.
     """
     if direction == "backward":
-        spring = dataclasses.replace(device.spring, zero_angle=-device.spring.zero_angle)
         result = make_program(
-            dataclasses.replace(device, spring=spring),
+            mirrored_device(device),
             stage,
             mirror_log(braking, device.encoder.quantum),
             source,
