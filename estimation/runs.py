@@ -20,6 +20,7 @@ from rsp_inertia.estimation.passes import PassEstimate, check_braking_monotone, 
 from rsp_inertia.estimation.smoothing import Smoothed
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.logs import Log
+from rsp_inertia.plant.progress import report
 from rsp_inertia.plant.transducers import true_angle
 
 __all__ = ["ExperimentLogs", "Sources", "balance_runs", "corrected_log", "estimate_run", "runs"]
@@ -153,7 +154,7 @@ def balance_runs(
         )
     prefix = "" if logs.sources.experiment is None else f"{logs.sources.experiment}: "
     balances, passes = [], []
-    for stage, direction in expected:
+    for k, (stage, direction) in enumerate(expected, 1):
         braking, reverse = logs.runs[stage, direction]
         b_est, r_est = estimate_run(
             device, braking, reverse, direction, warnings, *logs.sources.run(stage, direction),
@@ -167,4 +168,5 @@ def balance_runs(
                 f"{prefix}stage {stage} {direction}: {len(b_est.log)} + {len(r_est.log)} "
                 "rows smoothed and balanced"
             )
+        report("runs smoothed and balanced", k, len(expected))
     return balances, passes
