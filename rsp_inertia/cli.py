@@ -5,7 +5,9 @@ function a script calls) and prints its progress lines and its result; ``design`
 no API function, calls :func:`rsp_inertia.design.run_design`.
 
 Bad input (:class:`rsp_inertia.plant.errors.InputError`) becomes one line on stderr and exit
-status 2; argparse's own usage errors exit with 2 as well.
+status 2; argparse's own usage errors exit with 2 as well. ``identify``, ``calibrate`` and
+``demo`` show their long work's progress on stderr when it is a terminal
+(:class:`rsp_inertia.plant.progress.TerminalProgress`); in a pipe they print only their lines.
 """
 
 from __future__ import annotations
@@ -15,16 +17,20 @@ import sys
 from pathlib import Path
 
 import rsp_inertia
+from rsp_inertia.plant import progress
 from rsp_inertia.plant.errors import InputError
 
 
 def _say(text: object) -> None:
-    """The progress callable of every command: one line on stdout, at once."""
+    """The progress callable of every command: one line on stdout, at once (the terminal's
+    progress line erased first, so that the two never share a line)."""
+    progress.clear()
     print(text, flush=True)
 
 
 def _cmd_demo(args: argparse.Namespace) -> None:
-    rsp_inertia.demo(args.exp, progress=_say)
+    with progress.reporting(progress.TerminalProgress()):
+        rsp_inertia.demo(args.exp, progress=_say)
 
 
 def _cmd_simulate(args: argparse.Namespace) -> None:
@@ -47,11 +53,15 @@ def _cmd_plan(args: argparse.Namespace) -> None:
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> None:
-    print(rsp_inertia.calibrate(args.exp, args.empty, args.reference, progress=_say))
+    with progress.reporting(progress.TerminalProgress()):
+        result = rsp_inertia.calibrate(args.exp, args.empty, args.reference, progress=_say)
+    print(result)
 
 
 def _cmd_identify(args: argparse.Namespace) -> None:
-    print(rsp_inertia.identify(args.exp, progress=_say))
+    with progress.reporting(progress.TerminalProgress()):
+        result = rsp_inertia.identify(args.exp, progress=_say)
+    print(result)
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
