@@ -17,6 +17,7 @@ the highest harmonic to pass, smoothing.py), so the actual error lies between th
 RMS^2 in [r w_c^3 / 12, r w_c^3 / 6].
 """
 
+import functools
 import math
 
 import numpy as np
@@ -25,11 +26,17 @@ from scipy.integrate import trapezoid
 
 from rsp_inertia.estimation.smoothing import (
     BANDWIDTH_FACTOR,
+    _block_readings,
+    _kalman_filter,
+    _process_noise,
+    _rts_smoother,
     _speed_kernel,
+    _transition,
     smooth_log,
     speed_error_autocovariance,
 )
 from rsp_inertia.plant.logs import Log
+from rsp_inertia.plant.progress import reporting
 from tests.estimation.conftest import STAGES
 
 
@@ -170,3 +177,62 @@ def test_speed_error_autocovariance_matches_the_virtual_device(
     # 4 counts per sample. The least squares calibrates the level on its residuals
     # (rsp_inertia.estimation.tensor), so the derived value need only be right within a factor 2.
     assert 0.5 * derived < np.var(err) < 2 * derived
+
+
+def test_the_kalman_smoother_solves_the_least_squares_of_its_model():
+    # The RTS smoother of a linear model is the solution of the least squares over all its
+    # states at once (prior, process noise and readings), and its covariance that problem's
+    # inverse normal matrix. Checked here on a short jittered log in 50 blocks, against the
+    # dense normal equations: the filter's information-form update and the rearranged RTS
+    # recursion (smoothing.py) against the definition.
+    rng = np.random.default_rng(1)
+    q = 2 * math.pi / 2**16
+    rows, block, dt = 300, 6, 1e-3
+    t = (np.arange(rows) + rng.uniform(-0.2, 0.2, rows)) * dt
+    z = np.floor((0.3 + 5 * t - 2 * t**2) / q) * q + q / 2
+    centres = (t[::block] + t[block - 1 :: block]) / 2
+    steps = np.diff(centres)
+    n = centres.size
+    q_j = q * q / 12 * dt * 200.0**6  # w_c = 200 rad/s
+    F = np.stack([_transition(T) for T in steps])
+    Q = [_process_noise(T, q_j) for T in steps]
+    x0, P0 = np.array([z[0], 5.0, -4.0]), np.diag([q * q, 1.0, 100.0])
+    readings = functools.partial(_block_readings, t, z, centres, block, q * q / 12)
+    means, covs, predicted = _kalman_filter(
+        x0, P0, F, Q, np.arange(n - 1), readings, lambda *_: None
+    )
+    xs, speed_var = _rts_smoother(means, covs, predicted, F)
+
+    A, b, reference = readings(slice(0, n))
+    N = np.zeros((3 * n, 3 * n))
+    rhs = np.zeros(3 * n)
+    N[:3, :3] = np.linalg.inv(P0)
+    rhs[:3] = N[:3, :3] @ x0
+    for k in range(1, n):  # block 0's readings are in the start (x0, P0)
+        i, j = slice(3 * k - 3, 3 * k), slice(3 * k, 3 * k + 3)
+        W = np.linalg.inv(Q[k - 1])
+        N[j, j] += W + A[k]
+        N[i, i] += F[k - 1].T @ W @ F[k - 1]
+        N[i, j] -= F[k - 1].T @ W
+        N[j, i] -= W @ F[k - 1]
+        rhs[j] += b[k] + A[k][:, 0] * reference[k]
+    # The correction that the normal equations ask of the smoother's states, solved scaled to
+    # (rad, rad/s x 1 ms, rad/s^2 x 1 ms^2) (the raw normal matrix spans 20 orders): zero to
+    # the rounding of the residual, 1e-16 of the readings' information (~1e-16 x 1e10 x 0.4
+    # rad per rad) through the inverse, a fraction of 1e-6 of a count here.
+    D = np.tile([1.0, dt, dt * dt], n)
+    scaled = np.linalg.inv(N * D[:, None] * D[None, :])
+    correction = D * (scaled @ (D * (rhs - N @ xs.reshape(-1))))
+    assert np.abs(correction[0::3]).max() < 1e-6 * q
+    assert np.abs(correction[1::3]).max() < 1e-6 * q / (block * dt)
+    # The covariance: the inverse normal matrix's speed entries, to its condition (~1e8
+    # scaled) times the rounding.
+    np.testing.assert_allclose(speed_var, (D * D * np.diag(scaled))[1::3], rtol=1e-8)
+
+
+def test_smoothing_reports_its_progress(default_device, default_brakings):
+    seen = []
+    with reporting(lambda task, fraction: seen.append((task, fraction))):
+        smooth_log(default_brakings[1].log, default_device.encoder.quantum, "braking.csv")
+    assert {task for task, _ in seen} == {"braking.csv: smoothing"}
+    assert seen[0][1] == 0.0 and seen[-1][1] == 1.0
