@@ -59,7 +59,7 @@ def _std_with_exact_speeds(exp, virtual, directions: np.ndarray) -> np.ndarray:
             for sim in passes
         )
         balances.append(
-            dataclasses.replace(bal, speed_sq=speed_sq, speed_sq_cov=np.zeros_like(bal.speed_sq_cov))
+            dataclasses.replace(bal, speed_sq=speed_sq, speed_sq_band=np.zeros_like(bal.speed_sq_band))
         )
     fit = fit_tensor(balances)
     return axis_values(fit.entries, fit.entries_cov, directions)[1]

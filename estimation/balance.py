@@ -56,12 +56,13 @@ from scipy.integrate import cumulative_trapezoid
 from rsp_inertia.estimation.modulated import fit_modulated
 from rsp_inertia.estimation.passes import (
     PassEstimate,
-    angle_work_covariance,
+    angle_work_noise,
     mainly_back_driven,
     sample_at,
-    speed_error_covariance,
-    work_covariance,
+    speed_error_band,
+    work_noise,
 )
+from rsp_inertia.estimation.whitening import Noise, add_bands, scaled_band
 from rsp_inertia.plant.config import Device, Stage
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.logs import Log, dropped_samples
@@ -244,21 +245,23 @@ class StageBalance:
     """rad, the body's angles of the balance, in the order of the braking's motion."""
     speed_sq: np.ndarray
     """S = Omega^2 + Omega'^2, rad^2/s^2."""
-    speed_sq_cov: np.ndarray
-    """(n, n) covariance of S from the smoothers' speed errors: to first order
+    speed_sq_band: np.ndarray
+    """(w, n) lower band of the covariance of S from the smoothers' speed errors
+    (rsp_inertia.estimation.whitening: band[d, i] = cov(S_{i+d}, S_i)): to first order
     dS = 2 Omega dOmega + 2 Omega' dOmega', the passes independent, each pass's errors
-    correlated as the smoother's derived autocovariance says (rsp_inertia.estimation.smoothing)."""
+    correlated as the smoother's derived autocovariance says, over its span only
+    (rsp_inertia.estimation.smoothing)."""
     mismatch: np.ndarray
     """(n, 2) the tracking mismatch's friction regressors [R1, R2] (module docstring):
     int_lo^phi delta dphi (rad^2/s) and int_lo^phi (|Omega| delta + delta^2 / 2) dphi
     (rad^3/s^2)."""
     work: np.ndarray
     """W(phi) = A(release->phi) + A'(phi7->phi) minus 2 Pi_spring(phi), J."""
-    braking_work_cov: np.ndarray
-    """(n, n) covariance of the braking pass's share of ``work`` (its torque log's noise,
-    rsp_inertia.estimation.passes), J^2."""
-    reverse_work_cov: np.ndarray
-    """(n, n) the same for the reverse pass, J^2."""
+    braking_work_noise: Noise
+    """The covariance of the braking pass's share of ``work`` (its torque log's noise,
+    rsp_inertia.estimation.passes.work_noise), J^2."""
+    reverse_work_noise: Noise
+    """The same for the reverse pass, J^2."""
     direction: int = 1
     """+1 for a forward run, -1 for a backward one (phi decreasing during the braking)."""
     spring: np.ndarray | None = None
@@ -283,22 +286,20 @@ class StageBalance:
     dynamics (:func:`friction_slope_prior`); None: not made (a planned run) or not possible."""
 
     @property
-    def work_cov(self) -> np.ndarray:
-        """(n, n) covariance of ``work``: both passes' torque logs (independent noise) and their
-        smoothed angles' errors (:meth:`encoder_work_cov`), J^2."""
-        return self.braking_work_cov + self.reverse_work_cov + self.encoder_work_cov()
+    def work_noise(self) -> Noise:
+        """The covariance of ``work``: both passes' torque logs (independent noise) and their
+        smoothed angles' errors (:meth:`encoder_work_noise`), J^2."""
+        return self.braking_work_noise + self.reverse_work_noise + self.encoder_work_noise()
 
-    def encoder_work_cov(self, scales: tuple[float, float] = (1.0, 1.0)) -> np.ndarray:
-        """(n, n) covariance of ``work`` from both passes' smoothed angles' errors, each pass's
+    def encoder_work_noise(self, scales: tuple[float, float] = (1.0, 1.0)) -> Noise:
+        """The covariance of ``work`` from both passes' smoothed angles' errors, each pass's
         random walk min(v_i, v_j) times its gain squared (``scales``: (braking, reverse), as
         :meth:`work_scales` gives), J^2."""
         n = len(self.phi)
-        parts = [
-            scale**2 * angle_work_covariance(v, n)
-            for v, scale in zip(self.angle_work_var, scales)
-            if v is not None  # a constant torque's: none (no n x n zeros)
-        ]
-        return sum(parts) if parts else np.zeros((n, n))
+        return sum(
+            (angle_work_noise(v, n).times(scale**2) for v, scale in zip(self.angle_work_var, scales)),
+            Noise(n),
+        )
 
     @property
     def motor_work(self) -> np.ndarray:
@@ -389,16 +390,11 @@ def stage_balance(
         b = sample_at(braking, phi)
         r = sample_at(reverse, phi)
     S = b.omega**2 + r.omega**2
-    # cov(S_i, S_j) = 4 Omega_i Omega_j cov(Omega_i, Omega_j) per pass, scaled in place (the
-    # matrices are n x n).
-    S_cov = speed_error_covariance(braking, b)
-    S_cov *= (4 * b.omega)[:, None]
-    S_cov *= b.omega[None, :]
-    rev_cov = speed_error_covariance(reverse, r)
-    rev_cov *= (4 * r.omega)[:, None]
-    rev_cov *= r.omega[None, :]
-    S_cov += rev_cov
-    del rev_cov
+    # cov(S_i, S_j) = 4 Omega_i Omega_j cov(Omega_i, Omega_j) per pass, as bands.
+    S_band = add_bands(
+        scaled_band(speed_error_band(braking, b), 2 * b.omega),
+        scaled_band(speed_error_band(reverse, r), 2 * r.omega),
+    )
     spring = 2 * spring_potential(direction * phi, device)
     work = b.work + r.work - spring
     mismatch = mismatch_regressors(phi, b.omega, r.omega)
@@ -408,11 +404,11 @@ def stage_balance(
         tare_inertia=st.tare_inertia,
         phi=direction * phi,
         speed_sq=S,
-        speed_sq_cov=S_cov,
+        speed_sq_band=S_band,
         mismatch=mismatch,
         work=work,
-        braking_work_cov=work_covariance(braking, b),
-        reverse_work_cov=work_covariance(reverse, r),
+        braking_work_noise=work_noise(braking, b),
+        reverse_work_noise=work_noise(reverse, r),
         direction=direction,
         spring=spring,
         friction_shape=friction_shape(phi, b.omega),

@@ -54,7 +54,14 @@ from scipy.stats import chi2 as chi2_distribution
 
 from rsp_inertia.estimation.balance import StageBalance
 from rsp_inertia.estimation.model_tests import SCALE_CAP, ModelTest, run_model_tests
-from rsp_inertia.estimation.whitening import cholesky_factors, weighted_chi2, whiten
+from rsp_inertia.estimation.whitening import (
+    Noise,
+    scaled_band,
+    weighted_chi2,
+    whiten,
+    whitened_rows,
+    whiteners,
+)
 
 __all__ = [
     "CALIBRATION_SOURCE",
@@ -187,7 +194,7 @@ def _used(A: np.ndarray) -> np.ndarray:
     return np.nonzero(np.any(A != 0.0, axis=0))[0]
 
 
-def _calibrated_scale(A, y, work_cov, speed_var) -> float:
+def _calibrated_scale(A, y, work_cov: Noise, speed_var: Noise) -> float:
     """The speed noise's scale s that makes one run's own fit reach chi^2/dof = 1.
 
     A root in log s on [1/SCALE_CAP, SCALE_CAP] (Brent); the bound where chi^2/dof stays on
@@ -196,8 +203,9 @@ def _calibrated_scale(A, y, work_cov, speed_var) -> float:
     lo, hi = 1.0 / SCALE_CAP, SCALE_CAP
 
     def chi2_dof(scale: float) -> float:
-        value, rank, _ = weighted_chi2(A, y, cholesky_factors([work_cov + scale * speed_var]))
-        return value / max(len(y) - rank, 1)
+        factors = whiteners([work_cov + speed_var.times(scale)])
+        value, rank, _ = weighted_chi2(A, y, factors)
+        return value / max(whitened_rows(factors) - rank, 1)
 
     if chi2_dof(hi) >= 1.0:
         return hi
@@ -225,20 +233,18 @@ def _weighted_solution(Aw: np.ndarray, yw: np.ndarray) -> tuple[np.ndarray, np.n
     return x, cov
 
 
-def _budget(Aw, factors, parts, cov_x) -> np.ndarray:
-    """cov_x Aw^T (L^-1 C_part L^-T) Aw cov_x: the share of one noise source in cov_x.
+def _budget(Aw, factors, parts: list[Noise], cov_x) -> np.ndarray:
+    """cov_x H^T (D C_part D^T) H cov_x, H = W^T Aw: the share of one noise source in cov_x.
 
-    The estimate is x = cov_x Aw^T L^-1 y, so a source of covariance C_part in y reaches x as
+    The estimate is x = cov_x Aw^T W D y (rsp_inertia.estimation.whitening: W whitens the
+    run's differenced equations D y), so a source of covariance C_part in y reaches x as
     above; with C = sum of the parts, the shares sum to cov_x = (Aw^T Aw)^-1.
     """
     inner, start = np.zeros((Aw.shape[1], Aw.shape[1])), 0
-    for L, part in zip(factors, parts):
-        n = L.shape[0]
-        B = Aw[start : start + n]
-        W = scipy.linalg.solve_triangular(L, part, lower=True)
-        W = scipy.linalg.solve_triangular(L, W.T, lower=True)
-        inner += B.T @ W @ B
-        start += n
+    for factor, part in zip(factors, parts):
+        m = factor.n_out
+        inner += part.quadratic(factor.transpose_whiten(Aw[start : start + m]))
+        start += m
     return cov_x @ inner @ cov_x
 
 
@@ -346,16 +352,17 @@ def solve_blocks(
     inertia = _inertia(blocks, names, x0)
     speed_var, work_parts = [], []
     for block, M in zip(blocks, inertia):
-        speed_var.append(0.25 * np.outer(M, M) * block.balance.speed_sq_cov)
+        n = len(block.rhs)
+        speed_var.append(Noise(n, band=scaled_band(block.balance.speed_sq_band, 0.5 * M)))
         hb2, hr2 = (scale**2 for scale in block.work_scales)
         work_parts.append(
             (
-                hb2 * block.balance.braking_work_cov,
-                hr2 * block.balance.reverse_work_cov,
-                block.balance.encoder_work_cov(block.work_scales),
+                block.balance.braking_work_noise.times(hb2),
+                block.balance.reverse_work_noise.times(hr2),
+                block.balance.encoder_work_noise(block.work_scales),
             )
         )
-    work_cov = [sum(parts) for parts in work_parts]
+    work_cov = [sum(parts, Noise(len(block.rhs))) for parts, block in zip(work_parts, blocks)]
 
     # Calibrated terms: unknowns z with the prior z = 0 +- 1 (module docstring, known terms).
     N = np.zeros((len(y), 0))
@@ -371,6 +378,18 @@ def solve_blocks(
     else:
         S = None
     q = N.shape[1]
+    # Each run's constant is profiled out with its last equation (the whitening takes the
+    # equations' differences, rsp_inertia.estimation.whitening): a column constant within
+    # every block carries nothing there.
+    constant = [
+        j
+        for j in range(A.shape[1])
+        if np.any(A[:, j] != 0.0)
+        and all(np.ptp(A[rows[k] : rows[k + 1], j]) == 0.0 for k in range(len(blocks)))
+    ]
+    if constant:
+        names = [name for j, name in enumerate(names) if j not in constant]
+        A = np.delete(A, constant, axis=1)
     A_all = np.hstack([A, N])
     n_x = A.shape[1]
 
@@ -391,7 +410,7 @@ def solve_blocks(
     priors = [(k, prior) for k, prior in priors if all(n in names for n in prior.names)]
 
     def joint_fit(scales: list[float]):
-        factors = cholesky_factors([w + s * v for w, v, s in zip(work_cov, speed_var, scales)])
+        factors = whiteners([w + v.times(s) for w, v, s in zip(work_cov, speed_var, scales)])
         Aw, yw = whiten(A_all, factors), whiten(y, factors)
         if q:  # the prior's pseudo-equations z = 0, unit weight
             Aw = np.vstack([Aw, np.hstack([np.zeros((q, n_x)), np.eye(q)])])
@@ -412,7 +431,7 @@ def solve_blocks(
         # again with those scales.
         scales = run_scales(y - A[:, joint] @ x[joint] - N @ x[n_x:])
         factors, Aw, yw, x, cov_x = joint_fit(scales)
-    n_data = len(y)
+    n_data = whitened_rows(factors)  # a run's last equation went with its constant
     prior_warnings = []
     while priors and not predict:
         # The worst rejected prior is dropped and the others tested again without it (a prior
@@ -430,7 +449,7 @@ def solve_blocks(
     sources = {
         NOISE_SOURCES[0]: [parts[0] for parts in work_parts],
         NOISE_SOURCES[1]: [parts[1] for parts in work_parts],
-        NOISE_SOURCES[2]: [s * v for s, v in zip(scales, speed_var)],
+        NOISE_SOURCES[2]: [v.times(s) for s, v in zip(scales, speed_var)],
         NOISE_SOURCES[3]: [parts[2] for parts in work_parts],
     }
     # Whatever the noise model leaves unexplained in the joint fit inflates the covariance
@@ -465,8 +484,8 @@ def solve_blocks(
             # have every probe's columns.
             y_own = y - A[:, joint] @ x_all[joint] - N @ x_all[n_x:]
             probe_scales = run_scales(y_own, np.hstack(list(probes.values())))
-            probe_factors = cholesky_factors(
-                [w + s * v for w, v, s in zip(work_cov, speed_var, probe_scales)]
+            probe_factors = whiteners(
+                [w + v.times(s) for w, v, s in zip(work_cov, speed_var, probe_scales)]
             )
             model_tests = run_model_tests(
                 blocks, names, A, y, x, factors, nuisance, probes, probe_factors

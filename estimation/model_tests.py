@@ -40,7 +40,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.stats import chi2
 
-from rsp_inertia.estimation.whitening import weighted_chi2, whiten
+from rsp_inertia.estimation.whitening import Identity, lstsq_rows, weighted_chi2, whiten
 
 if TYPE_CHECKING:
     from rsp_inertia.estimation.gls import Block
@@ -49,6 +49,7 @@ __all__ = [
     "COARSE_COUNTS",
     "SCALE_CAP",
     "TEST_ALPHA",
+    "TURN_PARTS",
     "ModelTest",
     "coarse_encoder_warnings",
     "model_warnings",
@@ -153,7 +154,7 @@ def _with_nuisance(A, y, factors, nuisance):
         return A, y, list(factors), 0
     B, p = nuisance
     A = np.vstack([np.hstack([A, B]), np.hstack([np.zeros((p, A.shape[1])), np.eye(p)])])
-    return A, np.concatenate([y, np.zeros(p)]), list(factors) + [np.eye(p)], p
+    return A, np.concatenate([y, np.zeros(p)]), list(factors) + [Identity(p)], p
 
 
 def _probe(A, columns, y, factors, nuisance):
@@ -174,38 +175,75 @@ def _probe(A, columns, y, factors, nuisance):
     return joint - free, dof, (estimate[-k:], cov[-k:, -k:])
 
 
+TURN_PARTS = 16
+"""Most parts of a run in the per-turn test: a longer run's turns are grouped into this many
+runs of consecutive turns (:func:`_parts`), so that the test's unknowns, and its cost, stay
+bounded however long the braking (a test of thousands of degrees of freedom would also
+drown a misfit of a few turns' pattern)."""
+
+
 def _consistency(
     blocks, names, A, y, factors, split, nuisance=None
 ) -> tuple[str, float, int] | None:
     """The chi^2 drop when the grouped unknowns are freed per group, or None if no groups.
 
     ``split``: None, or each block's balance angles are also cut into parts, each a group of
-    its own: "halves" (early turns, late turns) or "turns" (every whole turn travelled; a
-    last part shorter than a turn joins the one before). ``nuisance``: (B, p), columns of p
-    standardised calibration errors (prior N(0, 1) each) that both fits take as unknowns.
+    its own: "halves" (early turns, late turns) or "turns" (every whole turn travelled, at
+    most TURN_PARTS parts; a last part shorter than a turn joins the one before).
+    ``nuisance``: (B, p), columns of p standardised calibration errors (prior N(0, 1) each)
+    that both fits take as unknowns. Both fits fold the whitened rows block by block
+    (rsp_inertia.estimation.whitening.lstsq_rows): the freed design is never held whole.
     """
     grouped = {name for block in blocks for name in block.groups}
     labels = list(dict.fromkeys(g for block in blocks for g in block.groups.values()))
     if not grouped or (len(labels) < 2 and split is None):
         return None
-    free_names, parts = [n for n in names if n not in grouped], []
+    free_names = [n for n in names if n not in grouped]
+    block_parts = []
     for block in blocks:
+        parts = []
         for rows, half in _parts(block, split):
-            cols = {k: v[rows] for k, v in block.columns.items() if k not in grouped}
+            keys = {}
             for name in sorted(grouped & block.columns.keys()):
                 key = f"{name}@{block.groups[name]}{half}"
-                cols[key] = block.columns[name][rows]
+                keys[key] = name
                 if key not in free_names:
                     free_names.append(key)
-            parts.append((cols, rows.stop - rows.start))
-    A_free = np.vstack(
-        [np.column_stack([cols.get(k, np.zeros(n)) for k in free_names]) for cols, n in parts]
-    )
-    if nuisance is not None:
-        A_free, _, _, _ = _with_nuisance(A_free, y, factors, nuisance)
-        A, y, factors, _ = _with_nuisance(A, y, factors, nuisance)
-    joint, rank_joint, _ = weighted_chi2(A, y, factors)
-    free, rank_free, _ = weighted_chi2(A_free, y, factors)
+            parts.append((rows, keys))
+        block_parts.append(parts)
+    index = {name: j for j, name in enumerate(free_names)}
+    q = 0 if nuisance is None else nuisance[1]
+    starts = np.cumsum([0] + [len(block.rhs) for block in blocks])
+
+    def pieces(free: bool):
+        width = len(free_names) if free else A.shape[1]
+        for k, (block, factor) in enumerate(zip(blocks, factors)):
+            mine = slice(starts[k], starts[k + 1])
+            if free:
+                shared = [n for n in block.columns if n in index and n not in grouped]
+                cols = [index[n] for n in shared] + [
+                    index[key] for _, keys in block_parts[k] for key in keys
+                ]
+                M = np.zeros((len(block.rhs), len(cols)))
+                for j, name in enumerate(shared):
+                    M[:, j] = block.columns[name]
+                j = len(shared)
+                for rows, keys in block_parts[k]:
+                    for name in keys.values():
+                        M[rows, j] = block.columns[name][rows]
+                        j += 1
+            else:
+                cols = list(range(width))
+                M = A[mine]
+            if q:
+                cols = cols + list(range(width, width + q))
+                M = np.hstack([M, nuisance[0][mine]])
+            yield np.array(cols, dtype=int), factor.whiten(M), factor.whiten(y[mine])
+        if q:  # the calibration's prior, z = 0 +- 1
+            yield np.arange(width, width + q), np.eye(q), np.zeros(q)
+
+    joint, rank_joint, _ = lstsq_rows(pieces(False), A.shape[1] + q)
+    free, rank_free, _ = lstsq_rows(pieces(True), len(free_names) + q)
     dof = rank_free - rank_joint
     if dof <= 0:
         return None
@@ -227,9 +265,17 @@ def _parts(block: Block, split: str | None) -> list[tuple[slice, str]]:
     turn = np.floor(block.balance.friction_shape[:, 0] / (2 * math.pi)).astype(int)
     turns = max(int(turn[-1]), 1)  # a last partial turn joins the one before
     turn = np.minimum(turn, turns - 1)
-    starts = np.searchsorted(turn, np.arange(turns))
+    if turns <= TURN_PARTS:
+        starts = np.searchsorted(turn, np.arange(turns))
+        ends = np.append(starts[1:], n)
+        return [(slice(a, b), f" turn {k + 1}") for k, (a, b) in enumerate(zip(starts, ends))]
+    first = np.floor(np.arange(TURN_PARTS + 1) * turns / TURN_PARTS).astype(int)
+    starts = np.searchsorted(turn, first[:-1])
     ends = np.append(starts[1:], n)
-    return [(slice(a, b), f" turn {k + 1}") for k, (a, b) in enumerate(zip(starts, ends))]
+    return [
+        (slice(a, b), f" turns {first[k] + 1}-{first[k + 1]}")
+        for k, (a, b) in enumerate(zip(starts, ends))
+    ]
 
 
 COARSE_COUNTS = 1.0

@@ -71,6 +71,7 @@ from rsp_inertia.estimation.smoothing import (
     hermite,
     smooth_log,
 )
+from rsp_inertia.estimation.whitening import Noise
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.logs import Log, dropped_samples
 from rsp_inertia.plant.transducers import power_flow_split
@@ -82,6 +83,7 @@ __all__ = [
     "AngleSample",
     "PassEstimate",
     "angle_work_covariance",
+    "angle_work_noise",
     "angle_work_variance",
     "check_braking_monotone",
     "constancy_p_value",
@@ -91,9 +93,11 @@ __all__ = [
     "motor_work",
     "received_work",
     "sample_at",
+    "speed_error_band",
     "speed_error_covariance",
     "torque_noise",
     "work_covariance",
+    "work_noise",
 ]
 
 CONSTANCY_CHUNK = math.pi / 2
@@ -435,40 +439,53 @@ def sample_at(est: PassEstimate, phi: np.ndarray) -> AngleSample:
     )
 
 
-def work_covariance(est: PassEstimate, a: AngleSample, b: AngleSample | None = None) -> np.ndarray:
-    """cov(W(a_i), W(b_j)) that the torque log's noise puts into the pass's motor work, J^2.
+def work_noise(est: PassEstimate, a: AngleSample) -> Noise:
+    """The covariance that the torque log's noise puts into the pass's motor work at the
+    angles of ``a``, by structure (rsp_inertia.estimation.whitening), J^2.
 
     Sample-by-sample sum: a random walk, sigma^2 min(s_i, s_j) with s the sum of squared
     angle increments from the pass's start, plus the gaps' interpolation variance, another
-    random walk (:func:`gap_work`). Constant-torque model: one shared error of the
-    mean torque, sigma^2 / N (a_i - phi^_0)(b_j - phi^_0) (module docstring).
+    random walk (:func:`gap_work`). Constant-torque model: one shared error of the mean
+    torque, rank one: sigma^2 / N (a_i - phi^_0)(a_j - phi^_0) (module docstring).
     """
-    b = a if b is None else b
+    n = a.phi.size
     sigma2 = est.sigma_torque**2
     if est.torque_mean is not None:
         start = est.smoothed.phi[0]
-        return sigma2 / len(est.log) * np.outer(a.phi - start, b.phi - start)
-    cov = sigma2 * np.minimum.outer(a.work_var_steps, b.work_var_steps)
+        return Noise(n, rank_one=(math.sqrt(sigma2 / len(est.log)) * (a.phi - start),))
+    walks = (sigma2 * a.work_var_steps,)
     if a.work_var_gaps is not None:
-        cov += np.minimum.outer(a.work_var_gaps, b.work_var_gaps)
-    return cov
+        walks += (a.work_var_gaps,)
+    return Noise(n, walks=walks)
+
+
+def work_covariance(est: PassEstimate, a: AngleSample) -> np.ndarray:
+    """(n, n) :func:`work_noise`, whole (a few angles: the node formula's passages), J^2."""
+    return work_noise(est, a).dense()
+
+
+def angle_work_noise(variance: np.ndarray | None, n: int) -> Noise:
+    """The covariance that the smoothed angle's error puts into a pass's motor work under a
+    changing torque, J^2: the random walk min(v_i, v_j) of its variance at the angles
+    (:attr:`AngleSample.work_var_angle`; module docstring); none for None (a constant
+    torque)."""
+    return Noise(n) if variance is None else Noise(n, walks=(variance,))
 
 
 def angle_work_covariance(variance: np.ndarray | None, n: int) -> np.ndarray:
-    """(n, n) cov(W(a_i), W(a_j)) that the smoothed angle's error puts into a pass's motor work
-    under a changing torque, J^2: the random walk min(v_i, v_j) of its variance at the angles
-    (:attr:`AngleSample.work_var_angle`; module docstring); zeros for None (a constant torque)."""
-    if variance is None:
-        return np.zeros((n, n))
-    return np.minimum.outer(variance, variance)
+    """(n, n) :func:`angle_work_noise`, whole, J^2."""
+    return angle_work_noise(variance, n).dense()
+
+
+def speed_error_band(est: PassEstimate, a: AngleSample) -> np.ndarray:
+    """(w, n) lower band of the covariance of the pass's smoothed speed at the angles of
+    ``a``, rad^2/s^2 (rsp_inertia.estimation.smoothing: the derived error autocovariance at
+    the instants the pass is there, zero beyond its span)."""
+    return est.smoothed.speed_error_band(a.time, a.omega_std)
 
 
 def speed_error_covariance(est: PassEstimate, a: AngleSample) -> np.ndarray:
-    """(n, n) covariance of the pass's smoothed speed at the angles of ``a``, rad^2/s^2.
-
-    The smoother's derived error autocovariance (rsp_inertia.estimation.smoothing) at the instants the
-    pass is at those angles.
-    """
+    """(n, n) :func:`speed_error_band`, whole (a few angles: the node formula's passages)."""
     return est.smoothed.speed_error_covariance(a.time, a.omega_std)
 
 

@@ -25,7 +25,6 @@ import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 
 from rsp_inertia.estimation.balance import StageBalance, stage_balance
 from rsp_inertia.estimation.passes import PassEstimate, motor_work
@@ -35,7 +34,7 @@ from rsp_inertia.estimation.tensor import (
     KnownTerms,
     tensor_block,
 )
-from rsp_inertia.estimation.whitening import JITTER, information
+from rsp_inertia.estimation.whitening import Noise, information, scaled_band
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.geometry import design_matrix, device_design
 from rsp_inertia.plant.logs import Log
@@ -186,70 +185,9 @@ def axis_stds(device: Device, informations: np.ndarray) -> np.ndarray:
 
 
 def _information(A: np.ndarray, balance: StageBalance, inertia: np.ndarray) -> np.ndarray:
-    """A^T C^-1 A for one planned run, with C's structure instead of a dense Cholesky factor.
-
-    C = c c^T (the braking's constant-torque work: one shared error of the mean torque, rank
-    one) + the reverse's work, a random walk sigma^2 min(s_i, s_j) (s falling along the
-    balance angles: the reverse runs down from phi7) + the speed noise 1/4 M_i M_j
-    cov(S_i, S_j), zero beyond the smoother's correlation span, + the least squares' ridge
-    (rsp_inertia.estimation.gls). The invertible transform T x = (x_0 - x_1, ..., x_{n-2} - x_{n-1},
-    x_{n-1}) turns the random walk into its independent increments (diagonal) and keeps the
-    rest banded, so T C T^T = K + (T c)(T c)^T with K banded; K is assembled diagonal by
-    diagonal (O(n b)), and a banded Cholesky factor and one Sherman-Morrison step give the
-    information in O(n b^2) instead of O(n^3). Where the structure does not hold, or the band
-    is wider than a quarter of the run, the dense computation.
-    """
-    speed_cov = balance.speed_sq_cov
-    walk = balance.reverse_work_cov
-    n = len(inertia)
-    c = np.sqrt(np.diag(balance.braking_work_cov))
-    s_walk = np.diag(walk)
-    # Rank one, c_i c_j, for the constant braking torque; a random walk min(s_i, s_j) with s
-    # falling for the reverse: both checked on the first and last rows.
-    structured = (
-        n >= 8
-        and np.allclose(balance.braking_work_cov[0], c[0] * c, rtol=1e-9, atol=0.0)
-        and np.allclose(balance.braking_work_cov[-1], c[-1] * c, rtol=1e-9, atol=0.0)
-        and np.all(np.diff(s_walk) <= 0)
-        and np.array_equal(walk[0], s_walk)
-        and np.array_equal(walk[-1], np.full(n, s_walk[-1]))
-    )
-    band = 0
-    while structured and band + 1 < n and np.any(np.diagonal(speed_cov, -(band + 1)) != 0.0):
-        band += 1
-    if not structured or band + 1 > n // 4:
-        cov = balance.work_cov + 0.25 * np.outer(inertia, inertia) * speed_cov
-        return information(A, cov)
-
-    def diagonal(k: int) -> np.ndarray:
-        """Diagonal k (lower) of the speed part, padded with zeros to n + 1 entries."""
-        out = np.zeros(n + 1)
-        if k < n:
-            out[: n - k] = 0.25 * inertia[k:] * inertia[: n - k] * np.diagonal(speed_cov, -k)
-        return out
-
-    trace = float(np.sum(c * c) + np.sum(s_walk) + 0.25 * np.sum(inertia**2 * np.diag(speed_cov)))
-    ridge = JITTER * trace / n
-    lower = np.zeros((band + 2, n))
-    diags = [diagonal(k) for k in range(band + 3)]
-    for k in range(band + 2):
-        d, d1 = diags[k], diags[k + 1]
-        previous = np.append(diags[1][:n], 0.0) if k == 0 else np.append(diags[k - 1][1:], 0.0)
-        shifted = np.append(d[1:], 0.0)
-        lower[k, : n - k] = (d - d1 - previous + shifted)[: n - k]
-    # The random walk's increments, and T (ridge I) T^T = ridge x tridiag(-1, 2, -1) (1 last).
-    lower[0] += np.append(s_walk[:-1] - s_walk[1:], s_walk[-1])
-    lower[0] += ridge * np.append(np.full(n - 1, 2.0), 1.0)
-    lower[1, : n - 1] -= ridge
-
-    def t(x: np.ndarray) -> np.ndarray:
-        out = x.copy()
-        out[:-1] -= x[1:]
-        return out
-
-    factor = scipy.linalg.cholesky_banded(lower, lower=True)
-    TA, Tc = t(A), t(c)
-    X = scipy.linalg.cho_solve_banded((factor, True), np.column_stack([TA, Tc]))
-    XA, Xc = X[:, :-1], X[:, -1]
-    g = TA.T @ Xc
-    return TA.T @ XA - np.outer(g, g) / (1.0 + Tc @ Xc)
+    """A^T C^-1 A for one planned run, C its work noise plus the speed noise's
+    1/4 M_i M_j cov(S_i, S_j), whitened by structure as the least squares whitens
+    (rsp_inertia.estimation.whitening: the run's constant, whose column is then zero, is
+    profiled out with its last equation)."""
+    speed = Noise(len(inertia), band=scaled_band(balance.speed_sq_band, 0.5 * inertia))
+    return information(A, balance.work_noise + speed)
