@@ -27,7 +27,7 @@ import numpy as np
 
 from rsp_inertia.estimation.best_practice import best_practice_inertia, half_cycle_fit
 from rsp_inertia.estimation.model_tests import coarse_encoder_warnings, model_warnings
-from rsp_inertia.estimation.nodes import NodeEstimate, node_formula
+from rsp_inertia.estimation.nodes import NodeEstimate, node_estimates, node_passages
 from rsp_inertia.estimation.pendulum import estimate_pendulum
 from rsp_inertia.estimation.results import AxisResult, Identification, PendulumResult
 from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs, corrected_log
@@ -139,7 +139,14 @@ def identify_logs(
     say = progress or (lambda _text: None)
     device = logs.device
     warnings = list(warnings)
-    balances, nodes = balance_runs(logs, warnings, say, known.encoder)
+
+    def at_nodes(stage, sign, braking, reverse):
+        # The node formula's samples of the passes, taken before they are let go; the fit's
+        # speed-noise scales and friction slopes are applied after it (node_estimates).
+        nodes_deg = axis_nodes_deg(device.stages[stage - 1])
+        return node_passages(device, stage, braking, reverse, nodes_deg, sign, known.gains)
+
+    balances, passages = balance_runs(logs, warnings, say, known.encoder, at_nodes)
     fit = fit_tensor(balances, known)
     # The axes are the device's design (a lambda = 0 stage gives one, whatever its nodes),
     # in its order; the node formula estimates M at each axis's node, in every run.
@@ -149,11 +156,10 @@ def identify_logs(
         for stage, st in enumerate(device.stages, 1)
         for node_deg in axis_nodes_deg(st)
     }
-    for k, (stage, sign, b_est, r_est) in enumerate(nodes):
-        for n in node_formula(
-            device, stage, b_est, r_est, axis_nodes_deg(device.stages[stage - 1]),
-            fit.speed_noise_scale[k], sign, known.gains,
-            fit.friction_slope[k], fit.friction_slope_cov[k],
+    for k, run_passages in enumerate(passages):
+        for n in node_estimates(
+            run_passages, fit.speed_noise_scale[k], fit.friction_slope[k],
+            fit.friction_slope_cov[k],
         ):
             by_node[n.stage, n.node_deg].append(n)
     nodes = [_combine_directions(found) for found in by_node.values()]

@@ -39,7 +39,7 @@ from rsp_inertia.estimation.passes import (
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
 
-__all__ = ["NodeEstimate", "node_formula"]
+__all__ = ["NodeEstimate", "NodePassages", "node_estimates", "node_formula", "node_passages"]
 
 
 @dataclass(frozen=True)
@@ -63,6 +63,31 @@ class NodeEstimate:
     M_parts: tuple[float, float] = (0.0, 0.0)
     """kg m^2, the shares of ``M`` from the drive's driving and back-driven work (h_d and h_b
     times the logged works' parts): dM/dh_d = M_parts[0] / h_d, likewise h_b."""
+
+
+@dataclass(frozen=True)
+class NodePassages:
+    """What the node formula takes from one run's passes at one node (:func:`node_passages`):
+    the pairs' numerators and the passages' speeds, before the least squares gives the run's
+    speed-noise scale and friction slopes. Arrays of the node's pairs or passages: the passes
+    themselves can be let go once it is made."""
+
+    stage: int
+    """Stage number, from 1."""
+    node_deg: float
+    """Node angle, deg."""
+    parts: tuple[np.ndarray, np.ndarray]
+    """J, each pair's received work from the drive's driving and back-driven parts."""
+    num: np.ndarray
+    """J, each pair's numerator A' - A + 2 dPi (without the mismatch's correction)."""
+    num_cov: np.ndarray
+    """J^2, (pairs, pairs) covariance of ``num``."""
+    mismatch: np.ndarray
+    """(pairs, 2) R_a - R_b, the mismatch regressors' change over each pair."""
+    speed_sq: tuple[np.ndarray, np.ndarray]
+    """rad^2/s^2, the braking's and the reverse's squared speeds at the passages."""
+    speed_sq_var: tuple[np.ndarray, np.ndarray]
+    """rad^4/s^4, their variances at a speed-noise scale of 1."""
 
 
 def node_formula(
@@ -97,10 +122,38 @@ def node_formula(
     1/2 M (S_a - S_b) = N + (R_a - R_b) . d, R the mismatch regressors at the passages, so
     the correction joins every pair's numerator and its uncertainty the numerators'
     covariance (the pairs share d). Without it the mismatch's friction work is left in M.
+
+    The two steps, :func:`node_passages` (from the passes) and :func:`node_estimates` (with
+    the least squares' scale and slopes), one after the other.
+    """
+    return node_estimates(
+        node_passages(device, stage, braking, reverse, nodes_deg, direction, gains),
+        speed_noise_scale,
+        friction_slope,
+        friction_slope_cov,
+    )
+
+
+def node_passages(
+    device: Device,
+    stage: int,
+    braking: PassEstimate,
+    reverse: PassEstimate,
+    nodes_deg: Sequence[float],
+    direction: int = 1,
+    gains: tuple[float, float] = (1.0, 1.0),
+) -> list[NodePassages]:
+    """The node formula's first step (:func:`node_formula`, whose arguments these are): the
+    passes sampled at every node's passages, a turn apart over their usable range.
+
+    Raises
+    ------
+    InputError
+        A node with fewer than two passages in the passes' common range.
     """
     nodes = np.radians(np.asarray(nodes_deg, dtype=float))
     lo, hi = usable_range(braking, reverse, stage)
-    estimates = []
+    found = []
     for node_deg, node in zip(nodes_deg, direction * nodes):
         first = node + 2 * math.pi * math.ceil((lo - node) / (2 * math.pi))
         passages = np.arange(first, hi, 2 * math.pi)
@@ -122,7 +175,6 @@ def node_formula(
             parts.append(h * ((wr[a_] - wr[b_]) - (wb[b_] - wb[a_])))
         true_angle = direction * passages
         dPi = spring_potential(true_angle[b_], device) - spring_potential(true_angle[a_], device)
-        num = parts[0] + parts[1] + 2 * dPi
         # Work errors at the passages, differenced into the pairs' numerators; each torque
         # log's noise times the gain of its pass's power flow.
         step = np.diff(np.eye(passages.size), axis=0)
@@ -134,17 +186,48 @@ def node_formula(
             scale_b**2 * (work_covariance(braking, b) + angle_work_covariance(b.work_var_angle, n))
             + scale_r**2 * (work_covariance(reverse, r) + angle_work_covariance(r.work_var_angle, n))
         ) @ step.T
+        R = _mismatch_at(braking, reverse, lo, passages)
+        wb2, wr2 = b.omega**2, r.omega**2
+        # Passages a turn apart: their speed errors are independent (R decays in ~40 / w_c).
+        found.append(
+            NodePassages(
+                stage=stage,
+                node_deg=float(node_deg),
+                parts=(parts[0], parts[1]),
+                num=parts[0] + parts[1] + 2 * dPi,
+                num_cov=num_cov,
+                mismatch=R[a_] - R[b_],
+                speed_sq=(wb2, wr2),
+                speed_sq_var=(
+                    4 * wb2 * np.diag(speed_error_covariance(braking, b)),
+                    4 * wr2 * np.diag(speed_error_covariance(reverse, r)),
+                ),
+            )
+        )
+    return found
+
+
+def node_estimates(
+    passages: Sequence[NodePassages],
+    speed_noise_scale: float = 1.0,
+    friction_slope: np.ndarray | None = None,
+    friction_slope_cov: np.ndarray | None = None,
+) -> list[NodeEstimate]:
+    """The node formula's second step (:func:`node_formula`, whose arguments these are): M at
+    each node of :func:`node_passages`, with the run's speed-noise scale and friction slopes."""
+    estimates = []
+    a_, b_ = slice(None, -1), slice(1, None)
+    for p in passages:
+        num, num_cov = p.num, p.num_cov
         plain_num, plain_cov = num, num_cov
         if friction_slope is not None and np.all(np.isfinite(friction_slope)):
-            R = _mismatch_at(braking, reverse, lo, passages)
-            dR = R[a_] - R[b_]  # (pairs, 2): R_a - R_b
+            dR = p.mismatch
             num = num + dR @ friction_slope
             if friction_slope_cov is not None:
                 num_cov = num_cov + dR @ friction_slope_cov @ dR.T
-        wb2, wr2 = b.omega**2, r.omega**2
-        # Passages a turn apart: their speed errors are independent (R decays in ~40 / w_c).
-        vb = 4 * wb2 * np.diag(speed_error_covariance(braking, b)) * speed_noise_scale
-        vr = 4 * wr2 * np.diag(speed_error_covariance(reverse, r)) * speed_noise_scale
+        wb2, wr2 = p.speed_sq
+        vb = p.speed_sq_var[0] * speed_noise_scale
+        vr = p.speed_sq_var[1] * speed_noise_scale
         den = wb2[a_] + wr2[a_] - wb2[b_] - wr2[b_]
         M = 2 * num / den
         M_plain = plain_num / (wb2[a_] - wb2[b_])
@@ -152,14 +235,14 @@ def node_formula(
         P_mean, P_std, _ = _combine_pairs(M_plain, plain_cov / 4, wb2[a_] - wb2[b_], vb)
         estimates.append(
             NodeEstimate(
-                stage=stage,
-                node_deg=float(node_deg),
+                stage=p.stage,
+                node_deg=p.node_deg,
                 M=M_mean,
                 M_std=M_std,
                 M_plain=P_mean,
                 M_plain_std=P_std,
                 pairs=int(M.size),
-                M_parts=tuple(float(weights @ (2 * part / den)) for part in parts),
+                M_parts=tuple(float(weights @ (2 * part / den)) for part in p.parts),
             )
         )
     return estimates

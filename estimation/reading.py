@@ -67,17 +67,16 @@ def read_run(exp: Experiment, stage: int, direction: str) -> tuple[Log, Log]:
 
 
 class _OnDemand(Mapping):
-    """Logs read from their files when first looked up: the estimators take the runs one by
-    one, so a bad log is reported after the runs before it are balanced, as they are listed."""
+    """Logs read from their files at every lookup, never kept: the estimators take the runs
+    one by one, so an experiment's memory holds one run's logs whatever its number of runs
+    (a calibration that balances the runs again reads them again), and a bad log is reported
+    after the runs before it are balanced, as they are listed."""
 
     def __init__(self, readers: dict[tuple, Callable[[], Log | tuple[Log, Log]]]) -> None:
         self._readers = readers
-        self._read: dict = {}
 
     def __getitem__(self, key):
-        if key not in self._read:
-            self._read[key] = self._readers[key]()
-        return self._read[key]
+        return self._readers[key]()
 
     def __contains__(self, key) -> bool:
         return key in self._readers
@@ -91,7 +90,7 @@ class _OnDemand(Mapping):
 
 def read_experiment(exp: Experiment) -> ExperimentLogs:
     """Every run's logs and every ``stageN/pendulum_kK.csv`` present, named by their paths;
-    each log is read when the estimators first look it up."""
+    each log is read when the estimators look it up."""
     device = exp.device
     keys = runs(device)
     pendulum = [
@@ -208,7 +207,8 @@ def check_same_stages(exp: Experiment, other: Experiment, role: str) -> None:
 
 
 def _sha256(path: str | Path) -> str:
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    with open(path, "rb") as file:  # in pieces: a log may be hundreds of MB
+        return hashlib.file_digest(file, "sha256").hexdigest()
 
 
 def calibrate_experiment(

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from typing import TypeVar
 
 import numpy as np
 
@@ -24,6 +25,8 @@ from rsp_inertia.plant.progress import report
 from rsp_inertia.plant.transducers import true_angle
 
 __all__ = ["ExperimentLogs", "Sources", "balance_runs", "corrected_log", "estimate_run", "runs"]
+
+T = TypeVar("T")
 
 
 @dataclass(frozen=True)
@@ -135,11 +138,16 @@ def balance_runs(
     warnings: list[str],
     progress: Callable[[str], None] | None = None,
     encoder=(),
-) -> tuple[list[StageBalance], list[tuple[int, int, PassEstimate, PassEstimate]]]:
+    keep: Callable[[int, int, PassEstimate, PassEstimate], T] | None = None,
+) -> tuple[list[StageBalance], list[T]]:
     """Every run's balance equations (rsp_inertia.estimation.balance), in the device's order of
-    runs, and its passes for the node formula as (stage, sign, braking, reverse), sign +1
-    forward and -1 backward. ``encoder``: the encoder's error coefficients, taken off every
-    log's readings (:func:`corrected_log`).
+    runs, and what ``keep`` takes of each run's passes. ``encoder``: the encoder's error
+    coefficients, taken off every log's readings (:func:`corrected_log`).
+
+    One run at a time: its logs are looked up, its passes estimated, balanced and handed to
+    ``keep(stage, sign, braking, reverse)`` (sign +1 forward, -1 backward), then let go, so
+    that an experiment's memory is one run's passes whatever its number of runs. The second
+    list holds ``keep``'s results (empty without ``keep``).
 
     Raises
     ------
@@ -153,20 +161,21 @@ def balance_runs(
             f"the runs given {sorted(logs.runs)} are not the device's {expected}"
         )
     prefix = "" if logs.sources.experiment is None else f"{logs.sources.experiment}: "
-    balances, passes = [], []
-    for k, (stage, direction) in enumerate(expected, 1):
-        braking, reverse = logs.runs[stage, direction]
+    balances, kept = [], []
+    for stage, direction in expected:
         b_est, r_est = estimate_run(
-            device, braking, reverse, direction, warnings, *logs.sources.run(stage, direction),
-            encoder=encoder,
+            device, *logs.runs[stage, direction], direction, warnings,
+            *logs.sources.run(stage, direction), encoder=encoder,
         )
         sign = 1 if direction == "forward" else -1
         balances.append(stage_balance(device, stage, b_est, r_est, sign))
-        passes.append((stage, sign, b_est, r_est))
+        if keep is not None:
+            kept.append(keep(stage, sign, b_est, r_est))
+        rows = (len(b_est.log), len(r_est.log))
+        del b_est, r_est  # before the next run's logs are read
         if progress is not None:
             progress(
-                f"{prefix}stage {stage} {direction}: {len(b_est.log)} + {len(r_est.log)} "
+                f"{prefix}stage {stage} {direction}: {rows[0]} + {rows[1]} "
                 "rows smoothed and balanced"
             )
-        report("runs smoothed and balanced", k, len(expected))
-    return balances, passes
+    return balances, kept

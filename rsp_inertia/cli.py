@@ -5,7 +5,9 @@ function a script calls) and prints its progress lines and its result; ``design`
 no API function, calls :func:`rsp_inertia.design.run_design`.
 
 Bad input (:class:`rsp_inertia.plant.errors.InputError`) becomes one line on stderr and exit
-status 2; argparse's own usage errors exit with 2 as well. ``identify``, ``calibrate`` and
+status 2, and so does running out of memory (a MemoryError anywhere: the line names the
+command, its experiment folders and their logs' rows); argparse's own usage errors exit with
+2 as well. ``identify``, ``calibrate`` and
 ``demo`` show their long work's progress on stderr when it is a terminal
 (:class:`rsp_inertia.plant.progress.TerminalProgress`); in a pipe they print only their lines.
 """
@@ -198,7 +200,39 @@ def main(argv: list[str] | None = None) -> int:
     except InputError as error:
         print(f"rsp-inertia: error: {error}", file=sys.stderr)
         return 2
+    except MemoryError:
+        progress.clear()
+        print(f"rsp-inertia: error: {_out_of_memory(args)}", file=sys.stderr)
+        return 2
     return status or 0
+
+
+def _out_of_memory(args: argparse.Namespace) -> str:
+    """The line for a command that ran out of memory: what it was processing (its experiment
+    folders and their logs' rows) and what to do."""
+    folders = [
+        Path(folder)
+        for folder in (getattr(args, name, None) for name in ("exp", "empty", "reference"))
+        if folder is not None
+    ]
+    rows = sum(_rows(path) for folder in folders for path in folder.glob("stage*/*.csv"))
+    where = " and ".join(str(folder) for folder in folders) or "its inputs"
+    return (
+        f"out of memory while running {args.command} on {where} (the logs have {rows} rows); "
+        "free memory or use a machine with more, or log shorter passes"
+    )
+
+
+def _rows(path: Path) -> int:
+    """Lines of a log after its header, counted in pieces (a log may be hundreds of MB)."""
+    lines = 0
+    try:
+        with open(path, "rb") as file:
+            while piece := file.read(1 << 20):
+                lines += piece.count(b"\n")
+    except OSError:
+        return 0
+    return max(lines - 1, 0)
 
 
 if __name__ == "__main__":

@@ -8,6 +8,7 @@ import re
 import numpy as np
 import pytest
 
+import rsp_inertia
 from rsp_inertia.cli import main
 from rsp_inertia.pipeline import create_default_experiment
 from rsp_inertia.plant.config import load_device
@@ -146,3 +147,19 @@ def test_demo_keeps_an_edited_input(experiment):
     path.write_text(edited)
     create_default_experiment(experiment)
     assert path.read_text() == edited
+
+
+def test_running_out_of_memory_is_one_line(experiment, capsys, monkeypatch):
+    # Logs too long for the machine: whatever runs out of memory, the user gets one line that
+    # names the command, the experiment and its logs' rows, and exit 2, never a traceback.
+    assert main(["simulate", str(experiment), "--stage", "1", "--part", "braking"]) == 0
+    device = load_device(experiment / "device.toml")
+    rows = len(read_log(experiment / "stage1" / "braking.csv", device.encoder, "braking"))
+
+    def exhausted(*args, **kwargs):
+        raise MemoryError
+
+    monkeypatch.setattr(rsp_inertia, "identify", exhausted)
+    capsys.readouterr()
+    assert main(["identify", str(experiment)]) == 2
+    one_line_error(capsys, "out of memory while running identify", str(experiment), f"{rows} rows")

@@ -82,7 +82,7 @@ HOMES = [
      ["estimation.gls", "estimation.model_tests"]),
     ("model-test warnings", "estimation.model_tests", "model_warnings",
      ["estimation.identify", "estimation.calibration"]),
-    ("the node formula", "estimation.nodes", "node_formula", ["estimation.identify"]),
+    ("the node formula", "estimation.nodes", "node_estimates", ["estimation.identify"]),
 ]
 
 
