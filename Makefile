@@ -5,7 +5,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test bench wheel-check clean
+.PHONY: demo test bench bench-scale wheel-check clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -25,6 +25,13 @@ test: $(STAMP)
 BENCH_ARGS ?=
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks.sweep $(BENCH_ARGS)
+
+# Wall time and peak memory of simulate, program and identify against braking length and
+# sample rate -> benchmarks/results/scale.md, scale.json, scale.png (tens of minutes; options
+# through SCALE_ARGS, e.g. make bench-scale SCALE_ARGS='--quick --out /tmp/scale.md').
+SCALE_ARGS ?=
+bench-scale: $(STAMP)
+	$(BIN)/python -m benchmarks.scale $(SCALE_ARGS)
 
 # The wheel as users install it, in a fresh venv outside the checkout: builds without
 # warnings, holds only rsp_inertia, runs `rsp-inertia --version` and the demo (CI runs it).

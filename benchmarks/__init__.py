@@ -10,7 +10,9 @@ with the command that made it):
 - ``program``: torque program and closed loop under model errors -> program.md;
 - ``plan``: pilot, plan, program, closed loop, identify -> plan.md;
 - ``systematics``: rig imperfections, before and after calibration -> systematics.md;
-- ``real_logs``: jittered, lossy, wrapping logs against clean ones -> real_logs.md.
+- ``real_logs``: jittered, lossy, wrapping logs against clean ones -> real_logs.md;
+- ``scale``: wall time and peak memory of simulate, program and identify against braking
+  length and sample rate, growth exponents (``make bench-scale``) -> scale.md, scale.png.
 
 Shared modules: :mod:`benchmarks.experiments` (variants of the default experiment through
 the config dataclasses), :mod:`benchmarks.truth` (errors against the virtual device's

@@ -37,7 +37,7 @@ ROOT = Path(__file__).parents[1]
 PAPER = Case(friction_factor=1.0, encoder_bits=16, seed=0)
 """The cheapest case of the default grid: the paper's friction on the default encoder."""
 
-PROGRAMS = ("sweep", "identification", "program", "plan", "systematics", "real_logs")
+PROGRAMS = ("sweep", "identification", "program", "plan", "systematics", "real_logs", "scale")
 
 
 def without_timings(row: dict) -> dict:
