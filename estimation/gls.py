@@ -62,6 +62,7 @@ from rsp_inertia.estimation.whitening import (
     whitened_rows,
     whiteners,
 )
+from rsp_inertia.plant.progress import report
 
 __all__ = [
     "CALIBRATION_SOURCE",
@@ -398,6 +399,7 @@ def solve_blocks(
         columns of ``extra``) sets its scale."""
         scales = []
         for k, block in enumerate(blocks):
+            report("least squares: each run's speed-noise scale", k, len(blocks))
             mine = slice(rows[k], rows[k + 1])
             own = [j for j in _used(A[mine]) if names[j] not in block.joint_only]
             A_own = A[mine][:, own]
@@ -477,6 +479,7 @@ def solve_blocks(
     probes = _probe_matrices(blocks, inertia)
     model_tests = []
     if tests and not predict:
+        report("least squares: model tests", 0.0)
         model_tests = run_model_tests(blocks, names, A, y, x, factors, nuisance, probes)
         if any(t.significant for t in model_tests if t.kind in probes):
             # A named cause's misfit inflates every run's speed-noise scale, which then hides

@@ -41,6 +41,7 @@ import numpy as np
 from scipy.stats import chi2
 
 from rsp_inertia.estimation.whitening import Identity, lstsq_rows, weighted_chi2, whiten
+from rsp_inertia.plant.progress import report
 
 if TYPE_CHECKING:
     from rsp_inertia.estimation.gls import Block
@@ -118,7 +119,8 @@ def run_model_tests(
     kept = [j for j in range(len(names)) if j not in fixed]
     y_kept = y - A[:, fixed] @ x[fixed]
     splits = ((None, "consistency"), ("halves", "early/late"), ("turns", "per turn"))
-    for split, kind in splits:
+    for step, (split, kind) in enumerate(splits):
+        report("least squares: model tests", step, len(splits) + len(probes or {}))
         found = _consistency(
             blocks, [names[j] for j in kept], A[:, kept], y_kept, factors, split, nuisance
         )
