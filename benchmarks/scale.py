@@ -15,8 +15,9 @@ command line (``rsp-inertia`` beside this Python) runs ``simulate --part braking
   sample_rate).
 
 Per command: its wall time and its peak resident memory (the child's ``ru_maxrss`` from
-``os.wait4``). Per point: the logs' physical duration (every braking and reverse pass), turns
-and rows, and the balance equations of identify (result.json ``least_squares.equations``).
+``os.wait4``, taken by a small launcher process so that the benchmark's own memory does not
+count). Per point: the logs' physical duration (every braking and reverse pass), turns and
+rows, and the balance equations of identify (result.json ``least_squares.equations``).
 Each series' growth exponents are the slopes of log cost against log turns and log rows over
 the larger half of its points, where the fixed start-up costs weigh least. Deterministic:
 the default virtual.toml's seed.
@@ -184,21 +185,39 @@ def cli() -> Path:
     return Path(sys.executable).parent / "rsp-inertia"
 
 
+LAUNCHER = """
+import json, os, subprocess, sys, time
+with open(sys.argv[1], "ab") as out:
+    t0 = time.perf_counter()
+    child = subprocess.Popen(sys.argv[2:], stdout=out, stderr=subprocess.STDOUT)
+    _, status, usage = os.wait4(child.pid, 0)
+    wall = time.perf_counter() - t0
+child.returncode = os.waitstatus_to_exitcode(status)
+cpu = usage.ru_utime + usage.ru_stime
+print(json.dumps([wall, cpu, usage.ru_maxrss, child.returncode]))
+"""
+"""A bare Python that runs one command line and prints [wall s, its CPU s, its ru_maxrss kB,
+exit status]. A process started by exec inherits in its ru_maxrss the peak resident memory of the
+process it was forked from (Linux records the old address space's peak at exec), so the
+commands are not started from this benchmark's own process, whose peak grows as it reads
+the logs, but from this small one (12 MB)."""
+
+
 def run_command(argv: list[str], log: Path) -> dict:
-    """{"wall": s, "memory": GB of peak resident memory, "error": last output line or None}
-    of one command line run in its own process, its output appended to ``log``."""
-    with log.open("ab") as out:
-        t0 = time.perf_counter()
-        child = subprocess.Popen(argv, stdout=out, stderr=subprocess.STDOUT)
-        _, status, usage = os.wait4(child.pid, 0)
-        wall = time.perf_counter() - t0
-    child.returncode = os.waitstatus_to_exitcode(status)
+    """{"wall": s, "cpu": s (user + system), "memory": GB of peak resident memory, "error":
+    last output line or None} of one command line run in its own process (through LAUNCHER),
+    its output appended to ``log``."""
+    done = subprocess.run(
+        [sys.executable, "-I", "-c", LAUNCHER, str(log), *argv],
+        capture_output=True, text=True, check=True,
+    )
+    wall, cpu, maxrss, status = json.loads(done.stdout)
     error = None
-    if child.returncode != 0:
+    if status != 0:
         lines = log.read_text(errors="replace").strip().splitlines()
-        error = f"exit {child.returncode}: " + (lines[-1] if lines else "")
+        error = f"exit {status}: " + (lines[-1] if lines else "")
     # ru_maxrss is in kB on Linux.
-    return {"wall": wall, "memory": usage.ru_maxrss * 1024 / 1e9, "error": error}
+    return {"wall": wall, "cpu": cpu, "memory": maxrss * 1024 / 1e9, "error": error}
 
 
 def log_sizes(root: Path) -> dict:
@@ -233,7 +252,8 @@ def measure(root: Path) -> dict:
         argv = [str(cli()), *(a.format(exp=root) for a in args)]
         result = run_command(argv, log)
         row["commands"][name] = result
-        print(f"  {name}: {result['wall']:.1f} s, {result['memory']:.2f} GB"
+        print(f"  {name}: {result['wall']:.1f} s (cpu {result['cpu']:.1f} s), "
+              f"{result['memory']:.2f} GB"
               + (f" ({result['error']})" if result["error"] else ""), flush=True)
         if result["error"]:
             row["error"] = f"{name}: {result['error']}"
@@ -290,7 +310,7 @@ def _cost(point: dict, command: str) -> str:
         return "-"
     if result["error"]:
         return f"failed after {result['wall']:.0f} s, {result['memory']:.2f} GB"
-    return f"{result['wall']:.1f} s, {result['memory']:.2f} GB"
+    return f"{result['wall']:.1f} s ({result['cpu']:.1f}), {result['memory']:.2f} GB"
 
 
 def _ratio(point: dict) -> float | None:
@@ -315,29 +335,35 @@ def series_table(points: list[dict], first: list[str], cells) -> list[str]:
     return table_lines(head, rows)
 
 
-def exponents(points: dict[str, list[dict]]) -> dict[str, dict[str, float | None]]:
-    """Per command: time and memory exponents in turns and rows (braking series) and in rows
-    (sample-rate series)."""
+COSTS = ("wall", "cpu", "memory")
+"""What the exponents are fitted to: wall time, CPU time, peak memory."""
+
+SIZES = {
+    "in turns (braking series)": ("braking", "turns"),
+    "in rows (braking series)": ("braking", "rows"),
+    "in rows (sample-rate series)": ("rate", "rows"),
+}
+"""The exponents' columns: (series, size)."""
+
+
+def exponents(points: dict[str, list[dict]]) -> dict[tuple[str, str], dict[str, float | None]]:
+    """{(command, cost): {column of SIZES: exponent}}."""
     return {
-        c: {
-            "time~turns": exponent(points["braking"], "turns", c, "wall"),
-            "memory~turns": exponent(points["braking"], "turns", c, "memory"),
-            "time~rows (braking)": exponent(points["braking"], "rows", c, "wall"),
-            "memory~rows (braking)": exponent(points["braking"], "rows", c, "memory"),
-            "time~rows (rate)": exponent(points["rate"], "rows", c, "wall"),
-            "memory~rows (rate)": exponent(points["rate"], "rows", c, "memory"),
-        }
-        for c in COMMANDS
+        (c, cost): {k: exponent(points[series], x, c, cost) for k, (series, x) in SIZES.items()}
+        for c in COMMANDS for cost in COSTS
     }
 
 
 def targets(points: dict[str, list[dict]], slopes: dict) -> list[tuple[str, bool | None]]:
     """(text, met; None: not measured) of each target of issue 22."""
     out: list[tuple[str, bool | None]] = []
-    for key in ("time~turns", "memory~turns", "time~rows (rate)", "memory~rows (rate)"):
-        value = slopes["identify"][key]
-        out.append((f"identify's exponent {key} <= {EXPONENT_TARGET}: "
-                    f"{fmt(value, '.2f')}", None if value is None else value <= EXPONENT_TARGET))
+    for key in ("in turns (braking series)", "in rows (sample-rate series)"):
+        for cost, name in (("wall", "wall time"), ("memory", "memory")):
+            value = slopes["identify", cost][key]
+            cpu = slopes["identify", "cpu"][key]
+            cpu = f" (CPU time {fmt(cpu, '.2f')})" if cost == "wall" else ""
+            out.append((f"identify's {name} exponent {key} {fmt(value, '.2f')}{cpu} <= "
+                        f"{EXPONENT_TARGET}", None if value is None else value <= EXPONENT_TARGET))
     cases = (
         ("braking", max(points["braking"], key=lambda p: p["target"], default=None),
          "the longest stage-1 braking at 1 kHz"),
@@ -390,7 +416,9 @@ def write_report(points: dict[str, list[dict]], command: str, seconds: float, ou
         __doc__.split("\n\n", 1)[1].split("    python")[0].strip(),
         "",
         ("Log s, turns and rows: every braking and reverse pass of the experiment together. "
-         "Each command's cell: its wall time, its process's peak resident memory."),
+         "Each command's cell: its wall time (its CPU time, user and system), its process's "
+         "peak resident memory. Wall times depend on what else the machine runs; the CPU "
+         "times less so."),
         "",
         "## Braking length (1 kHz)",
         "",
@@ -413,16 +441,16 @@ def write_report(points: dict[str, list[dict]], command: str, seconds: float, ou
                            "stage-1 turns"], _braking_cells),
             "",
         ]
-    keys = list(next(iter(slopes.values())))
     lines += [
         "## Growth exponents",
         "",
-        ("Slopes of log time and log peak memory over the larger half of each series' points; "
+        ("Slopes of log cost against log size over the larger half of each series' points; "
          f"identify's target is <= {EXPONENT_TARGET} in turns and rows (issue 22; program "
          "and simulate stay linear)."),
         "",
-        *table_lines(["command", *keys],
-                     [[c, *(fmt(s[k], ".2f") for k in keys)] for c, s in slopes.items()]),
+        *table_lines(["command", "cost", *SIZES],
+                     [[c, cost, *(fmt(s[k], ".2f") for k in SIZES)]
+                      for (c, cost), s in slopes.items()]),
         "",
         "## Targets",
         "",
