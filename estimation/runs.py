@@ -162,7 +162,7 @@ def balance_runs(
         )
     prefix = "" if logs.sources.experiment is None else f"{logs.sources.experiment}: "
     balances, kept = [], []
-    for stage, direction in expected:
+    for k, (stage, direction) in enumerate(expected, 1):
         b_est, r_est = estimate_run(
             device, *logs.runs[stage, direction], direction, warnings,
             *logs.sources.run(stage, direction), encoder=encoder,
@@ -178,4 +178,5 @@ def balance_runs(
                 f"{prefix}stage {stage} {direction}: {rows[0]} + {rows[1]} "
                 "rows smoothed and balanced"
             )
+        report("runs smoothed and balanced", k, len(expected))
     return balances, kept
