@@ -11,6 +11,7 @@ has run for ``DELAY`` seconds, and clears it before any other line is printed.
 from __future__ import annotations
 
 import contextvars
+import shutil
 import sys
 import time
 from collections.abc import Callable, Iterator
@@ -85,6 +86,11 @@ class TerminalProgress:
         self.last = now
         elapsed = now - self.start
         text = f"{task}: {100 * fraction:.0f}% ({elapsed:.0f} s)"
+        # A line longer than the terminal wraps, and "\r" would rewrite only its last row:
+        # keep the end (the fraction), marking the cut.
+        width = shutil.get_terminal_size().columns - 1
+        if len(text) > width:
+            text = "..." + text[len(text) - width + 3:]
         pad = max(self.shown - len(text), 0)
         self.stream.write("\r" + text + " " * pad)
         self.stream.flush()

@@ -103,3 +103,15 @@ def test_a_reporter_receives_the_fraction_clipped():
         report("rows", 12, 10)
         report("rows", 0, 0)
     assert seen == [("rows", 0.5), ("rows", 1.0), ("rows", 1.0)]
+
+
+def test_a_line_wider_than_the_terminal_keeps_its_end(monkeypatch):
+    # A wrapped line could not be rewritten in place: it is cut to the width less one.
+    monkeypatch.setenv("COLUMNS", "30")
+    stream, clock = FakeTerminal(), Clock()
+    line = TerminalProgress(stream, clock)
+    clock.now = DELAY
+    line("/a/long/path/of/an/experiment/stage1/braking.csv: smoothing", 0.25)
+    shown = stream.getvalue()
+    assert shown == "\r..." + "braking.csv: smoothing: 25% (2 s)"[-26:]
+    assert len(shown) == 1 + 29
