@@ -521,7 +521,10 @@ def main(argv: list[str] | None = None) -> None:
         "--long-fast", action="store_true",
         help=f"also the longest braking at {LONG_FAST_RATE / 1000:g} kHz (slow to simulate)",
     )
-    parser.add_argument("--out", type=Path, default=RESULTS / "scale.md", metavar="MD")
+    parser.add_argument(
+        "--out", type=Path, default=RESULTS / "scale.md", metavar="MD",
+        help="the report (default: benchmarks/results/scale.md); .json and .png beside it",
+    )
     parser.add_argument(
         "--from-json", type=Path, metavar="JSON",
         help="rewrite the report from a run's saved numbers (the .json beside its report)",
