@@ -372,8 +372,8 @@ def targets(points: dict[str, list[dict]], slopes: dict) -> list[tuple[str, bool
                 value = slopes[command, cost][key]
                 cpu = slopes[command, "cpu"][key]
                 cpu = f" (CPU time {fmt(cpu, '.2f')})" if cost == "wall" else ""
-                out.append((f"{command}'s {name} exponent {key} {fmt(value, '.2f')}{cpu} <= "
-                            f"{EXPONENT_TARGET}",
+                out.append(((f"{command}'s {name} exponent {key} {fmt(value, '.2f')}{cpu} <= "
+                            f"{EXPONENT_TARGET}"),
                             None if value is None else value <= EXPONENT_TARGET))
     cases = (
         ("braking", max(points["braking"], key=lambda p: p["target"], default=None),
@@ -384,25 +384,25 @@ def targets(points: dict[str, list[dict]], slopes: dict) -> list[tuple[str, bool
     for series, point, text in cases:
         limit = SPEED_TARGETS[series]
         if point is None:
-            out.append((f"{text}: identify within {limit} of the logs' duration and under "
-                        f"{MEMORY_TARGET} GB", None))
+            out.append(((f"{text}: identify within {limit} of the logs' duration and under "
+                        f"{MEMORY_TARGET} GB"), None))
             continue
         ratio, memory = _ratio(point), point["commands"].get("identify", {}).get("memory")
         where = f" ({point['target']:g} s)" if series == "braking" else ""
         out.append((f"{text}{where}: identify / duration {fmt(ratio, '.3f')} <= {limit}",
                     ratio is not None and ratio <= limit))
-        out.append((f"{text}{where}: identify's peak memory {fmt(memory, '.2f')} GB < "
-                    f"{MEMORY_TARGET} GB", ratio is not None and memory < MEMORY_TARGET))
+        out.append(((f"{text}{where}: identify's peak memory {fmt(memory, '.2f')} GB < "
+                    f"{MEMORY_TARGET} GB"), ratio is not None and memory < MEMORY_TARGET))
     long = points.get("long") or []
     for point in long:
         memory = point["commands"].get("identify", {}).get("memory")
         ok = "identify" in point["commands"] and not point["commands"]["identify"]["error"]
-        out.append((f"{point['target']:g} s stage-1 braking at {point['rate'] / 1000:g} kHz: "
-                    f"identify's peak memory {fmt(memory, '.2f')} GB < {MEMORY_TARGET} GB",
+        out.append(((f"{point['target']:g} s stage-1 braking at {point['rate'] / 1000:g} kHz: "
+                    f"identify's peak memory {fmt(memory, '.2f')} GB < {MEMORY_TARGET} GB"),
                     ok and memory < MEMORY_TARGET))
     if not long:
-        out.append((f"{BRAKINGS[-1][0]:g} s stage-1 braking at {LONG_FAST_RATE / 1000:g} kHz "
-                    f"under {MEMORY_TARGET} GB (--long-fast)", None))
+        out.append(((f"{BRAKINGS[-1][0]:g} s stage-1 braking at {LONG_FAST_RATE / 1000:g} kHz "
+                    f"under {MEMORY_TARGET} GB (--long-fast)"), None))
     return out
 
 
@@ -421,8 +421,8 @@ def write_report(points: dict[str, list[dict]], command: str, seconds: float, ou
     lines = [
         "# Scale: time and memory against the logs' length",
         "",
-        f"Command: `{command}` ({seconds / 60:.0f} min on this machine, {os.cpu_count()} "
-        "cores).",
+        (f"Command: `{command}` ({seconds / 60:.0f} min on this machine, {os.cpu_count()} "
+        "cores)."),
         "",
         __doc__.split("\n\n", 1)[1].split("    python")[0].strip(),
         "",
