@@ -162,9 +162,6 @@ class Noise:
         band = add_bands(*bands) if len(bands) == 2 else (bands[0] if bands else None)
         return Noise(self.n, self.walks + other.walks, self.rank_one + other.rank_one, band)
 
-    def __radd__(self, other) -> Noise:  # sum() starts from 0
-        return self if other == 0 else NotImplemented
-
     def times(self, factor: float) -> Noise:
         """This covariance times ``factor`` >= 0."""
         root = math.sqrt(factor)
