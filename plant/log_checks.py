@@ -10,9 +10,11 @@ lines of the file, the header being line 1).
 
 from __future__ import annotations
 
+import codecs
+import itertools
+import math
 import os
-from collections.abc import Sequence
-from pathlib import Path
+from collections.abc import Iterator, Sequence
 from typing import Protocol
 
 import numpy as np
@@ -20,6 +22,7 @@ import numpy as np
 from rsp_inertia.plant.errors import InputError
 
 __all__ = [
+    "CHUNK_BYTES",
     "GRID_TOLERANCE",
     "JITTER_LIMIT",
     "MEAN_RATE_TOLERANCE",
@@ -74,13 +77,62 @@ class EncoderLike(Protocol):
         ...
 
 
+CHUNK_BYTES = 1 << 22
+"""Bytes of a table read at a time (about 65,000 rows of a log): with the float array of the
+values, all the memory reading a table takes, whatever its length."""
+
+_NOT_SPACE_FOR_FLOAT = "\x1c\x1d\x1e\x1f"
+"""Separators numpy's text reader takes for white space around a number in ASCII text and
+float() does not: a piece holding one is parsed field by field."""
+
+
 def read_table(path: str | os.PathLike, columns: Sequence[str]) -> np.ndarray:
     """Parse a CSV with exactly ``columns`` as header into an (n, len(columns)) float array.
 
-    Line numbers in messages are 1-based lines of the file (the header is line 1).
+    Every value is ``float()`` of its field. The file is read as UTF-8 (a BOM is skipped)
+    with any line end (\\n, \\r\\n, \\r); blank lines may end it. It is read twice, in
+    pieces of :data:`CHUNK_BYTES`: once to check the encoding and count the lines, once to
+    parse a piece at a time into the preallocated array (numpy's C reader; field by field
+    where it may differ from float() or refuses the piece, to name the fault). The array is
+    column-major: each column is contiguous. Line numbers in messages are 1-based lines of
+    the file (the header is line 1); of several faults, the message names the first of the
+    first kind in this order: header, field count or blank line, not a number, not finite.
     """
+    ncol = len(columns)
     try:
-        text = Path(path).read_text(encoding="utf-8-sig")
+        values = np.empty((ncol, _count_line_breaks(path)))
+        pieces = _pieces_of_lines(path)
+        lines, plain = next(pieces, ([""], True))
+        header_line, lines = lines[0], lines[1:]
+        if not header_line.strip() and not any(
+            line.strip() for piece, _ in itertools.chain([(lines, plain)], pieces) for line in piece
+        ):
+            raise InputError(f"{path}: the file is empty, expected a header {','.join(columns)!r}")
+        header = [name.strip() for name in header_line.split(",")]
+        if header != list(columns):
+            found = header_line.strip()
+            shown = repr(found) if len(found) <= 80 else repr(found[:77]) + "..."
+            raise InputError(f"{path}, line 1: header is {shown}, expected {','.join(columns)!r}")
+
+        rows = 0  # data rows so far, the last of them not blank
+        first_blank = None  # line of the first blank line after the last row read
+        not_a_number = not_finite = None  # the first fault of each kind, raised at the end
+        for lines, plain in itertools.chain([(lines, plain)], pieces):
+            number = rows + 2  # the file's line of lines[0]
+            block = _fast_rows(lines, ncol) if plain and first_blank is None else None
+            if block is None:
+                block, first_blank, fault = _careful_rows(path, columns, lines, number, first_blank)
+                not_a_number = not_a_number or fault
+            if not_finite is None:
+                bad = np.argwhere(~np.isfinite(block))
+                if bad.size:
+                    row, col = bad[0]
+                    not_finite = (
+                        f"{path}, line {number + row}: {columns[col]} = "
+                        f"{float(block[row, col])!r} is not finite"
+                    )
+            values[:, rows : rows + len(block)] = block.T
+            rows += len(block)
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
     except UnicodeDecodeError as exc:
@@ -88,54 +140,123 @@ def read_table(path: str | os.PathLike, columns: Sequence[str]) -> np.ndarray:
     except OSError as exc:
         raise InputError(f"{path}: cannot read ({exc.strerror or exc})") from None
 
-    lines = text.split("\n")
-    while lines and not lines[-1].strip():
-        lines.pop()
-    if not lines:
-        raise InputError(f"{path}: the file is empty, expected a header {','.join(columns)!r}")
+    if not_a_number or not_finite:
+        raise InputError(not_a_number or not_finite)
+    if rows < 2:
+        raise InputError(f"{path}: {rows} data row(s), at least 2 are needed")
+    return values[:, :rows].T
 
-    header = [name.strip() for name in lines[0].split(",")]
-    if header != list(columns):
-        found = lines[0].strip()
-        shown = repr(found) if len(found) <= 80 else repr(found[:77]) + "..."
-        raise InputError(f"{path}, line 1: header is {shown}, expected {','.join(columns)!r}")
 
-    ncol = len(columns)
-    fields_flat: list[str] = []
-    for number, line in enumerate(lines[1:], start=2):
-        row = line.split(",")
-        if len(row) != ncol:
-            if not line.strip():
-                raise InputError(f"{path}, line {number}: blank line inside the data")
-            raise InputError(
-                f"{path}, line {number}: {len(row)} fields, expected {ncol} ({','.join(columns)})"
-            )
-        fields_flat.extend(row)
-    try:
-        values = np.array([float(field) for field in fields_flat], dtype=np.float64)
-    except ValueError:
-        for index, field in enumerate(fields_flat):
+def _byte_pieces(path: str | os.PathLike) -> Iterator[bytes]:
+    """The file's bytes, BOM skipped, in pieces of about :data:`CHUNK_BYTES` that end just
+    after a line feed (the last one at the end of the file)."""
+    with open(path, "rb") as file:
+        rest = file.read(3)
+        if codecs.BOM_UTF8.startswith(rest):  # a BOM, or a file of a part of one: no text
+            rest = b""
+        while chunk := file.read(CHUNK_BYTES):
+            chunk = rest + chunk
+            cut = chunk.rfind(b"\n") + 1
+            if cut:
+                yield chunk[:cut]
+            rest = chunk[cut:]
+        if rest:
+            yield rest
+
+
+def _utf8_pieces(path: str | os.PathLike) -> Iterator[bytes]:
+    """:func:`_byte_pieces`, each checked to be UTF-8.
+
+    A line feed is never part of a multi-byte UTF-8 character, so the pieces decode on their
+    own; a UnicodeDecodeError's ``start`` is counted from the start of the file (after a BOM),
+    as when decoding it whole.
+    """
+    offset = 0
+    for piece in _byte_pieces(path):
+        if not piece.isascii():
             try:
-                float(field)
-            except ValueError:
-                row_index, col = divmod(index, ncol)
-                shown = repr(field.strip())
-                raise InputError(
-                    f"{path}, line {row_index + 2}: {columns[col]} = {shown} is not a number"
-                ) from None
-        raise  # float() failed once but not on any single field: cannot happen
-    values = values.reshape(-1, ncol)
+                piece.decode("utf-8")
+            except UnicodeDecodeError as exc:
+                exc.start += offset
+                raise
+        offset += len(piece)
+        yield piece
 
-    bad = ~np.isfinite(values)
-    if bad.any():
-        row_index, col = np.argwhere(bad)[0]
-        raise InputError(
-            f"{path}, line {row_index + 2}: {columns[col]} = {float(values[row_index, col])!r} "
-            "is not finite"
-        )
-    if len(values) < 2:
-        raise InputError(f"{path}: {len(values)} data row(s), at least 2 are needed")
-    return values
+
+def _count_line_breaks(path: str | os.PathLike) -> int:
+    """Line ends in the file (at least its data rows), its encoding checked on the way."""
+    breaks = 0
+    for piece in _utf8_pieces(path):
+        breaks += piece.count(b"\n")
+        if b"\r" in piece:
+            breaks += piece.count(b"\r") - piece.count(b"\r\n")
+    return breaks
+
+
+def _pieces_of_lines(path: str | os.PathLike) -> Iterator[tuple[list[str], bool]]:
+    """The lines of the file (without their line end; an empty one after a final line end
+    left out) in pieces, each with whether numpy's C reader parses it as float() does (ASCII,
+    none of the separators :data:`_NOT_SPACE_FOR_FLOAT`)."""
+    for piece in _byte_pieces(path):
+        text = piece.decode("utf-8")
+        if "\r" in text:
+            text = text.replace("\r\n", "\n").replace("\r", "\n")
+        lines = text.split("\n")
+        if text.endswith("\n"):
+            lines.pop()
+        yield lines, text.isascii() and not any(c in text for c in _NOT_SPACE_FOR_FLOAT)
+
+
+def _fast_rows(lines: list[str], ncol: int) -> np.ndarray | None:
+    """The (len(lines), ncol) values by numpy's C reader, or None on any fault or a blank
+    line (it skips empty ones)."""
+    if not lines or not lines[0].strip():  # (none at all but blank ones: numpy warns)
+        return None
+    try:
+        block = np.loadtxt(lines, delimiter=",", comments=None, ndmin=2)
+    except ValueError:
+        return None
+    return block if block.shape == (len(lines), ncol) else None
+
+
+def _careful_rows(
+    path: str | os.PathLike,
+    columns: Sequence[str],
+    lines: list[str],
+    number: int,
+    first_blank: int | None,
+) -> tuple[np.ndarray, int | None, str | None]:
+    """Parse lines field by field from line ``number`` on: the rows before any blank line
+    (k, ncol), the first blank line if only blank lines follow it, the first field that is
+    not a number (its message; NaN in the rows). A wrong field count, or a line after a blank
+    one, raises at once.
+    """
+    ncol = len(columns)
+    numbers: list[float] = []
+    fault = None
+    for index, line in enumerate(lines):
+        if not line.strip():
+            if first_blank is None:
+                first_blank = number + index
+            continue
+        if first_blank is not None:
+            raise InputError(f"{path}, line {first_blank}: blank line inside the data")
+        fields = line.split(",")
+        if len(fields) != ncol:
+            raise InputError(
+                f"{path}, line {number + index}: {len(fields)} fields, expected {ncol} "
+                f"({','.join(columns)})"
+            )
+        for col, field in enumerate(fields):
+            try:
+                numbers.append(float(field))
+            except ValueError:
+                numbers.append(math.nan)
+                fault = fault or (
+                    f"{path}, line {number + index}: {columns[col]} = {field.strip()!r} "
+                    "is not a number"
+                )
+    return np.array(numbers, dtype=np.float64).reshape(-1, ncol), first_blank, fault
 
 
 def check_time(
