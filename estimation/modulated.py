@@ -121,13 +121,18 @@ def modulated_rows(
     spring = spring_parameters(device.spring.stiffness, device.spring.zero_angle)
     dt = float(np.median(np.diff(sm.t)))  # the sample period (time stamps may jitter)
     speed = np.abs(sm.omega)
-    moving = np.nonzero(speed > MIN_SPEED_FRACTION * speed.max())[0]
-    rows = np.arange(moving[0], moving[-1] + 1) if moving.size else moving
-    duration = rows.size * dt
+    moving = speed > MIN_SPEED_FRACTION * speed.max()
+    del speed
+    # The rows from the first moving one to the last, as a slice: the pass's arrays are taken
+    # over them as views, not copies (a pass at 10 kHz has millions of rows).
+    first = int(np.argmax(moving))
+    size = moving.size - first - int(np.argmax(moving[::-1])) if moving.any() else 0
+    rows = slice(first, first + size)
+    duration = size * dt
     window = max(min(WINDOW, duration / MIN_SPANS), SHORTEST_WINDOW)
     step = max(1, min(int(step), round(window / dt) // 8))  # 8 Simpson steps a window at least
     span = max(round(window / dt / (step * OVERLAP)), 1) * step * OVERLAP
-    starts = np.arange(0, rows.size - span, span // OVERLAP)
+    starts = np.arange(0, size - span, span // OVERLAP)
     times = sm.t[rows]
     if starts.size < WINDOWS_PER_UNKNOWN:
         raise InputError(
@@ -135,9 +140,9 @@ def modulated_rows(
             f"needs at least {WINDOWS_PER_UNKNOWN * SHORTEST_WINDOW:g} s"
         )
     # The regressors at every step-th row (the windows' starts and ends are among them).
-    grid = rows[: rows.size - (rows.size - 1) % step : step]
+    grid = np.arange(first, first + size - (size - 1) % step, step)
     t, phi, omega = sm.t[grid], sm.phi[grid], sm.omega[grid]
-    var = sm.speed_error_variance()[grid]
+    var = sm.speed_error_variance(grid)
     direction = np.full(grid.size, np.sign(np.median(omega)))
     momentum = momentum_regressor(phi, omega, spring)  # linear in Omega: no noise mean
     # F is quadratic in Omega: the speed noise's mean, var / 2 F'', taken off.

@@ -215,17 +215,21 @@ class Smoothed:
         speed = np.interp(self.t, self.t[rows], speed)
         white_angle = float(angle_error_autocovariance(0.0, self.bandwidth, self.noise_density))
         white_speed = float(speed_error_autocovariance(0.0, self.bandwidth, self.noise_density))
-        return np.sqrt(angle / white_angle), np.sqrt(speed / white_speed)
+        # In place: two arrays of the log's length, not four.
+        angle /= white_angle
+        speed /= white_speed
+        return np.sqrt(angle, out=angle), np.sqrt(speed, out=speed)
 
-    def speed_error_variance(self) -> np.ndarray:
-        """rad^2/s^2, the variance of the smoothed speed's error at each row: the derived
-        stationary value (:func:`speed_error_autocovariance` at 0), larger where the smoother's
-        own covariance says so (the pass's ends), times the quantization lines' share at the
-        row's speed (:attr:`line_scales`); zeros for exact states."""
+    def speed_error_variance(self, rows=slice(None)) -> np.ndarray:
+        """rad^2/s^2, the variance of the smoothed speed's error at each row (or at ``rows``,
+        an index of them): the derived stationary value (:func:`speed_error_autocovariance`
+        at 0), larger where the smoother's own covariance says so (the pass's ends), times the
+        quantization lines' share at the row's speed (:attr:`line_scales`); zeros for exact
+        states."""
         if self.noise_density <= 0.0:
-            return np.zeros(self.t.size)
+            return np.zeros(self.t[rows].size)
         stationary = float(speed_error_autocovariance(0.0, self.bandwidth, self.noise_density))
-        ramp = self.omega_std / np.median(self.omega_std) * self.line_scales[1]
+        ramp = self.omega_std[rows] / np.median(self.omega_std) * self.line_scales[1][rows]
         return stationary * ramp**2
 
     def speed_error_band(self, t: np.ndarray, omega_std: np.ndarray) -> np.ndarray:
@@ -365,9 +369,23 @@ def _speed_kernel() -> tuple[np.ndarray, np.ndarray]:
     """
     s = np.linspace(0.0, KERNEL_SPAN, 2001)
     x = np.linspace(0.0, 8.0, 4001)
-    f = x * x / (1.0 + x**6) ** 2
-    g = trapezoid(f[None, :] * np.cos(s[:, None] * x[None, :]), x, axis=1) / math.pi
-    return s, g
+    return s, _cosine_transform(x * x / (1.0 + x**6) ** 2, x, s)
+
+
+_COSINE_CHUNK = 256
+"""Values of s per block of :func:`_cosine_transform` (a block is s x 4,001 values: 8 MB)."""
+
+
+def _cosine_transform(f: np.ndarray, x: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """(1/pi) int f(x) cos(x s) dx at each of ``s`` (1-D), by the trapezoid rule on ``x``.
+
+    In blocks of _COSINE_CHUNK values of s: the whole (s, x) table of cosines is 160 MB for
+    the 1,668 lags of a 10 kHz log's angle error (each row's sum is the same either way)."""
+    g = np.empty(s.size)
+    for start in range(0, s.size, _COSINE_CHUNK):
+        block = s[start : start + _COSINE_CHUNK, None]
+        g[start : start + _COSINE_CHUNK] = trapezoid(f * np.cos(block * x), x, axis=1) / math.pi
+    return g
 
 
 def angle_error_autocovariance(tau, bandwidth: float, noise_density: float) -> np.ndarray:
@@ -386,7 +404,7 @@ def angle_error_autocovariance(tau, bandwidth: float, noise_density: float) -> n
     flat = s.reshape(-1)
     g = np.zeros(flat.size)
     inside = flat < KERNEL_SPAN
-    g[inside] = trapezoid(f[None, :] * np.cos(flat[inside, None] * x[None, :]), x, axis=1) / math.pi
+    g[inside] = _cosine_transform(f, x, flat[inside])
     return noise_density * bandwidth * g.reshape(s.shape)
 
 
