@@ -221,8 +221,8 @@ def estimate_pass(
         rate = 1.0 / float(np.median(np.diff(log.t))) if sample_rate is None else sample_rate
         correction, correction_back, gaps = gap_work(log, smoothed, rate)
         if gaps is not None:
-            work = work + correction
-            work_back = work_back + correction_back
+            work += correction  # motor_work's own arrays, added to in place
+            work_back += correction_back
         angle = angle_work_variance(log.torque, smoothed)
     return PassEstimate(
         log=log,
@@ -250,7 +250,7 @@ def angle_work_variance(torque: np.ndarray, smoothed: Smoothed) -> np.ndarray:
 
     The cumulative sum of du_k sum_j R_phi((k - j) dt) du_j over the rows k = 1 .. K - 1,
     du_k = u_k - u_{k-1} each scaled by the quantization lines' angle error at its row over the
-    white one (:attr:`rsp_inertia.estimation.smoothing.Smoothed.line_scales`), dt the log's
+    white one (:meth:`rsp_inertia.estimation.smoothing.Smoothed.line_scale`), dt the log's
     median step (R_phi: :func:`rsp_inertia.estimation.smoothing.angle_error_autocovariance`,
     zero beyond w_c |tau| = KERNEL_SPAN). A single increment is a product of one draw of the
     torque's changes and can be negative; over a stretch of ANGLE_BLOCK_SPAN / w_c their sum is
@@ -260,25 +260,30 @@ def angle_work_variance(torque: np.ndarray, smoothed: Smoothed) -> np.ndarray:
     u = np.asarray(torque, dtype=float)
     n = u.size
     du = np.diff(u)
-    out = np.zeros(n)
     if du.size == 0:
-        return out
+        return np.zeros(n)
     dt = float(np.median(np.diff(smoothed.t)))
     reach = min(int(KERNEL_SPAN / (smoothed.bandwidth * dt)), du.size - 1)
     half = angle_error_autocovariance(
         np.arange(reach + 1) * dt, smoothed.bandwidth, smoothed.noise_density
     )
     kernel = np.concatenate([half[:0:-1], half])  # lags -reach .. reach
-    du = du * smoothed.line_scales[0][1:]
+    du *= smoothed.line_scale("angle", slice(1, None))
     # Overlap-add FFT convolution: the kernel spans KERNEL_SPAN / w_c of rows, 3,300 at 10 kHz
     # on the default stage 1, which a direct sum would pay at every row.
-    increments = du * oaconvolve(du, kernel, mode="same")
+    smeared = oaconvolve(du, kernel, mode="same")
     stretch = max(math.ceil(ANGLE_BLOCK_SPAN / (smoothed.bandwidth * dt)), 1)
-    padded = np.zeros(math.ceil(du.size / stretch) * stretch)
-    padded[: du.size] = increments
-    share = np.maximum(padded.reshape(-1, stretch).sum(axis=1), 0.0)
-    increments = np.repeat(share / stretch, stretch)[: du.size]
-    out[2:] = np.cumsum(increments)[: n - 2]
+    # The increments, padded with zeros to whole stretches, each stretch's sum then spread
+    # over its rows in place: no more arrays of the log's length than these and the result.
+    increments = np.zeros(math.ceil(du.size / stretch) * stretch)
+    increments[: du.size] = du
+    increments[: du.size] *= smeared
+    del du, smeared
+    stretches = increments.reshape(-1, stretch)
+    share = np.maximum(stretches.sum(axis=1), 0.0)
+    stretches[:] = (share / stretch)[:, None]
+    out = np.zeros(n)
+    np.cumsum(increments[: n - 2], out=out[2:])
     return out
 
 
@@ -358,13 +363,26 @@ def motor_work(
     over the increments of ``phi``).
     """
     dphi = np.diff(phi)
-    steps = np.concatenate([[0.0], np.cumsum(dphi * dphi)])
+    steps = _running_sum(dphi * dphi)
     mean = float(np.mean(torque)) if constant else None
-    held = np.full(dphi.size, mean) if constant else np.asarray(torque[:-1], dtype=float)
-    back = np.concatenate([[0.0], np.cumsum(power_flow_split(held, dphi)[1] * dphi)])
+    held = mean if constant else np.asarray(torque[:-1], dtype=float)  # a number: no array
+    back = power_flow_split(held, dphi)[1]
+    back *= dphi
+    back = _running_sum(back)
     if constant:
-        return mean * (phi - phi[0]), back, steps, mean
-    return np.concatenate([[0.0], np.cumsum(held * dphi)]), back, steps, None
+        work = phi - phi[0]
+        work *= mean
+        return work, back, steps, mean
+    return _running_sum(held * dphi), back, steps, None
+
+
+def _running_sum(increments: np.ndarray) -> np.ndarray:
+    """[0, x_0, x_0 + x_1, ...]: the sum of ``increments`` before each row (n + 1 values),
+    summed into place (no concatenated copy)."""
+    out = np.empty(increments.size + 1)
+    out[0] = 0.0
+    np.cumsum(increments, out=out[1:])
+    return out
 
 
 @dataclass(frozen=True)

@@ -164,7 +164,7 @@ BANDWIDTH_FACTOR = 10.0
 """Smoother bandwidth over the highest speed harmonic 2 Omega_max (bias (1/10)^6 = 1e-6)."""
 
 LINE_AVERAGE = 0.05
-"""s over which the quantization lines' variances are averaged (:attr:`Smoothed.line_scales`)."""
+"""s over which the quantization lines' variances are averaged (:meth:`Smoothed.line_scale`)."""
 
 _MIN_BANDWIDTH = 20.0
 """rad/s: floor on the smoother bandwidth for very slow passes."""
@@ -191,18 +191,38 @@ class Smoothed:
     noise_density: float = 0.0
     """r = (q^2/12) dt, rad^2 s: spectral density of the readings' quantization noise."""
 
-    @functools.cached_property
+    @property
     def line_scales(self) -> tuple[np.ndarray, np.ndarray]:
-        """(angle, speed) at every row: the quantization lines' standard deviations of the
-        smoothed angle's and speed's errors over the white values (module docstring), from the
-        smoothed speed, averaged over ``LINE_AVERAGE`` s about the row (the speed's own
-        ripple and noise smear the lines' resonances over that much)."""
+        """(angle, speed) at every row: :meth:`line_scale` of both."""
+        return self.line_scale("angle"), self.line_scale("speed")
+
+    def line_scale(self, part: str, rows=slice(None)) -> np.ndarray:
+        """The quantization lines' standard deviation of the smoothed angle's (``part``
+        "angle") or speed's ("speed") error over the white value (module docstring) at every
+        row, or at ``rows`` (an index of them), from the smoothed speed, averaged over
+        ``LINE_AVERAGE`` s about the row (the speed's own ripple and noise smear the lines'
+        resonances over that much); ones for exact states.
+
+        Interpolated from :attr:`_line_variances` at each call: a pass keeps no array of its
+        length for it (two per pass were 90 MB at 10 kHz over 600 s).
+        """
+        t = self.t[rows]
         if self.noise_density <= 0.0:  # exact states: no quantization
-            return np.ones(self.t.size), np.ones(self.t.size)
+            return np.ones(t.size)
+        times, variances = self._line_variances
+        white = angle_error_autocovariance if part == "angle" else speed_error_autocovariance
+        scale = np.interp(t, times, variances[part])
+        scale /= float(white(0.0, self.bandwidth, self.noise_density))
+        return np.sqrt(scale, out=scale)
+
+    @functools.cached_property
+    def _line_variances(self) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """(times, {"angle": ..., "speed": ...}): the quantization lines' variances of the
+        smoothed angle's and speed's errors (:func:`quantization_error_variance`) at the
+        smoothed speed every LINE_AVERAGE / 10 s (the speed changes little in between) and
+        the last row, each averaged over LINE_AVERAGE."""
         dt = float(np.median(np.diff(self.t)))
         quantum = math.sqrt(12.0 * self.noise_density / dt)
-        # Evaluated every LINE_AVERAGE / 10 (the speed changes little in between), averaged
-        # over LINE_AVERAGE, interpolated to the rows.
         stride = max(round(LINE_AVERAGE / dt / 10), 1)
         rows = np.unique(np.append(np.arange(0, self.t.size, stride), self.t.size - 1))
         angle, speed = quantization_error_variance(self.omega[rows], quantum, dt, self.bandwidth)
@@ -211,25 +231,18 @@ class Smoothed:
         pad = width // 2
         angle = np.convolve(np.pad(angle, pad, mode="edge"), kernel, mode="valid")
         speed = np.convolve(np.pad(speed, pad, mode="edge"), kernel, mode="valid")
-        angle = np.interp(self.t, self.t[rows], angle)
-        speed = np.interp(self.t, self.t[rows], speed)
-        white_angle = float(angle_error_autocovariance(0.0, self.bandwidth, self.noise_density))
-        white_speed = float(speed_error_autocovariance(0.0, self.bandwidth, self.noise_density))
-        # In place: two arrays of the log's length, not four.
-        angle /= white_angle
-        speed /= white_speed
-        return np.sqrt(angle, out=angle), np.sqrt(speed, out=speed)
+        return self.t[rows], {"angle": angle, "speed": speed}
 
     def speed_error_variance(self, rows=slice(None)) -> np.ndarray:
         """rad^2/s^2, the variance of the smoothed speed's error at each row (or at ``rows``,
         an index of them): the derived stationary value (:func:`speed_error_autocovariance`
         at 0), larger where the smoother's own covariance says so (the pass's ends), times the
-        quantization lines' share at the row's speed (:attr:`line_scales`); zeros for exact
+        quantization lines' share at the row's speed (:meth:`line_scale`); zeros for exact
         states."""
         if self.noise_density <= 0.0:
             return np.zeros(self.t[rows].size)
         stationary = float(speed_error_autocovariance(0.0, self.bandwidth, self.noise_density))
-        ramp = self.omega_std[rows] / np.median(self.omega_std) * self.line_scales[1][rows]
+        ramp = self.omega_std[rows] / np.median(self.omega_std) * self.line_scale("speed", rows)
         return stationary * ramp**2
 
     def speed_error_band(self, t: np.ndarray, omega_std: np.ndarray) -> np.ndarray:
@@ -514,13 +527,13 @@ def smooth_log(log: Log, quantum: float, source: str = "log") -> Smoothed:
     # The transition and process noise of each step between block states (one per distinct
     # step length: regular blocks share theirs).
     lengths, which = np.unique(steps, return_inverse=True)
-    F = np.stack([_transition(T) for T in lengths])[which]
+    F_of = np.stack([_transition(T) for T in lengths])  # indexed per step, not stacked per step
     Q_of = [_process_noise(T, q_j) for T in lengths]
     readings = functools.partial(_block_readings, t, z, centres, block, variance)
     progress = functools.partial(report, f"{source}: smoothing")
-    means, covs, predicted = _kalman_filter(x0, P0, F, Q_of, which, readings, progress)
-    xs, speed_var = _rts_smoother(means, covs, predicted, F)
-    del means, covs, predicted, F
+    means, covs, predicted = _kalman_filter(x0, P0, F_of, Q_of, which, readings, progress)
+    xs, speed_var = _rts_smoother(means, covs, predicted, F_of, which)
+    del means, covs, predicted
 
     # Every sample from the block states (Hermite between neighbours, Taylor outside), in
     # chunks of rows: the interpolation's temporaries stay small whatever the log's length.
@@ -587,7 +600,7 @@ def _block_readings(
     return A, b, reference
 
 
-def _kalman_filter(x0, P0, F, Q_of, which, readings, progress):
+def _kalman_filter(x0, P0, F_of, Q_of, which, readings, progress):
     """The forward Kalman filter over the block states, its update in information form.
 
     State k's prediction (x, P~) from state k - 1 is (F x, F P F^T + Q); the update adds block
@@ -602,10 +615,11 @@ def _kalman_filter(x0, P0, F, Q_of, which, readings, progress):
     the first blocks' readings, block 0's among them (filterpy's UKF, which this filter
     replaced, made no update before its first prediction; its numbers are kept).
 
-    Returns the filtered means (n, 3), covariances (n, 3, 3) and the predictions'
-    covariances P~ (n, 3, 3; the RTS gains need them; P~_0 = P0).
+    Step k's transition and process noise are ``F_of[which[k]]`` and ``Q_of[which[k]]``
+    (one per distinct step length). Returns the filtered means (n, 3), covariances (n, 3, 3)
+    and the predictions' covariances P~ (n, 3, 3; the RTS gains need them; P~_0 = P0).
     """
-    n = F.shape[0] + 1
+    n = which.size + 1
     means = np.empty((n, 3))
     covs = np.empty((n, 3, 3))
     predicted = np.empty((n, 3, 3))
@@ -620,7 +634,7 @@ def _kalman_filter(x0, P0, F, Q_of, which, readings, progress):
             if k == 0:  # the start already holds block 0's readings (docstring)
                 means[0], covs[0], predicted[0] = x, P, P
                 continue
-            Fk = F[k - 1]
+            Fk = F_of[which[k - 1]]
             x = Fk @ x
             P = Fk @ P @ Fk.T + Q_of[which[k - 1]]
             predicted[k] = P
@@ -635,7 +649,7 @@ def _kalman_filter(x0, P0, F, Q_of, which, readings, progress):
     return means, covs, predicted
 
 
-def _rts_smoother(means, covs, predicted, F) -> tuple[np.ndarray, np.ndarray]:
+def _rts_smoother(means, covs, predicted, F_of, which) -> tuple[np.ndarray, np.ndarray]:
     """The Rauch-Tung-Striebel pass backward over the filter's output: smoothed means (n, 3)
     and the smoothed speed's variance (n,).
 
@@ -644,6 +658,7 @@ def _rts_smoother(means, covs, predicted, F) -> tuple[np.ndarray, np.ndarray]:
     as G_k P~_{k+1} G_k^T = G_k F_k P_k these are x^_k = c_k + G_k x^_{k+1} and
     P^_k = C_k + G_k P^_{k+1} G_k^T with c_k = x_k - G_k F_k x_k, C_k = P_k - G_k F_k P_k,
     computed for _BLOCKS_CHUNK steps at a time, vectorised; the loop does the recursion.
+    F_k is ``F_of[which[k]]`` (one matrix per distinct step length, as in the filter).
     """
     n = means.shape[0]
     xs = np.empty((n, 3))
@@ -653,10 +668,11 @@ def _rts_smoother(means, covs, predicted, F) -> tuple[np.ndarray, np.ndarray]:
     speed_var[-1] = P[1, 1]
     for stop in range(n - 1, 0, -_BLOCKS_CHUNK):
         steps = slice(max(stop - _BLOCKS_CHUNK, 0), stop)
+        F = F_of[which[steps]]
         # G = P F^T P~^-1, the transpose of P~^-1 F P (P and P~ symmetric).
-        FP = F[steps] @ covs[steps]
+        FP = F @ covs[steps]
         G = np.swapaxes(np.linalg.solve(predicted[steps.start + 1 : stop + 1], FP), 1, 2)
-        GF = G @ F[steps]
+        GF = G @ F
         c = means[steps] - (GF @ means[steps, :, None])[:, :, 0]
         C = covs[steps] - GF @ covs[steps]
         for j in range(stop - steps.start - 1, -1, -1):

@@ -198,10 +198,9 @@ def test_the_kalman_smoother_solves_the_least_squares_of_its_model():
     Q = [_process_noise(T, q_j) for T in steps]
     x0, P0 = np.array([z[0], 5.0, -4.0]), np.diag([q * q, 1.0, 100.0])
     readings = functools.partial(_block_readings, t, z, centres, block, q * q / 12)
-    means, covs, predicted = _kalman_filter(
-        x0, P0, F, Q, np.arange(n - 1), readings, lambda *_: None
-    )
-    xs, speed_var = _rts_smoother(means, covs, predicted, F)
+    which = np.arange(n - 1)  # every step its own transition
+    means, covs, predicted = _kalman_filter(x0, P0, F, Q, which, readings, lambda *_: None)
+    xs, speed_var = _rts_smoother(means, covs, predicted, F, which)
 
     A, b, reference = readings(slice(0, n))
     N = np.zeros((3 * n, 3 * n))
