@@ -422,7 +422,7 @@ def sample_at(est: PassEstimate, phi: np.ndarray) -> AngleSample:
     rising = sm.phi[-1] > sm.phi[0]
     order = slice(None) if rising else slice(None, None, -1)
     ang = sm.phi[order]
-    if np.any(np.diff(ang) <= 0):
+    if np.any(ang[1:] <= ang[:-1]):  # (not np.diff: no float array of the pass's length)
         # Near rest the smoothed angle can stall; keep the monotone envelope for the search.
         ang = np.maximum.accumulate(ang)
     idx = np.clip(np.searchsorted(ang, phi, side="right") - 1, 0, len(ang) - 2)

@@ -533,7 +533,7 @@ def smooth_log(log: Log, quantum: float, source: str = "log") -> Smoothed:
     progress = functools.partial(report, f"{source}: smoothing")
     means, covs, predicted = _kalman_filter(x0, P0, F_of, Q_of, which, readings, progress)
     xs, speed_var = _rts_smoother(means, covs, predicted, F_of, which)
-    del means, covs, predicted
+    del means, covs, predicted, readings, z  # before the rows' arrays are made
 
     # Every sample from the block states (Hermite between neighbours, Taylor outside), in
     # chunks of rows: the interpolation's temporaries stay small whatever the log's length.
@@ -558,8 +558,8 @@ def smooth_log(log: Log, quantum: float, source: str = "log") -> Smoothed:
 _BLOCKS_CHUNK = 4096
 """Blocks whose readings' sums, or whose smoother gains, are computed at once."""
 
-_ROWS_CHUNK = 1 << 18
-"""Rows interpolated from the block states at once."""
+_ROWS_CHUNK = 1 << 16
+"""Rows interpolated from the block states at once (their temporaries: ~10 MB)."""
 
 
 def _block_readings(
