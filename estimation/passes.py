@@ -215,15 +215,16 @@ def estimate_pass(
     sigma = torque_noise(log) if sigma_torque is None else sigma_torque
     p_value = constancy_p_value(log, smoothed.phi, sigma) if constant_torque else None
     constant = p_value is not None and p_value >= CONSTANCY_TAIL
+    # The angle term first: its convolution's temporaries come before the work's arrays.
+    angle = None if constant else angle_work_variance(log.torque, smoothed)
     work, work_back, steps, mean = motor_work(log.torque, smoothed.phi, constant)
-    gaps = angle = None
+    gaps = None
     if mean is None:
         rate = 1.0 / float(np.median(np.diff(log.t))) if sample_rate is None else sample_rate
         correction, correction_back, gaps = gap_work(log, smoothed, rate)
         if gaps is not None:
             work += correction  # motor_work's own arrays, added to in place
             work_back += correction_back
-        angle = angle_work_variance(log.torque, smoothed)
     return PassEstimate(
         log=log,
         smoothed=smoothed,

@@ -179,7 +179,13 @@ def dropped_samples(t: np.ndarray, sample_rate: float) -> np.ndarray:
     >>> dropped_samples(np.array([0.0, 0.0011, 0.0019, 0.0041]), 1000.0)
     array([0, 0, 1])
     """
-    return np.maximum(np.rint(np.diff(t) * sample_rate).astype(np.int64) - 1, 0)
+    periods = np.diff(t)
+    periods *= sample_rate  # in place: a log's length of floats and of integers, no more
+    np.rint(periods, out=periods)
+    missing = periods.astype(np.int64)
+    del periods
+    missing -= 1
+    return np.maximum(missing, 0, out=missing)
 
 
 def align_counter(log: Log, phi: float, encoder: EncoderLike) -> Log:
