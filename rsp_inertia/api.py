@@ -20,7 +20,7 @@ the command line prints after ``rsp-inertia: error:``. Nothing is printed: what 
 line shows while it works goes to the optional ``progress`` callable, one line (a ``str``)
 at a time.
 
-The heavy modules (numpy's stack, CasADi, filterpy, scipy.stats, matplotlib) are imported
+The heavy modules (numpy's stack, CasADi, scipy.stats, matplotlib) are imported
 inside the functions, so that ``import rsp_inertia`` stays cheap. User documentation:
 docs/api.md.
 """

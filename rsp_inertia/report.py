@@ -29,7 +29,7 @@ REPORT_FILE = "report.html"
 FIGURES = ("errors.png", "design.png", "plan.png", "encoder_error.png")
 """Figures inlined when present, then every motion_stageN.png and tracking_stageN.png."""
 
-PACKAGES = ("rsp-inertia", "numpy", "scipy", "casadi", "filterpy", "control", "matplotlib")
+PACKAGES = ("rsp-inertia", "numpy", "scipy", "casadi", "control", "matplotlib")
 """Whose installed versions the report records."""
 
 INPUT_PATTERNS = ("device.toml", "calibration.toml", "reference.toml", "stage*/*.csv")

@@ -205,7 +205,7 @@ def test_import_loads_no_numerical_stack():
         "import sys, rsp_inertia\n"
         "rsp_inertia.identify, rsp_inertia.IdentifyResult, rsp_inertia.InputError\n"
         "rsp_inertia.__version__\n"
-        "heavy = ('numpy', 'scipy', 'casadi', 'filterpy', 'matplotlib', 'control')\n"
+        "heavy = ('numpy', 'scipy', 'casadi', 'matplotlib', 'control')\n"
         "print(sorted({m.split('.')[0] for m in sys.modules} & set(heavy)))\n"
     )
     out = subprocess.run(
