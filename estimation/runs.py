@@ -24,7 +24,16 @@ from rsp_inertia.plant.logs import Log
 from rsp_inertia.plant.progress import report
 from rsp_inertia.plant.transducers import true_angle
 
-__all__ = ["ExperimentLogs", "Sources", "balance_runs", "corrected_log", "estimate_run", "runs"]
+__all__ = [
+    "ExperimentLogs",
+    "Sources",
+    "balance_runs",
+    "corrected_log",
+    "estimate_forward_run",
+    "estimate_run",
+    "run_logs",
+    "runs",
+]
 
 T = TypeVar("T")
 
@@ -93,6 +102,20 @@ def corrected_log(log: Log, encoder) -> Log:
     return Log(t=log.t, phi=true_angle(log.phi, encoder), torque=log.torque)
 
 
+def run_logs(
+    device: Device, braking: Log, reverse: Log, direction: str, encoder=()
+) -> tuple[Log, Log]:
+    """A run's braking and reverse logs as its passes are estimated: the readings taken back
+    to the true angle (:func:`corrected_log`, ``encoder`` the error's coefficients) and a
+    backward run mirrored into the forward coordinate
+    (rsp_inertia.estimation.balance.mirror_log)."""
+    braking, reverse = corrected_log(braking, encoder), corrected_log(reverse, encoder)
+    if direction == "backward":
+        q = device.encoder.quantum
+        braking, reverse = mirror_log(braking, q), mirror_log(reverse, q)
+    return braking, reverse
+
+
 def estimate_run(
     device: Device,
     braking: Log,
@@ -108,11 +131,26 @@ def estimate_run(
     run mirrored); the sources name the logs in messages. ``braking_smoothed``: the
     (mirrored) braking log's smoothed states when already computed (rsp_inertia.ocp.program's).
     ``encoder``: the encoder's error coefficients; the readings are taken back to the true
-    angle first (:func:`corrected_log`)."""
+    angle first (:func:`corrected_log`). :func:`run_logs` then
+    :func:`estimate_forward_run`."""
+    braking, reverse = run_logs(device, braking, reverse, direction, encoder)
+    return estimate_forward_run(
+        device, braking, reverse, warnings, braking_source, reverse_source, braking_smoothed
+    )
+
+
+def estimate_forward_run(
+    device: Device,
+    braking: Log,
+    reverse: Log,
+    warnings: list[str],
+    braking_source: str = "braking",
+    reverse_source: str = "reverse",
+    braking_smoothed: Smoothed | None = None,
+) -> tuple[PassEstimate, PassEstimate]:
+    """Both passes of one run whose logs :func:`run_logs` made (true angles, the forward
+    coordinate), checked and estimated; the arguments as :func:`estimate_run`'s."""
     q = device.encoder.quantum
-    braking, reverse = corrected_log(braking, encoder), corrected_log(reverse, encoder)
-    if direction == "backward":
-        braking, reverse = mirror_log(braking, q), mirror_log(reverse, q)
     check_braking_monotone(braking, braking_source)
     rate = device.encoder.sample_rate
     b_est = estimate_pass(
@@ -163,9 +201,11 @@ def balance_runs(
     prefix = "" if logs.sources.experiment is None else f"{logs.sources.experiment}: "
     balances, kept = [], []
     for k, (stage, direction) in enumerate(expected, 1):
-        b_est, r_est = estimate_run(
-            device, *logs.runs[stage, direction], direction, warnings,
-            *logs.sources.run(stage, direction), encoder=encoder,
+        # The logs as read go as soon as run_logs has made the ones estimated (a backward
+        # run's mirrored, corrected readings): they are not held through the estimation.
+        b_est, r_est = estimate_forward_run(
+            device, *run_logs(device, *logs.runs[stage, direction], direction, encoder),
+            warnings, *logs.sources.run(stage, direction),
         )
         sign = 1 if direction == "forward" else -1
         balances.append(stage_balance(device, stage, b_est, r_est, sign))
