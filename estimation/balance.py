@@ -62,6 +62,7 @@ from rsp_inertia.estimation.passes import (
     speed_error_band,
     work_noise,
 )
+from rsp_inertia.estimation.smoothing import median_step
 from rsp_inertia.estimation.whitening import Noise, add_bands, scaled_band
 from rsp_inertia.plant.config import Device, Stage
 from rsp_inertia.plant.errors import InputError
@@ -212,8 +213,9 @@ def usable_range(braking: PassEstimate, reverse: PassEstimate, stage: int) -> tu
     """Angles covered by both passes, at a braking speed worth balancing (constants above)."""
     b, r = braking.smoothed, reverse.smoothed
     lo = max(b.phi[0], r.phi[-1]) + EDGE_MARGIN
-    fast = np.nonzero(b.omega >= MIN_SPEED_FRACTION * b.omega.max())[0]
-    hi = min(b.phi[fast[-1]], r.phi[0]) - EDGE_MARGIN
+    fast = b.omega >= MIN_SPEED_FRACTION * b.omega.max()
+    last_fast = fast.size - 1 - int(np.argmax(fast[::-1]))  # (no index array of the pass)
+    hi = min(b.phi[last_fast], r.phi[0]) - EDGE_MARGIN
     if hi - lo < MIN_TURNS * 2 * math.pi:
         raise InputError(
             f"{braking.source} and {reverse.source}: stage {stage}: the passes overlap over "
@@ -437,7 +439,7 @@ def friction_slope_prior(
     if direction < 0:
         device = mirrored_device(device)
     passes = [(braking.log, braking.smoothed), (reverse.log, reverse.smoothed)]
-    step = max(1, round(PRIOR_QUADRATURE / float(np.median(np.diff(braking.smoothed.t)))))
+    step = max(1, round(PRIOR_QUADRATURE / median_step(braking.smoothed.t)))
     try:
         values, cov = fit_modulated(
             device, passes, PRIOR_UNKNOWNS, f"{braking.source} and {reverse.source}", step,
@@ -459,7 +461,8 @@ def balance_spacing(braking: PassEstimate, reverse: PassEstimate) -> float:
     """rad between the balance angles: POSITION_SPACING_BANDWIDTHS smoother time constants
     at the passes' top speed."""
     bandwidth = min(braking.smoothed.bandwidth, reverse.smoothed.bandwidth)
-    top = max(np.abs(braking.smoothed.omega).max(), np.abs(reverse.smoothed.omega).max())
+    # max |Omega| as max(max Omega, -min Omega): no float copy of either pass for np.abs.
+    top = max(max(s.omega.max(), -s.omega.min()) for s in (braking.smoothed, reverse.smoothed))
     return POSITION_SPACING_BANDWIDTHS / bandwidth * top
 
 

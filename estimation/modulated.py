@@ -48,7 +48,7 @@ import numpy as np
 from scipy.integrate import simpson
 from scipy.optimize import lsq_linear
 
-from rsp_inertia.estimation.smoothing import Smoothed
+from rsp_inertia.estimation.smoothing import Smoothed, median_step
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.logs import Log
@@ -119,10 +119,10 @@ def modulated_rows(
         If the pass moves for less than WINDOWS_PER_UNKNOWN shortest windows.
     """
     spring = spring_parameters(device.spring.stiffness, device.spring.zero_angle)
-    dt = float(np.median(np.diff(sm.t)))  # the sample period (time stamps may jitter)
-    speed = np.abs(sm.omega)
-    moving = speed > MIN_SPEED_FRACTION * speed.max()
-    del speed
+    dt = median_step(sm.t)  # the sample period (time stamps may jitter)
+    # |Omega| > threshold through Omega's sign: no float copy of the pass for np.abs.
+    threshold = MIN_SPEED_FRACTION * max(sm.omega.max(), -sm.omega.min())
+    moving = (sm.omega > threshold) | (sm.omega < -threshold)
     # The rows from the first moving one to the last, as a slice: the pass's arrays are taken
     # over them as views, not copies (a pass at 10 kHz has millions of rows).
     first = int(np.argmax(moving))

@@ -70,6 +70,7 @@ from rsp_inertia.estimation.smoothing import (
     Smoothed,
     angle_error_autocovariance,
     hermite,
+    median_step,
     smooth_log,
 )
 from rsp_inertia.estimation.whitening import Noise
@@ -220,7 +221,7 @@ def estimate_pass(
     work, work_back, steps, mean = motor_work(log.torque, smoothed.phi, constant)
     gaps = None
     if mean is None:
-        rate = 1.0 / float(np.median(np.diff(log.t))) if sample_rate is None else sample_rate
+        rate = 1.0 / median_step(log.t) if sample_rate is None else sample_rate
         correction, correction_back, gaps = gap_work(log, smoothed, rate)
         if gaps is not None:
             work += correction  # motor_work's own arrays, added to in place
@@ -263,7 +264,7 @@ def angle_work_variance(torque: np.ndarray, smoothed: Smoothed) -> np.ndarray:
     du = np.diff(u)
     if du.size == 0:
         return np.zeros(n)
-    dt = float(np.median(np.diff(smoothed.t)))
+    dt = median_step(smoothed.t)
     reach = min(int(KERNEL_SPAN / (smoothed.bandwidth * dt)), du.size - 1)
     half = angle_error_autocovariance(
         np.arange(reach + 1) * dt, smoothed.bandwidth, smoothed.noise_density

@@ -146,6 +146,7 @@ __all__ = [
     "block_speed_bias",
     "hermite",
     "jerk_density",
+    "median_step",
     "noise_density",
     "quantization_error_variance",
     "smooth_log",
@@ -216,12 +217,18 @@ class Smoothed:
         return np.sqrt(scale, out=scale)
 
     @functools.cached_property
+    def _steady_omega_std(self) -> float:
+        """rad/s, the median of ``omega_std``: the smoother's steady value, which the speed
+        error's variance is scaled from (once per pass: the median copies the array)."""
+        return float(np.median(self.omega_std))
+
+    @functools.cached_property
     def _line_variances(self) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         """(times, {"angle": ..., "speed": ...}): the quantization lines' variances of the
         smoothed angle's and speed's errors (:func:`quantization_error_variance`) at the
         smoothed speed every LINE_AVERAGE / 10 s (the speed changes little in between) and
         the last row, each averaged over LINE_AVERAGE."""
-        dt = float(np.median(np.diff(self.t)))
+        dt = median_step(self.t)
         quantum = math.sqrt(12.0 * self.noise_density / dt)
         stride = max(round(LINE_AVERAGE / dt / 10), 1)
         rows = np.unique(np.append(np.arange(0, self.t.size, stride), self.t.size - 1))
@@ -242,7 +249,7 @@ class Smoothed:
         if self.noise_density <= 0.0:
             return np.zeros(self.t[rows].size)
         stationary = float(speed_error_autocovariance(0.0, self.bandwidth, self.noise_density))
-        ramp = self.omega_std[rows] / np.median(self.omega_std) * self.line_scale("speed", rows)
+        ramp = self.omega_std[rows] / self._steady_omega_std * self.line_scale("speed", rows)
         return stationary * ramp**2
 
     def speed_error_band(self, t: np.ndarray, omega_std: np.ndarray) -> np.ndarray:
@@ -274,7 +281,7 @@ class Smoothed:
         width = 1
         while width < n and np.min(np.abs(t[width:] - t[: n - width])) < span:
             width += 1
-        ramp = np.asarray(omega_std) / np.median(self.omega_std)
+        ramp = np.asarray(omega_std) / self._steady_omega_std
         band = np.zeros((width, n))
         for d in range(width):
             tau = t[d:] - t[: n - d]
@@ -311,7 +318,7 @@ def jerk_density(log: Log, quantum: float) -> tuple[float, float]:
     Omega_max is taken from differences of the readings over BLOCK samples (robust to the
     quantization: BLOCK counts of error over BLOCK samples).
     """
-    dt = float(np.median(np.diff(log.t)))
+    dt = median_step(log.t)
     bandwidth = smoother_bandwidth(top_speed(log))
     return noise_density(quantum, dt) * bandwidth**6, bandwidth
 
@@ -324,6 +331,12 @@ def top_speed(log: Log) -> float:
         return 0.0
     speeds = np.abs(log.phi[span:] - log.phi[:-span]) / (log.t[span:] - log.t[:-span])
     return float(speeds.max()) if speeds.size else 0.0
+
+
+def median_step(t: np.ndarray) -> float:
+    """s, the median of a log's time steps: its sample period, whatever its jitter and dropped
+    samples. The steps are partitioned in place (one array of the log's length, not two)."""
+    return float(np.median(np.diff(t), overwrite_input=True))
 
 
 def smoother_bandwidth(omega_max: float) -> float:
@@ -499,7 +512,7 @@ def smooth_log(log: Log, quantum: float, source: str = "log") -> Smoothed:
     if n < 4 * BLOCK:
         raise InputError(f"{source}: {n} rows are too few to smooth (at least {4 * BLOCK})")
     t = np.asarray(log.t)
-    dt = float(np.median(np.diff(t)))
+    dt = median_step(t)
     q_j, bandwidth = jerk_density(log, quantum)
     block = block_length(bandwidth, dt)
     n_blocks = math.ceil(n / block)
