@@ -91,6 +91,10 @@ WINDOWS_PER_UNKNOWN = 2
 shorter than about 0.16 s, whose windows are the shortest, fits fewer than all)."""
 
 
+_REGRESSOR_ROWS = 1 << 14
+"""Rows whose regressors :func:`modulated_rows` evaluates at once."""
+
+
 def modulated_rows(
     device: Device,
     log: Log,
@@ -144,10 +148,17 @@ def modulated_rows(
     t, phi, omega = sm.t[grid], sm.phi[grid], sm.omega[grid]
     var = sm.speed_error_variance(grid)
     direction = np.full(grid.size, np.sign(np.median(omega)))
-    momentum = momentum_regressor(phi, omega, spring)  # linear in Omega: no noise mean
-    # F is quadratic in Omega: the speed noise's mean, var / 2 F'', taken off.
-    force = force_regressor(phi, omega, spring, direction=direction)
-    force -= force_curvature_regressor(phi, spring, direction=direction) * (var / 2)[:, None]
+    # In blocks of rows: the model's functions make several copies of what they return, and
+    # a long pass (600 s every 4 ms) has 150,000 rows of 12 regressors.
+    momentum = np.empty((grid.size, len(PARAMETER_NAMES)))
+    force = np.empty((grid.size, len(PARAMETER_NAMES)))
+    for start in range(0, grid.size, _REGRESSOR_ROWS):
+        k = slice(start, start + _REGRESSOR_ROWS)
+        momentum[k] = momentum_regressor(phi[k], omega[k], spring)  # linear in Omega: no noise
+        # F is quadratic in Omega: the speed noise's mean, var / 2 F'', taken off.
+        force[k] = force_regressor(phi[k], omega[k], spring, direction=direction[k])
+        curvature = force_curvature_regressor(phi[k], spring, direction=direction[k])
+        force[k] -= curvature * (var[k] / 2)[:, None]
     spring_torque = static_torque(phi, spring)
     torque = np.asarray(log.torque, dtype=float)[rows]
     A = np.empty((starts.size, len(PARAMETER_NAMES)))
