@@ -515,7 +515,6 @@ def smooth_log(log: Log, quantum: float, source: str = "log") -> Smoothed:
     dt = median_step(t)
     q_j, bandwidth = jerk_density(log, quantum)
     block = block_length(bandwidth, dt)
-    n_blocks = math.ceil(n / block)
     # State k lives at the mid-time of block k's span: of its first and last readings' time
     # stamps (jittered or with dropped samples: the true instants), and for a last, shorter
     # block of ``block`` nominal periods from its first reading.

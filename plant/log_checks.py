@@ -117,11 +117,11 @@ def read_table(path: str | os.PathLike, columns: Sequence[str]) -> np.ndarray:
         rows = 0  # data rows so far, the last of them not blank
         first_blank = None  # line of the first blank line after the last row read
         not_a_number = not_finite = None  # the first fault of each kind, raised at the end
-        for lines, plain in itertools.chain([(lines, plain)], pieces):
-            number = rows + 2  # the file's line of lines[0]
-            block = _fast_rows(lines, ncol) if plain and first_blank is None else None
+        for piece, fast in itertools.chain([(lines, plain)], pieces):
+            number = rows + 2  # the file's line of piece[0]
+            block = _fast_rows(piece, ncol) if fast and first_blank is None else None
             if block is None:
-                block, first_blank, fault = _careful_rows(path, columns, lines, number, first_blank)
+                block, first_blank, fault = _careful_rows(path, columns, piece, number, first_blank)
                 not_a_number = not_a_number or fault
             if not_finite is None:
                 bad = np.argwhere(~np.isfinite(block))
