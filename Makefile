@@ -26,9 +26,10 @@ BENCH_ARGS ?=
 bench: $(STAMP)
 	$(BIN)/python -m benchmarks.sweep $(BENCH_ARGS)
 
-# Wall time and peak memory of simulate, program and identify against braking length and
-# sample rate -> benchmarks/results/scale.md, scale.json, scale.png (tens of minutes; options
-# through SCALE_ARGS, e.g. make bench-scale SCALE_ARGS='--quick --out /tmp/scale.md').
+# Wall time and peak memory of simulate, program, identify and calibrate against braking
+# length and sample rate -> benchmarks/results/scale.md, scale.json, scale.png (tens of
+# minutes; options through SCALE_ARGS, e.g. make bench-scale SCALE_ARGS='--quick --out
+# /tmp/scale.md').
 SCALE_ARGS ?=
 bench-scale: $(STAMP)
 	$(BIN)/python -m benchmarks.scale $(SCALE_ARGS)
