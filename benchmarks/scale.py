@@ -23,10 +23,10 @@ Each series' growth exponents are the slopes of log cost against log turns and l
 the larger half of its points, where the fixed start-up costs weigh least. Deterministic:
 the default virtual.toml's seed.
 
-Targets (issue 22): identify's exponents <= 1.1 in turns and rows; a 590 s stage-1 braking at
-1 kHz identified within 0.1 of the logs' duration and under 1.5 GB; the default experiment at
-10 kHz within 0.3 of its duration and under 1.5 GB; with ``--long-fast``, the 590 s braking at
-10 kHz under 1.5 GB.
+Targets (issue 22): identify's and calibrate's exponents <= 1.1 in turns and rows; a 590 s
+stage-1 braking at 1 kHz identified within 0.1 of the logs' duration and under 1.5 GB; the
+default experiment at 10 kHz within 0.3 of its duration and under 1.5 GB; with
+``--long-fast``, the 590 s braking at 10 kHz under 1.5 GB.
 
     python -m benchmarks.scale [--quick] [--max-braking S] [--long-fast] [--out MD]
 
@@ -483,6 +483,7 @@ def plot(points: dict[str, list[dict]], path: Path) -> None:
     (sample-rate series), with a slope-1 line for reference."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
+    from matplotlib.ticker import NullFormatter
 
     from rsp_inertia.plots import save_figure
 
@@ -509,6 +510,8 @@ def plot(points: dict[str, list[dict]], path: Path) -> None:
             ax.plot([lo, hi], [top * lo / hi, top], "k:", label="slope 1")
         ax.set_xscale("log")
         ax.set_yscale("log")
+        for axis in (ax.xaxis, ax.yaxis):  # labels at the decades only: the minor ones overlap
+            axis.set_minor_formatter(NullFormatter())
         ax.set_xlabel(xlabel)
         ax.set_ylabel(ylabel)
         ax.grid(True, which="both", alpha=0.3)
