@@ -4,7 +4,7 @@ In file time (each log from t = 0), with T the braking's rest time:
 
     phi'(t') = phi(T - t'),   Omega'(t') = -Omega(T - t'),   eps'(t') = eps(T - t')
 
-for 0 <= t' <= T. The braking states come from the UKF/RTS smoother of the identification
+for 0 <= t' <= T. The braking states come from the Kalman/RTS smoother of the identification
 (rsp_inertia.estimation.smoothing: the same estimates, not a second smoother).
 
 The rest. The braking log ends at the last sample before the speed reaches zero; the rest

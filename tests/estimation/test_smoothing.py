@@ -1,4 +1,4 @@
-"""The UKF + RTS smoother (estimation/smoothing.py) against the virtual device's true speed.
+"""The Kalman + RTS smoother (estimation/smoothing.py) against the virtual device's true speed.
 
 Noise model behind the bounds. The encoder reading's error, after the smoother restores the
 half count, is uniform over one count q: variance q^2/12 per sample, spectral density
