@@ -180,9 +180,17 @@ def identify_experiment(
 
 
 def check_same_stages(exp: Experiment, other: Experiment, role: str) -> None:
-    """Raise InputError unless ``other`` has ``exp``'s stages (gear ratios and nodes)."""
+    """Raise InputError unless ``other`` is ``exp``'s device: its ``[device] name``, its stages
+    (gear ratios and nodes) and its encoder's counts per revolution (a calibration made on
+    another gimbal would be applied to this one without a word, docs/real-rig.md)."""
     mine, theirs = exp.device.stages, other.device.stages
     where = other.root / "device.toml"
+    if other.device.name != exp.device.name:
+        raise InputError(
+            f"{where}: device.name = {other.device.name!r} differs from "
+            f"{exp.root / 'device.toml'}'s {exp.device.name!r}: the {role} runs must be made "
+            "on the same device"
+        )
     if len(theirs) != len(mine):
         raise InputError(
             f"{where}: the {role} experiment has {len(theirs)} stage(s), {exp.root} has "

@@ -211,6 +211,23 @@ def test_calibration_folder_with_other_stages_is_refused(rig, tmp_path, capsys):
     assert sorted(p.name for p in exp.iterdir()) == before
 
 
+def test_calibration_folder_of_another_device_is_refused(rig, tmp_path, capsys):
+    """An empty-fixture folder whose device.toml names another device (same stages) is
+    refused before anything is computed, and nothing is written."""
+    exp, empty, ref = rig
+    other = tmp_path / "other"
+    shutil.copytree(empty, other)
+    text = (other / "device.toml").read_text()
+    assert 'name = "virtual-paper"' in text
+    (other / "device.toml").write_text(text.replace('name = "virtual-paper"', 'name = "rig-B"'))
+    before = sorted(p.name for p in exp.iterdir())
+    assert main(["calibrate", str(exp), "--empty", str(other), "--reference", str(ref)]) == 2
+    err = capsys.readouterr().err
+    assert "device.name = 'rig-B'" in err and "'virtual-paper'" in err
+    assert err.count("\n") == 1
+    assert sorted(p.name for p in exp.iterdir()) == before
+
+
 @pytest.mark.parametrize(
     "body, fault",
     [
