@@ -15,6 +15,7 @@ exposed here too: they describe the logs this module reads.
 
 from __future__ import annotations
 
+import glob
 import os
 import secrets
 from collections.abc import Sequence
@@ -358,7 +359,8 @@ def write_atomic(path: str | os.PathLike, text: str) -> None:
         The whole content.
     """
     target = Path(path)
-    temp = target.with_name(f".{target.name}.{secrets.token_hex(6)}.tmp")
+    _remove_stale_temporaries(target)
+    temp = target.with_name(f".{target.name}.{os.getpid()}.{secrets.token_hex(6)}.tmp")
     # os.open with mode 0o666 lets the umask decide the permissions, as for a plain open().
     fd = os.open(temp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
     try:
@@ -370,3 +372,19 @@ def write_atomic(path: str | os.PathLike, text: str) -> None:
     except BaseException:
         temp.unlink(missing_ok=True)
         raise
+
+
+def _remove_stale_temporaries(target: Path) -> None:
+    """Remove the temporary files that a writer of ``target`` killed before it could clean up
+    left behind (:func:`write_atomic` names them after its process id): those of processes
+    that no longer run. A live writer's is left alone."""
+    for temp in target.parent.glob(f".{glob.escape(target.name)}.*.tmp"):
+        pid = temp.name[len(target.name) + 2 :].split(".")[0]
+        if not pid.isdigit() or int(pid) == os.getpid():
+            continue
+        try:
+            os.kill(int(pid), 0)
+        except ProcessLookupError:
+            temp.unlink(missing_ok=True)
+        except (PermissionError, OSError):
+            continue  # another user's live process, or we cannot tell: keep it

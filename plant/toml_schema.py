@@ -30,6 +30,7 @@ fields to write an instance back.
 
 from __future__ import annotations
 
+import codecs
 import copy
 import dataclasses
 import functools
@@ -289,7 +290,10 @@ def read_file(path: str | os.PathLike) -> dict[str, Any]:
     """Parse a TOML file; every failure becomes a one-line InputError."""
     try:
         with open(path, "rb") as file:
-            return tomllib.load(file)
+            data = file.read()
+        # A byte-order mark (some Windows editors write one) is not TOML, but no fault of the
+        # file's content: it is skipped, as the CSV readers skip it.
+        return tomllib.loads(data.removeprefix(codecs.BOM_UTF8).decode("utf-8"))
     except FileNotFoundError:
         raise InputError(f"{path}: file not found") from None
     except OSError as error:

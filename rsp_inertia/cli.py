@@ -82,11 +82,20 @@ def _cmd_design(args: argparse.Namespace) -> None:
     print(run_design(args.exp, args.plot))
 
 
+EXIT_STATUSES = (
+    "exit status: 0 done; 1 check: the folder is not ready for identify; 2 bad input (one "
+    "line on stderr naming the file, the line or key and the fault; nothing written) or out "
+    "of memory; 130 interrupted (Ctrl-C)"
+)
+"""The exit statuses, as --help states them (docs/commands.md, Exit statuses)."""
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="rsp-inertia",
         description="Inertia tensor and centre of mass by reverse-symmetrical semi-program "
         "precession (RSP) on a biaxial gimbal.",
+        epilog=EXIT_STATUSES,
     )
     parser.add_argument(
         "--version", action="version", version=f"%(prog)s {rsp_inertia.__version__}",
@@ -194,7 +203,12 @@ def _parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``rsp-inertia`` console script; returns the exit status."""
-    args = _parser().parse_args(argv)
+    parser = _parser()
+    if not (sys.argv[1:] if argv is None else argv):
+        # No command: what there is to run, rather than argparse's "COMMAND is required".
+        parser.print_help(sys.stderr)
+        return 2
+    args = parser.parse_args(argv)
     try:
         status = args.run(args)
     except InputError as error:
@@ -204,6 +218,13 @@ def main(argv: list[str] | None = None) -> int:
         progress.clear()
         print(f"rsp-inertia: error: {_out_of_memory(args)}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        # Every output is written atomically (rsp_inertia.plant.logs.write_atomic): an
+        # interrupted command leaves the files it had not finished as they were.
+        progress.clear()
+        print(f"rsp-inertia: interrupted: {args.command} stopped; nothing half-written",
+              file=sys.stderr)
+        return 130
     return status or 0
 
 

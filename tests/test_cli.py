@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 import re
 
 import numpy as np
@@ -163,3 +164,64 @@ def test_running_out_of_memory_is_one_line(experiment, capsys, monkeypatch):
     capsys.readouterr()
     assert main(["identify", str(experiment)]) == 2
     one_line_error(capsys, "out of memory while running identify", str(experiment), f"{rows} rows")
+
+
+def test_no_command_lists_the_commands(capsys):
+    # `rsp-inertia` alone: what there is to run, not only "COMMAND is required".
+    assert main([]) == 2
+    err = capsys.readouterr().err
+    for command in ("demo", "simulate", "plan", "program", "calibrate", "check", "identify",
+                    "report", "design"):
+        assert re.search(rf"^\s+{command}\s", err, re.MULTILINE), command
+
+
+def test_help_states_the_exit_statuses(capsys):
+    with pytest.raises(SystemExit) as done:
+        main(["--help"])
+    assert done.value.code == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert "exit status: 0 done; 1 check" in out and "130 interrupted" in out
+
+
+def test_ctrl_c_is_one_line_and_130(experiment, capsys, monkeypatch):
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(rsp_inertia, "identify", interrupted)
+    assert main(["identify", str(experiment)]) == 130
+    one_line_error(capsys, "interrupted: identify stopped")
+
+
+def test_a_killed_writers_temporary_file_is_removed_by_the_next_write(tmp_path):
+    # A writer killed between creating its temporary file and renaming it leaves the file;
+    # the next write of the same target removes it, but never a live writer's.
+    from rsp_inertia.plant.logs import write_atomic
+
+    target = tmp_path / "result.json"
+    dead = 2**22 + 12345  # above Linux's default pid_max of 2**22: no such process
+    stale = tmp_path / f".result.json.{dead}.0123456789ab.tmp"
+    live = tmp_path / f".result.json.{os.getppid()}.0123456789ab.tmp"
+    stale.write_text("half")
+    live.write_text("being written")
+    write_atomic(target, "{}\n")
+    assert target.read_text() == "{}\n"
+    assert not stale.exists() and live.exists()
+
+
+def test_a_device_toml_with_a_byte_order_mark_reads(experiment):
+    # Some Windows editors start a UTF-8 file with a byte-order mark; it was "Invalid
+    # statement".
+    path = experiment / "device.toml"
+    plain = load_device(path)
+    path.write_bytes(b"\xef\xbb\xbf" + path.read_bytes())
+    assert load_device(path) == plain
+
+
+def test_the_default_files_cite_the_docs_that_exist():
+    # The generated device.toml files once cited "METHOD.md", a file the repository lacks.
+    from pathlib import Path
+
+    from rsp_inertia import plant
+
+    for path in Path(plant.__file__).parent.joinpath("defaults").rglob("*.toml"):
+        assert "METHOD.md" not in path.read_text(), path
