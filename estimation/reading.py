@@ -30,6 +30,7 @@ from rsp_inertia.estimation.tensor import KnownTerms
 from rsp_inertia.plant.config import load_reference
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import Experiment
+from rsp_inertia.plant.log_checks import unterminated_last_line
 from rsp_inertia.plant.logs import Log, align_counter, read_log
 
 __all__ = [
@@ -43,6 +44,7 @@ __all__ = [
     "load_calibration",
     "read_experiment",
     "read_run",
+    "unterminated_warnings",
 ]
 
 CALIBRATION_FILE = "calibration.toml"
@@ -173,10 +175,24 @@ def identify_experiment(
     rsp_inertia.estimation.identify.identify_logs (its errors and warnings name the files)."""
     known, warnings = known_terms(exp)
     logs = read_experiment(exp)
+    warnings += unterminated_warnings(logs)
     stiffness = calibrated_stiffness(exp) if logs.pendulum else None
     return identify_logs(
         logs, known, pendulum_stiffness=stiffness, warnings=warnings, progress=progress
     )
+
+
+def unterminated_warnings(logs: ExperimentLogs) -> list[str]:
+    """A warning per log of ``logs`` whose last line has no line end, which the reader left
+    out (rsp_inertia.plant.log_checks.unterminated_last_line)."""
+    paths = [p for pair in logs.sources.runs.values() for p in pair]
+    paths += list(logs.sources.pendulum.values())
+    return [
+        f"{path}: its last line has no line end (a logger stopped while writing it?): that "
+        "row was left out"
+        for path in paths
+        if Path(path).is_file() and unterminated_last_line(path)
+    ]
 
 
 def check_same_stages(exp: Experiment, other: Experiment, role: str) -> None:
@@ -242,6 +258,11 @@ def calibrate_experiment(
     empty_logs = read_experiment(empty)
     reference_logs = None if reference is None else read_experiment(reference)
     result = calibrate_logs(exp.device, empty_logs, reference_logs, body, progress)
+    cut = unterminated_warnings(empty_logs)
+    if reference_logs is not None:
+        cut += unterminated_warnings(reference_logs)
+    if cut:
+        result = dataclasses.replace(result, warnings=cut + list(result.warnings))
     inputs = {}
     for folder, logs in ((empty, empty_logs), (reference, reference_logs)):
         if folder is None:

@@ -90,8 +90,10 @@ def read_table(path: str | os.PathLike, columns: Sequence[str]) -> np.ndarray:
     """Parse a CSV with exactly ``columns`` as header into an (n, len(columns)) float array.
 
     Every value is ``float()`` of its field. The file is read as UTF-8 (a BOM is skipped)
-    with any line end (\\n, \\r\\n, \\r); blank lines may end it. It is read twice, in
-    pieces of :data:`CHUNK_BYTES`: once to check the encoding and count the lines, once to
+    with any line end (\\n, \\r\\n, \\r); blank lines may end it; a last line of data
+    without a line end is left out (:func:`unterminated_last_line`: it may be cut short).
+    It is read twice, in pieces of :data:`CHUNK_BYTES`: once to check the encoding and count
+    the lines, once to
     parse a piece at a time into the preallocated array (numpy's C reader; field by field
     where it may differ from float() or refuses the piece, to name the fault). The array is
     column-major: each column is contiguous. Line numbers in messages are 1-based lines of
@@ -101,7 +103,7 @@ def read_table(path: str | os.PathLike, columns: Sequence[str]) -> np.ndarray:
     ncol = len(columns)
     try:
         values = np.empty((ncol, _count_line_breaks(path)))
-        pieces = _pieces_of_lines(path)
+        pieces = _pieces_of_lines(path, unterminated_last_line(path))
         lines, plain = next(pieces, ([""], True))
         header_line, lines = lines[0], lines[1:]
         if not header_line.strip() and not any(
@@ -193,18 +195,47 @@ def _count_line_breaks(path: str | os.PathLike) -> int:
     return breaks
 
 
-def _pieces_of_lines(path: str | os.PathLike) -> Iterator[tuple[list[str], bool]]:
+def unterminated_last_line(path: str | os.PathLike) -> bool:
+    """Whether the file's last line is data without a line end: a logger stopped while
+    writing it, or cut the file there, so its last number may be cut short. Such a line is
+    left out by :func:`read_table` (a header without a line end, or a last line of blanks,
+    is not one)."""
+    try:
+        with open(path, "rb") as file:
+            file.seek(0, os.SEEK_END)
+            size = file.tell()
+            file.seek(max(size - TAIL_BYTES, 0))
+            tail = file.read()
+    except OSError:
+        return False  # the reader says why
+    if not tail or tail.endswith((b"\n", b"\r")):
+        return False
+    end = max(tail.rfind(b"\n"), tail.rfind(b"\r"))
+    if end < 0 and size > TAIL_BYTES:
+        return True  # a last line longer than the tail: not the header of a table
+    return end >= 0 and bool(tail[end + 1 :].strip())
+
+
+TAIL_BYTES = 4096
+"""Bytes at the end of a file that :func:`unterminated_last_line` looks at."""
+
+
+def _pieces_of_lines(
+    path: str | os.PathLike, drop_unterminated: bool = False
+) -> Iterator[tuple[list[str], bool]]:
     """The lines of the file (without their line end; an empty one after a final line end
-    left out) in pieces, each with whether numpy's C reader parses it as float() does (ASCII,
-    none of the separators :data:`_NOT_SPACE_FOR_FLOAT`)."""
+    left out, and with ``drop_unterminated`` a last line without a line end) in pieces, each
+    with whether numpy's C reader parses it as float() does (ASCII, none of the separators
+    :data:`_NOT_SPACE_FOR_FLOAT`)."""
     for piece in _byte_pieces(path):
         text = piece.decode("utf-8")
         if "\r" in text:
             text = text.replace("\r\n", "\n").replace("\r", "\n")
         lines = text.split("\n")
-        if text.endswith("\n"):
-            lines.pop()
-        yield lines, text.isascii() and not any(c in text for c in _NOT_SPACE_FOR_FLOAT)
+        if text.endswith("\n") or drop_unterminated:
+            lines.pop()  # the empty one after the last line end, or the unterminated line
+        if lines:
+            yield lines, text.isascii() and not any(c in text for c in _NOT_SPACE_FOR_FLOAT)
 
 
 def _fast_rows(lines: list[str], ncol: int) -> np.ndarray | None:

@@ -39,6 +39,7 @@ from rsp_inertia.estimation.smoothing import top_speed
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.geometry import turns_past_last_node
+from rsp_inertia.plant.log_checks import unterminated_last_line
 from rsp_inertia.plant.logs import dropped_samples, read_log, read_program
 
 __all__ = ["LEVELS", "MIN_TURNS_PAST_LAST_NODE", "CheckReport", "check"]
@@ -118,12 +119,20 @@ def check(root: str | Path) -> CheckReport:
 
 
 def _try_read(report: CheckReport, path: Path, encoder, kind: str, direction: str = "forward"):
-    """The log, or None with an ``error`` line."""
+    """The log, or None with an ``error`` line; a ``suspicious`` line when its last line has
+    no line end (the reader leaves it out)."""
     try:
-        return read_log(path, encoder, kind, direction)
+        log = read_log(path, encoder, kind, direction)
     except InputError as error:
         report.add("error", str(error))
         return None
+    if unterminated_last_line(path):
+        report.add(
+            "suspicious",
+            f"{path}: its last line has no line end (a logger stopped while writing it?): "
+            "identify leaves that row out",
+        )
+    return log
 
 
 def _check_timing(exp, stage: int, direction: str, path: Path, log, report: CheckReport) -> None:

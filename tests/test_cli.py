@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import re
@@ -225,3 +226,21 @@ def test_the_default_files_cite_the_docs_that_exist():
 
     for path in Path(plant.__file__).parent.joinpath("defaults").rglob("*.toml"):
         assert "METHOD.md" not in path.read_text(), path
+
+
+def test_a_log_cut_while_writing_is_identified_without_its_last_row_and_says_so(
+    experiment, capsys
+):
+    # The logger stopped mid-number: the row is left out, and identify and check say which
+    # file (the result was used silently).
+    assert main(["simulate", str(experiment)]) == 0
+    assert main(["simulate", str(experiment), "--part", "reverse", "--ideal"]) == 0
+    path = experiment / "stage1" / "reverse.csv"
+    data = path.read_bytes()
+    path.write_bytes(data + data.splitlines()[-1][:-3])  # a last line cut short, no line end
+    capsys.readouterr()
+    assert main(["check", str(experiment)]) == 0
+    assert f"{path}: its last line has no line end" in capsys.readouterr().out
+    assert main(["identify", str(experiment)]) == 0
+    warnings = json.loads((experiment / "result.json").read_text())["warnings"]
+    assert any(w.startswith(f"{path}: its last line has no line end") for w in warnings)

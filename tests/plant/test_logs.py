@@ -12,6 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.log_checks import unterminated_last_line
 from rsp_inertia.plant.logs import (
     JITTER_LIMIT,
     Log,
@@ -362,7 +363,6 @@ def test_tolerated_variants_read_like_the_plain_file(tmp_path):
         "crlf.csv": text(LOG_HEADER, log_rows(), end="\r\n"),
         "spaces.csv": text("  t , phi ,torque \r", [r.replace(",", " , ") for r in log_rows()]),
         "trailing_blank_lines.csv": text(LOG_HEADER, log_rows()) + "\n  \n\r\n",
-        "no_final_newline.csv": text(LOG_HEADER, log_rows()).rstrip("\n"),
         "bom.csv": "\ufeff" + text(LOG_HEADER, log_rows()),
     }
     expected = read_log(plain, ENCODER, "braking")
@@ -371,6 +371,32 @@ def test_tolerated_variants_read_like_the_plain_file(tmp_path):
         log = read_log(tmp_path / name, ENCODER, "braking")
         for field in ("t", "phi", "torque"):
             np.testing.assert_array_equal(getattr(log, field), getattr(expected, field), name)
+
+
+@pytest.mark.parametrize(
+    "last", ["0.005,0.0001", "0.005,1.2e-", "0.005,3.0e-05,-0.00", log_rows(6)[5]]
+)
+def test_a_last_line_without_a_line_end_is_left_out(tmp_path, last):
+    """A logger stopped while writing its last line (cut mid-field or mid-number, or whole
+    but never ended: nothing tells them apart): the row is left out, never read as a number
+    cut short, and the reader says so (unterminated_last_line)."""
+    rows = log_rows(5)
+    plain = tmp_path / "plain.csv"
+    plain.write_text(text(LOG_HEADER, rows))
+    cut = tmp_path / "cut.csv"
+    cut.write_bytes((text(LOG_HEADER, rows) + last).encode())
+    assert unterminated_last_line(cut) and not unterminated_last_line(plain)
+    expected, log = read_log(plain, ENCODER, "braking"), read_log(cut, ENCODER, "braking")
+    for field in ("t", "phi", "torque"):
+        np.testing.assert_array_equal(getattr(log, field), getattr(expected, field))
+
+
+def test_a_header_alone_without_a_line_end_is_no_cut_row(tmp_path):
+    path = tmp_path / "header.csv"
+    path.write_bytes(LOG_HEADER.encode())
+    assert not unterminated_last_line(path)
+    with pytest.raises(InputError, match="0 data row"):
+        read_log(path, ENCODER, "braking")
 
 
 # ---------------------------------------------------------------------------------------------
