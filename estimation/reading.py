@@ -57,11 +57,13 @@ REFERENCE_FILE = "reference.toml"
 def read_run(exp: Experiment, stage: int, direction: str) -> tuple[Log, Log]:
     """One run's braking and reverse logs as logged, the reverse's counter continuing the
     braking's (rsp_inertia.plant.logs.align_counter)."""
-    encoder = exp.device.encoder
-    braking = read_log(exp.braking_path(stage, direction), encoder, "braking", direction)
+    encoder, limit = exp.device.encoder, exp.device.motor.torque_limit
+    braking = read_log(
+        exp.braking_path(stage, direction), encoder, "braking", direction, limit
+    )
     # The reverse starts where the braking stopped: one counter, one angle.
     reverse = align_counter(
-        read_log(exp.reverse_path(stage, direction), encoder, "reverse", direction),
+        read_log(exp.reverse_path(stage, direction), encoder, "reverse", direction, limit),
         float(braking.phi[-1]),
         encoder,
     )
@@ -115,7 +117,8 @@ def read_experiment(exp: Experiment) -> ExperimentLogs:
         pendulum=_OnDemand(
             {
                 (s, k): functools.partial(
-                    read_log, exp.pendulum_path(s, k), device.encoder, "pendulum"
+                    read_log, exp.pendulum_path(s, k), device.encoder, "pendulum",
+                    torque_limit=device.motor.torque_limit,
                 )
                 for s, k in pendulum
             }

@@ -28,12 +28,15 @@ __all__ = [
     "MEAN_RATE_TOLERANCE",
     "RATE_TOLERANCE",
     "T0_TOLERANCE",
+    "TORQUE_MARGIN",
     "EncoderLike",
     "check_direction",
     "check_grid",
     "check_time",
+    "check_torque",
     "read_header",
     "read_table",
+    "unterminated_last_line",
     "unwrap_counts",
 ]
 
@@ -289,6 +292,24 @@ def _careful_rows(
                 )
     return np.array(numbers, dtype=np.float64).reshape(-1, ncol), first_blank, fault
 
+
+TORQUE_MARGIN = 10.0
+"""A logged torque beyond this many times device.toml's ``motor.torque_limit`` is refused
+(:func:`check_torque`, called by rsp_inertia.plant.logs.read_log): no drive produces it (a
+short overload is a few times the limit), so it is a logging fault (a one-row spike, a unit
+or scale error) that would pass for real work."""
+
+
+def check_torque(path: str | os.PathLike, torque: np.ndarray, torque_limit: float) -> None:
+    """Refuse the first row whose torque is beyond TORQUE_MARGIN x ``torque_limit`` (N m)."""
+    beyond = np.flatnonzero(np.abs(torque) > TORQUE_MARGIN * torque_limit)
+    if beyond.size:
+        k = int(beyond[0])
+        raise InputError(
+            f"{path}, line {k + 2}: torque = {float(torque[k])!r} N m is beyond what the drive "
+            f"can produce (more than {TORQUE_MARGIN:g} x device.toml's motor.torque_limit = "
+            f"{torque_limit:g} N m): a logging fault"
+        )
 
 def check_time(
     path: str | os.PathLike, t: np.ndarray, encoder: EncoderLike, regular: bool = True

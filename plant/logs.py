@@ -31,6 +31,7 @@ from rsp_inertia.plant.log_checks import (
     check_direction,
     check_grid,
     check_time,
+    check_torque,
     read_header,
     read_table,
     unwrap_counts,
@@ -204,7 +205,11 @@ def align_counter(log: Log, phi: float, encoder: EncoderLike) -> Log:
 
 
 def read_log(
-    path: str | os.PathLike, encoder: EncoderLike, kind: str, direction: str = "forward"
+    path: str | os.PathLike,
+    encoder: EncoderLike,
+    kind: str,
+    direction: str = "forward",
+    torque_limit: float | None = None,
 ) -> Log:
     """Read and check a log: braking.csv, reverse.csv, a pendulum run's or pilot.csv.
 
@@ -227,6 +232,10 @@ def read_log(
         The direction of the stage's run (``rsp_inertia.plant.config.DIRECTIONS``): a
         backward braking must end at a smaller phi than it starts, its reverse at a larger
         one. Pendulum and pilot runs ignore it.
+    torque_limit : float, optional
+        N m, device.toml's ``motor.torque_limit``: a torque beyond
+        rsp_inertia.plant.log_checks.TORQUE_MARGIN times it is refused (physically
+        impossible); None: not checked.
 
     Returns
     -------
@@ -253,7 +262,10 @@ def read_log(
     check_time(path, t, encoder, regular=False)
     check_grid(path, phi, encoder)
     check_direction(path, phi, kind, direction)
+    if torque_limit is not None:
+        check_torque(path, torque, torque_limit)
     return Log(t=t, phi=phi, torque=torque)
+
 
 
 def read_program(path: str | os.PathLike, encoder: EncoderLike) -> Program:

@@ -103,7 +103,7 @@ def check(root: str | Path) -> CheckReport:
         for direction in st.directions:
             _check_run(exp, stage, direction, report)
         if exp.pilot_path(stage).is_file():
-            _try_read(report, exp.pilot_path(stage), device.encoder, "pilot")
+            _try_read(report, exp.pilot_path(stage), device, "pilot")
     _check_pendulum(exp, report)
     _check_constants(exp, report)
     reference = exp.root / "reference.toml"
@@ -118,11 +118,12 @@ def check(root: str | Path) -> CheckReport:
     return report
 
 
-def _try_read(report: CheckReport, path: Path, encoder, kind: str, direction: str = "forward"):
-    """The log, or None with an ``error`` line; a ``suspicious`` line when its last line has
-    no line end (the reader leaves it out)."""
+def _try_read(report: CheckReport, path: Path, device, kind: str, direction: str = "forward"):
+    """The log read as identify reads it (the device's encoder and torque limit), or None
+    with an ``error`` line; a ``suspicious`` line when its last line has no line end (the
+    reader leaves it out)."""
     try:
-        log = read_log(path, encoder, kind, direction)
+        log = read_log(path, device.encoder, kind, direction, device.motor.torque_limit)
     except InputError as error:
         report.add("error", str(error))
         return None
@@ -180,7 +181,7 @@ def _check_run(exp, stage: int, direction: str, report: CheckReport) -> None:
             f"rsp-inertia simulate {exp.root} --stage {stage}{option})",
         )
     else:
-        braking = _try_read(report, b_path, device.encoder, "braking", direction)
+        braking = _try_read(report, b_path, device, "braking", direction)
     if braking is not None:
         _check_timing(exp, stage, direction, b_path, braking, report)
         forward = braking if direction == "forward" else mirror_log(braking, device.encoder.quantum)
@@ -239,7 +240,7 @@ def _check_run(exp, stage: int, direction: str, report: CheckReport) -> None:
             f"rsp-inertia simulate {exp.root} --stage {stage} --part reverse{option})",
         )
         return
-    reverse = _try_read(report, r_path, device.encoder, "reverse", direction)
+    reverse = _try_read(report, r_path, device, "reverse", direction)
     if reverse is None:
         return
     _check_timing(exp, stage, direction, r_path, reverse, report)
@@ -293,7 +294,7 @@ def _check_pendulum(exp, report: CheckReport) -> None:
         for k in range(1, len(st.nodes_deg) + 1):
             total += 1
             path = exp.pendulum_path(stage, k)
-            if path.is_file() and _try_read(report, path, device.encoder, "pendulum") is not None:
+            if path.is_file() and _try_read(report, path, device, "pendulum") is not None:
                 found += 1
     level = "ok" if found in (0, total) else "suspicious"
     report.add(

@@ -192,7 +192,7 @@ def _braking_truth(
     if not path.is_file():
         raise InputError(f"{path}: not found: simulate the braking first (--part braking)")
     on_disk = align_counter(  # a counts log is known up to whole ranges of the counter
-        read_log(path, exp.device.encoder, "braking", direction),
+        read_log(path, exp.device.encoder, "braking", direction, exp.device.motor.torque_limit),
         float(braking.log.phi[0]),
         exp.device.encoder,
     )
@@ -371,7 +371,9 @@ def program_summaries(
     for st in exp.stages(stage):
         for direction in exp.device.stages[st - 1].directions:
             path = exp.braking_path(st, direction)
-            braking = read_log(path, exp.device.encoder, "braking", direction)
+            braking = read_log(
+                path, exp.device.encoder, "braking", direction, exp.device.motor.torque_limit
+            )
             result = make_program(exp.device, st, braking, str(path), direction=direction)
             out = exp.program_path(st, direction)
             write_program(out, result.program)

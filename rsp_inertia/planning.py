@@ -97,7 +97,8 @@ def stage_models(root: str | Path) -> list[StageModel]:
     jobs = []
     for stage in exp.stages(None):
         path = exp.pilot_path(stage)
-        log = read_log(path, exp.device.encoder, "pilot") if path.is_file() else None
+        limit = exp.device.motor.torque_limit
+        log = read_log(path, exp.device.encoder, "pilot", torque_limit=limit) if path.is_file() else None
         jobs.append((exp.device, stage, path, log))
     return map_stages(_stage_model, jobs)
 

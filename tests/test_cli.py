@@ -244,3 +244,21 @@ def test_a_log_cut_while_writing_is_identified_without_its_last_row_and_says_so(
     assert main(["identify", str(experiment)]) == 0
     warnings = json.loads((experiment / "result.json").read_text())["warnings"]
     assert any(w.startswith(f"{path}: its last line has no line end") for w in warnings)
+
+
+def test_a_torque_spike_in_a_log_is_refused_by_check_identify_and_program(experiment, capsys):
+    # 1000 N m against a 0.5 N m motor: check said "ready", identify gave Jz 41% off, and a
+    # 1e300 N m row made program ask for 1.3e297 N m; now each names the file and the line.
+    assert main(["simulate", str(experiment), "--stage", "1"]) == 0
+    path = experiment / "stage1" / "braking.csv"
+    lines = path.read_text().splitlines(keepends=True)
+    t, phi, _ = lines[100].split(",")
+    lines[100] = f"{t},{phi},1000.0\n"
+    path.write_text("".join(lines))
+    capsys.readouterr()
+    assert main(["check", str(experiment)]) == 1
+    out = capsys.readouterr().out
+    assert f"{path}, line 101: torque = 1000.0 N m is beyond what the drive can produce" in out
+    for command in (["program", str(experiment), "--stage", "1"], ["identify", str(experiment)]):
+        assert main(command) == 2
+        one_line_error(capsys, f"{path}, line 101: torque = 1000.0 N m")

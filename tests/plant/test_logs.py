@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.log_checks import unterminated_last_line
+from rsp_inertia.plant.log_checks import TORQUE_MARGIN, unterminated_last_line
 from rsp_inertia.plant.logs import (
     JITTER_LIMIT,
     Log,
@@ -539,3 +539,28 @@ def test_jittered_gappy_time_stamps_are_read_and_their_gaps_counted(
     np.testing.assert_array_equal(log.t, t[keep])
     missing = dropped_samples(log.t, ENCODER.sample_rate)
     np.testing.assert_array_equal(missing, np.diff(k[keep]) - 1)
+
+
+@pytest.mark.parametrize("value", ["1000.0", "-1e300", "1e300"])
+def test_a_torque_no_drive_produces_is_refused_with_its_line(tmp_path, value):
+    # A one-row spike or a scale error would pass for real work (Jz 41% off, or a program
+    # asking 1.3e297 N m): beyond TORQUE_MARGIN x the motor's limit it is a logging fault.
+    rows = log_rows()
+    t, phi, _ = rows[3].split(",")
+    rows[3] = f"{t},{phi},{value}"
+    path = tmp_path / "braking.csv"
+    path.write_text(text(LOG_HEADER, rows))
+    read_log(path, ENCODER, "braking")  # without the device's limit: not checked
+    with pytest.raises(InputError) as error:
+        read_log(path, ENCODER, "braking", torque_limit=0.5)
+    assert_one_line(error, path, 5, "torque", "beyond what the drive can produce", "0.5 N m")
+
+
+def test_a_torque_within_the_margin_reads(tmp_path):
+    # A drive's short overload is a few times its continuous limit: not refused.
+    rows = log_rows()
+    t, phi, _ = rows[3].split(",")
+    rows[3] = f"{t},{phi},{0.9 * TORQUE_MARGIN * 0.5!r}"
+    path = tmp_path / "braking.csv"
+    path.write_text(text(LOG_HEADER, rows))
+    assert read_log(path, ENCODER, "braking", torque_limit=0.5).torque[3] == 0.9 * TORQUE_MARGIN * 0.5
