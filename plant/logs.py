@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from rsp_inertia.plant.config import DIRECTIONS
+from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.log_checks import (
     JITTER_LIMIT,
     EncoderLike,
@@ -47,6 +48,7 @@ __all__ = [
     "Log",
     "Program",
     "align_counter",
+    "check_writable",
     "dropped_samples",
     "read_log",
     "read_program",
@@ -384,6 +386,28 @@ def write_atomic(path: str | os.PathLike, text: str) -> None:
     except BaseException:
         temp.unlink(missing_ok=True)
         raise
+
+
+def check_writable(path: str | os.PathLike) -> None:
+    """Refuse, before any computation, an output that :func:`write_atomic` could not write:
+    it needs to create a file in the target's folder (and to replace the target there).
+
+    Raises
+    ------
+    InputError
+        Naming the file and why (a read-only folder, a missing one, a target that is a folder).
+    """
+    target = Path(path)
+    if target.is_dir():
+        raise InputError(f"{target}: cannot be written: it is a folder; nothing was computed")
+    probe = target.with_name(f".{target.name}.{os.getpid()}.{secrets.token_hex(6)}.tmp")
+    try:
+        os.close(os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+    except OSError as error:
+        raise InputError(
+            f"{target}: cannot be written ({error.strerror or error}); nothing was computed"
+        ) from None
+    probe.unlink(missing_ok=True)
 
 
 def _remove_stale_temporaries(target: Path) -> None:

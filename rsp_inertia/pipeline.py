@@ -25,6 +25,7 @@ from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import Experiment, open_experiment
 from rsp_inertia.plant.logs import (
     align_counter,
+    check_writable,
     read_log,
     read_program,
     write_atomic,
@@ -367,6 +368,9 @@ def program_summaries(
     from rsp_inertia.ocp.program import make_program
 
     exp = open_experiment(root)
+    for st in exp.stages(stage):  # every output found writable before any program is made
+        for direction in exp.device.stages[st - 1].directions:
+            check_writable(exp.program_path(st, direction))
     summaries = []
     for st in exp.stages(stage):
         for direction in exp.device.stages[st - 1].directions:
@@ -413,6 +417,7 @@ def calibrate(
     from rsp_inertia.plots import encoder_error_figure
 
     exp = open_experiment(root)
+    check_writable(exp.root / CALIBRATION_FILE)
     result = calibrate_experiment(
         exp,
         open_experiment(empty),
@@ -436,6 +441,7 @@ def identify(
     from rsp_inertia.estimation.reading import identify_experiment
 
     exp = open_experiment(root)
+    check_writable(exp.result_path)
     result = identify_experiment(exp, progress)
     write_atomic(exp.result_path, result_json(result))
     return result

@@ -262,3 +262,36 @@ def test_a_torque_spike_in_a_log_is_refused_by_check_identify_and_program(experi
     for command in (["program", str(experiment), "--stage", "1"], ["identify", str(experiment)]):
         assert main(command) == 2
         one_line_error(capsys, f"{path}, line 101: torque = 1000.0 N m")
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes into read-only folders")
+@pytest.mark.parametrize("command", ["identify", "program"])
+def test_an_output_that_cannot_be_written_is_found_before_the_work(
+    experiment, capsys, command
+):
+    assert main(["simulate", str(experiment), "--stage", "1"]) == 0
+    folder = experiment if command == "identify" else experiment / "stage1"
+    folder.chmod(0o555)
+    try:
+        capsys.readouterr()
+        assert main([command, str(experiment)]) == 2
+        one_line_error(capsys, "cannot be written", "nothing was computed")
+    finally:
+        folder.chmod(0o755)
+
+
+def test_an_output_path_that_is_a_folder_is_found_before_the_work(
+    experiment, capsys, monkeypatch
+):
+    # (A read-only folder is the usual case; as root, which writes anyway, a folder in the
+    # output's place stands for it.) It was found only after the whole computation.
+    from rsp_inertia.estimation import reading
+
+    assert main(["simulate", str(experiment), "--stage", "1"]) == 0
+    (experiment / "result.json").mkdir()
+    started = []
+    monkeypatch.setattr(reading, "identify_experiment", lambda *a, **k: started.append(1))
+    capsys.readouterr()
+    assert main(["identify", str(experiment)]) == 2
+    one_line_error(capsys, "result.json: cannot be written: it is a folder")
+    assert not started
