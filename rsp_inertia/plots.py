@@ -84,7 +84,13 @@ def plot_motion(
     to follow the braking, its speed as a magnitude so that the symmetry shows), and the two
     free motions from the same release with the motor off.
     """
-    fig = Figure(figsize=(7.0, 4.2), dpi=120)
+    save_figure(motion_figure(braking, reverse, undamped, damped, title), path)
+
+
+def motion_figure(braking, reverse, undamped, damped, title: str) -> Figure:
+    """:func:`plot_motion`'s figure, its legend below the axes (inside, it covered the
+    curves of a long braking)."""
+    fig = Figure(figsize=(7.0, 4.8), dpi=120, layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
     tb, wb = braking
@@ -98,17 +104,22 @@ def plot_motion(
     ax.set_ylabel("|speed| [rad/s]")
     ax.set_ylim(bottom=0.0)
     ax.grid(True, alpha=0.3)
-    ax.legend(loc="best", fontsize="small")
+    fig.legend(loc="outside lower center", fontsize="small", ncol=2)
     ax.set_title(title)
-    fig.tight_layout()
-    save_figure(fig, path)
+    return fig
 
 
 def plot_errors(
     path: str | os.PathLike, labels: list[str], errors: dict[str, np.ndarray], title: str
 ) -> None:
     """Bar chart of |relative error| per axis for each method (log scale)."""
-    fig = Figure(figsize=(7.5, 4.2), dpi=120)
+    save_figure(errors_figure(labels, errors, title), path)
+
+
+def errors_figure(labels: list[str], errors: dict[str, np.ndarray], title: str) -> Figure:
+    """:func:`plot_errors`'s figure, its legend below the axes (inside, it covered the
+    tallest bars)."""
+    fig = Figure(figsize=(7.5, 4.8), dpi=120, layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
     width = 0.8 / max(len(errors), 1)
@@ -119,10 +130,9 @@ def plot_errors(
     ax.set_xticks(x, labels, fontsize="small")
     ax.set_ylabel("|relative error| of J_k")
     ax.grid(True, axis="y", alpha=0.3)
-    ax.legend(loc="best", fontsize="small")
+    fig.legend(loc="outside lower center", fontsize="small", ncol=3)
     ax.set_title(title)
-    fig.tight_layout()
-    save_figure(fig, path)
+    return fig
 
 
 def plan_figure(plan, path: str | os.PathLike) -> Path:
