@@ -138,6 +138,9 @@ SPRING = 0.02
 SPRING_PROTOCOL = ((19.56, 0.0131), (19.74, 7.716))
 """Per stage (launch_speed rad/s, braking_torque N m): 3.1 turns in 2.0 s against the spring."""
 
+SPRING_TORQUE_LIMIT = 10.0
+"""N m, the motor's limit in scenario 5: above its stage 2's braking torque."""
+
 DRIVE_90 = {"efficiency_driving": 0.90, "efficiency_backdriven": 0.90}
 """Scenario 6's drive (virtual.toml [rig])."""
 DRIVE_95_92 = {"efficiency_driving": 0.95, "efficiency_backdriven": 0.92}
@@ -240,8 +243,14 @@ def _demo_rig_folders(root: Path, seed: int, rig: dict) -> tuple[Path, Path, Pat
 
 
 def _spring_device(device: Device) -> Device:
-    """Scenario 5: the torsion spring SPRING, each stage launched as SPRING_PROTOCOL says."""
-    device = replace(device, spring=replace(device.spring, stiffness=SPRING))
+    """Scenario 5: the torsion spring SPRING, each stage launched as SPRING_PROTOCOL says, on
+    a motor that can brake with its 7.7 N m (SPRING_TORQUE_LIMIT; the default's 0.5 N m
+    cannot, and the log readers refuse a torque beyond 10 times the limit)."""
+    device = replace(
+        device,
+        spring=replace(device.spring, stiffness=SPRING),
+        motor=replace(device.motor, torque_limit=SPRING_TORQUE_LIMIT),
+    )
     for stage, (speed, torque) in enumerate(SPRING_PROTOCOL, 1):
         device = with_stage(device, stage, launch_speed=speed, braking_torque=torque)
     return device

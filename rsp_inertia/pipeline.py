@@ -368,9 +368,12 @@ def program_summaries(
     from rsp_inertia.ocp.program import make_program
 
     exp = open_experiment(root)
-    for st in exp.stages(stage):  # every output found writable before any program is made
+    # Every program's file found writable before any is made (a run without its braking log
+    # is refused, in order, by the reader below).
+    for st in exp.stages(stage):
         for direction in exp.device.stages[st - 1].directions:
-            check_writable(exp.program_path(st, direction))
+            if exp.braking_path(st, direction).is_file():
+                check_writable(exp.program_path(st, direction))
     summaries = []
     for st in exp.stages(stage):
         for direction in exp.device.stages[st - 1].directions:

@@ -41,6 +41,9 @@ STIFFNESS = 0.02
 PROTOCOL = {1: (19.56, 0.0131), 2: (19.74, 7.716)}
 """Stage: (launch_speed rad/s, braking_torque N m) for 3.1 turns in 2.0 s (module docstring)."""
 
+TORQUE_LIMIT = 10.0
+"""N m, the motor's limit in this scenario: above stage 2's braking torque."""
+
 REALISATIONS = ((1, -30.0), (2, -29.6))
 """(seed, release angle deg): two torque-noise streams and two encoder quantization patterns."""
 
@@ -66,6 +69,9 @@ def build(root, seed: int, release_deg: float):
         device.read_text(),
     )
     text = _set(text, "launch_speed", [PROTOCOL[s][0] for s in STAGES])
+    # Stage 2 brakes with 7.7 N m: a motor that can (the default's 0.5 N m limit cannot, and
+    # the log readers refuse a torque beyond 10 x the limit as a logging fault).
+    text = _set(text, "torque_limit", [TORQUE_LIMIT])
     device.write_text(_set(text, "braking_torque", [PROTOCOL[s][1] for s in STAGES]))
     virtual = root / "virtual.toml"
     text = _set(virtual.read_text(), "seed", [seed])
