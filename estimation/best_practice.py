@@ -41,6 +41,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from rsp_inertia.estimation.pendulum import pendulum_inertia
+from rsp_inertia.estimation.smoothing import median_step
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.logs import Log
 
@@ -121,7 +122,7 @@ def turning_points(log: Log, period: float) -> np.ndarray:
     a period (the quantization's steps averaged out); turns closer than a quarter period
     are merged."""
     t, phi = log.t, log.phi
-    dt = float(np.median(np.diff(t)))
+    dt = median_step(t)
     half = max(round(period / 20 / dt), 1)
     slope = np.zeros_like(phi)
     slope[half:-half] = phi[2 * half :] - phi[: -2 * half]
@@ -203,7 +204,7 @@ def half_cycle_fit(log: Log, period: float, quantum: float, source: str) -> Half
 
     # An edge's error, x' u with u uniform over +-dt/2 (at most a count's, q / sqrt 12): the
     # prior's row in the same weights.
-    dt = float(np.median(np.diff(log.t)))
+    dt = median_step(log.t)
     step = np.concatenate(
         [np.minimum(np.abs(np.gradient(y, s)) * dt, quantum) for s, y, _ in segments if s.size > 1]
     )

@@ -33,7 +33,7 @@ from rsp_inertia.estimation.passes import (
     angle_work_covariance,
     mainly_back_driven,
     sample_at,
-    speed_error_covariance,
+    speed_error_band,
     work_covariance,
 )
 from rsp_inertia.plant.config import Device
@@ -199,8 +199,8 @@ def node_passages(
                 mismatch=R[a_] - R[b_],
                 speed_sq=(wb2, wr2),
                 speed_sq_var=(
-                    4 * wb2 * np.diag(speed_error_covariance(braking, b)),
-                    4 * wr2 * np.diag(speed_error_covariance(reverse, r)),
+                    4 * wb2 * speed_error_band(braking, b)[0],
+                    4 * wr2 * speed_error_band(reverse, r)[0],
                 ),
             )
         )

@@ -96,7 +96,6 @@ __all__ = [
     "received_work",
     "sample_at",
     "speed_error_band",
-    "speed_error_covariance",
     "torque_noise",
     "work_covariance",
     "work_noise",
@@ -505,11 +504,6 @@ def speed_error_band(est: PassEstimate, a: AngleSample) -> np.ndarray:
     ``a``, rad^2/s^2 (rsp_inertia.estimation.smoothing: the derived error autocovariance at
     the instants the pass is there, zero beyond its span)."""
     return est.smoothed.speed_error_band(a.time, a.omega_std)
-
-
-def speed_error_covariance(est: PassEstimate, a: AngleSample) -> np.ndarray:
-    """(n, n) :func:`speed_error_band`, whole (a few angles: the node formula's passages)."""
-    return est.smoothed.speed_error_covariance(a.time, a.omega_std)
 
 
 def received_work(sample: AngleSample, gains: tuple[float, float]) -> np.ndarray:

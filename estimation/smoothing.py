@@ -128,7 +128,6 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import trapezoid
 
-from rsp_inertia.estimation.whitening import band_dense
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.logs import Log
 from rsp_inertia.plant.progress import report
@@ -292,10 +291,6 @@ class Smoothed:
             )
         return band
 
-    def speed_error_covariance(self, t: np.ndarray, omega_std: np.ndarray) -> np.ndarray:
-        """(n, n) the covariance of :meth:`speed_error_band`, whole (a few instants: the node
-        formula's passages)."""
-        return band_dense(self.speed_error_band(t, omega_std))
 
 
 def _transition(T: float) -> np.ndarray:

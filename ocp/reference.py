@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rsp_inertia.estimation.smoothing import Smoothed, hermite
+from rsp_inertia.estimation.smoothing import Smoothed, hermite, median_step
 from rsp_inertia.plant.errors import InputError
 
 __all__ = ["REST_COUNTS", "REST_WINDOW", "Mirror", "RestFit", "braking_states_at", "mirror", "rest_fit"]
@@ -88,7 +88,7 @@ class RestFit:
 
 def rest_fit(sm: Smoothed, source: str, quantum: float) -> RestFit:
     """The deceleration to rest fitted over the braking's end (module docstring)."""
-    dt = float(np.median(np.diff(sm.t)))  # the sample period (time stamps may jitter)
+    dt = median_step(sm.t)  # the sample period (time stamps may jitter)
     n = max(round(REST_WINDOW / dt), 3)
     moved = sm.phi[-1] - sm.phi  # distance still to go at each sample
     enough = np.nonzero(moved >= REST_COUNTS * quantum)[0]
