@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import hashlib
 import math
 import tomllib
 from collections.abc import Callable, Iterator, Mapping
@@ -31,7 +30,7 @@ from rsp_inertia.plant.config import load_reference
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import Experiment
 from rsp_inertia.plant.log_checks import unterminated_last_line
-from rsp_inertia.plant.logs import Log, align_counter, read_log
+from rsp_inertia.plant.logs import Log, align_counter, file_sha256, read_log
 
 __all__ = [
     "CALIBRATION_FILE",
@@ -40,6 +39,7 @@ __all__ = [
     "calibrated_stiffness",
     "check_same_stages",
     "identify_experiment",
+    "identify_inputs",
     "known_terms",
     "load_calibration",
     "read_experiment",
@@ -185,6 +185,20 @@ def identify_experiment(
     )
 
 
+def identify_inputs(exp: Experiment) -> list[Path]:
+    """The files ``identify`` reads from ``exp``, in a fixed order: device.toml,
+    calibration.toml when present, every run's braking and reverse logs
+    (:func:`read_experiment`'s runs) and the pendulum logs present. result.json records their
+    sha256 (rsp_inertia.provenance), and ``report`` checks them against the folder."""
+    logs = read_experiment(exp)
+    files = [Path(logs.sources.device)]
+    if (exp.root / CALIBRATION_FILE).is_file():
+        files.append(exp.root / CALIBRATION_FILE)
+    files += [Path(p) for pair in logs.sources.runs.values() for p in pair]
+    files += [Path(p) for p in logs.sources.pendulum.values()]
+    return files
+
+
 def unterminated_warnings(logs: ExperimentLogs) -> list[str]:
     """A warning per log of ``logs`` whose last line has no line end, which the reader left
     out (rsp_inertia.plant.log_checks.unterminated_last_line)."""
@@ -233,11 +247,6 @@ def check_same_stages(exp: Experiment, other: Experiment, role: str) -> None:
         )
 
 
-def _sha256(path: str | Path) -> str:
-    with open(path, "rb") as file:  # in pieces: a log may be hundreds of MB
-        return hashlib.file_digest(file, "sha256").hexdigest()
-
-
 def calibrate_experiment(
     exp: Experiment,
     empty: Experiment,
@@ -275,7 +284,7 @@ def calibrate_experiment(
             files.append(str(folder.root / REFERENCE_FILE))
         for names in logs.sources.runs.values():
             files += names
-        inputs.update({path: _sha256(path) for path in files})
+        inputs.update({path: file_sha256(path) for path in files})
     if result.stiffness is not None:
-        inputs.update({path: _sha256(path) for path in result.stiffness.paths})
+        inputs.update({path: file_sha256(path) for path in result.stiffness.paths})
     return dataclasses.replace(result, inputs=inputs)

@@ -13,7 +13,12 @@ import numpy as np
 from rsp_inertia.estimation.best_practice import BestPractice
 from rsp_inertia.estimation.model_tests import ModelTest
 from rsp_inertia.estimation.pendulum import PendulumEstimate
-from rsp_inertia.estimation.tensor import ENTRY_KEYS, format_run, principal
+from rsp_inertia.estimation.tensor import (
+    ENTRY_KEYS,
+    format_run,
+    principal,
+    principal_uncertainty,
+)
 from rsp_inertia.plant.geometry import axis_direction
 
 __all__ = ["AxisResult", "Identification", "PendulumResult"]
@@ -200,6 +205,9 @@ class Identification:
     """What the identification took from calibration.toml (None: device.toml's tares)."""
     gravity_cov: np.ndarray | None = None
     """(2, 2) covariance of ``gravity``, N^2 m^2 (the pendulum's gravity correction uses it)."""
+    provenance: dict | None = None
+    """When and by what the result was made, and the sha256 of every input file read
+    (rsp_inertia.provenance.make_provenance; set by the ``identify`` command)."""
 
     @property
     def entries_std(self) -> np.ndarray:
@@ -209,12 +217,18 @@ class Identification:
     def to_json(self) -> dict:
         """The result.json document (docs/files.md), with extensions."""
         moments, vectors = principal(self.entries)
+        moments_std, tilt_std = principal_uncertainty(self.entries, self.entries_cov)
         node_std = np.sqrt(np.diag(self.node_entries_cov))
         return {
             "tensor": dict(zip(ENTRY_KEYS, map(float, self.entries))),
             "tensor_std": dict(zip(ENTRY_KEYS, map(float, self.entries_std))),
+            "tensor_cov": [[float(c) for c in row] for row in self.entries_cov],
             "principal_moments": [float(m) for m in moments],
+            "principal_moments_std": [float(m) for m in moments_std],
             "principal_axes": [[float(c) for c in v] for v in vectors],
+            "principal_axes_tilt_std_deg": [
+                float(np.degrees(t)) if np.isfinite(t) else None for t in tilt_std
+            ],
             "axes": [
                 {
                     "stage": a.stage,
@@ -292,6 +306,7 @@ class Identification:
             "calibration": self.calibration,
             "warnings": list(self.warnings),
             "pendulum": None if self.pendulum is None else self.pendulum.to_json(),
+            "provenance": self.provenance,
         }
 
 

@@ -60,6 +60,7 @@ __all__ = [
     "gravity_rows",
     "physical_warnings",
     "principal",
+    "principal_uncertainty",
     "run_columns",
     "run_key",
     "run_label",
@@ -674,6 +675,59 @@ def principal(entries: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Principal moments (ascending) and axes (rows, unit vectors) of the tensor."""
     moments, vectors = np.linalg.eigh(tensor_from_entries(entries))
     return moments, vectors.T
+
+
+def principal_uncertainty(
+    entries: np.ndarray, cov: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Standard deviations of the principal moments and of the principal axes' directions,
+    to first order in the entries' errors (docs/method.md §5, principal moments and axes).
+
+    With J v_i = I_i v_i, a small change dJ of the tensor moves I_i by v_i^T dJ v_i and turns
+    v_i by sum_{j != i} (v_j^T dJ v_i) / (I_i - I_j) v_j. Both are linear in the six entries
+    ``[Jx, Jy, Jz, Jxy, Jyz, Jxz]`` (the tensor holds Jxy at (0, 1) and (1, 0)), so their
+    variances are quadratic forms in ``cov``.
+
+    Parameters
+    ----------
+    entries : numpy.ndarray, shape (6,)
+        kg m^2.
+    cov : numpy.ndarray, shape (6, 6)
+        kg^2 m^4, covariance of ``entries``.
+
+    Returns
+    -------
+    moments_std : numpy.ndarray, shape (3,)
+        kg m^2, in the order of :func:`principal` (ascending moments).
+    axes_tilt_std : numpy.ndarray, shape (3,)
+        rad, root mean square angle by which each principal axis is uncertain (the two
+        tilts towards the other axes added in quadrature); infinite for an axis whose moment
+        equals another's (its direction is then not defined).
+    """
+    moments, vectors = principal(entries)
+
+    def gradient(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """d(a^T J b) / d(entries) for unit vectors a, b."""
+        return np.array([
+            a[0] * b[0], a[1] * b[1], a[2] * b[2],
+            a[0] * b[1] + a[1] * b[0], a[1] * b[2] + a[2] * b[1], a[0] * b[2] + a[2] * b[0],
+        ])
+
+    moments_std = np.empty(3)
+    tilt_std = np.empty(3)
+    for i in range(3):
+        g = gradient(vectors[i], vectors[i])
+        moments_std[i] = math.sqrt(max(float(g @ cov @ g), 0.0))
+        variance = 0.0
+        for j in range(3):
+            if j == i:
+                continue
+            gap = moments[i] - moments[j]
+            h = gradient(vectors[j], vectors[i])
+            spread = max(float(h @ cov @ h), 0.0)
+            variance += math.inf if gap == 0.0 and spread > 0 else spread / gap**2 if gap else 0.0
+        tilt_std[i] = math.sqrt(variance)
+    return moments_std, tilt_std
 
 
 def physical_warnings(entries: np.ndarray, cov: np.ndarray, samples: int = 2000) -> list[str]:

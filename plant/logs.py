@@ -16,6 +16,7 @@ exposed here too: they describe the logs this module reads.
 from __future__ import annotations
 
 import glob
+import hashlib
 import os
 import secrets
 from collections.abc import Sequence
@@ -50,6 +51,7 @@ __all__ = [
     "align_counter",
     "check_writable",
     "dropped_samples",
+    "file_sha256",
     "read_log",
     "read_program",
     "write_atomic",
@@ -386,6 +388,13 @@ def write_atomic(path: str | os.PathLike, text: str) -> None:
     except BaseException:
         temp.unlink(missing_ok=True)
         raise
+
+
+def file_sha256(path: str | os.PathLike) -> str:
+    """The SHA-256 of a file's bytes, hexadecimal (read in pieces: a log may be hundreds of
+    MB). Recorded for every input by ``calibrate`` and ``identify``, checked by ``report``."""
+    with open(path, "rb") as file:
+        return hashlib.file_digest(file, "sha256").hexdigest()
 
 
 def check_writable(path: str | os.PathLike) -> None:

@@ -12,7 +12,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -440,12 +440,17 @@ def calibrate(
 def identify(
     root: str | Path, progress: Callable[[str], None] | None = None
 ) -> Identification:
-    """``rsp-inertia identify``: all stages' logs -> EXP/result.json (written atomically)."""
-    from rsp_inertia.estimation.reading import identify_experiment
+    """``rsp-inertia identify``: all stages' logs -> EXP/result.json (written atomically),
+    with its provenance: the time, the software and every input's sha256 as identify read
+    them (rsp_inertia.provenance)."""
+    from rsp_inertia.estimation.reading import identify_experiment, identify_inputs
+    from rsp_inertia.provenance import make_provenance
 
     exp = open_experiment(root)
     check_writable(exp.result_path)
+    provenance = make_provenance("identify", exp.root, identify_inputs(exp))
     result = identify_experiment(exp, progress)
+    result = replace(result, provenance=provenance)
     write_atomic(exp.result_path, result_json(result))
     return result
 

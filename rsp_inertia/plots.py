@@ -6,6 +6,7 @@ Only drawing here; the numbers come from the library. Every figure is written at
 
 from __future__ import annotations
 
+import io
 import os
 import tempfile
 from pathlib import Path
@@ -14,7 +15,17 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-__all__ = ["encoder_error_figure", "plan_figure", "plot_tracking", "save_figure"]
+__all__ = [
+    "encoder_error_figure",
+    "errors_figure",
+    "experiment_figures",
+    "figure_png",
+    "motion_figure",
+    "plan_figure",
+    "plot_tracking",
+    "save_figure",
+    "tracking_figure",
+]
 
 ARCSEC = np.degrees(1.0) * 3600.0
 """Arcseconds per radian."""
@@ -43,6 +54,11 @@ def plot_tracking(
     output: np.ndarray,
     title: str,
 ) -> None:
+    """The paper's Fig. 4 (:func:`tracking_figure`) written to ``path``."""
+    save_figure(tracking_figure(t, reference, output, title), path)
+
+
+def tracking_figure(t: np.ndarray, reference: np.ndarray, output: np.ndarray, title: str) -> Figure:
     """The paper's Fig. 4: reference speed (r), output (y) and error (e) of the reverse pass.
 
     Parameters
@@ -51,6 +67,8 @@ def plot_tracking(
         s, reverse-pass time.
     reference, output : arrays
         rad/s, the mirrored speed and the speed the body had (or its estimate).
+    title : str
+        The figure's title.
     """
     fig = Figure(figsize=(7.0, 5.0), dpi=120)
     FigureCanvasAgg(fig)
@@ -67,7 +85,7 @@ def plot_tracking(
     bottom.grid(True, alpha=0.3)
     bottom.legend(loc="best", fontsize="small")
     fig.tight_layout()
-    save_figure(fig, path)
+    return fig
 
 
 def plot_motion(
@@ -89,7 +107,9 @@ def plot_motion(
 
 def motion_figure(braking, reverse, undamped, damped, title: str) -> Figure:
     """:func:`plot_motion`'s figure, its legend below the axes (inside, it covered the
-    curves of a long braking)."""
+    curves of a long braking). ``undamped`` and ``damped`` may be None (a real rig's logs
+    have no free motions: only the virtual device can release the body with the motor off
+    in a simulation)."""
     fig = Figure(figsize=(7.0, 4.8), dpi=120, layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
@@ -97,8 +117,10 @@ def motion_figure(braking, reverse, undamped, damped, title: str) -> Figure:
     tr, wr = reverse
     ax.plot(tb, wb, color="C0", label="(1) braking, then reverse (semi-program motion)")
     ax.plot(tb[-1] + tr, np.abs(wr), color="C0", linestyle="--")
-    ax.plot(*undamped, color="C2", linewidth=0.8, label="(2) free undamped motion")
-    ax.plot(*damped, color="C3", linewidth=0.8, label="(3) free damped motion")
+    if undamped is not None:
+        ax.plot(*undamped, color="C2", linewidth=0.8, label="(2) free undamped motion")
+    if damped is not None:
+        ax.plot(*damped, color="C3", linewidth=0.8, label="(3) free damped motion")
     ax.axvline(tb[-1], color="grey", linewidth=0.6, alpha=0.6)
     ax.set_xlabel("time [s]")
     ax.set_ylabel("|speed| [rad/s]")
@@ -116,9 +138,15 @@ def plot_errors(
     save_figure(errors_figure(labels, errors, title), path)
 
 
-def errors_figure(labels: list[str], errors: dict[str, np.ndarray], title: str) -> Figure:
+def errors_figure(
+    labels: list[str],
+    errors: dict[str, np.ndarray],
+    title: str,
+    ylabel: str = "|relative error| of J_k",
+) -> Figure:
     """:func:`plot_errors`'s figure, its legend below the axes (inside, it covered the
-    tallest bars)."""
+    tallest bars). ``ylabel`` names what the bars are (a real rig has no true values: its
+    report shows each method's difference from the least squares)."""
     fig = Figure(figsize=(7.5, 4.8), dpi=120, layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
@@ -128,11 +156,84 @@ def errors_figure(labels: list[str], errors: dict[str, np.ndarray], title: str) 
         ax.bar(x + (i - (len(errors) - 1) / 2) * width, np.abs(values), width, label=method)
     ax.set_yscale("log")
     ax.set_xticks(x, labels, fontsize="small")
-    ax.set_ylabel("|relative error| of J_k")
+    ax.set_ylabel(ylabel)
     ax.grid(True, axis="y", alpha=0.3)
     fig.legend(loc="outside lower center", fontsize="small", ncol=3)
     ax.set_title(title)
     return fig
+
+
+def figure_png(fig: Figure) -> bytes:
+    """``fig`` as PNG bytes (the report inlines them; nothing is written)."""
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png")
+    return buffer.getvalue()
+
+
+PLOT_POINTS = 20_000
+"""At most this many points per curve of :func:`experiment_figures` (a 10 kHz log of ten
+minutes has six million rows; the figure cannot show more than its pixels)."""
+
+
+def experiment_figures(exp, virtual=None) -> list[tuple[str, Figure]]:
+    """The figures an experiment folder's logs allow, as (file name, figure), per stage:
+
+    - ``motion_stageN.png`` (paper Fig. 3): the forward run's smoothed braking speed, then
+      the reverse's, from the logs; with the free undamped and damped motions from the same
+      release when ``virtual`` (the virtual device, rsp_inertia.plant.config.Virtual) is
+      given: a simulation can release the body with the motor off, a rig's logs hold no
+      such run, and ``report`` never reads virtual.toml;
+    - ``tracking_stageN.png`` (paper Fig. 4), when the stage has its ``program.csv``: the
+      program's reference speed against the reverse log's smoothed speed.
+
+    A stage without its forward braking and reverse logs is left out.
+    """
+    from rsp_inertia.estimation.smoothing import smooth_log
+    from rsp_inertia.plant.logs import read_log, read_program
+    from rsp_inertia.plant.virtual import free_motion
+
+    device = exp.device
+    limit = device.motor.torque_limit
+    figures = []
+    for st in exp.stages():
+        if not (exp.braking_path(st).is_file() and exp.reverse_path(st).is_file()):
+            continue
+        braking = read_log(exp.braking_path(st), device.encoder, "braking", torque_limit=limit)
+        reverse = read_log(exp.reverse_path(st), device.encoder, "reverse", torque_limit=limit)
+        sb = smooth_log(braking, device.encoder.quantum)
+        sr = smooth_log(reverse, device.encoder.quantum)
+        every_b = max(1, len(sb.t) // PLOT_POINTS)
+        every_r = max(1, len(sr.t) // PLOT_POINTS)
+        free = (None, None)
+        if virtual is not None:
+            duration = float(braking.t[-1] + reverse.t[-1])
+            free = tuple(
+                free_motion(device, st, virtual, duration, damped=damped)[::2]
+                for damped in (False, True)
+            )
+        figures.append((
+            f"motion_stage{st}.png",
+            motion_figure(
+                (sb.t[::every_b], sb.omega[::every_b]),
+                (sr.t[::every_r], sr.omega[::every_r]),
+                *free,
+                f"Stage {st}: RSP motion" + (" and free motions" if virtual else "")
+                + " (paper Fig. 3)",
+            ),
+        ))
+        if exp.program_path(st).is_file():
+            prog = read_program(exp.program_path(st), device.encoder)
+            n = min(len(prog.t), len(sr.t))
+            figures.append((
+                f"tracking_stage{st}.png",
+                tracking_figure(
+                    prog.t[:n:every_r],
+                    prog.omega_ref[:n:every_r],
+                    sr.omega[:n:every_r],
+                    f"Stage {st}: reverse pass, reference and smoothed output (paper Fig. 4)",
+                ),
+            ))
+    return figures
 
 
 def plan_figure(plan, path: str | os.PathLike) -> Path:

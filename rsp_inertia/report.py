@@ -1,58 +1,386 @@
 """``rsp-inertia report``: EXP/report.html, one self-contained file for a test report.
 
-Built from what identify wrote (result.json) and what the experiment holds: the tensor and
-the axial moments with their stds, the uncertainty budget, the warnings, the calibration
-applied, the protocol of every stage (device.toml), the sha256 of every input file, the
-package versions, and the figures found in the folder (PNG, inlined as base64: the file
-needs no network and no other file).
+Built from what identify wrote (result.json) and what the experiment holds. It leads with a
+verdict: whether the inputs are still those identify read (result.json's provenance, checked
+against the folder), and identify's warnings. Then the tensor, its principal moments and
+axes and the centre of mass, each with its std and 95% interval; the axial moments; the
+uncertainty budget by source, per stage and node, with its total; the calibration applied;
+the protocol of every stage and the runs as logged (release angle, launch speed, turns);
+the figures the logs allow (drawn from them) and those found in the folder; the input files'
+sha256; the software that made the result. Figures are inlined as base64 PNG: the file needs
+no network and no other file. The report never reads virtual.toml (the simulator's truth).
 """
 
 from __future__ import annotations
 
 import base64
-import hashlib
 import html
 import json
-import platform
-from importlib import metadata
+import math
 from pathlib import Path
 
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.experiment import open_experiment
-from rsp_inertia.plant.logs import write_atomic
+from rsp_inertia.plant.experiment import Experiment, open_experiment
+from rsp_inertia.plant.logs import check_writable, file_sha256, write_atomic
+from rsp_inertia.provenance import created_now, input_changes, package_versions
 
-__all__ = ["FIGURES", "PACKAGES", "REPORT_FILE", "write_report"]
+__all__ = ["FIGURES", "REPORT_FILE", "Z95", "write_report"]
 
 REPORT_FILE = "report.html"
 """Written into the experiment folder."""
 
-FIGURES = ("errors.png", "design.png", "plan.png", "encoder_error.png")
-"""Figures inlined when present, then every motion_stageN.png and tracking_stageN.png."""
+FIGURES = ("plan.png", "design.png", "encoder_error.png", "errors.png")
+"""Figures of other commands inlined when present (plan, design or demo, calibrate, demo);
+the motion and tracking figures are drawn from the logs (rsp_inertia.plots.experiment_figures)."""
 
-PACKAGES = ("rsp-inertia", "numpy", "scipy", "casadi", "control", "matplotlib")
-"""Whose installed versions the report records."""
+Z95 = 1.959963984540054
+"""The 95% interval of a Gaussian estimate is +- Z95 std."""
 
-INPUT_PATTERNS = ("device.toml", "calibration.toml", "reference.toml", "stage*/*.csv")
-"""The input files whose hashes the report records (result.json is the output it shows)."""
+HARMONICS = ("M0", "Mc2", "Ms2", "Ms1", "Mc1")
+"""Names of the empty system's reduced-inertia harmonics (docs/files.md, calibration)."""
+
+STYLE = (
+    "body{font-family:sans-serif;max-width:62em;margin:auto;padding:0 1em;color:#222}"
+    "table{border-collapse:collapse;margin:0.4em 0 1em}"
+    "td,th{border:1px solid #999;padding:2px 6px;text-align:right}"
+    "td:first-child,th:first-child{text-align:left}"
+    "tr.total td{font-weight:bold;border-top:2px solid #444}"
+    ".verdict{border:3px solid;border-radius:6px;padding:0.3em 1em;margin:1em 0}"
+    ".verdict h2{margin-top:0.3em}"
+    ".ok{border-color:#2a7a2a;background:#eef8ee}"
+    ".warn{border-color:#b07000;background:#fff6e0}"
+    ".stale{border-color:#b00020;background:#fdecee}"
+    ".meta{color:#555}"
+    "img{max-width:100%}figure{margin:1em 0}"
+)
 
 
-def _table(head: list[str], rows: list[list[str]]) -> str:
+def _table(head: list[str], rows: list[list[str]], total: list[str] | None = None) -> str:
     cells = "".join(f"<th>{html.escape(h)}</th>" for h in head)
     body = "".join(
         "<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in row) + "</tr>" for row in rows
     )
+    if total is not None:
+        body += "<tr class='total'>" + "".join(
+            f"<td>{html.escape(str(c))}</td>" for c in total
+        ) + "</tr>"
     return f"<table><tr>{cells}</tr>{body}</table>"
 
 
-def _version(name: str) -> str:
+def _interval(value: float, std: float, digits: str = ".8g") -> str:
+    """The 95% interval ``[value - Z95 std, value + Z95 std]``."""
+    if std is None or not math.isfinite(std):
+        return "not defined"
+    return f"[{value - Z95 * std:{digits}}, {value + Z95 * std:{digits}}]"
+
+
+def _read_result(exp: Experiment) -> dict:
+    path = exp.result_path
+    if not path.is_file():
+        raise InputError(f"{path}: not found: run rsp-inertia identify {exp.root} first")
     try:
-        return metadata.version(name)
-    except metadata.PackageNotFoundError:
-        return "not installed"
+        result = json.loads(path.read_text())
+        result["tensor"], result["tensor_std"], result["axes"]  # noqa: B018 (checked)
+    except (json.JSONDecodeError, KeyError, TypeError) as error:
+        raise InputError(f"{path}: not a result.json written by identify ({error!r})") from None
+    return result
 
 
-def _sha256(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
+def _verdict(exp: Experiment, result: dict) -> str:
+    """The box the report leads with: are the inputs those identify read, and its warnings."""
+    from rsp_inertia.estimation.reading import identify_inputs
+
+    provenance = result.get("provenance") or {}
+    warnings = result.get("warnings") or []
+    items, level = [], "ok"
+    if "inputs" in provenance:
+        changes = input_changes(exp.root, provenance["inputs"], identify_inputs(exp))
+        if changes:
+            level = "stale"
+            items.append(
+                "<p><b>The inputs changed since identify made this result</b>: the numbers "
+                "below describe the files as they were, not as they are. Run "
+                f"<code>rsp-inertia identify {html.escape(str(exp.root))}</code> again.</p>"
+            )
+            items.append("<ul>" + "".join(f"<li>{html.escape(c)}</li>" for c in changes)
+                         + "</ul>")
+    else:
+        level = "stale"
+        items.append(
+            "<p><b>result.json records no provenance</b> (made by an older rsp-inertia): "
+            "whether the folder still holds the inputs it was made from cannot be checked. "
+            "Run identify again.</p>"
+        )
+    if warnings:
+        level = "stale" if level == "stale" else "warn"
+        items.append(
+            f"<p><b>{len(warnings)} warning{'s' if len(warnings) > 1 else ''}</b>: each says "
+            "what may move the result beyond its stds; read them before using the numbers.</p>"
+        )
+        items.append("<ul>" + "".join(f"<li>{html.escape(w)}</li>" for w in warnings) + "</ul>")
+    else:
+        items.append("<p><b>No warnings</b>: identify found nothing questionable.</p>")
+    title = {"ok": "Verdict: no warnings", "warn": "Verdict: read the warnings",
+             "stale": "Verdict: do not use as it stands"}[level]
+    return f"<div class='verdict {level}'><h2>{title}</h2>" + "".join(items) + "</div>"
+
+
+def _tensor_sections(result: dict) -> list[str]:
+    tensor, std = result["tensor"], result["tensor_std"]
+    parts = [
+        "<h2>Inertia tensor (least squares), kg m^2</h2>",
+        "<p>In the rig's axes: z along the shaft, x and y as at phi = 0. Products are the "
+        "tensor's entries (Jxy = -integral of x y dm).</p>",
+        _table(
+            ["entry", "kg m^2", "std", "relative std", "95% interval"],
+            [[k, f"{v:.8g}", f"{std[k]:.2g}",
+              f"{std[k] / abs(v):.1e}" if v else "-", _interval(v, std[k])]
+             for k, v in tensor.items()],
+        ),
+    ]
+    moments = result.get("principal_moments")
+    if moments:
+        moments_std = result.get("principal_moments_std") or [float("nan")] * 3
+        tilt = result.get("principal_axes_tilt_std_deg") or [None] * 3
+        axes = result["principal_axes"]
+        parts += [
+            "<h2>Principal moments and axes</h2>",
+            _table(
+                ["", "kg m^2", "std", "95% interval", "axis (x, y, z)", "axis tilt std, deg"],
+                [[f"I{i + 1}", f"{m:.8g}", f"{s:.2g}", _interval(m, s),
+                  "(" + ", ".join(f"{c:+.6f}" for c in a) + ")",
+                  "not defined (equal moments)" if t is None else f"{t:.2g}"]
+                 for i, (m, s, a, t) in enumerate(zip(moments, moments_std, axes, tilt))],
+            ),
+        ]
+    com = result.get("com")
+    if com is not None:
+        com_std = result.get("com_std") or {}
+        parts += [
+            "<h2>Centre of mass, mm</h2>",
+            "<p>z_c, along the shaft, does not change the potential energy on this gimbal: "
+            "one mounting does not measure it.</p>",
+            _table(
+                ["", "mm", "std", "95% interval"],
+                [[n, f"{com[n] * 1e3:.5f}", f"{com_std.get(n, float('nan')) * 1e3:.2g}",
+                  _interval(com[n] * 1e3, com_std.get(n, float("nan")) * 1e3, ".5f")]
+                 for n in ("x", "y")],
+            ),
+        ]
+    else:
+        parts.append("<p>Centre of mass: not identified (device.toml gives no [body] mass).</p>")
+    axes = result["axes"]
+    parts += [
+        f"<p>cond(V) of the node axes = {result.get('condition_number', float('nan')):.4g}</p>",
+        "<h2>Axial moments</h2>",
+        _table(
+            ["stage", "node, deg", "J, kg m^2", "std", "node formula", "std"],
+            [[a["stage"], f"{a['phi_deg']:g}", f"{a['J']:.8g}", f"{a['J_std']:.2g}",
+              f"{a['J_node']:.8g}", f"{a['J_node_std']:.2g}"] for a in axes],
+        ),
+    ]
+    return parts
+
+
+def _budget_section(result: dict) -> list[str]:
+    """The std budget by source: of the tensor's entries and of each axial moment, with a
+    total row (the sources' variances add up, docs/method.md)."""
+    budget = (result.get("least_squares") or {}).get("std_budget") or {}
+    if not budget:
+        return []
+    keys = list(result["tensor"])
+    axes = result["axes"]
+    entry_total = [math.sqrt(sum(part["tensor_std"][k] ** 2 for part in budget.values()))
+                   for k in keys]
+    axis_total = [math.sqrt(sum(part["axes_J_std"][i] ** 2 for part in budget.values()))
+                  for i in range(len(axes))]
+    return [
+        "<h2>Uncertainty budget: std by source, kg m^2</h2>",
+        "<h3>Tensor entries</h3>",
+        _table(
+            ["source", *keys],
+            [[source, *(f"{part['tensor_std'][k]:.2g}" for k in keys)]
+             for source, part in budget.items()],
+            ["total", *(f"{v:.2g}" for v in entry_total)],
+        ),
+        "<h3>Axial moments</h3>",
+        _table(
+            ["source", *(f"stage {a['stage']}, node {a['phi_deg']:g} deg" for a in axes)],
+            [[source, *(f"{v:.2g}" for v in part["axes_J_std"])]
+             for source, part in budget.items()],
+            ["total", *(f"{v:.2g}" for v in axis_total)],
+        ),
+    ]
+
+
+def _labels(key: str, count: int) -> list[str]:
+    """Names of the numbers of calibration ``key`` (docs/files.md, result.json calibration)."""
+    if key == "drive_gains":
+        return ["h_d (motor drives the body)", "h_b (body drives the motor)"]
+    if key == "fixture_gravity":
+        return ["m g x_c of the fixture, N m", "m g y_c of the fixture, N m"]
+    if key == "encoder_error":
+        return [f"{'cs'[i % 2]}_{i // 2 + 1} of the encoder error, rad" for i in range(count)]
+    return [f"{key}[{i}]" for i in range(count)]
+
+
+def _calibration_section(result: dict) -> list[str]:
+    calibration = result.get("calibration")
+    if not calibration:
+        return ["<h2>Calibration</h2>",
+                "<p>None applied: device.toml's tares, a torque gain of 1, a lossless drive "
+                "and the stated encoder error, taken as exact.</p>"]
+    refined = calibration.get("refined") or {}
+    rows = []
+    for key, value in calibration.items():
+        if key.endswith("_std") or key == "refined":
+            continue
+        std = calibration.get(f"{key}_std")
+        after, after_std = refined.get(key), refined.get(f"{key}_std")
+        if key == "empty_inertia":  # per stage, the harmonics of M_empty(phi)
+            for k, (harmonics, stds) in enumerate(zip(value, std or [[None] * 5] * len(value))):
+                rows += [[f"stage {k + 1} empty system {name}, kg m^2", f"{v:.8g}",
+                          "-" if s is None else f"{s:.2g}", "", ""]
+                         for name, v, s in zip(HARMONICS, harmonics, stds)]
+            continue
+        values = value if isinstance(value, list) else [value]
+        stds = std if isinstance(std, list) else [std] * len(values)
+        afters = after if isinstance(after, list) else [after] * len(values)
+        after_stds = after_std if isinstance(after_std, list) else [after_std] * len(values)
+        names = _labels(key, len(values)) if isinstance(value, list) else [key.replace("_", " ")]
+        for name, v, s, a, a_s in zip(names, values, stds, afters, after_stds):
+            rows.append([name, f"{v:.8g}", "-" if s is None else f"{s:.2g}",
+                         "" if a is None else f"{a:.8g}", "" if a_s is None else f"{a_s:.2g}"])
+    return [
+        "<h2>Calibration</h2>",
+        "<p>What identify took as known, with its std (calibration.toml, or device.toml's "
+        "stated stds); where the body's own runs refine a term, its value after them.</p>",
+        _table(["quantity", "calibration", "std", "after the runs", "std"], rows),
+    ]
+
+
+def _run_rows(exp: Experiment) -> list[list[str]]:
+    """Each run as logged: its release angle (the braking log's first angle), launch speed
+    (the smoothed speed there), turns braked and the passes' durations."""
+    from rsp_inertia.estimation.runs import runs
+    from rsp_inertia.estimation.smoothing import smooth_log
+    from rsp_inertia.plant.logs import read_log
+
+    device, rows = exp.device, []
+    for stage, direction in runs(device):
+        braking_path, reverse_path = exp.braking_path(stage, direction), exp.reverse_path(
+            stage, direction)
+        if not braking_path.is_file():
+            rows.append([stage, direction, "no log", "", "", "", ""])
+            continue
+        braking = read_log(braking_path, device.encoder, "braking", direction,
+                           device.motor.torque_limit)
+        omega0 = float(smooth_log(braking, device.encoder.quantum).omega[0])
+        reverse_s = "no log"
+        if reverse_path.is_file():
+            reverse = read_log(reverse_path, device.encoder, "reverse", direction,
+                               device.motor.torque_limit)
+            reverse_s = f"{reverse.t[-1] - reverse.t[0]:.2f}"
+        rows.append([
+            stage, direction, f"{math.degrees(braking.phi[0]):.2f}", f"{omega0:.3f}",
+            f"{abs(braking.phi[-1] - braking.phi[0]) / (2 * math.pi):.1f}",
+            f"{braking.t[-1] - braking.t[0]:.2f}", reverse_s,
+        ])
+    return rows
+
+
+def _protocol_section(exp: Experiment) -> list[str]:
+    def stated(value, digits="g"):
+        return "not set" if value is None else f"{value:{digits}}"
+
+    stages = exp.device.stages
+    return [
+        "<h2>Protocol</h2>",
+        "<h3>As device.toml states it</h3>",
+        _table(
+            ["stage", "gear ratio", "nodes, deg", "launch speed, rad/s", "braking torque, N m",
+             "release angle, deg", "directions"],
+            [[k, f"{st.gear_ratio:.10g}", ", ".join(f"{n:g}" for n in st.nodes_deg),
+              stated(st.launch_speed), stated(st.braking_torque),
+              stated(st.release_angle_deg), ", ".join(st.directions)]
+             for k, st in enumerate(stages, 1)],
+        ),
+        "<h3>As the logs ran it</h3>",
+        "<p>Release angle: the braking log's first angle (for a backward run, where the "
+        "mirror releases); launch speed: the smoothed speed there.</p>",
+        _table(
+            ["stage", "direction", "release angle, deg", "launch speed, rad/s",
+             "turns braked", "braking, s", "reverse, s"],
+            _run_rows(exp),
+        ),
+    ]
+
+
+def _difference_figure(result: dict):
+    """A real rig's error chart: each method's axial moments against the least squares'
+    (no true values on a rig), beside the least squares' own relative std."""
+    import numpy as np
+
+    from rsp_inertia.plots import errors_figure
+
+    axes = result["axes"]
+    J = np.array([a["J"] for a in axes])
+    bars = {
+        "least squares' relative std": np.array([a["J_std"] for a in axes]) / J,
+        "RSP node formula": np.array([a["J_node"] for a in axes]) / J - 1,
+    }
+    pendulum = (result.get("pendulum") or {}).get("axes") or []
+    if len(pendulum) == len(axes):
+        bars["pendulum classic"] = np.array([p["J_classic"] for p in pendulum]) / J - 1
+        bars["pendulum damped fit"] = np.array([p["J_damped"] for p in pendulum]) / J - 1
+    labels = [f"s{a['stage']} {a['phi_deg']:g} deg" for a in axes]
+    return errors_figure(
+        labels, bars,
+        "Each axial moment's difference from the least squares, per method",
+        ylabel="|J_k / J_k(least squares) - 1|",
+    )
+
+
+def _figures(exp: Experiment, result: dict) -> list[str]:
+    from rsp_inertia.plots import experiment_figures, figure_png
+
+    pictures = [(name, (exp.root / name).read_bytes(), f"{name} (from the folder)")
+                for name in FIGURES if (exp.root / name).is_file()]
+    pictures += [(name, figure_png(fig), f"{name} (drawn from the logs)")
+                 for name, fig in experiment_figures(exp)]
+    pictures.append(("differences.png", figure_png(_difference_figure(result)),
+                     "each method against the least squares (drawn from result.json)"))
+    parts = ["<h2>Figures</h2>"]
+    for name, data, caption in pictures:
+        encoded = base64.b64encode(data).decode("ascii")
+        parts.append(
+            f"<figure><img alt='{html.escape(name)}' src='data:image/png;base64,{encoded}'>"
+            f"<figcaption>{html.escape(caption)}</figcaption></figure>"
+        )
+    return parts
+
+
+def _provenance_sections(exp: Experiment, result: dict) -> list[str]:
+    provenance = result.get("provenance") or {}
+    recorded = provenance.get("inputs") or {}
+    rows = []
+    for name, digest in recorded.items():
+        path = exp.root / name
+        now = file_sha256(path) if path.is_file() else None
+        status = "as read" if now == digest else "removed" if now is None else "changed"
+        rows.append([name, digest, status])
+    software = provenance.get("software") or {}
+    current = package_versions()
+    return [
+        "<h2>Input files (sha256 when identify read them)</h2>",
+        _table(["file", "sha256", "now"], rows) if rows else "<p>Not recorded.</p>",
+        "<h2>Software</h2>",
+        _table(
+            ["package", "made the result", "installed now"],
+            [[name, software.get(name, "not recorded"), version]
+             for name, version in current.items()],
+        ),
+    ]
 
 
 def write_report(root: str | Path) -> Path:
@@ -64,105 +392,32 @@ def write_report(root: str | Path) -> Path:
         No result.json (run identify first), or one that is not identify's.
     """
     exp = open_experiment(root)
-    path = exp.result_path
-    if not path.is_file():
-        raise InputError(f"{path}: not found: run rsp-inertia identify {exp.root} first")
-    try:
-        result = json.loads(path.read_text())
-        tensor, tensor_std, axes = result["tensor"], result["tensor_std"], result["axes"]
-    except (json.JSONDecodeError, KeyError, TypeError) as error:
-        raise InputError(f"{path}: not a result.json written by identify ({error!r})") from None
-    device = exp.device
+    result = _read_result(exp)
+    out = exp.root / REPORT_FILE
+    check_writable(out)
+    provenance = result.get("provenance") or {}
+    name = html.escape(exp.device.name)
+    made = provenance.get("created", "at an unrecorded time")
+    version = (provenance.get("software") or {}).get("rsp-inertia", "an unrecorded version")
+    written = created_now()
     parts = [
-        f"<h1>rsp-inertia report: {html.escape(device.name)}</h1>",
-        f"<p>Experiment folder <code>{html.escape(str(exp.root))}</code>.</p>",
-        "<h2>Inertia tensor (least squares)</h2>",
-        _table(
-            ["entry", "kg m^2", "std"],
-            [[k, f"{v:.8g}", f"{tensor_std[k]:.2g}"] for k, v in tensor.items()],
-        ),
+        f"<h1>rsp-inertia report: {name}</h1>",
+        f"<p class='meta'>Experiment folder <code>{html.escape(str(exp.root))}</code>. "
+        f"Result made {html.escape(made)} by rsp-inertia {html.escape(version)} (identify); "
+        f"report written {html.escape(written)}.</p>",
+        _verdict(exp, result),
+        *_tensor_sections(result),
+        *_budget_section(result),
+        *_calibration_section(result),
+        *_protocol_section(exp),
+        *_figures(exp, result),
+        *_provenance_sections(exp, result),
     ]
-    if result.get("com") is not None:
-        com, std = result["com"], result.get("com_std") or {}
-        parts.append(
-            "<p>Centre of mass: "
-            + ", ".join(f"{n} = {com[n] * 1e3:.4f} &plusmn; {std.get(n, float('nan')) * 1e3:.1g} mm"
-                        for n in ("x", "y"))
-            + "</p>"
-        )
-    parts += [
-        f"<p>cond(V) = {result.get('condition_number', float('nan')):.4g}</p>",
-        "<h2>Axial moments</h2>",
-        _table(
-            ["stage", "node deg", "J kg m^2", "std", "node formula", "std"],
-            [[a["stage"], f"{a['phi_deg']:g}", f"{a['J']:.8g}", f"{a['J_std']:.2g}",
-              f"{a['J_node']:.8g}", f"{a['J_node_std']:.2g}"] for a in axes],
-        ),
-    ]
-    budget = (result.get("least_squares") or {}).get("std_budget") or {}
-    if budget:
-        parts += [
-            "<h2>Uncertainty budget (std of each axis by source, kg m^2)</h2>",
-            _table(
-                ["source"] + [f"axis {k + 1}" for k in range(len(axes))],
-                [[source, *(f"{v:.2g}" for v in part["axes_J_std"])]
-                 for source, part in budget.items()],
-            ),
-        ]
-    warnings = result.get("warnings") or []
-    parts.append("<h2>Warnings</h2>")
-    parts.append(
-        "<ul>" + "".join(f"<li>{html.escape(w)}</li>" for w in warnings) + "</ul>"
-        if warnings else "<p>None.</p>"
-    )
-    parts.append("<h2>Calibration</h2>")
-    calibration = result.get("calibration")
-    parts.append(
-        f"<pre>{html.escape(json.dumps(calibration, indent=2))}</pre>" if calibration
-        else "<p>None applied: device.toml's tares and a torque gain of 1.</p>"
-    )
-    parts += [
-        "<h2>Protocol</h2>",
-        _table(
-            ["stage", "gear ratio", "nodes deg", "launch speed rad/s", "braking torque N m",
-             "directions"],
-            [[k, f"{st.gear_ratio:.10g}", ", ".join(f"{n:g}" for n in st.nodes_deg),
-              f"{st.launch_speed:g}", f"{st.braking_torque:g}", ", ".join(st.directions)]
-             for k, st in enumerate(device.stages, 1)],
-        ),
-    ]
-    inputs = sorted({p for pattern in INPUT_PATTERNS for p in exp.root.glob(pattern)})
-    parts += [
-        "<h2>Input files</h2>",
-        _table(["file", "sha256"],
-               [[str(p.relative_to(exp.root)), _sha256(p)] for p in inputs]),
-        "<h2>Software</h2>",
-        _table(["package", "version"],
-               [["python", platform.python_version()]]
-               + [[name, _version(name)] for name in PACKAGES]),
-    ]
-    figures = [exp.root / name for name in FIGURES]
-    figures += sorted(exp.root.glob("motion_stage*.png")) + sorted(exp.root.glob("tracking_stage*.png"))
-    figures = [f for f in figures if f.is_file()]
-    if figures:
-        parts.append("<h2>Figures</h2>")
-        for figure in figures:
-            data = base64.b64encode(figure.read_bytes()).decode("ascii")
-            parts.append(
-                f"<figure><img alt='{html.escape(figure.name)}' "
-                f"src='data:image/png;base64,{data}'><figcaption>{html.escape(figure.name)}"
-                "</figcaption></figure>"
-            )
-    style = (
-        "body{font-family:sans-serif;max-width:60em;margin:auto}"
-        "table{border-collapse:collapse}td,th{border:1px solid #999;padding:2px 6px}"
-        "img{max-width:100%}"
-    )
     page = (
         "<!DOCTYPE html><html><head><meta charset='utf-8'>"
-        f"<title>rsp-inertia report: {html.escape(device.name)}</title>"
-        f"<style>{style}</style></head><body>\n" + "\n".join(parts) + "\n</body></html>\n"
+        f"<title>rsp-inertia report: {name} ({written[:10]})</title>"
+        f"<style>{STYLE}</style></head><body>\n" + "\n".join(parts) + "\n</body></html>\n"
     )
-    out = exp.root / REPORT_FILE
     write_atomic(out, page)
     return out
+

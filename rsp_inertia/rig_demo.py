@@ -18,7 +18,6 @@ import numpy as np
 from rsp_inertia.identify_result import format_identification
 from rsp_inertia.pipeline import calibrate, create_rig_experiment, identify, program, simulate
 from rsp_inertia.plant.experiment import Experiment, open_experiment
-from rsp_inertia.plant.logs import read_log, read_program
 
 if TYPE_CHECKING:
     from rsp_inertia.estimation.results import Identification
@@ -32,59 +31,26 @@ DEFAULT_EXPERIMENT = Path("demo-experiment")
 def demo_figures(
     exp: Experiment, result: Identification, folder: str | Path | None = None
 ) -> list[Path]:
-    """The demo's PNG figures: Fig. 1, and per stage Fig. 3 and Fig. 4; error chart.
+    """The demo's PNG figures: design.png (Fig. 1), the figures the logs allow
+    (rsp_inertia.plots.experiment_figures: per stage Fig. 3, and Fig. 4 where a program was
+    run) and, on a virtual device with its [body], the error chart against the truth.
 
-    Fig. 4 shows what a rig sees: the program's reference speed against the smoothed speed
-    of the reverse log (forward runs). Fig. 3 (the free motions) and the error chart need
-    the virtual device's truth, so they are drawn only for a virtual experiment (with
-    virtual.toml; the error chart with its [body]); Fig. 4 only for a stage with a
-    stageN/program.csv (a closed-loop reverse). The demo has all of them and gets every
-    figure. Written into ``folder`` (created if needed; default: the experiment folder);
-    returns the paths written, in that order.
+    Written into ``folder`` (created if needed; default: the experiment folder); returns
+    the paths written, in that order.
     """
     # Imported here: only the demo draws, and matplotlib costs the other commands a second.
     from rsp_inertia.design import plot_cone_conditioning
-    from rsp_inertia.estimation.smoothing import smooth_log
     from rsp_inertia.plant.geometry import design_matrix
-    from rsp_inertia.plant.virtual import free_motion
-    from rsp_inertia.plots import plot_errors, plot_motion, plot_tracking
+    from rsp_inertia.plots import experiment_figures, plot_errors, save_figure
 
     out = exp.root if folder is None else Path(folder)
     out.mkdir(parents=True, exist_ok=True)
-    device = exp.device
     virtual = exp.load_virtual() if exp.virtual_path.is_file() else None
     paths = [out / "design.png"]
     plot_cone_conditioning(paths[0])
-    for st in exp.stages():
-        has_program = exp.program_path(st).is_file()
-        if virtual is None and not has_program:
-            continue
-        braking = read_log(exp.braking_path(st), device.encoder, "braking")
-        reverse = read_log(exp.reverse_path(st), device.encoder, "reverse")
-        sb = smooth_log(braking, device.encoder.quantum)
-        sr = smooth_log(reverse, device.encoder.quantum)
-        if virtual is not None:
-            duration = float(braking.t[-1] + reverse.t[-1])
-            paths.append(out / f"motion_stage{st}.png")
-            plot_motion(
-                paths[-1],
-                (sb.t, sb.omega),
-                (sr.t, sr.omega),
-                free_motion(device, st, virtual, duration, damped=False)[::2],
-                free_motion(device, st, virtual, duration, damped=True)[::2],
-                f"Stage {st}: RSP motion and free motions (paper Fig. 3)",
-            )
-        if has_program:
-            prog = read_program(exp.program_path(st), device.encoder)
-            n = min(len(prog.t), len(sr.t))
-            paths.append(out / f"tracking_stage{st}.png")
-            plot_tracking(
-                paths[-1],
-                prog.t[:n],
-                prog.omega_ref[:n],
-                sr.omega[:n],
-                f"Stage {st}: reverse pass, reference and smoothed output (paper Fig. 4)",
-            )
+    for name, figure in experiment_figures(exp, virtual):
+        paths.append(out / name)
+        save_figure(figure, paths[-1])
     if virtual is None or virtual.body is None:  # no truth to compare with
         return paths
     # The true moments about the axes: J_k = V_k . J (docs/method.md §5).

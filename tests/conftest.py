@@ -1,8 +1,14 @@
 """Shared fixtures: the default experiment of ``rsp-inertia demo`` (plant/defaults/)."""
 
+import os
 from pathlib import Path
 
 import pytest
+
+# result.json records when identify made it; with a fixed SOURCE_DATE_EPOCH (the
+# reproducible-builds convention, rsp_inertia.provenance.created_now) the same inputs give
+# the same bytes, which several tests compare. tests/test_report.py checks the clock's own.
+os.environ["SOURCE_DATE_EPOCH"] = "1795000000"
 
 import rsp_inertia.plant
 from rsp_inertia.plant.config import Device, Virtual, load_device, load_virtual

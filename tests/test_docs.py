@@ -457,6 +457,10 @@ def _paths(value, path: str = "") -> set[str]:
                 name = "<source>"
             elif path.endswith("best_budget"):
                 name = "<part>"
+            elif path == "provenance.inputs":
+                name = "<file>"
+            elif path == "provenance.software":
+                name = "<package>"
             elif names == set(ENTRIES):
                 name = "<entry>"
             out |= _paths(child, f"{path}.{name}" if path else name)

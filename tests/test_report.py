@@ -1,39 +1,175 @@
-"""``rsp-inertia report``: one self-contained HTML file from an identified experiment."""
+"""``rsp-inertia report``: one self-contained HTML file from an identified experiment, that
+leads with its verdict and checks its inputs against what identify read."""
 
 from __future__ import annotations
 
 import hashlib
+import html
 import json
+import math
 import re
+import shutil
+
+import pytest
 
 from rsp_inertia.cli import main
 from rsp_inertia.pipeline import create_default_experiment, identify, simulate
+from rsp_inertia.provenance import created_now
 
 
-def test_report_is_self_contained_and_says_what_went_in(tmp_path, capsys):
+@pytest.fixture(scope="module")
+def identified(tmp_path_factory):
+    """The default experiment, ideal reverse, identified (no calibration: it warns)."""
+    root = create_default_experiment(tmp_path_factory.mktemp("report") / "exp")
+    simulate(root, part="braking")
+    simulate(root, part="reverse", ideal=True)
+    identify(root)
+    return root
+
+
+@pytest.fixture
+def rig(identified, tmp_path):
+    """A copy of the identified folder as a real rig would hold it: no virtual.toml."""
+    root = tmp_path / "rig"
+    shutil.copytree(identified, root)
+    (root / "virtual.toml").unlink()
+    return root
+
+
+def _verdict(page: str) -> str:
+    match = re.search(r"<div class='verdict (\w+)'>(.*?)</div>", page, re.S)
+    assert match, "no verdict box"
+    return match.group(1), match.group(2)
+
+
+def test_report_is_self_contained_and_says_what_went_in(tmp_path, capsys, identified):
     root = create_default_experiment(tmp_path / "exp")
     assert main(["report", str(root)]) == 2  # not identified yet: one line, nothing written
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "run rsp-inertia identify" in err
     assert not (root / "report.html").exists()
 
-    simulate(root, part="braking")
-    simulate(root, part="reverse", ideal=True)
-    identify(root)
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(2, 2))
-    FigureCanvasAgg(fig).print_png(str(root / "errors.png"))
+    root = identified
     assert main(["report", str(root)]) == 0
     page = (root / "report.html").read_text()
     result = json.loads((root / "result.json").read_text())
     for name, value in result["tensor"].items():
         assert f"<td>{name}</td><td>{value:.8g}</td>" in page
     digest = hashlib.sha256((root / "device.toml").read_bytes()).hexdigest()
-    assert f"<td>device.toml</td><td>{digest}</td>" in page
+    assert f"<td>device.toml</td><td>{digest}</td><td>as read</td>" in page
     assert "stage1/braking.csv" in page and "virtual.toml" not in page
     assert "<td>numpy</td>" in page and "<td>casadi</td>" in page
     assert "data:image/png;base64," in page
     # Nothing is fetched: no external source or link.
     assert not re.search(r"(src|href)=['\"]?(https?:|//)", page)
+
+
+def test_result_json_records_every_input_as_identify_read_it(identified):
+    result = json.loads((identified / "result.json").read_text())
+    provenance = result["provenance"]
+    assert provenance["command"] == "identify"
+    assert provenance["software"]["rsp-inertia"]
+    inputs = provenance["inputs"]
+    logs = sorted(p.relative_to(identified).as_posix() for p in identified.glob("stage*/*.csv")
+                  if "program" not in p.name)
+    assert sorted(inputs) == sorted(["device.toml", *logs])
+    for name, digest in inputs.items():
+        assert hashlib.sha256((identified / name).read_bytes()).hexdigest() == digest
+
+
+def test_created_is_the_clock_unless_source_date_epoch_fixes_it(monkeypatch):
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1795000000")
+    assert created_now() == "2026-11-18T11:06:40Z"
+    monkeypatch.delenv("SOURCE_DATE_EPOCH")
+    import datetime
+
+    now = datetime.datetime.now(datetime.timezone.utc)
+    made = datetime.datetime.strptime(created_now(), "%Y-%m-%dT%H:%M:%SZ").replace(
+        tzinfo=datetime.timezone.utc)
+    assert abs((made - now).total_seconds()) < 5
+
+
+def test_the_verdict_leads_with_the_warnings(rig):
+    path = rig / "result.json"
+    document = json.loads(path.read_text())
+    warnings = ["no calibration.toml: device.toml's tares are taken as exact <check>",
+                "the model test of stage 2 failed"]
+    document["warnings"] = warnings
+    path.write_text(json.dumps(document))  # result.json is an output, not a recorded input
+    assert main(["report", str(rig)]) == 0
+    page = (rig / "report.html").read_text()
+    level, box = _verdict(page)
+    assert level == "warn"
+    assert "2 warnings" in box
+    for warning in warnings:
+        assert html.escape(warning) in box
+    # The box comes before any number.
+    assert page.index("class='verdict") < page.index("Inertia tensor")
+
+
+def test_a_changed_or_late_input_turns_the_verdict_red(rig, capsys):
+    log = rig / "stage1" / "reverse.csv"
+    log.write_text(log.read_text() + "\n")  # a changed byte is a changed file
+    (rig / "calibration.toml").write_text("# written after identify\n")
+    assert main(["report", str(rig)]) == 0
+    page = (rig / "report.html").read_text()
+    level, box = _verdict(page)
+    assert level == "stale"
+    assert "stage1/reverse.csv: changed since the result was made" in box
+    assert "calibration.toml: not read when the result was made" in box
+    assert "stage1/braking.csv" not in box
+    assert "<td>stage1/reverse.csv</td>" in page and "<td>changed</td>" in page
+
+    log.unlink()
+    (rig / "calibration.toml").unlink()
+    assert main(["report", str(rig)]) == 0
+    assert "stage1/reverse.csv: removed" in _verdict((rig / "report.html").read_text())[1]
+
+
+def test_a_result_without_provenance_cannot_be_trusted_to_match(rig):
+    path = rig / "result.json"
+    document = json.loads(path.read_text())
+    del document["provenance"]
+    path.write_text(json.dumps(document))
+    assert main(["report", str(rig)]) == 0
+    level, box = _verdict((rig / "report.html").read_text())
+    assert level == "stale" and "records no provenance" in box
+
+
+def test_a_clean_result_says_no_warnings(identified):
+    assert json.loads((identified / "result.json").read_text())["warnings"] == []
+    assert main(["report", str(identified)]) == 0
+    level, box = _verdict((identified / "report.html").read_text())
+    assert level == "ok" and "No warnings" in box
+
+
+def test_the_report_states_intervals_principal_axes_and_a_budget_total(identified):
+    assert main(["report", str(identified)]) == 0
+    page = (identified / "report.html").read_text()
+    result = json.loads((identified / "result.json").read_text())
+    Jx, std = result["tensor"]["Jx"], result["tensor_std"]["Jx"]
+    assert f"[{Jx - 1.959963984540054 * std:.8g}, {Jx + 1.959963984540054 * std:.8g}]" in page
+    for moment, m_std in zip(result["principal_moments"], result["principal_moments_std"]):
+        assert f"<td>{moment:.8g}</td><td>{m_std:.2g}</td>" in page
+    # The budget's total row: the sources' variances add up to each entry's variance.
+    budget = result["least_squares"]["std_budget"]
+    totals = []
+    for key, value in result["tensor_std"].items():
+        total = math.sqrt(sum(part["tensor_std"][key] ** 2 for part in budget.values()))
+        assert total == pytest.approx(value, rel=1e-6)
+        totals.append(f"<td>{total:.2g}</td>")
+    assert "<tr class='total'><td>total</td>" + "".join(totals) + "</tr>" in page
+    # Each axis is named by its stage and node.
+    for axis in result["axes"]:
+        assert f"<th>stage {axis['stage']}, node {axis['phi_deg']:g} deg</th>" in page
+    assert "<th>release angle, deg</th>" in page
+
+
+def test_a_rig_folder_gets_the_figures_its_logs_allow(rig):
+    assert not (rig / "virtual.toml").exists()
+    for png in rig.glob("*.png"):
+        png.unlink()
+    assert main(["report", str(rig)]) == 0
+    page = (rig / "report.html").read_text()
+    names = re.findall(r"<img alt='([^']+)'", page)
+    assert names == ["motion_stage1.png", "motion_stage2.png", "differences.png"]

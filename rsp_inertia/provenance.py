@@ -1,0 +1,91 @@
+"""Where a result comes from: when it was made, by which software, from which input files.
+
+``identify`` records :func:`make_provenance` in result.json (``provenance``); ``report``
+checks the recorded inputs against the folder with :func:`input_changes`, so a log changed,
+removed or added (a calibration.toml written after identify) after the result was made is
+reported, not silently shown with the old numbers.
+"""
+
+from __future__ import annotations
+
+import datetime
+import os
+import platform
+from collections.abc import Iterable
+from importlib import metadata
+from pathlib import Path
+
+from rsp_inertia.plant.logs import file_sha256
+
+__all__ = ["PACKAGES", "created_now", "input_changes", "make_provenance", "package_versions"]
+
+PACKAGES = ("rsp-inertia", "numpy", "scipy", "casadi", "control", "matplotlib")
+"""Whose installed versions a result records."""
+
+
+def package_versions() -> dict[str, str]:
+    """Python's and :data:`PACKAGES`' installed versions ("not installed" for a missing one)."""
+    versions = {"python": platform.python_version()}
+    for name in PACKAGES:
+        try:
+            versions[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            versions[name] = "not installed"
+    return versions
+
+
+def created_now() -> str:
+    """The present time in UTC, ISO 8601 to the second (``2026-11-26T13:05:00Z``).
+
+    The environment variable ``SOURCE_DATE_EPOCH`` (seconds since 1970, the reproducible-builds
+    convention) replaces the clock: with it, the same inputs give byte-identical files.
+    """
+    epoch = os.environ.get("SOURCE_DATE_EPOCH")
+    if epoch is not None and epoch.strip().isdigit():
+        moment = datetime.datetime.fromtimestamp(int(epoch), datetime.timezone.utc)
+    else:
+        moment = datetime.datetime.now(datetime.timezone.utc)
+    return moment.strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
+def _name(root: Path, path: Path) -> str:
+    """``path`` relative to the experiment folder, with forward slashes (the folder may move)."""
+    try:
+        return path.relative_to(root).as_posix()
+    except ValueError:
+        return path.as_posix()
+
+
+def make_provenance(command: str, root: str | os.PathLike, inputs: Iterable[Path]) -> dict:
+    """result.json's ``provenance``: the command, when it ran, the software's versions and
+    the sha256 of every input file (named relative to the experiment folder ``root``)."""
+    root = Path(root)
+    return {
+        "command": command,
+        "created": created_now(),
+        "software": package_versions(),
+        "inputs": {_name(root, Path(p)): file_sha256(p) for p in inputs},
+    }
+
+
+def input_changes(
+    root: str | os.PathLike, recorded: dict[str, str], inputs: Iterable[Path]
+) -> list[str]:
+    """What differs between the inputs a result recorded (name -> sha256) and the folder now,
+    ``inputs`` being the files the command would read today: one line per file changed,
+    removed, or new (read today, not when the result was made). Empty: the same files."""
+    root = Path(root)
+    now = {_name(root, Path(p)): Path(p) for p in inputs}
+    lines = []
+    for name, digest in recorded.items():
+        path = now.get(name, root / name)
+        if not path.is_file():
+            lines.append(f"{name}: removed since the result was made")
+        elif file_sha256(path) != digest:
+            lines.append(f"{name}: changed since the result was made")
+    lines += [
+        f"{name}: not read when the result was made (written after it?)"
+        for name in now
+        if name not in recorded
+    ]
+    return lines
