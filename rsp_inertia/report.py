@@ -294,6 +294,14 @@ def _protocol_section(exp: Experiment) -> list[str]:
         return "not set" if value is None else f"{value:{digits}}"
 
     stages = exp.device.stages
+    try:
+        logged = _table(
+            ["stage", "direction", "release angle, deg", "launch speed, rad/s",
+             "turns braked", "braking, s", "reverse, s"],
+            _run_rows(exp),
+        )
+    except InputError as error:  # a log changed since identify: the verdict names it
+        logged = f"<p>The logs cannot be read now: {html.escape(str(error))}</p>"
     return [
         "<h2>Protocol</h2>",
         "<h3>As device.toml states it</h3>",
@@ -308,11 +316,7 @@ def _protocol_section(exp: Experiment) -> list[str]:
         "<h3>As the logs ran it</h3>",
         "<p>Release angle: the braking log's first angle (for a backward run, where the "
         "mirror releases); launch speed: the smoothed speed there.</p>",
-        _table(
-            ["stage", "direction", "release angle, deg", "launch speed, rad/s",
-             "turns braked", "braking, s", "reverse, s"],
-            _run_rows(exp),
-        ),
+        logged,
     ]
 
 
@@ -346,8 +350,11 @@ def _figures(exp: Experiment, result: dict) -> list[str]:
 
     pictures = [(name, (exp.root / name).read_bytes(), f"{name} (from the folder)")
                 for name in FIGURES if (exp.root / name).is_file()]
-    pictures += [(name, figure_png(fig), f"{name} (drawn from the logs)")
-                 for name, fig in experiment_figures(exp)]
+    try:
+        pictures += [(name, figure_png(fig), f"{name} (drawn from the logs)")
+                     for name, fig in experiment_figures(exp)]
+    except InputError:  # said under the protocol, and in the verdict
+        pass
     pictures.append(("differences.png", figure_png(_difference_figure(result)),
                      "each method against the least squares (drawn from result.json)"))
     parts = ["<h2>Figures</h2>"]

@@ -173,3 +173,13 @@ def test_a_rig_folder_gets_the_figures_its_logs_allow(rig):
     page = (rig / "report.html").read_text()
     names = re.findall(r"<img alt='([^']+)'", page)
     assert names == ["motion_stage1.png", "motion_stage2.png", "differences.png"]
+
+
+def test_a_log_broken_since_identify_still_gets_a_report_that_says_so(rig):
+    log = rig / "stage2" / "braking.csv"
+    log.write_text(log.read_text().replace(",", ";", 40))
+    assert main(["report", str(rig)]) == 0
+    page = (rig / "report.html").read_text()
+    level, box = _verdict(page)
+    assert level == "stale" and "stage2/braking.csv: changed" in box
+    assert "The logs cannot be read now: " in page and "stage2/braking.csv" in page
