@@ -78,7 +78,8 @@ class Plan:
     front: np.ndarray
     """(k, 2) [duration s, worst std kg m^2]: the best worst std within each duration."""
     current: tuple[Candidate, ...] | None = None
-    """The protocols device.toml held before, evaluated the same way (None if infeasible)."""
+    """The protocols device.toml held before, evaluated the same way (None if infeasible, or
+    if a stage stated none)."""
     current_std: float | None = None
     """kg m^2, their predicted worst std."""
     tradeoff: tuple[tuple[int, float, Candidate | None, float, float], ...] = ()
@@ -153,15 +154,17 @@ def make_plan(
     front = np.column_stack([durations[order][keep], running[keep]])
     design = device_design(device)
     axis_std = combine_information(device, [c.information for c in chosen])
-    current = tuple(
-        evaluate(device, sm, st.launch_speed, st.braking_torque)
-        for sm, st in zip(models, device.stages)
-    )
-    current_std = None
-    if all(c.feasible for c in current):
-        current_std = float(combine_information(device, [c.information for c in current]).max())
-    else:
-        current = None
+    current, current_std = None, None
+    if all(st.launch_speed is not None and st.braking_torque is not None for st in device.stages):
+        current = tuple(
+            evaluate(device, sm, st.launch_speed, st.braking_torque)
+            for sm, st in zip(models, device.stages)
+        )
+        if all(c.feasible for c in current):
+            infos = [c.information for c in current]
+            current_std = float(combine_information(device, infos).max())
+        else:
+            current = None
     design = device_design(device)
     rows = []
     for k, cands in enumerate(per_stage):

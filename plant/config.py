@@ -31,6 +31,7 @@ A variation of an experiment is a changed config instance written back::
 from rsp_inertia.plant.device_config import (
     DEFAULT_GRAVITY,
     DIRECTIONS,
+    PROTOCOL,
     REQUIRED_AXES,
     Body,
     Device,
@@ -41,6 +42,7 @@ from rsp_inertia.plant.device_config import (
     Spring,
     Stage,
     load_device,
+    require_protocol,
     write_device,
 )
 from rsp_inertia.plant.virtual_config import (
@@ -60,6 +62,7 @@ from rsp_inertia.plant.virtual_config import (
 __all__ = [
     "DEFAULT_GRAVITY",
     "DIRECTIONS",
+    "PROTOCOL",
     "REQUIRED_AXES",
     "Body",
     "ControllerSettings",
@@ -79,6 +82,7 @@ __all__ = [
     "load_device",
     "load_reference",
     "load_virtual",
+    "require_protocol",
     "write_device",
     "write_reference",
     "write_virtual",

@@ -31,6 +31,10 @@ DEFAULT_GRAVITY = 9.80665
 REQUIRED_AXES = 6
 """Distinct axes needed over all stages: the tensor has six entries (docs/method.md §5)."""
 
+PROTOCOL = ("launch_speed", "braking_torque")
+"""A stage's keys that ``rsp-inertia plan`` chooses: device.toml may leave them out until
+plan has written them (:func:`require_protocol`)."""
+
 DIRECTIONS = ("forward", "backward")
 """Directions of a stage's run: forward, phi increases during the braking pass and decreases
 during its reverse pass; backward, the other way round."""
@@ -154,11 +158,20 @@ class Stage:
         check=_distinct_nodes,
         doc="Angles phi where the tensor is sampled: distinct, at least one.",
     )
-    launch_speed: float = key(
-        unit="rad/s", bound="> 0", doc="Speed Omega at the release of the braking pass."
+    launch_speed: float | None = key(
+        None,
+        unit="rad/s",
+        bound="> 0",
+        doc="Speed Omega at the release of the braking pass. None (left out): ``plan`` "
+        "chooses it; every command that runs the protocol needs it (:func:`require_protocol`).",
     )
-    braking_torque: float = key(
-        unit="N m", bound=">= 0", doc="Motor torque against the motion during the braking pass."
+    braking_torque: float | None = key(
+        None,
+        unit="N m",
+        bound=">= 0",
+        doc="Motor torque against the motion during the braking pass, at most "
+        "``motor.torque_limit`` (the motor applies it). None (left out): ``plan`` chooses it; "
+        "every command that runs the protocol needs it (:func:`require_protocol`).",
     )
     directions: tuple[str, ...] = key(
         ("forward",),
@@ -340,13 +353,15 @@ def load_device(path: str | os.PathLike) -> Device:
     Returns
     -------
     Device
-        The gimbal, with the fields' defaults for the keys and tables the file leaves out.
+        The gimbal, with the fields' defaults for the keys and tables the file leaves out
+        (a stage's protocol None until ``plan`` has written it: :func:`require_protocol`).
 
     Raises
     ------
     InputError
         The file is missing or is not TOML; a key is missing, unknown, of the wrong type
-        or out of range; ``[plan]`` gives both ``inertia`` and ``box``, or ``box`` without
+        or out of range; a stage's ``braking_torque`` exceeds ``motor.torque_limit``;
+        ``[plan]`` gives both ``inertia`` and ``box``, or ``box`` without
         ``[body]``; or the stages give fewer than six distinct axes.
 
     Examples
@@ -393,6 +408,36 @@ def write_device(path: str | os.PathLike, device: Device) -> None:
     write_file(path, device, header, _device)
 
 
+def require_protocol(device: Device, path: str | os.PathLike) -> None:
+    """Refuse a device whose stages do not all state their protocol (:data:`PROTOCOL`).
+
+    A device.toml may leave a stage's ``launch_speed`` and ``braking_torque`` out for
+    ``rsp-inertia plan``, which chooses them and writes them into the file; every command
+    that runs or reads the protocol calls this first (rsp_inertia.plant.experiment.
+    open_experiment does, unless told otherwise).
+
+    Parameters
+    ----------
+    device : Device
+        The gimbal, as :func:`load_device` read it.
+    path : str or os.PathLike
+        Its device.toml, for the message; the folder holding it is the experiment.
+
+    Raises
+    ------
+    InputError
+        The first stage without one of the keys: one line naming the file, the stage's key
+        and ``rsp-inertia plan``.
+    """
+    for k, stage in enumerate(device.stages, 1):
+        for name in PROTOCOL:
+            if getattr(stage, name) is None:
+                raise InputError(
+                    f"{path}: stage[{k}].{name}: missing: the protocol is chosen by "
+                    f"rsp-inertia plan {os.path.dirname(path) or '.'}, which writes it here"
+                )
+
+
 def _device(doc: dict) -> Device:
     """The Device of a parsed device.toml, with the rules that join its tables."""
     device = read_table(Device, doc)
@@ -414,6 +459,14 @@ def _device(doc: dict) -> Device:
             raise ContentError("plan", "give either inertia or box, not both")
         if device.plan.box is not None and device.body is None:
             raise ContentError("plan.box", "needs the body's mass ([body] mass)")
+    limit = device.motor.torque_limit
+    for k, stage in enumerate(device.stages, 1):
+        if stage.braking_torque is not None and stage.braking_torque > limit:
+            raise ContentError(
+                f"stage[{k}].braking_torque",
+                f"must be <= motor.torque_limit = {limit!r} (the motor applies it), "
+                f"got {stage.braking_torque!r}",
+            )
     if device.n_axes < REQUIRED_AXES:
         raise ContentError(
             "stage", f"the stages give {device.n_axes} distinct axes, {REQUIRED_AXES} are needed"

@@ -22,7 +22,14 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from rsp_inertia.plant.config import DIRECTIONS, Device, Virtual, load_device, load_virtual
+from rsp_inertia.plant.config import (
+    DIRECTIONS,
+    Device,
+    Virtual,
+    load_device,
+    load_virtual,
+    require_protocol,
+)
 from rsp_inertia.plant.errors import InputError
 
 __all__ = ["Experiment", "open_experiment"]
@@ -114,9 +121,17 @@ class Experiment:
         return list(range(1, self.n_stages + 1))
 
 
-def open_experiment(path: str | os.PathLike) -> Experiment:
-    """Open the experiment folder ``path`` and validate its device.toml."""
+def open_experiment(path: str | os.PathLike, protocol: bool = True) -> Experiment:
+    """Open the experiment folder ``path`` and validate its device.toml.
+
+    ``protocol``: refuse a stage without its ``launch_speed`` or ``braking_torque``
+    (rsp_inertia.plant.config.require_protocol); ``plan``, which chooses them, and the runs
+    that do not use them (a pilot, a pendulum run) pass False.
+    """
     root = Path(path)
     if not root.is_dir():
         raise InputError(f"{root}: not an experiment folder (no such directory)")
-    return Experiment(root=root, device=load_device(root / "device.toml"))
+    device = load_device(root / "device.toml")
+    if protocol:
+        require_protocol(device, root / "device.toml")
+    return Experiment(root=root, device=device)

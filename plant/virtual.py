@@ -71,6 +71,7 @@ __all__ = [
     "PILOT_MAX_COAST",
     "PILOT_PEAK_FRACTION",
     "PILOT_TORQUE_FRACTION",
+    "PILOT_TURNS",
     "SUBSTEPS",
     "PassTruth",
     "SimulatedPass",
@@ -98,6 +99,14 @@ PILOT_TORQUE_FRACTION = 0.5
 gravity torques while leaving the drive room, and takes the default stages to their launch
 speeds in 2.7 s (stage 1, where the quadratic friction reaches 0.14 N m at 12 rad/s) and
 12.5 s (stage 2)."""
+
+PILOT_TURNS = 4.0
+"""Turns of a pilot's spin-up on a stage whose device.toml states no ``launch_speed`` (a new
+rig, before ``plan``; :func:`simulate_pilot`): the drive's known work over them,
+PILOT_TORQUE_FRACTION x torque_limit x 2 pi PILOT_TURNS, sets the speed, so a light body
+spins faster than a heavy one as its braking will. On the default stages they reach 13.7
+and 3.9 rad/s, near the launch speeds plan chooses there from such pilots (13.8 and 4.26
+rad/s within 100 s)."""
 
 PILOT_PEAK_FRACTION = 0.9
 """A pilot's spin-up ends when the speed falls below this fraction of its peak so far."""
@@ -248,9 +257,10 @@ def simulate_pilot(device: Device, stage: int, virtual: Virtual) -> SimulatedPas
     1. The body starts at rest at the release angle (``virtual.run.release_angle_deg``).
     2. Powered part: the drive commands the constant torque PILOT_TORQUE_FRACTION x
        ``motor.torque_limit`` (forward), held sample by sample, until the first sample at
-       which the true speed has reached the stage's ``launch_speed``, or has fallen below
-       PILOT_PEAK_FRACTION of its highest value so far (a spring wound up against the motor;
-       the within-turn exchange with M(phi) moves the speed by a few percent only).
+       which the true speed has reached the stage's ``launch_speed`` (a stage without one:
+       the body has turned PILOT_TURNS turns), or has fallen below PILOT_PEAK_FRACTION of
+       its highest value so far (a spring wound up against the motor; the within-turn
+       exchange with M(phi) moves the speed by a few percent only).
     3. Coast: from that sample on the command is 0 (the motor is off; the log still records
        0 plus the channel's noise) and the body coasts until it comes to rest (the first
        instant the speed reaches zero, an event located inside its sample as in
@@ -282,7 +292,7 @@ def simulate_pilot(device: Device, stage: int, virtual: Virtual) -> SimulatedPas
     ------
     InputError
         If the pilot torque cannot turn the body forward from the release angle (friction and
-        static torques hold it), or the launch speed is not reached within MAX_BRAKING_TIME.
+        static torques hold it), or the spin-up does not end within MAX_BRAKING_TIME.
     """
     st = device.stages[stage - 1]
     pair = true_pair(device, stage, virtual)
@@ -290,8 +300,15 @@ def simulate_pilot(device: Device, stage: int, virtual: Virtual) -> SimulatedPas
     dt = device.encoder.dt
     command = PILOT_TORQUE_FRACTION * device.motor.torque_limit
     u = delivered_torque(command, 1.0, virtual.rig.drive_gains)  # the motor drives it forward
-    # Powered part, whole blocks at once: states up to the first sample at the launch speed.
+    # Powered part, whole blocks at once: states up to the first sample at the launch speed
+    # (or PILOT_TURNS turns past the start).
     x = np.array([math.radians(virtual.run.release_angle_deg), 0.0])
+    if st.launch_speed is None:
+        speed, angle = math.inf, x[0] + 2 * math.pi * PILOT_TURNS
+        goal = f"turn the body {PILOT_TURNS:g} turns"
+    else:
+        speed, angle = st.launch_speed, math.inf
+        goal = f"reach the launch speed {st.launch_speed:g} rad/s"
     states = [x[None, :]]
     n = 1
     top_so_far = 0.0
@@ -299,7 +316,7 @@ def simulate_pilot(device: Device, stage: int, virtual: Virtual) -> SimulatedPas
         block = step_block(x, u, 1.0, p, dt)  # (BLOCK, 2)
         top = np.maximum.accumulate(np.concatenate([[top_so_far], block[:, 1]]))[1:]
         peaked = block[:, 1] < PILOT_PEAK_FRACTION * top
-        reached = np.nonzero((block[:, 1] >= st.launch_speed) | peaked)[0]
+        reached = np.nonzero((block[:, 1] >= speed) | (block[:, 0] >= angle) | peaked)[0]
         if np.any(block[: reached[0] if reached.size else BLOCK, 1] <= 0.0):
             raise InputError(
                 f"stage {stage}: the pilot torque ({command:g} N m) does not turn the body "
@@ -315,8 +332,8 @@ def simulate_pilot(device: Device, stage: int, virtual: Virtual) -> SimulatedPas
         top_so_far = float(top[-1])
         if n * dt > MAX_BRAKING_TIME:
             raise InputError(
-                f"stage {stage}: the pilot torque ({command:g} N m) does not reach the "
-                f"launch speed {st.launch_speed:g} rad/s within {MAX_BRAKING_TIME:g} s"
+                f"stage {stage}: the pilot torque ({command:g} N m) does not {goal} "
+                f"within {MAX_BRAKING_TIME:g} s"
             )
     powered = np.concatenate(states)
     switch = len(powered) - 1  # the first sample of the coast

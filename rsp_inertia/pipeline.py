@@ -237,6 +237,8 @@ def simulate(
         writes stageN/pendulum_kK.csv, one torsion-pendulum run per node K; the pilot part
         stageN/pilot.csv (spin-up at a known torque, then a coast; for ``plan``). A backward run
         uses stageN/braking_backward.csv, program_backward.csv and reverse_backward.csv.
+        Braking and reverse need every stage's protocol in device.toml
+        (rsp_inertia.plant.config.require_protocol); pendulum and pilot runs do not.
     direction : {'forward', 'backward'}, optional
         Braking and reverse: only this direction, on the stages whose ``directions`` in
         device.toml include it; every direction of each stage by default. Pendulum and pilot
@@ -267,7 +269,7 @@ def simulate(
         raise InputError(
             f"--direction: must be one of {', '.join(DIRECTIONS)}, got {direction!r}"
         )
-    exp = open_experiment(root)
+    exp = open_experiment(root, protocol=part in ("braking", "reverse"))
     virtual = exp.load_virtual()
     stages = exp.stages(stage)
     if direction is not None and part not in ("pendulum", "pilot"):

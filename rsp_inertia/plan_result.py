@@ -30,7 +30,7 @@ class PlanResult:
         N m, per stage.
     release_angle_deg : tuple of float
         deg, per stage: where the plan assumes the rig releases the body.
-    previous : tuple of (float, float, float or None)
+    previous : tuple of (float or None, float or None, float or None)
         Per stage, ``(launch_speed, braking_torque, release_angle_deg)`` as device.toml
         held them before (``None``: not stated).
     predicted_std : numpy.ndarray, shape (nodes,)
@@ -67,7 +67,7 @@ class PlanResult:
     launch_speed: tuple[float, ...]
     braking_torque: tuple[float, ...]
     release_angle_deg: tuple[float, ...]
-    previous: tuple[tuple[float, float, float | None], ...]
+    previous: tuple[tuple[float | None, float | None, float | None], ...]
     predicted_std: np.ndarray
     predicted_std_ideal: np.ndarray
     axis_stage: np.ndarray

@@ -4,8 +4,12 @@ Reads ``EXP/device.toml`` and, per stage, ``stageN/pilot.csv`` when it exists (e
 guesses of ``device.toml [plan]``), chooses every stage's ``launch_speed`` and
 ``braking_torque`` (rsp_inertia.ocp.plan), writes them, and the release angle the plan assumed
 (``release_angle_deg``, kept when device.toml states one), into ``EXP/device.toml`` (atomically, comments
-and key order kept), and draws ``EXP/plan.png``. Nothing is written when a stage has no
-feasible protocol.
+and key order kept; a key the stage lacked is added), and draws ``EXP/plan.png``. Nothing is
+written when a stage has no feasible protocol.
+
+device.toml's stages need not state a protocol (a new rig): the candidates tried come from
+the stage's model and the motor's limits alone (rsp_inertia.ocp.candidates); a protocol
+device.toml does state is only evaluated beside the plan, for comparison.
 """
 
 from __future__ import annotations
@@ -93,7 +97,7 @@ def stage_models(root: str | Path) -> list[StageModel]:
     The pilots are read here (a bad log's error comes before any process starts) and fitted
     per stage in parallel (rsp_inertia.ocp.plan.map_stages).
     """
-    exp = open_experiment(root)
+    exp = open_experiment(root, protocol=False)
     jobs = []
     for stage in exp.stages(None):
         path = exp.pilot_path(stage)
@@ -123,8 +127,9 @@ class PlanReport:
     plan: Plan
     device: Device
     models: list[StageModel]
-    old: list[tuple[float, float, float | None]]
-    """Per stage, (launch_speed, braking_torque) as device.toml held them."""
+    old: list[tuple[float | None, float | None, float | None]]
+    """Per stage, (launch_speed, braking_torque, release_angle_deg) as device.toml held them
+    (None: not stated)."""
     written: Path | None
     """device.toml, when written."""
     figure: Path | None
@@ -210,9 +215,9 @@ def format_plan(report: PlanReport) -> str:
         J = _axial_guess(sm, report.device)
         lines.append(
             f"stage {c.stage} (model: {sm.source}): launch_speed {c.launch_speed:g} rad/s "
-            f"(was {speed:g}), braking_torque {c.braking_torque:g} N m (was {torque:g}), "
+            f"(was {_was(speed)}), braking_torque {c.braking_torque:g} N m (was {_was(torque)}), "
             f"release_angle_deg {planned_release(report.device.stages[c.stage - 1]):g} "
-            f"(was {'not stated' if release is None else format(release, 'g')})"
+            f"(was {_was(release)})"
         )
         lines.append(
             f"  braking {c.braking_time:.1f} s over {c.turns:.1f} turns, {c.loss_first_turn:.0%}"
@@ -253,12 +258,26 @@ def format_plan(report: PlanReport) -> str:
         lines.append(f"trade-off figure -> {report.figure}")
     return "\n".join(lines)
 
+def _was(value: float | None) -> str:
+    """A key's value before the plan, as the report prints it."""
+    return "not stated" if value is None else format(value, "g")
+
+
 
 def _axial_guess(sm: StageModel, device: Device) -> float:
     """kg m^2, the order of J_k on this stage: its nominal mean reduced inertia as J_e."""
     from rsp_inertia.estimation.identify import axial_moment
 
     return float(axial_moment(sm.model.inertia_harmonics[0], device.stages[sm.stage - 1]))
+
+def _set_key(table, name: str, value: float, unit: str) -> None:
+    """``name = value`` in a ``[[stage]]`` table of device.toml: in place where the key is
+    (its comment kept), else added with its unit as a comment."""
+    if name in table:
+        table[name] = value
+    else:
+        table[name] = tomlkit.item(value).comment(unit)
+
 
 
 def plan(
@@ -275,7 +294,7 @@ def plan(
     import time
 
     start = time.perf_counter()
-    exp = open_experiment(root)
+    exp = open_experiment(root, protocol=False)
     device = exp.device
     if max_duration is None:
         given = device.plan.max_duration if device.plan is not None else None
@@ -298,8 +317,8 @@ def plan(
     doc = tomlkit.parse(text)
     for c in result.chosen:
         table = doc["stage"][c.stage - 1]
-        table["launch_speed"] = c.launch_speed
-        table["braking_torque"] = c.braking_torque
+        _set_key(table, "launch_speed", c.launch_speed, "rad/s")
+        _set_key(table, "braking_torque", c.braking_torque, "N m")
         table["release_angle_deg"] = planned_release(device.stages[c.stage - 1])
     write_atomic(path, tomlkit.dumps(doc))
     rehearsal, rehearsal_error = None, None

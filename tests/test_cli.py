@@ -109,6 +109,33 @@ def test_bad_drive_or_encoder_keys(experiment, capsys, file, table, lines, needl
     assert sorted(p.name for p in experiment.rglob("*")) == before
 
 
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["program"],
+        ["identify"],
+        ["simulate"],
+        ["simulate", "--part", "reverse", "--ideal"],
+        ["calibrate", "--empty", "{exp}"],
+    ],
+    ids=["program", "identify", "simulate braking", "simulate reverse", "calibrate"],
+)
+def test_a_stage_without_its_protocol_is_refused_naming_it_and_plan(experiment, capsys, command):
+    # Only plan (and the pilot and pendulum runs) go without the protocol; every command that
+    # runs or reads it names the file, the stage's key and plan, and writes nothing.
+    assert main(["simulate", str(experiment), "--stage", "1"]) == 0
+    path = experiment / "device.toml"
+    path.write_text(path.read_text().replace("braking_torque = 0.12 ", "# plan: braking_torque"))
+    before = {p: p.read_bytes() for p in experiment.rglob("*") if p.is_file()}
+    capsys.readouterr()
+    name, *options = (part.format(exp=experiment) for part in command)
+    assert main([name, str(experiment), *options]) == 2
+    one_line_error(
+        capsys, f"{path}: stage[2].braking_torque: missing", f"rsp-inertia plan {experiment}"
+    )
+    assert {p: p.read_bytes() for p in experiment.rglob("*") if p.is_file()} == before
+
+
 def test_no_such_stage(experiment, capsys):
     assert main(["simulate", str(experiment), "--stage", "3"]) == 2
     one_line_error(capsys, "device.toml", "stage 3")

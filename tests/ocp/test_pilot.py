@@ -90,6 +90,22 @@ def test_pilot_protocol(stage, friction, default_device, pilots):
     assert np.all(tr.omega[1:] > 0.0)
 
 
+def test_a_pilot_without_a_launch_speed_is_powered_for_its_turns(default_device, default_virtual):
+    """A new rig's stage (no launch_speed before plan): the drive's known torque for
+    PILOT_TURNS turns, then the coast; the fit still recovers M0 (the work, not the speed
+    reached, fixes its scale)."""
+    stage = dataclasses.replace(default_device.stages[0], launch_speed=None, braking_torque=None)
+    device = dataclasses.replace(default_device, stages=(stage, *default_device.stages[1:]))
+    run = vd.simulate_pilot(device, 1, default_virtual)
+    tr = run.truth
+    turns = (tr.phi - tr.phi[0]) / (2 * math.pi)
+    switch = int(np.argmax(turns >= vd.PILOT_TURNS))
+    assert switch > 0 and turns[switch - 1] < vd.PILOT_TURNS
+    assert np.all(tr.torque[:switch] > 0.0) and np.all(tr.torque[switch:] == 0.0)
+    M0 = vd.true_parameters(device, 1, default_virtual, 1.0).inertia_harmonics[0]
+    assert fit_pilot(device, 1, run.log).M0 == pytest.approx(M0, rel=M0_RELATIVE)
+
+
 def test_pilot_is_deterministic(default_device, default_virtual, pilots):
     again = vd.simulate_pilot(default_device, 1, default_virtual)
     first = pilots[1, "paper"][1].log

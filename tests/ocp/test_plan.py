@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -176,11 +177,43 @@ def test_plan_writes_the_protocol_keeping_comments(tmp_path, capsys):
     assert "from a closed-loop rehearsal on the nominal model" in out
 
 
-def test_infeasible_plan_is_one_line_and_writes_nothing(tmp_path, capsys):
+def _without_protocol(root: Path) -> str:
+    """device.toml of ``root`` with every stage's launch_speed and braking_torque taken out (a
+    new rig's, before plan); its text."""
+    text = re.sub(r"(?m)^(launch_speed|braking_torque) = .*\n", "", (root / "device.toml").read_text())
+    (root / "device.toml").write_text(text)
+    return text
+
+
+def test_plan_chooses_the_protocol_a_new_rig_leaves_out(tmp_path, capsys):
+    """A device.toml without launch_speed and braking_torque: plan chooses them from the
+    motor's limits and the [plan] guesses alone, and adds them to each stage (with their
+    units); every other line is kept."""
     root = _plan_experiment(tmp_path)
-    text = (root / "device.toml").read_text().replace(
-        "torque_limit = 0.5 ", "torque_limit = 0.0002 "
+    before = _without_protocol(root)
+    assert main(["plan", str(root), "--max-duration", "100", "--no-rehearsal"]) == 0
+    out = capsys.readouterr().out
+    after = (root / "device.toml").read_text()
+    assert "launch_speed" not in before and "launch_speed" in after
+    added = [line for line in after.splitlines() if line not in before.splitlines()]
+    assert sorted(line.split(" =")[0] for line in added) == sorted(
+        ["launch_speed", "braking_torque", "release_angle_deg"] * 2
     )
+    assert all(
+        line.endswith("# rad/s") for line in added if line.startswith("launch_speed")
+    ) and all(line.endswith("# N m") for line in added if line.startswith("braking_torque"))
+    device = load_device(root / "device.toml")
+    for k, st in enumerate(device.stages, 1):
+        assert st.launch_speed > 0 and 0 <= st.braking_torque <= device.motor.torque_limit
+        assert f"stage {k} (model: device.toml [plan]): launch_speed {st.launch_speed:g} rad/s " \
+            f"(was not stated), braking_torque {st.braking_torque:g} N m (was not stated)" in out
+    assert "device.toml's protocol before" not in out  # there was none to compare
+
+
+def test_infeasible_plan_is_one_line_and_writes_nothing(tmp_path, capsys):
+    """A new rig (no protocol yet) whose motor cannot mirror any braking."""
+    root = _plan_experiment(tmp_path)
+    text = _without_protocol(root).replace("torque_limit = 0.5 ", "torque_limit = 0.0002 ")
     (root / "device.toml").write_text(text)
     assert main(["plan", str(root)]) == 2
     err = capsys.readouterr().err.strip()

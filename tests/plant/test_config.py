@@ -30,6 +30,7 @@ from rsp_inertia.plant.config import (
     load_device,
     load_reference,
     load_virtual,
+    require_protocol,
     write_device,
     write_reference,
     write_virtual,
@@ -287,6 +288,13 @@ DEVICE_FAULTS = [
         "unknown key",
         id="unknown key",
     ),
+    pytest.param(
+        "braking_torque = 0.07",
+        "braking_torque = 0.6",
+        "stage[2].braking_torque",
+        "must be <= motor.torque_limit = 0.5 (the motor applies it), got 0.6",
+        id="braking beyond the motor",
+    ),
     pytest.param("[spring]", "[sprng]", "sprng", "unknown table", id="unknown table"),
     pytest.param(
         ENCODER,
@@ -348,6 +356,26 @@ def test_bad_device_is_one_line_naming_file_and_key(tmp_path, old, new, key, fau
     with pytest.raises(InputError) as error:
         load_device(path)
     assert_one_line(error, str(path), key, fault)
+
+
+def test_a_stage_may_leave_its_protocol_to_plan_which_the_other_commands_need(tmp_path):
+    """launch_speed and braking_torque are what plan chooses: a device.toml without them
+    loads (None), and require_protocol names the first stage and key missing, and plan."""
+    text = edited(DEVICE_TOML, "braking_torque = 0.07\n", "")
+    path = write(tmp_path, "device.toml", edited(text, "launch_speed = 6.0 ", "# no speed "))
+    device = load_device(path)
+    assert [(st.launch_speed, st.braking_torque) for st in device.stages] == [
+        (None, 0.005),
+        (2.5, None),
+    ]
+    with pytest.raises(InputError) as error:
+        require_protocol(device, path)
+    assert_one_line(error, f"{path}: stage[1].launch_speed: missing", f"rsp-inertia plan {tmp_path}")
+    stated = dataclasses.replace(device.stages[0], launch_speed=6.0)
+    with pytest.raises(InputError) as error:
+        require_protocol(dataclasses.replace(device, stages=(stated, device.stages[1])), path)
+    assert_one_line(error, "stage[2].braking_torque: missing")
+    require_protocol(load_device(write(tmp_path, "full.toml", DEVICE_TOML)), path)
 
 
 VIRTUAL_FAULTS = [
@@ -943,8 +971,9 @@ def harmonics(draw, *values):
 
 
 @st.composite
-def stages(draw):
-    """One to three stages whose nodes give at least six axes."""
+def stages(draw, torque_limit: float):
+    """One to three stages whose nodes give at least six axes, each braked within
+    ``torque_limit`` or with its protocol left to plan."""
     count = draw(st.integers(1, 3))
     ratios = draw(st.lists(non_negative, min_size=count, max_size=count, unique=True))
     result = []
@@ -962,8 +991,8 @@ def stages(draw):
                 gear_ratio=ratio,
                 tare_inertia=draw(non_negative),
                 nodes_deg=tuple(nodes),
-                launch_speed=draw(positive),
-                braking_torque=draw(non_negative),
+                launch_speed=draw(maybe(positive)),
+                braking_torque=draw(maybe(st.floats(0.0, torque_limit))),
                 directions=draw(
                     st.sampled_from([("forward",), ("backward",), ("backward", "forward")])
                 ),
@@ -995,11 +1024,12 @@ def devices(draw):
             )
         )
     )
+    motor = Motor(draw(positive), draw(positive), draw(maybe(non_negative)))
     return Device(
         name=draw(st.text()),
         gravity=draw(positive),
         spring=Spring(stiffness=draw(non_negative), zero_angle=draw(finite)),
-        motor=Motor(draw(positive), draw(positive), draw(maybe(non_negative))),
+        motor=motor,
         encoder=Encoder(
             draw(st.integers(1, 2**62)),
             draw(positive),
@@ -1008,7 +1038,7 @@ def devices(draw):
             error_sin=sin,
             error_std=std,
         ),
-        stages=draw(stages()),
+        stages=draw(stages(motor.torque_limit)),
         body=body,
         pendulum=draw(
             maybe(st.builds(Pendulum, positive, positive, positive, maybe(non_negative)))
