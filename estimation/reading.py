@@ -30,7 +30,7 @@ from rsp_inertia.plant.config import load_reference
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import Experiment
 from rsp_inertia.plant.log_checks import unterminated_last_line
-from rsp_inertia.plant.logs import Log, align_counter, file_sha256, read_log
+from rsp_inertia.plant.logs import Log, align_counter, file_sha256, read_device_log
 
 __all__ = [
     "CALIBRATION_FILE",
@@ -57,15 +57,13 @@ REFERENCE_FILE = "reference.toml"
 def read_run(exp: Experiment, stage: int, direction: str) -> tuple[Log, Log]:
     """One run's braking and reverse logs as logged, the reverse's counter continuing the
     braking's (rsp_inertia.plant.logs.align_counter)."""
-    encoder, limit = exp.device.encoder, exp.device.motor.torque_limit
-    braking = read_log(
-        exp.braking_path(stage, direction), encoder, "braking", direction, limit
-    )
+    device = exp.device
+    braking = read_device_log(exp.braking_path(stage, direction), device, "braking", direction)
     # The reverse starts where the braking stopped: one counter, one angle.
     reverse = align_counter(
-        read_log(exp.reverse_path(stage, direction), encoder, "reverse", direction, limit),
+        read_device_log(exp.reverse_path(stage, direction), device, "reverse", direction),
         float(braking.phi[-1]),
-        encoder,
+        device.encoder,
     )
     return braking, reverse
 
@@ -117,8 +115,7 @@ def read_experiment(exp: Experiment) -> ExperimentLogs:
         pendulum=_OnDemand(
             {
                 (s, k): functools.partial(
-                    read_log, exp.pendulum_path(s, k), device.encoder, "pendulum",
-                    torque_limit=device.motor.torque_limit,
+                    read_device_log, exp.pendulum_path(s, k), device, "pendulum"
                 )
                 for s, k in pendulum
             }
@@ -186,17 +183,15 @@ def identify_experiment(
 
 
 def identify_inputs(exp: Experiment) -> list[Path]:
-    """The files ``identify`` reads from ``exp``, in a fixed order: device.toml,
-    calibration.toml when present, every run's braking and reverse logs
-    (:func:`read_experiment`'s runs) and the pendulum logs present. result.json records their
-    sha256 (rsp_inertia.provenance), and ``report`` checks them against the folder."""
+    """The files ``identify`` reads from ``exp`` that exist, in a fixed order: device.toml,
+    calibration.toml, every run's braking and reverse logs (:func:`read_experiment`'s runs)
+    and the pendulum logs. result.json records their sha256 (rsp_inertia.provenance), and
+    ``report`` checks them against the folder (a missing log is identify's to refuse)."""
     logs = read_experiment(exp)
-    files = [Path(logs.sources.device)]
-    if (exp.root / CALIBRATION_FILE).is_file():
-        files.append(exp.root / CALIBRATION_FILE)
+    files = [Path(logs.sources.device), exp.root / CALIBRATION_FILE]
     files += [Path(p) for pair in logs.sources.runs.values() for p in pair]
     files += [Path(p) for p in logs.sources.pendulum.values()]
-    return files
+    return [path for path in files if path.is_file()]
 
 
 def unterminated_warnings(logs: ExperimentLogs) -> list[str]:

@@ -153,10 +153,10 @@ class IdentifyResult:
         ``design.png`` (conditioning of the axis design, the paper's Fig. 1); per stage
         ``motion_stageN.png`` (braking, reverse and the free motions, Fig. 3) and
         ``tracking_stageN.png`` (the program's reference speed against the smoothed reverse,
-        Fig. 4); ``errors.png`` (each method's relative error per axis). Figures 3 and the
-        error chart need the virtual device's truth (virtual.toml) and Fig. 4 a
-        ``stageN/program.csv``: each is drawn only where its inputs exist, so a real rig's
-        experiment gets ``design.png`` and its tracking figures.
+        Fig. 4); ``errors.png`` (each method's relative error per axis). The free motions of
+        Fig. 3 and the error chart need the virtual device's truth (virtual.toml) and Fig. 4
+        a ``stageN/program.csv``: each is drawn only where its inputs exist, so a real rig's
+        experiment gets ``design.png``, its motions from the logs and its tracking figures.
 
         Parameters
         ----------
