@@ -78,6 +78,7 @@ __all__ = [
     "POSITION_SPACING_BANDWIDTHS",
     "HarmonicReach",
     "StageBalance",
+    "balance_range",
     "balance_spacing",
     "check_node_gaps",
     "friction_shape",
@@ -86,6 +87,7 @@ __all__ = [
     "mirror_log",
     "mirrored_device",
     "mismatch_regressors",
+    "short_overlap",
     "spring_potential",
     "stage_balance",
     "usable_range",
@@ -210,19 +212,87 @@ pair, and the least squares sees M's pattern repeat (docs/method.md §4: at leas
 
 
 def usable_range(braking: PassEstimate, reverse: PassEstimate, stage: int) -> tuple[float, float]:
-    """Angles covered by both passes, at a braking speed worth balancing (constants above)."""
+    """Angles covered by both passes, at a braking speed worth balancing (constants above).
+
+    Raises
+    ------
+    InputError
+        The passes share fewer than MIN_TURNS turns there, naming the log at fault
+        (:func:`short_overlap`).
+    """
     b, r = braking.smoothed, reverse.smoothed
-    lo = max(b.phi[0], r.phi[-1]) + EDGE_MARGIN
     fast = b.omega >= MIN_SPEED_FRACTION * b.omega.max()
     last_fast = fast.size - 1 - int(np.argmax(fast[::-1]))  # (no index array of the pass)
+    lo = max(b.phi[0], r.phi[-1]) + EDGE_MARGIN
     hi = min(b.phi[last_fast], r.phi[0]) - EDGE_MARGIN
     if hi - lo < MIN_TURNS * 2 * math.pi:
-        raise InputError(
-            f"{braking.source} and {reverse.source}: stage {stage}: the passes overlap over "
-            f"{max(hi - lo, 0) / (2 * math.pi):.2f} turns at useful speed; at least "
-            f"{MIN_TURNS:g} full turns are needed (a longer braking: lower braking_torque or "
-            "higher launch_speed)"
+        raise InputError(short_overlap(braking, reverse, stage, float(b.phi[last_fast])))
+    return lo, hi
+
+
+def short_overlap(
+    braking: PassEstimate, reverse: PassEstimate, stage: int, last_fast: float
+) -> str:
+    """Why two passes share fewer than MIN_TURNS turns at useful speed, naming the log at fault
+    (``last_fast``: rad, the braking's last angle at useful speed).
+
+    The reverse mirrors the braking: it starts where the braking stopped and runs back past the
+    release. When the braking alone covers MIN_TURNS turns at useful speed, the reverse is at
+    fault: it stopped before it was back at the release, or its log starts short of where the
+    braking stopped (its first rows missing). Otherwise the braking is too short, whatever
+    the reverse did (a new braking needs a new program and reverse anyway).
+    """
+    b, r = braking.smoothed, reverse.smoothed
+    turn = 2 * math.pi
+    alone = last_fast - b.phi[0] - 2 * EDGE_MARGIN
+    if alone < MIN_TURNS * turn:
+        return (
+            f"{braking.source}: stage {stage}: the braking covers {max(alone, 0) / turn:.2f} "
+            f"turns at useful speed (above {MIN_SPEED_FRACTION:.0%} of its top speed, "
+            f"{EDGE_MARGIN:g} rad in from each end); the balances need at least {MIN_TURNS:g} "
+            "(a longer braking: lower braking_torque or higher launch_speed)"
         )
+    faults = []
+    if r.phi[-1] > b.phi[0]:
+        faults.append(
+            f"the reverse run stopped early, {(r.phi[-1] - b.phi[0]) / turn:.2f} turns before "
+            "the braking's release"
+        )
+    if r.phi[0] < last_fast:
+        faults.append(
+            f"its log starts {(b.phi[-1] - r.phi[0]) / turn:.2f} turns short of where the "
+            "braking stopped (its first rows missing?)"
+        )
+    overlap = max(min(last_fast, r.phi[0]) - max(b.phi[0], r.phi[-1]) - 2 * EDGE_MARGIN, 0.0)
+    return (
+        f"{reverse.source}: stage {stage}: covers {(r.phi[0] - r.phi[-1]) / turn:.2f} turns of "
+        f"the {(b.phi[-1] - b.phi[0]) / turn:.2f} the braking logged ({braking.source}); "
+        f"{' and '.join(faults)}: the passes overlap over {overlap / turn:.2f} turns at useful "
+        f"speed, the balances need at least {MIN_TURNS:g} (run the reverse pass again, and log "
+        "all of it)"
+    )
+
+
+def balance_range(
+    device: Device,
+    stage: int,
+    braking: PassEstimate,
+    reverse: PassEstimate,
+    direction: int = 1,
+) -> tuple[float, float]:
+    """The range [lo, hi] (rad, the passes' coordinate) where a run is balanced, checked:
+    :func:`usable_range` (the passes share MIN_TURNS turns at useful speed), and no gap of
+    dropped samples near a node's passage in it (:func:`check_node_gaps`, both logs;
+    ``direction`` -1: a backward run's mirrored passes).
+
+    Raises
+    ------
+    InputError
+        Naming the log at fault.
+    """
+    lo, hi = usable_range(braking, reverse, stage)
+    for est in (braking, reverse):
+        check_node_gaps(device, stage, est.log, est.source, lo, hi, direction)
     return lo, hi
 
 
@@ -379,10 +449,8 @@ def stage_balance(
     run of exact passes has no tracking mismatch and needs none).
     """
     st: Stage = device.stages[stage - 1]
-    lo, hi = usable_range(braking, reverse, stage)
+    lo, hi = balance_range(device, stage, braking, reverse, direction)
     rate = device.encoder.sample_rate
-    for est in (braking, reverse):
-        check_node_gaps(device, stage, est.log, est.source, lo, hi, direction)
     phi = np.arange(lo, hi, balance_spacing(braking, reverse))
     b = sample_at(braking, phi)
     r = sample_at(reverse, phi)

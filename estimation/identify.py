@@ -28,7 +28,7 @@ import numpy as np
 from rsp_inertia.estimation.best_practice import best_practice_inertia, half_cycle_fit
 from rsp_inertia.estimation.model_tests import coarse_encoder_warnings, model_warnings
 from rsp_inertia.estimation.nodes import NodeEstimate, node_estimates, node_passages
-from rsp_inertia.estimation.pendulum import estimate_pendulum
+from rsp_inertia.estimation.pendulum import PendulumEstimate, estimate_pendulum
 from rsp_inertia.estimation.results import AxisResult, Identification, PendulumResult
 from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs, corrected_log
 from rsp_inertia.estimation.tensor import (
@@ -39,16 +39,21 @@ from rsp_inertia.estimation.tensor import (
     physical_warnings,
     tensor_from_axes,
 )
+from rsp_inertia.plant.config import Device, Pendulum
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.geometry import axis_direction, axis_nodes_deg, device_design
+from rsp_inertia.plant.geometry import AxisDesign, axis_direction, axis_nodes_deg, device_design
+from rsp_inertia.plant.logs import Log
 
 __all__ = [
     "MAX_CONDITION",
     "WARN_CONDITION",
     "axial_moment",
     "axial_std",
+    "checked_design",
     "identify_logs",
     "pendulum_baseline",
+    "pendulum_settings",
+    "reduce_pendulum_run",
 ]
 
 MAX_CONDITION = 1e3
@@ -71,6 +76,26 @@ def axial_moment(M, stage, empty=None) -> np.ndarray | float:
 def axial_std(M_std, stage) -> np.ndarray | float:
     """Standard deviation of :func:`axial_moment` (the tare is exact)."""
     return np.asarray(M_std) / (1.0 + stage.gear_ratio**2)
+
+
+def checked_design(device: Device, source: str = "device.toml") -> AxisDesign:
+    """The device's axis design (rsp_inertia.plant.geometry.device_design), refused when
+    ill-conditioned (cond(V) not below MAX_CONDITION); ``source`` names device.toml.
+
+    Raises
+    ------
+    InputError
+        cond(V) >= MAX_CONDITION: the tensor would be noise.
+    """
+    design = device_design(device)
+    cond = design.condition
+    if not cond < MAX_CONDITION:
+        raise InputError(
+            f"{source}: stage: the node axes are ill-conditioned "
+            f"(cond(V) = {cond:.3g} > {MAX_CONDITION:g}); choose gear ratios and nodes that "
+            "spread the axes (see rsp-inertia design)"
+        )
+    return design
 
 
 def _combine_directions(found: list[NodeEstimate]) -> NodeEstimate:
@@ -139,6 +164,9 @@ def identify_logs(
     say = progress or (lambda _text: None)
     device = logs.device
     warnings = list(warnings)
+    # Refused before any log is read: device.toml alone says so. The axes are the device's
+    # design (a lambda = 0 stage gives one, whatever its nodes), in its order.
+    design = checked_design(device, logs.sources.device)
 
     def at_nodes(stage, sign, braking, reverse):
         # The node formula's samples of the passes, taken before they are let go; the fit's
@@ -148,9 +176,7 @@ def identify_logs(
 
     balances, passages = balance_runs(logs, warnings, say, known.encoder, at_nodes)
     fit = fit_tensor(balances, known)
-    # The axes are the device's design (a lambda = 0 stage gives one, whatever its nodes),
-    # in its order; the node formula estimates M at each axis's node, in every run.
-    design = device_design(device)
+    # The node formula estimates M at each axis's node, in every run.
     by_node = {
         (stage, node_deg): []
         for stage, st in enumerate(device.stages, 1)
@@ -172,12 +198,6 @@ def identify_logs(
 
     directions = design.directions
     cond = design.condition
-    if not cond < MAX_CONDITION:
-        raise InputError(
-            f"{logs.sources.device}: stage: the node axes are ill-conditioned "
-            f"(cond(V) = {cond:.3g} > {MAX_CONDITION:g}); choose gear ratios and nodes that "
-            "spread the axes (see rsp-inertia design)"
-        )
     if cond > WARN_CONDITION:
         warnings.append(f"the axis design is poorly conditioned: cond(V) = {cond:.3g}")
     J_ls, J_ls_std = axis_values(fit.entries, fit.entries_cov, directions)
@@ -295,23 +315,16 @@ def pendulum_baseline(
     ]
     if not found:
         return None
-    if device.pendulum is None:
-        raise InputError(
-            f"{logs.sources.device}: pendulum: pendulum logs are present but the "
-            "[pendulum] table (its stiffness) is missing"
-        )
-    # The pendulum reads the same encoder: its readings are corrected as the RSP runs' are.
+    pendulum_settings(device, logs.sources.device)
     encoder = () if known is None else known.encoder
-    pendulum_logs = {key: corrected_log(logs.pendulum[key], encoder) for key in found}
-    runs, directions = [], []
+    pendulum_logs, runs, directions = {}, [], []
     for stage, k in found:
         st = device.stages[stage - 1]
-        runs.append(
-            estimate_pendulum(
-                pendulum_logs[stage, k], device.pendulum.stiffness, stage, st.nodes_deg[k - 1],
-                logs.sources.pendulum_log(stage, k),
-            )
+        pendulum_logs[stage, k], run = reduce_pendulum_run(
+            device, logs.pendulum[stage, k], stage, k, logs.sources.pendulum_log(stage, k),
+            encoder,
         )
+        runs.append(run)
         directions.append(axis_direction(st.nodes[k - 1], st.gear_ratio))
     stages = [device.stages[r.stage - 1] for r in runs]
     empty = [
@@ -347,6 +360,43 @@ def pendulum_baseline(
         entries_damped=entries_damped,
         **best_parts,
     )
+
+
+def pendulum_settings(device: Device, source: str = "device.toml") -> Pendulum:
+    """device.toml's ``[pendulum]`` settings, which pendulum logs need (the stiffness);
+    ``source`` names device.toml.
+
+    Raises
+    ------
+    InputError
+        The table is missing.
+    """
+    if device.pendulum is None:
+        raise InputError(
+            f"{source}: pendulum: pendulum logs are present but the [pendulum] table (its "
+            "stiffness) is missing"
+        )
+    return device.pendulum
+
+
+def reduce_pendulum_run(
+    device: Device, log: Log, stage: int, node: int, source: str, encoder=()
+) -> tuple[Log, PendulumEstimate]:
+    """One pendulum run (``stage``, ``node`` from 1) reduced as :func:`pendulum_baseline`
+    reduces it: its readings taken back to the true angle with the encoder's error
+    coefficients ``encoder`` (the RSP runs' encoder, rsp_inertia.estimation.runs.corrected_log),
+    then rsp_inertia.estimation.pendulum.estimate_pendulum with the stiffness of
+    :func:`pendulum_settings`. Returns the corrected log and its reduction.
+
+    Raises
+    ------
+    InputError
+        No ``[pendulum]`` table; a log with too few oscillations, naming ``source``.
+    """
+    stiffness = pendulum_settings(device).stiffness
+    log = corrected_log(log, encoder)
+    nodes_deg = device.stages[stage - 1].nodes_deg
+    return log, estimate_pendulum(log, stiffness, stage, nodes_deg[node - 1], source)
 
 
 def _best_practice(

@@ -16,7 +16,12 @@ from typing import TypeVar
 
 import numpy as np
 
-from rsp_inertia.estimation.balance import StageBalance, mirror_log, stage_balance
+from rsp_inertia.estimation.balance import (
+    StageBalance,
+    balance_range,
+    mirror_log,
+    stage_balance,
+)
 from rsp_inertia.estimation.passes import PassEstimate, check_braking_monotone, estimate_pass
 from rsp_inertia.estimation.smoothing import Smoothed
 from rsp_inertia.plant.config import Device
@@ -28,6 +33,7 @@ __all__ = [
     "ExperimentLogs",
     "Sources",
     "balance_runs",
+    "checked_run",
     "corrected_log",
     "estimate_forward_run",
     "estimate_run",
@@ -171,6 +177,40 @@ def estimate_forward_run(
     return b_est, r_est
 
 
+def checked_run(
+    device: Device,
+    stage: int,
+    pair: tuple[Log, Log],
+    direction: str,
+    warnings: list[str],
+    sources: tuple[str, str] = ("braking", "reverse"),
+    encoder=(),
+) -> tuple[PassEstimate, PassEstimate]:
+    """One run's passes, estimated as :func:`balance_runs` estimates them, and checked for
+    every reason identify and calibrate refuse a run before they fit: :func:`run_logs`,
+    :func:`estimate_forward_run` (a braking whose speed reverses, a log too short to smooth)
+    and rsp_inertia.estimation.balance.balance_range (passes that share too few turns at
+    useful speed, naming the log at fault; a gap of dropped samples near a node).
+    ``rsp-inertia check`` runs it on every run whose two logs it could read.
+
+    ``pair``: the run's (braking, reverse) logs as logged (:attr:`ExperimentLogs.runs`);
+    ``sources``: their names in messages; ``warnings`` gets what identify warns about the
+    passes; ``encoder``: the encoder's error coefficients (:func:`corrected_log`).
+
+    Raises
+    ------
+    InputError
+        Naming the log at fault.
+    """
+    braking, reverse = run_logs(device, *pair, direction, encoder)
+    # The logs as read go now (balance_runs hands them over, nothing else holds them): they
+    # are not kept through the estimation, only the ones estimated (mirrored, corrected).
+    del pair
+    b_est, r_est = estimate_forward_run(device, braking, reverse, warnings, *sources)
+    balance_range(device, stage, b_est, r_est, 1 if direction == "forward" else -1)
+    return b_est, r_est
+
+
 def balance_runs(
     logs: ExperimentLogs,
     warnings: list[str],
@@ -201,11 +241,9 @@ def balance_runs(
     prefix = "" if logs.sources.experiment is None else f"{logs.sources.experiment}: "
     balances, kept = [], []
     for k, (stage, direction) in enumerate(expected, 1):
-        # The logs as read go as soon as run_logs has made the ones estimated (a backward
-        # run's mirrored, corrected readings): they are not held through the estimation.
-        b_est, r_est = estimate_forward_run(
-            device, *run_logs(device, *logs.runs[stage, direction], direction, encoder),
-            warnings, *logs.sources.run(stage, direction),
+        b_est, r_est = checked_run(
+            device, stage, logs.runs[stage, direction], direction, warnings,
+            logs.sources.run(stage, direction), encoder,
         )
         sign = 1 if direction == "forward" else -1
         balances.append(stage_balance(device, stage, b_est, r_est, sign))

@@ -4,17 +4,24 @@ Reads what a rig produces (device.toml, the logs, calibration.toml, reference.to
 virtual.toml, and reports for every stage and direction of rotation what is there, what is
 missing for the next step and what looks wrong, without stopping at the first problem:
 
-- ``error``: a file that is there but cannot be used (malformed, not on the encoder grid, a
-  braking whose speed reverses); the message is the one identify would give.
+- ``error``: what identify (or calibrate, on a calibration folder) would refuse, with its own
+  message, found by identify's own checks, everything short of the fit: the logs read by its
+  reader (rsp_inertia.estimation.reading.read_run), each run's passes smoothed and checked
+  (rsp_inertia.estimation.runs.checked_run: a braking whose speed reverses, passes that share
+  too few turns at useful speed, naming the log at fault, a gap near a node), the pendulum
+  runs reduced (rsp_inertia.estimation.identify.reduce_pendulum_run), the axis design
+  (rsp_inertia.estimation.identify.checked_design) and calibration.toml.
 - ``missing``: what identify needs and does not find (a braking or reverse log), with the
   command that makes it.
 - ``suspicious``: what identify accepts but a test engineer would want to know before the
   run: a braking that covers few turns past its last node, a logged braking torque that is
-  not device.toml's, a program older than the braking it mirrors, a reverse much shorter or
-  longer than its braking, constants that identify will take as exact and warn about, a gap
-  of dropped samples near a node, a program whose regulator the encoder holds too slow to
-  follow the braking's speed harmonics (a coarse encoder: the closed loop then tracks on its
-  feedforward alone, and identify's stds grow).
+  not device.toml's, what identify warns about a run's passes (a braking torque that is not
+  constant within its noise), a program older than the braking it mirrors, a reverse much
+  shorter or longer than its braking, constants that identify will take as exact and warn
+  about, a gap of dropped samples near a node in a log check cannot pair with its run's other
+  (identify refuses it if the node's passage is in the range it balances), a program whose
+  regulator the encoder holds too slow to follow the braking's speed harmonics (a coarse
+  encoder: the closed loop then tracks on its feedforward alone, and identify's stds grow).
 - ``ok``: what is in place.
 
 The folder is ready for identify when no line is ``error`` or ``missing``.
@@ -34,7 +41,14 @@ from rsp_inertia.estimation.balance import (
     harmonic_reach,
     mirror_log,
 )
+from rsp_inertia.estimation.identify import (
+    checked_design,
+    pendulum_settings,
+    reduce_pendulum_run,
+)
 from rsp_inertia.estimation.passes import check_braking_monotone
+from rsp_inertia.estimation.reading import known_terms, read_run
+from rsp_inertia.estimation.runs import checked_run
 from rsp_inertia.estimation.smoothing import top_speed
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
@@ -99,12 +113,20 @@ def check(root: str | Path) -> CheckReport:
     device = exp.device
     report = CheckReport(exp.root)
     report.add("ok", f"{exp.root / 'device.toml'}: {len(device.stages)} stage(s)")
+    try:
+        checked_design(device, str(exp.root / "device.toml"))
+    except InputError as error:
+        report.add("error", str(error))
+    try:  # the encoder's error that identify takes off every reading
+        encoder = known_terms(exp)[0].encoder
+    except InputError:
+        encoder = ()  # a bad calibration.toml: its own line (_check_constants)
     for stage, st in enumerate(device.stages, 1):
         for direction in st.directions:
-            _check_run(exp, stage, direction, report)
+            _check_run(exp, stage, direction, encoder, report)
         if exp.pilot_path(stage).is_file():
             _try_read(report, exp.pilot_path(stage), device, "pilot")
-    _check_pendulum(exp, report)
+    _check_pendulum(exp, encoder, report)
     _check_constants(exp, report)
     reference = exp.root / "reference.toml"
     if reference.is_file():
@@ -127,20 +149,29 @@ def _try_read(report: CheckReport, path: Path, device, kind: str, direction: str
     except InputError as error:
         report.add("error", str(error))
         return None
+    _check_last_line(report, path)
+    return log
+
+
+def _check_last_line(report: CheckReport, path: Path) -> None:
+    """A ``suspicious`` line when the log's last line has no line end (the reader leaves it
+    out)."""
     if unterminated_last_line(path):
         report.add(
             "suspicious",
             f"{path}: its last line has no line end (a logger stopped while writing it?): "
             "identify leaves that row out",
         )
-    return log
 
 
-def _check_timing(exp, stage: int, direction: str, path: Path, log, report: CheckReport) -> None:
-    """A log's sampling: dropped samples and jitter (a line when there are any), and a gap
-    near a node that identify would refuse (rsp_inertia.estimation.balance.check_node_gaps;
-    ``suspicious`` here: identify refuses it only where the node's passage lies in the range
-    it balances, which needs the smoothed passes)."""
+def _check_timing(
+    exp, stage: int, direction: str, path: Path, log, report: CheckReport, nodes: bool
+) -> None:
+    """A log's sampling: dropped samples and jitter (a line when there are any); with
+    ``nodes``, a gap near a node that identify would refuse
+    (rsp_inertia.estimation.balance.check_node_gaps), ``suspicious``: for a log that check
+    cannot pair with its run's other log, whose range identify balances is unknown (a paired
+    run's gaps are checked in that range, by checked_run)."""
     rate = exp.device.encoder.sample_rate
     periods = np.diff(log.t) * rate
     missing = dropped_samples(log.t, rate)
@@ -153,7 +184,7 @@ def _check_timing(exp, stage: int, direction: str, path: Path, log, report: Chec
             f"{int(missing.max())}); time steps off whole periods by up to {jitter:.2f} of a "
             "period",
         )
-    if missing.max(initial=0) <= NODE_GAP_SAMPLES:
+    if not nodes or missing.max(initial=0) <= NODE_GAP_SAMPLES:
         return
     forward = log if direction == "forward" else mirror_log(log, exp.device.encoder.quantum)
     sign = 1 if direction == "forward" else -1
@@ -166,56 +197,38 @@ def _check_timing(exp, stage: int, direction: str, path: Path, log, report: Chec
         )
 
 
-def _check_run(exp, stage: int, direction: str, report: CheckReport) -> None:
-    """One stage in one direction: braking, program, reverse."""
+def _check_run(exp, stage: int, direction: str, encoder, report: CheckReport) -> None:
+    """One stage in one direction: braking, program, reverse. The two logs are read as
+    identify reads them (rsp_inertia.estimation.reading.read_run; each alone, to say which
+    and why, when that fails) and checked as identify checks them before its fit
+    (rsp_inertia.estimation.runs.checked_run, with the encoder's error coefficients
+    ``encoder``)."""
     device = exp.device
-    st = device.stages[stage - 1]
     run = f"stage {stage} {direction}"
     option = "" if direction == "forward" else f" --direction {direction}"
     b_path = exp.braking_path(stage, direction)
-    braking = None
+    p_path = exp.program_path(stage, direction)
+    r_path = exp.reverse_path(stage, direction)
+    pair = None
+    if b_path.is_file() and r_path.is_file():
+        try:
+            pair = read_run(exp, stage, direction)
+        except InputError:
+            pass  # each log read alone below says which and why
+    braking, usable = None, False
     if not b_path.is_file():
         report.add(
             "missing",
             f"{b_path}: the {run} braking log (the rig's braking pass; on the virtual device "
             f"rsp-inertia simulate {exp.root} --stage {stage}{option})",
         )
+    elif pair is not None:
+        braking = pair[0]
+        _check_last_line(report, b_path)
     else:
         braking = _try_read(report, b_path, device, "braking", direction)
     if braking is not None:
-        _check_timing(exp, stage, direction, b_path, braking, report)
-        forward = braking if direction == "forward" else mirror_log(braking, device.encoder.quantum)
-        try:
-            check_braking_monotone(forward, str(b_path))
-        except InputError as error:
-            report.add("error", str(error))
-        turns = turns_past_last_node(braking.phi, st.nodes)
-        torque = float(np.mean(np.abs(braking.torque)))
-        duration = float(braking.t[-1] - braking.t[0])
-        level = "ok"
-        notes = []
-        if turns < 1.0:
-            level = "missing"
-            notes.append(
-                f"it covers {turns:.2f} turns past its last node: identify needs whole turns "
-                "from every node (raise launch_speed or lower braking_torque; rsp-inertia plan)"
-            )
-        elif turns < MIN_TURNS_PAST_LAST_NODE:
-            level = "suspicious"
-            notes.append(
-                f"it covers only {turns:.2f} turns past its last node (few whole-turn pairs)"
-            )
-        expected = st.braking_torque
-        if expected > 0 and abs(torque / expected - 1) > TORQUE_TOLERANCE:
-            level = "suspicious" if level == "ok" else level
-            notes.append(
-                f"its mean logged torque {torque:.4g} N m is not device.toml's braking_torque "
-                f"{expected:.4g} N m"
-            )
-        summary = f"{b_path}: {duration:.2f} s, {turns:.2f} turns past the last node"
-        report.add(level, summary + ("; " + "; ".join(notes) if notes else ""))
-    p_path = exp.program_path(stage, direction)
-    r_path = exp.reverse_path(stage, direction)
+        usable = _check_braking(exp, stage, direction, b_path, braking, report, pair is None)
     if p_path.is_file():
         if b_path.is_file() and p_path.stat().st_mtime < b_path.stat().st_mtime:
             report.add(
@@ -240,10 +253,25 @@ def _check_run(exp, stage: int, direction: str, report: CheckReport) -> None:
             f"rsp-inertia simulate {exp.root} --stage {stage} --part reverse{option})",
         )
         return
-    reverse = _try_read(report, r_path, device, "reverse", direction)
-    if reverse is None:
-        return
-    _check_timing(exp, stage, direction, r_path, reverse, report)
+    if pair is None:
+        reverse = _try_read(report, r_path, device, "reverse", direction)
+        if reverse is None:
+            return
+    else:
+        reverse = pair[1]
+        _check_last_line(report, r_path)
+    _check_timing(exp, stage, direction, r_path, reverse, report, nodes=pair is None)
+    if pair is not None and usable:
+        warnings: list[str] = []
+        try:
+            checked_run(
+                device, stage, pair, direction, warnings, (str(b_path), str(r_path)), encoder
+            )
+        except InputError as error:
+            report.add("error", str(error))
+            return
+        for warning in warnings:
+            report.add("suspicious", warning)
     duration = float(reverse.t[-1] - reverse.t[0])
     if braking is not None:
         b_duration = float(braking.t[-1] - braking.t[0])
@@ -255,6 +283,49 @@ def _check_run(exp, stage: int, direction: str, report: CheckReport) -> None:
             )
             return
     report.add("ok", f"{r_path}: {duration:.2f} s")
+
+
+def _check_braking(
+    exp, stage: int, direction: str, path: Path, braking, report: CheckReport, nodes: bool
+) -> bool:
+    """A braking log's own findings: its sampling (:func:`_check_timing`, ``nodes`` as
+    there), a speed that reverses (``error``), the turns it covers past its last node and its
+    mean torque. Whether the run's check (checked_run) can take it: not when it reverses or
+    is too short (then it counts as missing: the braking must be run again)."""
+    device = exp.device
+    st = device.stages[stage - 1]
+    _check_timing(exp, stage, direction, path, braking, report, nodes)
+    forward = braking if direction == "forward" else mirror_log(braking, device.encoder.quantum)
+    usable = True
+    try:
+        check_braking_monotone(forward, str(path))
+    except InputError as error:
+        report.add("error", str(error))
+        usable = False
+    turns = turns_past_last_node(braking.phi, st.nodes)
+    torque = float(np.mean(np.abs(braking.torque)))
+    duration = float(braking.t[-1] - braking.t[0])
+    level = "ok"
+    notes = []
+    if turns < 1.0:
+        level, usable = "missing", False
+        notes.append(
+            f"it covers {turns:.2f} turns past its last node: identify needs whole turns "
+            "from every node (raise launch_speed or lower braking_torque; rsp-inertia plan)"
+        )
+    elif turns < MIN_TURNS_PAST_LAST_NODE:
+        level = "suspicious"
+        notes.append(f"it covers only {turns:.2f} turns past its last node (few whole-turn pairs)")
+    expected = st.braking_torque
+    if expected > 0 and abs(torque / expected - 1) > TORQUE_TOLERANCE:
+        level = "suspicious" if level == "ok" else level
+        notes.append(
+            f"its mean logged torque {torque:.4g} N m is not device.toml's braking_torque "
+            f"{expected:.4g} N m"
+        )
+    summary = f"{path}: {duration:.2f} s, {turns:.2f} turns past the last node"
+    report.add(level, summary + ("; " + "; ".join(notes) if notes else ""))
+    return usable
 
 
 def _check_regulator(exp, path: Path, braking, report: CheckReport) -> None:
@@ -284,18 +355,38 @@ def _check_regulator(exp, path: Path, braking, report: CheckReport) -> None:
     )
 
 
-def _check_pendulum(exp, report: CheckReport) -> None:
-    """The torsion-pendulum baseline's runs (optional)."""
+def _check_pendulum(exp, encoder, report: CheckReport) -> None:
+    """The torsion-pendulum baseline's runs (optional), each read and reduced as identify
+    reduces it (rsp_inertia.estimation.identify.reduce_pendulum_run, with the encoder's error
+    coefficients ``encoder``)."""
     device = exp.device
-    if device.pendulum is None:
+    present = [
+        (stage, k)
+        for stage, st in enumerate(device.stages, 1)
+        for k in range(1, len(st.nodes) + 1)
+        if exp.pendulum_path(stage, k).is_file()
+    ]
+    if present:
+        try:
+            pendulum_settings(device, str(exp.root / "device.toml"))
+        except InputError as error:
+            report.add("error", str(error))
+            return
+    elif device.pendulum is None:
         return
-    found, total = 0, 0
-    for stage, st in enumerate(device.stages, 1):
-        for k in range(1, len(st.nodes_deg) + 1):
-            total += 1
-            path = exp.pendulum_path(stage, k)
-            if path.is_file() and _try_read(report, path, device, "pendulum") is not None:
-                found += 1
+    found = 0
+    for stage, k in present:
+        path = exp.pendulum_path(stage, k)
+        log = _try_read(report, path, device, "pendulum")
+        if log is None:
+            continue
+        try:
+            reduce_pendulum_run(device, log, stage, k, str(path), encoder)
+        except InputError as error:
+            report.add("error", str(error))
+            continue
+        found += 1
+    total = sum(len(st.nodes) for st in device.stages)
     level = "ok" if found in (0, total) else "suspicious"
     report.add(
         level,

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import math
 import os
 
+import numpy as np
 import pytest
 
 from rsp_inertia.cli import main
 from rsp_inertia.pipeline import create_default_experiment, simulate
+from tests.one_home import assert_calls_home, home_cases
 
 
 @pytest.fixture(scope="module")
@@ -93,3 +96,196 @@ def test_a_regulator_the_encoder_holds_below_the_speed_harmonics_is_suspicious(t
     flagged = [line for line in _lines(capsys) if "regulator's bandwidth" in line]
     assert len(flagged) == 1 and flagged[0].startswith("suspicious: ")
     assert "stage2/program.csv" in flagged[0] and "below the braking's speed harmonics" in flagged[0]
+
+
+def _copy(ready, tmp_path):
+    import shutil
+
+    root = tmp_path / "exp"
+    shutil.copytree(ready, root)
+    return root
+
+
+def _keep_rows(path, rows: slice, restart: bool = False) -> None:
+    """Keep only the data rows ``rows`` of a log; ``restart``: its time from 0 again (a
+    logger that started late)."""
+    header, *data = path.read_text().splitlines()
+    data = data[rows]
+    if restart:
+        t0 = float(data[0].split(",", 1)[0])
+        data = [f"{float(t) - t0!r},{rest}" for t, rest in (row.split(",", 1) for row in data)]
+    path.write_text("\n".join([header, *data]) + "\n")
+
+
+def _rows(path) -> int:
+    return len(path.read_text().splitlines()) - 1
+
+
+def _identify(root, capsys) -> tuple[int, str]:
+    """identify's exit status and its stderr."""
+    status = main(["identify", str(root)])
+    return status, capsys.readouterr().err.strip()
+
+
+def test_a_reverse_cut_to_its_first_half_is_an_error_of_check_and_identify_naming_it(
+    ready, tmp_path, capsys
+):
+    """Issue 23: check said ready (one suspicious line on the duration) where identify then
+    refused, blaming the braking. Half the rows of stage 2's reverse cover 1.6 of the
+    braking's 6.2 turns (the reverse starts slowly), and the passes then share 1.4 turns at
+    useful speed, fewer than the balances' 2: both name the reverse, and why."""
+    root = _copy(ready, tmp_path)
+    reverse = root / "stage2" / "reverse.csv"
+    _keep_rows(reverse, slice(0, _rows(reverse) // 2))
+    assert main(["check", str(root)]) == 1
+    lines = _lines(capsys)
+    errors = [line for line in lines if line.startswith("error: ")]
+    assert len(errors) == 1 and errors[0].startswith(f"error: {reverse}: stage 2: covers ")
+    assert "the reverse run stopped early" in errors[0]
+    assert lines[-1].endswith("not ready for identify (1 error(s), 0 missing, 0 suspicious)")
+    status, err = _identify(root, capsys)
+    assert status == 2 and len(err.splitlines()) == 1, err
+    assert err == f"rsp-inertia: error: {errors[0].removeprefix('error: ')}"
+    assert "braking_torque" not in err and "launch_speed" not in err
+    assert not (root / "result.json").exists()
+
+
+def test_calibrate_names_a_cut_reverse_of_the_empty_fixture(ready, tmp_path, capsys):
+    """calibrate balances the empty fixture's runs as identify balances the body's
+    (rsp_inertia.estimation.runs.checked_run): the same refusal, naming the empty folder's
+    reverse, and no calibration.toml."""
+    root = _copy(ready, tmp_path)
+    empty = tmp_path / "empty"
+    import shutil
+
+    shutil.copytree(ready, empty)
+    reverse = empty / "stage1" / "reverse.csv"
+    _keep_rows(reverse, slice(0, _rows(reverse) // 4))
+    assert main(["calibrate", str(root), "--empty", str(empty)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and err.startswith(f"rsp-inertia: error: {reverse}: ")
+    assert "the reverse run stopped early" in err
+    assert not (root / "calibration.toml").exists()
+
+
+def _cut_reverse(root):
+    """Stage 2's reverse log cut to its first half: the reverse run stopped early."""
+    path = root / "stage2" / "reverse.csv"
+    _keep_rows(path, slice(0, _rows(path) // 2))
+
+
+def _cut_braking(root):
+    """Stage 1's braking log cut to its first half: still 3.9 turns past the last node, all
+    at useful speed, which the reverse covers (the balances hold whatever a pass's start)."""
+    path = root / "stage1" / "braking.csv"
+    _keep_rows(path, slice(0, _rows(path) // 2))
+
+
+def _stub_braking(root):
+    """Stage 1's braking log cut to 0.4 s: it never reaches its last node."""
+    _keep_rows(root / "stage1" / "braking.csv", slice(0, 400))
+
+
+def _reversing_braking(root):
+    """A row of stage 1's braking one count back: the speed reverses inside the braking."""
+    path = root / "stage1" / "braking.csv"
+    header, *data = path.read_text().splitlines()
+    t, _, torque = data[1000].split(",")
+    phi = float(data[999].split(",")[1]) - 2 * math.pi / 65536
+    data[1000] = f"{t},{phi!r},{torque}"
+    path.write_text("\n".join([header, *data]) + "\n")
+
+
+def _gap_at_a_node(root):
+    """Five rows of stage 1's reverse dropped where it passes node 120 deg, 3 turns on."""
+    path = root / "stage1" / "reverse.csv"
+    header, *data = path.read_text().splitlines()
+    phi = np.array([float(row.split(",")[1]) for row in data])
+    k = int(np.argmin(np.abs(phi - math.radians(120.0 + 3 * 360.0))))
+    del data[k : k + 5]
+    path.write_text("\n".join([header, *data]) + "\n")
+
+
+def _pendulum_without_its_table(root):
+    """A pendulum log, and no [pendulum] table in device.toml."""
+    import shutil
+
+    device = (root / "device.toml").read_text()
+    (root / "device.toml").write_text(device[: device.index("[pendulum]")])
+    shutil.copy(root / "stage1" / "braking.csv", root / "stage1" / "pendulum_k1.csv")
+
+
+def _short_pendulum(root):
+    """A pendulum log that never oscillates (stage 1's braking under its name)."""
+    import shutil
+
+    shutil.copy(root / "stage1" / "braking.csv", root / "stage1" / "pendulum_k1.csv")
+
+
+def _clustered_nodes(root):
+    """Stage 2's three nodes 0.2 deg apart: six axes, three of them nearly one."""
+    device = (root / "device.toml").read_text()
+    device = device.replace("nodes_deg = [60.0, 180.0, 300.0]", "nodes_deg = [60.0, 60.2, 60.4]")
+    (root / "device.toml").write_text(device)
+
+
+@pytest.mark.parametrize(
+    "corrupt, refused",
+    [
+        (_cut_reverse, True),
+        (_cut_braking, False),
+        (_stub_braking, True),
+        (_reversing_braking, True),
+        (_gap_at_a_node, True),
+        (_pendulum_without_its_table, True),
+        (_short_pendulum, True),
+        (_clustered_nodes, True),
+    ],
+    ids=lambda value: value.__name__.strip("_") if callable(value) else None,
+)
+def test_check_is_ready_exactly_when_identify_accepts(ready, tmp_path, capsys, corrupt, refused):
+    """check runs identify's own checks: it is ready when identify accepts the folder, and
+    when identify refuses, check has a line ``error`` with identify's very message (or, for a
+    braking that does not reach its last node, ``missing`` naming the same file)."""
+    root = _copy(ready, tmp_path)
+    corrupt(root)
+    ready_status = main(["check", str(root)])
+    lines = _lines(capsys)
+    status, err = _identify(root, capsys)
+    assert (status != 0) == refused, err
+    assert (ready_status == 1) == refused, lines
+    if not refused:
+        assert (root / "result.json").is_file()
+        return
+    assert status == 2 and len(err.splitlines()) == 1, err
+    message = err.removeprefix("rsp-inertia: error: ")
+    named = message.split(":")[0].split(",")[0]
+    assert f"error: {message}" in lines or any(
+        line.startswith(f"missing: {named}: ") for line in lines
+    ), (message, lines)
+
+
+# (formula, home module, function, consumer modules) as tests/one_home.py takes them:
+# identify's checks, which identify's path and check both call
+SAME_CHECKS = [
+    ("the logs as identify reads them", "estimation.reading", "read_run", ["checking"]),
+    ("a run checked before the fit", "estimation.runs", "checked_run",
+     ["estimation.runs", "checking"]),
+    ("the range a run is balanced over", "estimation.balance", "balance_range",
+     ["estimation.balance", "estimation.runs"]),
+    ("a braking whose speed reverses", "estimation.passes", "check_braking_monotone",
+     ["estimation.runs", "checking"]),
+    ("cond(V) refused", "estimation.identify", "checked_design",
+     ["estimation.identify", "checking"]),
+    ("pendulum logs need [pendulum]", "estimation.identify", "pendulum_settings",
+     ["estimation.identify", "checking"]),
+    ("a pendulum run reduced", "estimation.identify", "reduce_pendulum_run",
+     ["estimation.identify", "checking"]),
+]
+
+
+@pytest.mark.parametrize("home, name, consumer", home_cases(SAME_CHECKS), ids=str)
+def test_check_calls_identifys_own_checks(home, name, consumer):
+    """Each of identify's refusals that its files show has one home, which identify's path
+    and check both call (no copy of its own: tests/one_home.py)."""
+    assert_calls_home(home, name, consumer)

@@ -119,20 +119,28 @@ def test_logs_that_do_not_overlap(experiment, capsys):
     assert "overlap" in err
 
 
-def test_logs_that_do_not_overlap_name_a_file(experiment, capsys):
+def test_logs_that_do_not_overlap_name_the_reverse_that_stopped_early(experiment, capsys):
+    """The braking covers its 3 turns; the reverse stopped half a turn after its start: the
+    reverse is at fault, not the protocol (no hint at braking_torque)."""
     err, (b_path, r_path) = no_overlap(experiment, capsys)
-    assert str(r_path) in err or str(b_path) in err
+    assert err.startswith(f"rsp-inertia: error: {r_path}: stage 1: covers 0.5")
+    assert f"of the 3.00 the braking logged ({b_path}); the reverse run stopped early" in err
+    assert "braking_torque" not in err
 
 
-def test_too_few_turns_for_a_node(experiment, capsys):
+def test_too_few_turns_at_useful_speed(experiment, capsys):
     err, _ = too_few_turns(experiment, capsys)
     assert "stage 1" in err
-    assert "node" in err
+    assert "turns at useful speed" in err
 
 
-def test_too_few_turns_for_a_node_name_a_file(experiment, capsys):
+def test_too_few_turns_name_the_braking_and_the_protocol(experiment, capsys):
+    """The reverse mirrors all of a braking that is too short: the braking is at fault, and
+    the remedy is the protocol's."""
     err, (b_path, r_path) = too_few_turns(experiment, capsys)
-    assert str(r_path) in err or str(b_path) in err
+    assert err.startswith(f"rsp-inertia: error: {b_path}: stage 1: the braking covers ")
+    assert "lower braking_torque or higher launch_speed" in err
+    assert str(r_path) not in err
 
 
 def test_speed_reversing_inside_the_braking(experiment, capsys):
