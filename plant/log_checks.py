@@ -27,11 +27,14 @@ __all__ = [
     "JITTER_LIMIT",
     "MEAN_RATE_TOLERANCE",
     "RATE_TOLERANCE",
+    "SPEED_MARGIN",
+    "STEP_SLACK_COUNTS",
     "T0_TOLERANCE",
     "TORQUE_MARGIN",
     "EncoderLike",
     "check_direction",
     "check_grid",
+    "check_speed",
     "check_time",
     "check_torque",
     "read_header",
@@ -310,6 +313,81 @@ def check_torque(path: str | os.PathLike, torque: np.ndarray, torque_limit: floa
             f"can produce (more than {TORQUE_MARGIN:g} x device.toml's motor.torque_limit = "
             f"{torque_limit:g} N m): a logging fault"
         )
+
+
+SPEED_MARGIN = 20.0
+"""A step of the angle between two rows faster than this many times the fastest
+``stage.launch_speed`` of device.toml is refused (:func:`check_speed`, called by
+rsp_inertia.plant.logs.read_log): a logging fault (a corrupted row, a glitch of the counter)
+that would pass for a real turn and its work.
+
+Every run of the device is slower than about its stage's launch speed: a braking starts at
+it and slows down, its reverse mirrors it, a pilot spins up to about it, a pendulum run
+swings by a few degrees (the virtual device's logs, at 1 and 10 kHz, jittered, with dropped
+rows and a wrapping counter, step at most 1.14 x the fastest launch speed). The margin
+covers what may speed a body up beyond it (a spring or gravity giving back energy, the
+reduced inertia falling along the turn: 20 x is 400 x the kinetic energy) and a pilot
+logged before ``plan`` lowered the launch speeds (plan chooses them from an eighth of the
+fastest its drive can keep a mirror at). The fastest stage bounds every log, as a pendulum
+run has no launch speed of its own and a pilot may predate its stage's. On the default
+device (12 rad/s, 1 kHz) a step of more than 0.48 rad between rows 1 ms apart is refused."""
+
+STEP_SLACK_COUNTS = 8
+"""Counts a step of the angle may exceed what the speed bound allows by: two readings of an
+incremental encoder differ from the true turn between them by less than a count, and an
+interpolating readhead's noise adds a few counts at most. It matters only where the speed
+bound over a step is a few counts (a coarse encoder at a fast sample rate and a slow stage)."""
+
+SPEED_BLOCK = 1 << 20
+"""Steps checked at a time by :func:`check_speed`: its memory does not grow with the log."""
+
+
+def check_speed(
+    path: str | os.PathLike,
+    t: np.ndarray,
+    phi: np.ndarray,
+    launch_speed: float,
+    encoder: EncoderLike,
+) -> None:
+    """Refuse the first angle step that no speed of the device explains.
+
+    A step from row k to k + 1 is refused when ``|phi[k+1] - phi[k]|`` exceeds
+    ``SPEED_MARGIN x launch_speed x (t[k+1] - t[k] + 1 / sample_rate)`` plus
+    :data:`STEP_SLACK_COUNTS` counts: the extra period covers stamps off the sampling grid
+    (:data:`JITTER_LIMIT`), a gap of dropped rows has its whole time, and the counts cover
+    the quantization and the encoder's noise. ``phi`` is the unwrapped angle (a counter's
+    wraps taken out), ``t`` strictly increasing (:func:`check_time` first).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The log, for the message.
+    t, phi : np.ndarray, shape (n,)
+        s and rad, the log's columns.
+    launch_speed : float
+        rad/s, the fastest ``stage.launch_speed`` of device.toml.
+    encoder : encoder-like
+        ``quantum`` (rad) and ``sample_rate`` (Hz).
+    """
+    limit = SPEED_MARGIN * float(launch_speed)
+    period = 1.0 / float(encoder.sample_rate)
+    slack = STEP_SLACK_COUNTS * float(encoder.quantum)
+    for start in range(0, len(t) - 1, SPEED_BLOCK):
+        stop = min(start + SPEED_BLOCK, len(t) - 1) + 1
+        steps = np.abs(np.diff(phi[start:stop]))
+        times = np.diff(t[start:stop])
+        beyond = np.flatnonzero(steps > limit * (times + period) + slack)
+        if beyond.size:
+            k = int(beyond[0])
+            step, time = float(steps[k]), float(times[k])
+            raise InputError(
+                f"{path}, line {start + k + 3}: the angle jumps by {step:.3g} rad in "
+                f"{time:.3g} s from the row before ({step / time:.3g} rad/s), faster than any "
+                f"speed the device's runs can have (limit {limit:g} rad/s, {SPEED_MARGIN:g} x "
+                f"device.toml's fastest stage.launch_speed = {float(launch_speed):g} rad/s): "
+                "a logging fault"
+            )
+
 
 def check_time(
     path: str | os.PathLike, t: np.ndarray, encoder: EncoderLike, regular: bool = True

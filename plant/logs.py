@@ -25,13 +25,14 @@ from pathlib import Path
 
 import numpy as np
 
-from rsp_inertia.plant.config import DIRECTIONS
+from rsp_inertia.plant.config import DIRECTIONS, Device
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.log_checks import (
     JITTER_LIMIT,
     EncoderLike,
     check_direction,
     check_grid,
+    check_speed,
     check_time,
     check_torque,
     read_header,
@@ -52,6 +53,7 @@ __all__ = [
     "check_writable",
     "dropped_samples",
     "file_sha256",
+    "read_device_log",
     "read_log",
     "read_program",
     "write_atomic",
@@ -214,6 +216,7 @@ def read_log(
     kind: str,
     direction: str = "forward",
     torque_limit: float | None = None,
+    launch_speed: float | None = None,
 ) -> Log:
     """Read and check a log: braking.csv, reverse.csv, a pendulum run's or pilot.csv.
 
@@ -240,6 +243,10 @@ def read_log(
         N m, device.toml's ``motor.torque_limit``: a torque beyond
         rsp_inertia.plant.log_checks.TORQUE_MARGIN times it is refused (physically
         impossible); None: not checked.
+    launch_speed : float, optional
+        rad/s, the fastest ``stage.launch_speed`` of device.toml: a step of the angle faster
+        than rsp_inertia.plant.log_checks.SPEED_MARGIN times it (over the step's time, plus
+        a few counts) is refused (physically impossible: a corrupted row); None: not checked.
 
     Returns
     -------
@@ -252,7 +259,13 @@ def read_log(
         One line naming the file, the line and the fault: a missing or empty file, a wrong
         header, a malformed or non-finite number, fewer than 2 rows, t not from 0, not strictly
         increasing, a step shorter than half a sample period, a median or mean step off the
-        sample rate (:data:`JITTER_LIMIT`), phi off the encoder grid, the wrong direction.
+        sample rate (:data:`JITTER_LIMIT`), phi off the encoder grid, an angle step or a
+        torque beyond what the device can do (with ``launch_speed``, ``torque_limit``), the
+        wrong direction.
+
+    See Also
+    --------
+    read_device_log : with the device's torque limit and launch speeds.
     """
     if kind not in LOG_KINDS:
         raise ValueError(f"kind must be one of {LOG_KINDS}, got {kind!r}")
@@ -265,11 +278,51 @@ def read_log(
         t, phi, torque = read_table(path, LOG_COLUMNS).T
     check_time(path, t, encoder, regular=False)
     check_grid(path, phi, encoder)
+    if launch_speed is not None:
+        check_speed(path, t, phi, launch_speed, encoder)
     check_direction(path, phi, kind, direction)
     if torque_limit is not None:
         check_torque(path, torque, torque_limit)
     return Log(t=t, phi=phi, torque=torque)
 
+
+def read_device_log(
+    path: str | os.PathLike, device: Device, kind: str, direction: str = "forward"
+) -> Log:
+    """:func:`read_log` with every check the device allows: its encoder, its motor's
+    ``torque_limit`` and the fastest ``launch_speed`` of its stages (what no run of it can
+    exceed: rsp_inertia.plant.log_checks.TORQUE_MARGIN and SPEED_MARGIN). While a stage has
+    no launch speed (``plan`` has not chosen it), the device's fastest run is unknown and
+    the angle's steps are not checked.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The log (header ``t,phi,torque`` or ``t,counts,torque``).
+    device : Device
+        device.toml's gimbal (rsp_inertia.plant.config.Device).
+    kind, direction : str
+        As for :func:`read_log`.
+
+    Returns
+    -------
+    Log
+        The values exactly as written in the file.
+
+    Raises
+    ------
+    InputError
+        As :func:`read_log`, one line naming the file, the line and the fault.
+    """
+    speeds = [st.launch_speed for st in device.stages]
+    return read_log(
+        path,
+        device.encoder,
+        kind,
+        direction,
+        torque_limit=device.motor.torque_limit,
+        launch_speed=None if None in speeds else max(speeds),
+    )
 
 
 def read_program(path: str | os.PathLike, encoder: EncoderLike) -> Program:

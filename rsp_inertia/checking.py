@@ -54,7 +54,7 @@ from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.geometry import turns_past_last_node
 from rsp_inertia.plant.log_checks import unterminated_last_line
-from rsp_inertia.plant.logs import dropped_samples, read_log, read_program
+from rsp_inertia.plant.logs import dropped_samples, read_device_log, read_program
 
 __all__ = ["LEVELS", "MIN_TURNS_PAST_LAST_NODE", "CheckReport", "check"]
 
@@ -145,7 +145,7 @@ def _try_read(report: CheckReport, path: Path, device, kind: str, direction: str
     with an ``error`` line; a ``suspicious`` line when its last line has no line end (the
     reader leaves it out)."""
     try:
-        log = read_log(path, device.encoder, kind, direction, device.motor.torque_limit)
+        log = read_device_log(path, device, kind, direction)
     except InputError as error:
         report.add("error", str(error))
         return None

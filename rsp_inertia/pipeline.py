@@ -26,7 +26,7 @@ from rsp_inertia.plant.experiment import Experiment, open_experiment
 from rsp_inertia.plant.logs import (
     align_counter,
     check_writable,
-    read_log,
+    read_device_log,
     read_program,
     write_atomic,
     write_log,
@@ -193,7 +193,7 @@ def _braking_truth(
     if not path.is_file():
         raise InputError(f"{path}: not found: simulate the braking first (--part braking)")
     on_disk = align_counter(  # a counts log is known up to whole ranges of the counter
-        read_log(path, exp.device.encoder, "braking", direction, exp.device.motor.torque_limit),
+        read_device_log(path, exp.device, "braking", direction),
         float(braking.log.phi[0]),
         exp.device.encoder,
     )
@@ -380,9 +380,7 @@ def program_summaries(
     for st in exp.stages(stage):
         for direction in exp.device.stages[st - 1].directions:
             path = exp.braking_path(st, direction)
-            braking = read_log(
-                path, exp.device.encoder, "braking", direction, exp.device.motor.torque_limit
-            )
+            braking = read_device_log(path, exp.device, "braking", direction)
             result = make_program(exp.device, st, braking, str(path), direction=direction)
             out = exp.program_path(st, direction)
             write_program(out, result.program)

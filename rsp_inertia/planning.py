@@ -35,7 +35,7 @@ from rsp_inertia.ocp.rehearsal import Rehearsal
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
-from rsp_inertia.plant.logs import Log, read_log, write_atomic
+from rsp_inertia.plant.logs import Log, read_device_log, write_atomic
 from rsp_inertia.plant.model import ModelParameters
 
 __all__ = ["DEFAULT_MAX_DURATION", "PlanReport", "guess_model", "plan", "stage_models"]
@@ -101,8 +101,7 @@ def stage_models(root: str | Path) -> list[StageModel]:
     jobs = []
     for stage in exp.stages(None):
         path = exp.pilot_path(stage)
-        limit = exp.device.motor.torque_limit
-        log = read_log(path, exp.device.encoder, "pilot", torque_limit=limit) if path.is_file() else None
+        log = read_device_log(path, exp.device, "pilot") if path.is_file() else None
         jobs.append((exp.device, stage, path, log))
     return map_stages(_stage_model, jobs)
 

@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.log_checks import TORQUE_MARGIN, unterminated_last_line
+from rsp_inertia.plant.log_checks import SPEED_MARGIN, TORQUE_MARGIN, unterminated_last_line
 from rsp_inertia.plant.logs import (
     JITTER_LIMIT,
     Log,
@@ -564,3 +564,78 @@ def test_a_torque_within_the_margin_reads(tmp_path):
     path = tmp_path / "braking.csv"
     path.write_text(text(LOG_HEADER, rows))
     assert read_log(path, ENCODER, "braking", torque_limit=0.5).torque[3] == 0.9 * TORQUE_MARGIN * 0.5
+
+
+# ---------------------------------------------------------------------------------------------
+# Angle steps that no speed explains
+
+
+def _braking_counts(encoder, speed: float, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """t and the counts of an incremental encoder over a braking from ``speed`` to rest."""
+    t = np.arange(n) * encoder.dt
+    duration = t[-1] + encoder.dt
+    return t, 1000 + np.floor(speed * (t - t**2 / (2 * duration)) / encoder.quantum)
+
+
+@pytest.mark.parametrize(
+    "column, glitch",
+    [("phi", "row"), ("phi", "from the row on"), ("counts", "row"), ("counts", "from the row on")],
+)
+def test_an_angle_jump_no_speed_explains_is_refused_with_its_line(tmp_path, column, glitch):
+    # One corrupted row (or a counter that skips from it on): 3.1 rad in 1 ms is 3100 rad/s
+    # on a device launched at 12 rad/s, and would pass for half a turn of the motor's work.
+    encoder = CountingEncoder(counts_per_rev=2**13, counter_bits=16)
+    t, counts = _braking_counts(encoder, 12.0, 300)
+    jump = round(3.1 / encoder.quantum)
+    if glitch == "row":
+        counts[150] += jump
+    else:
+        counts[150:] += jump
+    torque = np.full(t.size, -0.005)
+    path = tmp_path / "braking.csv"
+    if column == "counts":
+        _counts_file(path, t, counts % 2**16, torque)
+    else:
+        write_log(path, Log(t=t, phi=counts * encoder.quantum, torque=torque))
+    read_log(path, encoder, "braking")  # without the device's launch speed: not checked
+    with pytest.raises(InputError) as error:
+        read_log(path, encoder, "braking", launch_speed=12.0)
+    assert_one_line(
+        error, path, 152, "the angle jumps by 3.11 rad in 0.001 s", f"{SPEED_MARGIN:g} x",
+        "fastest stage.launch_speed = 12 rad/s", "a logging fault",
+    )
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    rate=st.sampled_from([1000.0, 10000.0]),
+    bits_=st.integers(10, 20),
+    launch=st.floats(0.5, 50.0),
+    seed=st.integers(0, 2**16),
+)
+def test_genuine_logs_step_well_within_the_speed_bound(
+    tmp_path_factory, rate, bits_, launch, seed
+):
+    """A braking from 1.5 x the launch speed (what a spring or a falling reduced inertia may
+    add) to rest, at 1 or 10 kHz, its instants jittered by the reader's limit, 2% of its rows
+    and a stretch of 40 dropped, read by an incremental encoder of 10 to 20 bits with +-2
+    counts of readhead noise, whose counter wraps every turn: it reads with the speed bound,
+    and still would with a launch speed 5 x lower."""
+    rng = np.random.default_rng(seed)
+    encoder = CountingEncoder(counts_per_rev=2**bits_, sample_rate=rate, counter_bits=bits_)
+    n = 3000
+    t = np.arange(n) + rng.uniform(-JITTER_LIMIT, JITTER_LIMIT, n)
+    t[0] = 0.0
+    t /= rate
+    keep = rng.uniform(size=n) > 0.02
+    keep[1000:1040] = False
+    keep[[0, -1]] = True
+    t = t[keep]
+    duration = n / rate
+    angle = 1.5 * launch * (t - t**2 / (2 * duration))
+    counts = np.floor(angle / encoder.quantum + rng.uniform(-2.0, 2.0, t.size))
+    counts += rng.integers(0, 2**bits_) - counts[0]
+    path = tmp_path_factory.mktemp("genuine") / "braking.csv"
+    _counts_file(path, t, counts % 2**bits_, np.full(t.size, -0.005))
+    for speed in (launch, launch / 5):
+        assert len(read_log(path, encoder, "braking", launch_speed=speed)) == t.size

@@ -1,0 +1,114 @@
+"""Physically impossible rows in a log: every reader that knows the device refuses them with
+the file and the line (check as an error, the other commands in one line, exit 2), and the
+virtual device's genuine logs, as a drive's logger writes them, never come near the bounds."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from benchmarks.experiments import vary
+from rsp_inertia.cli import main
+from rsp_inertia.pipeline import create_default_experiment, simulate
+from rsp_inertia.plant.config import LoggerSettings, load_device
+from rsp_inertia.plant.logs import read_device_log, read_log
+
+
+def test_an_angle_jump_in_a_log_is_refused_by_check_identify_and_program(tmp_path, capsys):
+    # One corrupted row, 3.1 rad past its neighbours 1 ms away: 3100 rad/s on a device
+    # launched at 12 rad/s at most. Unchecked, it passes for half a turn of braking work.
+    root = create_default_experiment(tmp_path / "exp")
+    assert main(["simulate", str(root), "--stage", "1"]) == 0
+    device = load_device(root / "device.toml")
+    path = root / "stage1" / "braking.csv"
+    lines = path.read_text().splitlines(keepends=True)
+    t, phi, torque = lines[100].split(",")
+    jump = round(3.1 / device.encoder.quantum) * device.encoder.quantum
+    lines[100] = f"{t},{float(phi) + jump!r},{torque}"
+    path.write_text("".join(lines))
+    message = f"{path}, line 101: the angle jumps by 3.1"
+    capsys.readouterr()
+    assert main(["check", str(root)]) == 1
+    out = capsys.readouterr().out
+    assert any(line.startswith(f"error: {message}") for line in out.splitlines()), out
+    for command in (["program", str(root), "--stage", "1"], ["identify", str(root)]):
+        assert main(command) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and message in err, err
+        assert "faster than any speed the device's runs can have" in err
+
+
+SHORT_RUNS = {"stage1_launch_speed": 4.0, "stage1_braking_torque": 0.05, "coulomb": 0.05}
+"""Stage 1 launched at a third of its speed and braked (and its pilot's coast stopped) harder than
+the default's, so that its runs last a few seconds: the 10 kHz logs are read in seconds."""
+
+
+def _logged(root: Path, rate: float, short: bool) -> Path:
+    """The default experiment at ``rate`` as a drive's logger writes it (stamps jittered by
+    the reader's limit, 2% of the rows dropped, counts of a 16-bit counter that wraps every
+    turn) with every kind of log: braking, reverse (ideal), pilot and pendulum runs (0.5 s);
+    ``short``: stage 1 only, its runs shortened (SHORT_RUNS)."""
+    root = create_default_experiment(root)
+
+    def device(d):
+        stages = d.stages
+        if short:
+            one = replace(
+                d.stages[0],
+                launch_speed=SHORT_RUNS["stage1_launch_speed"],
+                braking_torque=SHORT_RUNS["stage1_braking_torque"],
+            )
+            stages = (one, *d.stages[1:])
+        return replace(
+            d,
+            stages=stages,
+            encoder=replace(d.encoder, sample_rate=rate, counter_bits=16),
+            pendulum=replace(d.pendulum, duration=0.5),
+        )
+
+    def virtual(v):
+        logger = LoggerSettings(time_jitter=0.25, dropped_fraction=0.02, counts=True)
+        friction = v.friction
+        if short:
+            friction = replace(friction, coulomb=SHORT_RUNS["coulomb"])
+        return replace(v, logger=logger, friction=friction)
+
+    vary(root, device=device, virtual=virtual)
+    stage = 1 if short else None
+    simulate(root, stage, "braking")
+    simulate(root, stage, "reverse", ideal=True)
+    simulate(root, stage, "pilot")
+    simulate(root, stage, "pendulum")
+    return root
+
+
+@pytest.mark.parametrize(
+    "rate, short",
+    [
+        (1000.0, True),
+        (10000.0, True),  # about 12 s
+        pytest.param(1000.0, False, marks=pytest.mark.slow),
+        pytest.param(10000.0, False, marks=pytest.mark.slow),  # about 6 min
+    ],
+)
+def test_genuine_logs_at_1_and_10_khz_stay_far_from_the_speed_bound(
+    tmp_path, rate, short
+):
+    """Every log reads with the device's bounds, and would with a launch speed 5 x lower: the
+    fastest step of a genuine log (a pilot's spin-up past the launch speed, jitter shortening
+    a step, quantization) stays a fifth of the way to the bound."""
+    root = _logged(tmp_path / "exp", rate, short)
+    device = load_device(root / "device.toml")
+    fastest = max(st.launch_speed for st in device.stages)
+    paths = sorted(p for p in root.glob("stage*/*.csv") if not p.name.startswith("program"))
+    kinds = {p.stem.split("_")[0] for p in paths}
+    assert kinds == {"braking", "reverse", "pilot", "pendulum"}
+    for path in paths:
+        kind = path.stem.split("_")[0]
+        assert path.read_text().startswith("t,counts,torque\n")
+        log = read_device_log(path, device, kind)
+        assert np.diff(log.t).max() * rate > 1.5, path  # rows were dropped
+        assert len(read_log(path, device.encoder, kind, launch_speed=fastest / 5)) == len(log)
