@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import hashlib
 import importlib
-import tempfile
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -27,6 +26,7 @@ from benchmarks.experiments import (
     with_encoder_bits,
 )
 from benchmarks.protocol import fit_protocol
+from benchmarks.scratch import scratch_folder
 from benchmarks.truth import (
     best_axes_count,
     identification_errors,
@@ -181,12 +181,13 @@ def is_timing(key: str) -> bool:
 def run_case(case: Case) -> dict:
     """One virtual experiment end to end; its errors and timings as one flat, JSON-ready row.
 
-    The default experiment (plant/defaults/) in a temporary folder, configured for ``case``
-    (:func:`configure`; the release angle moved by U(-1, 1) deg drawn from the seed). The
-    protocol is the default one unless its reverse pass would need more than TORQUE_MARGIN
-    of the motor's limit (:func:`benchmarks.protocol.fit_protocol`). Then, through the
-    pipeline: braking, program, closed-loop reverse (per stage), the torsion-pendulum runs,
-    identification.
+    The default experiment (plant/defaults/) in a scratch folder (removed at the end, or
+    by the next case or sweep on the machine if the process is killed:
+    :mod:`benchmarks.scratch`), configured for ``case`` (:func:`configure`; the release
+    angle moved by U(-1, 1) deg drawn from the seed). The protocol is the default one
+    unless its reverse pass would need more than TORQUE_MARGIN of the motor's limit
+    (:func:`benchmarks.protocol.fit_protocol`). Then, through the pipeline: braking,
+    program, closed-loop reverse (per stage), the torsion-pendulum runs, identification.
 
     Returns
     -------
@@ -208,7 +209,7 @@ def run_case(case: Case) -> dict:
     # One BLAS thread: a multithreaded BLAS sums in an order that depends on its thread count,
     # which would change the last digits from one scheduler to another (a sweep runs one case
     # per core anyway).
-    with threadpool_limits(limits=1), tempfile.TemporaryDirectory(prefix="rsp-bench-") as tmp:
+    with threadpool_limits(limits=1), scratch_folder() as tmp:
         root = Path(tmp) / case.name
         try:
             row.update(_run_experiment(root, case))

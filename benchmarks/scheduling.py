@@ -4,7 +4,8 @@
 :class:`benchmarks.sensitivity.Perturbation`) whose file is missing or was made by other code
 (:func:`benchmarks.cases.code_fingerprint`), writes each row as soon as it arrives, so that an
 interrupted sweep resumes, and returns all rows in case order. A case that crashes (a bug, not
-bad input) becomes a row flagged ``bug`` that is never cached.
+bad input) becomes a row flagged ``bug`` that is never cached. The scratch folders of cases
+whose process was killed are removed when the next sweep starts (:mod:`benchmarks.scratch`).
 """
 
 from __future__ import annotations
@@ -16,9 +17,11 @@ from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import asdict
 from pathlib import Path
 
+import benchmarks
 from benchmarks import cases as case_module
 from benchmarks import sensitivity
 from benchmarks.cases import Case, code_fingerprint
+from benchmarks.scratch import remove_stale
 from benchmarks.sensitivity import Perturbation
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.logs import write_atomic
@@ -79,9 +82,10 @@ def run_sweep(
         case that crashes (a bug, not an InputError) gets a row flagged ``bug`` and no file.
     scheduler : str, optional
         Address of a Dask scheduler (``tcp://host:8786``): the cases run on its workers
-        through ``client.map`` (needs dask.distributed, rsp-inertia installed on the workers
-        and this repository's ``benchmarks`` package importable there). By default they run
-        on local processes (joblib, loky).
+        through ``client.map`` (needs dask.distributed, and rsp-inertia and this checkout's
+        ``benchmarks`` importable on the scheduler and the workers: checked first, an
+        InputError naming the address). By default they run on local processes (joblib,
+        loky).
     jobs : int
         Local processes (joblib's n_jobs: -1 = one per core, 1 = in this process).
     progress : bool
@@ -97,6 +101,7 @@ def run_sweep(
     from tqdm import tqdm
 
     cases = sorted(set(cases), key=lambda c: (isinstance(c, Perturbation), c))
+    remove_stale()  # killed cases' scratch folders on this machine (each case cleans its own)
     case_dir = Path(out_dir) / "cases"
     case_dir.mkdir(parents=True, exist_ok=True)
     code = code_fingerprint()
@@ -138,8 +143,9 @@ def _on_processes(cases: Sequence[Case | Perturbation], jobs: int) -> Iterator[d
 def _on_cluster(cases: Sequence[Case | Perturbation], address: str) -> Iterator[dict]:
     """Rows of ``cases`` as they complete, on the Dask cluster at ``address``.
 
-    Importing dask and connecting happen here, before any case runs, so that a missing
-    package or a wrong address is one line of error.
+    Importing dask, connecting and checking that the scheduler and the workers import
+    ``benchmarks`` (:func:`_check_imports`) happen here, before any case runs, so that a
+    missing package, a wrong address or a cluster started elsewhere is one line of error.
     """
     try:
         from dask.distributed import Client, as_completed
@@ -154,6 +160,11 @@ def _on_cluster(cases: Sequence[Case | Perturbation], address: str) -> Iterator[
     except (OSError, TimeoutError, ValueError) as error:
         reason = " ".join(str(error).split()) or type(error).__name__
         raise InputError(f"--scheduler {address}: cannot connect: {reason}") from None
+    try:
+        _check_imports(client, address)
+    except InputError:
+        client.close()
+        raise
 
     def rows() -> Iterator[dict]:
         with client:
@@ -162,3 +173,46 @@ def _on_cluster(cases: Sequence[Case | Perturbation], address: str) -> Iterator[
                 yield future.result()
 
     return rows()
+
+
+IMPORT_PROBE = "import benchmarks.scheduling"
+"""What a cluster must run to take the sweep's cases: the scheduler unpickles the task graph
+(:func:`run_guarded` and the cases) and the workers run it, so both import this module (and
+with it rsp_inertia and the case modules)."""
+
+
+def _check_imports(client, address: str) -> None:
+    """Refuse a scheduler, or a worker already connected, that cannot import ``benchmarks``.
+
+    Without the check the sweep fails late and badly: a scheduler that cannot unpickle the
+    task graph answers every case with a RuntimeError ("Error during deserialization of the
+    task graph", caused by a ModuleNotFoundError), and a worker that cannot unpickle a case
+    drops its connection to the scheduler and leaves the sweep waiting for ever. The probe is
+    ``exec`` of :data:`IMPORT_PROBE`, which any Python unpickles. Workers that join later are
+    not checked.
+    """
+    checkout = Path(benchmarks.__file__).resolve().parent.parent
+    try:
+        client.run_on_scheduler(exec, IMPORT_PROBE, {})
+    except Exception as error:  # noqa: BLE001 - whatever stops the import, named below
+        faults = {"the scheduler": error}
+    else:
+        workers = client.run(exec, IMPORT_PROBE, {}, on_error="return")
+        faults = {
+            f"its worker {worker}": error
+            for worker, error in sorted(workers.items())
+            if isinstance(error, Exception)
+        }
+    if not faults:
+        return
+    where, error = next(iter(faults.items()))
+    reason = f"{type(error).__name__}: {' '.join(str(error).split())}"
+    if isinstance(error, ModuleNotFoundError) and error.name == "benchmarks":
+        fix = f"start it from the checkout's folder {checkout} or with PYTHONPATH={checkout}"
+    else:
+        fix = f"install rsp-inertia there with its extra 'cluster' (pip install '{checkout}[cluster]')"
+    more = f" (and {len(faults) - 1} other worker(s))" if len(faults) > 1 else ""
+    raise InputError(
+        f"--scheduler {address}: {where}{more} cannot import this checkout's benchmarks "
+        f"({reason}): {fix}; see docs/commands.md"
+    )

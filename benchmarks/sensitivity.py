@@ -21,7 +21,6 @@ relative J_k error and worst |err|/std; :func:`sensitivity_table` and
 
 from __future__ import annotations
 
-import tempfile
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
@@ -31,6 +30,7 @@ from threadpoolctl import threadpool_limits
 from benchmarks.cases import Case, code_fingerprint, configure
 from benchmarks.experiments import vary, with_stages
 from benchmarks.protocol import fit_protocol
+from benchmarks.scratch import scratch_folder
 from benchmarks.tables import fmt, new_figure, table_lines
 from benchmarks.truth import identification_errors
 from rsp_inertia.pipeline import create_default_experiment, identify, program, simulate
@@ -103,7 +103,7 @@ def run_perturbation(p: Perturbation) -> dict:
 
 def _run(p: Perturbation, row: dict) -> None:
     """:func:`run_perturbation`'s work, into ``row``."""
-    with threadpool_limits(limits=1), tempfile.TemporaryDirectory(prefix="rsp-sens-") as tmp:
+    with threadpool_limits(limits=1), scratch_folder() as tmp:
         root = Path(tmp) / p.name
         create_default_experiment(root)
         configure(root, BASE_CASE)

@@ -8,8 +8,12 @@ from __future__ import annotations
 import importlib
 import json
 import math
+import os
 import subprocess
 import sys
+import tempfile
+import threading
+import time
 from dataclasses import replace
 from pathlib import Path
 
@@ -28,6 +32,7 @@ from benchmarks.experiments import (
 from benchmarks.protocol import mirror_torque
 from benchmarks.report import write_report
 from benchmarks.scheduling import run_sweep
+from benchmarks.scratch import PREFIX, remove_stale, scratch_folder
 from benchmarks.truth import METHODS
 from rsp_inertia.plant.model import dissipation
 from rsp_inertia.plant.virtual import true_parameters
@@ -178,6 +183,128 @@ def test_scheduler_without_dask_is_one_line(tmp_path, monkeypatch, capsys):
     assert sweep.main(["--quick", "--scheduler", "tcp://x:1", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "dask.distributed is not installed" in err, err
+
+
+def _dask(tmp_path: Path, *args: str) -> subprocess.Popen:
+    """``python -m dask ARGS`` started in ``tmp_path`` without PYTHONPATH: a scheduler or
+    worker started away from the checkout, where ``benchmarks`` is not importable."""
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    return subprocess.Popen(
+        [sys.executable, "-m", "dask", *args],
+        cwd=tmp_path, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+    )
+
+
+def _stop(process: subprocess.Popen) -> None:
+    process.terminate()
+    try:
+        process.wait(timeout=20)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        process.wait()
+
+
+def _one_line(capsys) -> str:
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    return err
+
+
+def test_a_scheduler_that_cannot_import_benchmarks_is_one_line(tmp_path, capsys):
+    # It cannot unpickle the cases: every one came back as a RuntimeError ("Error during
+    # deserialization of the task graph") with a traceback.
+    pytest.importorskip("dask.distributed")
+    address_file = tmp_path / "scheduler.json"
+    scheduler = _dask(
+        tmp_path, "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+        "--scheduler-file", str(address_file),
+    )
+    try:
+        deadline = time.monotonic() + 60
+        while not address_file.is_file() or not address_file.read_text().strip():
+            assert time.monotonic() < deadline and scheduler.poll() is None
+            time.sleep(0.2)
+        address = json.loads(address_file.read_text())["address"]
+        out = tmp_path / "out"
+        assert sweep.main(["--quick", "--scheduler", address, "--out", str(out)]) == 2
+    finally:
+        _stop(scheduler)
+    err = _one_line(capsys)
+    assert f"--scheduler {address}: the scheduler cannot import this checkout's benchmarks" in err
+    assert f"PYTHONPATH={ROOT}" in err and "docs/commands.md" in err
+    assert not list(out.glob("cases/*.json"))
+
+
+def test_a_worker_that_cannot_import_benchmarks_is_one_line(tmp_path, capsys):
+    # It dropped its connection at the first case, and the sweep waited for ever.
+    distributed = pytest.importorskip("dask.distributed")
+    with distributed.LocalCluster(
+        n_workers=0, processes=True, dashboard_address=":0"
+    ) as cluster, distributed.Client(cluster) as client:
+        address = cluster.scheduler_address
+        worker = _dask(tmp_path, "worker", address, "--no-nanny", "--nthreads", "1",
+                       "--no-dashboard")
+        try:
+            client.wait_for_workers(1, timeout=60)
+            (name,) = client.scheduler_info()["workers"]
+            assert sweep.main(["--quick", "--scheduler", address, "--out", str(tmp_path)]) == 2
+        finally:
+            _stop(worker)
+    err = _one_line(capsys)
+    assert f"--scheduler {address}: its worker {name} cannot import this checkout's" in err
+    assert "No module named 'benchmarks'" in err and f"PYTHONPATH={ROOT}" in err
+
+
+def test_scratch_folders_in_use_are_never_removed(tmp_path, monkeypatch):
+    """Threads (each its own lock, as processes) make scratch folders while others remove
+    the stale ones: no folder disappears while in use, none stays."""
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    lost = []
+
+    def work():
+        for _ in range(40):
+            with scratch_folder() as folder:
+                (folder / "log.csv").write_text("t,phi,torque\n")
+                remove_stale()
+                if not (folder / "log.csv").is_file():
+                    lost.append(folder)
+
+    threads = [threading.Thread(target=work) for _ in range(6)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert not lost
+    assert not list(tmp_path.iterdir())
+
+
+def test_a_killed_cases_scratch_folder_is_removed_by_the_next_sweep(tmp_path, monkeypatch):
+    """A case's process killed mid-case (kill -9: no clean-up of its own runs) leaves its
+    scratch folder, the experiment in it; the next sweep removes it when it starts, and
+    leaves a running case's folder alone."""
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    env = {**os.environ, "TMPDIR": str(tmp), "PYTHONPATH": str(ROOT)}
+    code = (
+        "from benchmarks.cases import Case, run_case; "
+        "run_case(Case(friction_factor=1.0, encoder_bits=16, seed=0))"
+    )
+    case = subprocess.Popen([sys.executable, "-c", code], cwd=ROOT, env=env)
+    try:
+        deadline = time.monotonic() + 120
+        while not list(tmp.glob(f"{PREFIX}*/{PAPER.name}/device.toml")):
+            assert time.monotonic() < deadline and case.poll() is None
+            time.sleep(0.1)
+    finally:
+        case.kill()
+        case.wait()
+    (left,) = tmp.glob(f"{PREFIX}*")
+    assert (left / PAPER.name / "device.toml").is_file()
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp))
+    with scratch_folder() as running:
+        assert run_sweep([], tmp_path / "out", jobs=1, progress=False) == []
+        assert list(tmp.iterdir()) == [running]
+    assert not list(tmp.iterdir())
 
 
 def test_bad_arguments_are_one_line(tmp_path, capsys):
