@@ -99,7 +99,11 @@ class Experiment:
         if not self.virtual_path.is_file():
             raise InputError(
                 f"{self.virtual_path}: not found: only a virtual device (with virtual.toml) "
-                "can be simulated"
+                "can be simulated; write one (the true body, friction and rig: docs/files.md "
+                "lists its keys, docs/real-rig.md shows a rig's), or python -c \"import "
+                f"rsp_inertia; rsp_inertia.create_experiment({str(self.root)!r})\" writes the "
+                "default one (the paper's body on an exact gimbal) and keeps the device.toml "
+                "there"
             )
         virtual = load_virtual(self.virtual_path)
         virtual.rig.true_tare(self.device, 1, source=str(self.virtual_path))

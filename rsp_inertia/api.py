@@ -332,7 +332,7 @@ def plan(
 # --- check, report, create_experiment -------------------------------------------------------
 
 
-def check(path: str | Path) -> CheckResult:
+def check(path: str | Path, *, calibration: bool = False) -> CheckResult:
     """Check an experiment folder before a run (``rsp-inertia check EXP``).
 
     Reads what a rig produces (device.toml, the logs, calibration.toml, reference.toml;
@@ -342,12 +342,16 @@ def check(path: str | Path) -> CheckResult:
     ----------
     path : str or pathlib.Path
         The experiment folder.
+    calibration : bool, optional
+        ``path`` is a calibration folder (the empty fixture's runs, which calibrate reads;
+        one with reference.toml is taken as one anyway), ``--calibration``: it needs no
+        calibration.toml, and ``ready`` means ready for calibrate.
 
     Returns
     -------
     CheckResult
-        Every finding, and whether the folder is ready for identify (the command's exit
-        status 0 or 1).
+        Every finding, and whether the folder is ready for identify (a calibration folder:
+        for calibrate), the command's exit status 0 or 1.
 
     Raises
     ------
@@ -360,7 +364,7 @@ def check(path: str | Path) -> CheckResult:
     """
     from rsp_inertia.checking import check as run
 
-    report = run(path)
+    report = run(path, calibration)
     return CheckResult(report.ready, tuple(report.lines), report.root, report)
 
 

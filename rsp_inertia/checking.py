@@ -24,7 +24,9 @@ missing for the next step and what looks wrong, without stopping at the first pr
   encoder: the closed loop then tracks on its feedforward alone, and identify's stds grow).
 - ``ok``: what is in place.
 
-The folder is ready for identify when no line is ``error`` or ``missing``.
+The folder is ready for identify when no line is ``error`` or ``missing``. A calibration
+folder (``calibration=True``, or one with reference.toml) is checked alike, but is ready for
+calibrate, and needs no calibration.toml or stated stds (calibrate measures those).
 """
 
 from __future__ import annotations
@@ -81,6 +83,8 @@ class CheckReport:
     root: Path
     lines: list[tuple[str, str]] = field(default_factory=list)
     """(level, message) pairs."""
+    calibration: bool = False
+    """Whether the folder is a calibration folder, whose runs calibrate reads."""
 
     def add(self, level: str, message: str) -> None:
         self.lines.append((level, message))
@@ -93,7 +97,9 @@ class CheckReport:
     def __str__(self) -> str:
         out = [f"{level}: {message}" for level, message in self.lines]
         counts = {level: sum(1 for lv, _ in self.lines if lv == level) for level in LEVELS}
-        verdict = "ready for identify" if self.ready else "not ready for identify"
+        verdict = "ready for " + ("calibrate" if self.calibration else "identify")
+        if not self.ready:
+            verdict = "not " + verdict
         out.append(
             f"{self.root}: {verdict} ({counts['error']} error(s), {counts['missing']} missing, "
             f"{counts['suspicious']} suspicious)"
@@ -101,8 +107,13 @@ class CheckReport:
         return "\n".join(out)
 
 
-def check(root: str | Path) -> CheckReport:
+def check(root: str | Path, calibration: bool = False) -> CheckReport:
     """Check the experiment folder ``root`` (module docstring).
+
+    ``calibration``: ``root`` is a calibration folder (the empty fixture's or the reference
+    body's runs, which calibrate reads); one with reference.toml is taken as one anyway. Its
+    missing calibration.toml and unstated stds are then not suspicious: calibrate measures
+    what they would give.
 
     Raises
     ------
@@ -111,7 +122,8 @@ def check(root: str | Path) -> CheckReport:
     """
     exp = open_experiment(root)
     device = exp.device
-    report = CheckReport(exp.root)
+    reference = exp.root / "reference.toml"
+    report = CheckReport(exp.root, calibration=calibration or reference.is_file())
     report.add("ok", f"{exp.root / 'device.toml'}: {len(device.stages)} stage(s)")
     try:
         checked_design(device, str(exp.root / "device.toml"))
@@ -128,7 +140,6 @@ def check(root: str | Path) -> CheckReport:
             _try_read(report, exp.pilot_path(stage), device, "pilot")
     _check_pendulum(exp, encoder, report)
     _check_constants(exp, report)
-    reference = exp.root / "reference.toml"
     if reference.is_file():
         from rsp_inertia.plant.config import load_reference
 
@@ -415,6 +426,13 @@ def _check_constants(exp, report: CheckReport) -> None:
         report.add("ok", f"{path}: made for this device; identify applies it")
         for warning in calibrated[1]:
             report.add("suspicious", warning)
+    elif report.calibration:
+        report.add(
+            "ok",
+            f"{exp.root}: a calibration folder, read by calibrate, which measures what a "
+            "calibration.toml would give (none needed)",
+        )
+        return
     else:
         unstated = [
             f"stage[{k}].tare_inertia_std"

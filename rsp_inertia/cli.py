@@ -67,7 +67,7 @@ def _cmd_identify(args: argparse.Namespace) -> None:
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
-    result = rsp_inertia.check(args.exp)
+    result = rsp_inertia.check(args.exp, calibration=args.calibration)
     print(result)
     return 0 if result.ready else 1
 
@@ -184,6 +184,12 @@ def _parser() -> argparse.ArgumentParser:
     ):
         p = sub.add_parser(name, help=text)
         p.add_argument("exp", type=Path, metavar="EXP", help="experiment folder")
+        if name == "check":
+            p.add_argument(
+                "--calibration", action="store_true",
+                help="EXP is a calibration folder (the empty fixture's runs, for calibrate; "
+                "one with reference.toml is taken as one anyway): no calibration.toml needed",
+            )
         p.set_defaults(run=run)
 
     p = sub.add_parser("design", help="conditioning of axis designs (icosahedron, cone + z, EXP)")

@@ -289,3 +289,24 @@ def test_check_calls_identifys_own_checks(home, name, consumer):
     """Each of identify's refusals that its files show has one home, which identify's path
     and check both call (no copy of its own: tests/one_home.py)."""
     assert_calls_home(home, name, consumer)
+
+
+def test_a_calibration_folder_needs_no_calibration_toml(tmp_path, capsys):
+    """The demo's calibration folders before their runs: the empty fixture's with
+    --calibration, the reference body's by its reference.toml. Their missing calibration.toml
+    and unstated stds are no finding (calibrate measures what they would give); the body's
+    folder keeps its suspicious line."""
+    from rsp_inertia.pipeline import create_rig_experiment
+
+    body, empty, reference = create_rig_experiment(tmp_path / "rig")
+    for argv in (["check", str(empty), "--calibration"], ["check", str(reference)]):
+        assert main(argv) == 1
+        lines = _lines(capsys)
+        assert not [line for line in lines if line.startswith(("suspicious: ", "error: "))]
+        assert any(line.startswith("ok: ") and "a calibration folder" in line for line in lines)
+        assert lines[-1].endswith(": not ready for calibrate (0 error(s), 12 missing, 0 suspicious)")
+    assert main(["check", str(body)]) == 1
+    lines = _lines(capsys)
+    assert any(line.startswith("suspicious: ") and "calibration.toml: not found" in line
+               for line in lines)
+    assert lines[-1].endswith("not ready for identify (0 error(s), 12 missing, 2 suspicious)")

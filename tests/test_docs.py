@@ -13,8 +13,9 @@ What is parsed, so that a doc edit keeps it parseable:
   ``## reference.toml``, ``## calibration.toml`` and ``## result.json``, one key per row
   (first cell, dotted, in backticks); the device/virtual/reference tables' second cell is
   ``required``, a TOML default in backticks, or ``not set``; fenced ``toml`` blocks whose
-  first line is ``# device.toml``, ``# virtual.toml`` or ``# reference.toml`` are loaded by
-  rsp_inertia.plant.config (fragments on top of the default experiment's files).
+  first line is ``# device.toml``, ``# virtual.toml`` or ``# reference.toml`` (a folder may
+  come first: ``# bench-A/device.toml``) are loaded by rsp_inertia.plant.config (fragments
+  on top of the default experiment's files).
 """
 
 from __future__ import annotations
@@ -301,12 +302,13 @@ def test_documented_units_are_the_fields_units(file):
 
 
 def _examples(file: str) -> list[dict]:
-    """Every fenced toml block of the docs that says it is ``file`` (first line ``# file``)."""
+    """Every fenced toml block of the docs that says it is ``file`` (first line ``# file``,
+    or ``# FOLDER/file``: a file real-rig.md tells the reader to write)."""
     blocks = []
     for page in PAGES:
         for info, body in _fences(_text(page)):
             first = body.lstrip().splitlines()[0] if body.strip() else ""
-            if info == "toml" and re.fullmatch(rf"#\s*{re.escape(file)}\b.*", first):
+            if info == "toml" and re.fullmatch(rf"#\s*(?:\S+/)?{re.escape(file)}\b.*", first):
                 blocks.append(tomllib.loads(body))
     return blocks
 

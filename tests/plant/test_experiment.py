@@ -107,3 +107,25 @@ def test_load_virtual_checks_the_rigs_tare_against_the_stages(tmp_path):
         open_experiment(root).load_virtual()
     message = str(error.value)
     assert "\n" not in message and message.startswith(f"{path}: rig.tare_inertia: ")
+
+
+def test_simulate_without_virtual_toml_says_where_to_get_one(tmp_path):
+    """The message names the file and the way to one; following it, simulate runs on the
+    device.toml already there (the one-line command the message gives, run as given)."""
+    import shlex
+    import subprocess
+    import sys
+
+    root = short_experiment(tmp_path / "bench", '["forward"]')
+    device = (root / "device.toml").read_text()
+    (root / "virtual.toml").unlink()
+    with pytest.raises(InputError) as error:
+        pipeline.simulate(root, stage=1)
+    message = str(error.value)
+    assert "\n" not in message and message.startswith(f"{root / 'virtual.toml'}: not found: ")
+    assert "docs/files.md" in message
+    command = re.search(r'python -c "[^"]+"', message).group(0)
+    subprocess.run([sys.executable, *shlex.split(command)[1:]], check=True)
+    assert (root / "device.toml").read_text() == device
+    (summary,) = pipeline.simulate(root, stage=1)
+    assert summary.rows > 0
