@@ -24,7 +24,7 @@ from rsp_inertia.plant.experiment import Experiment, open_experiment
 from rsp_inertia.plant.logs import check_writable, file_sha256, write_atomic
 from rsp_inertia.provenance import created_now, input_changes, package_versions
 
-__all__ = ["FIGURES", "REPORT_FILE", "Z95", "write_report"]
+__all__ = ["FIGURES", "REPORT_FILE", "VALUE", "Z95", "write_report"]
 
 REPORT_FILE = "report.html"
 """Written into the experiment folder."""
@@ -32,6 +32,10 @@ REPORT_FILE = "report.html"
 FIGURES = ("plan.png", "design.png", "encoder_error.png", "errors.png")
 """Figures of other commands inlined when present (plan, design or demo, calibrate, demo);
 the motion and tracking figures are drawn from the logs (rsp_inertia.plots.experiment_figures)."""
+
+VALUE = "#.8g"
+"""How an estimate is printed: eight significant digits, trailing zeros kept (0.028000000,
+not 0.028, whose precision reads as two digits)."""
 
 Z95 = 1.959963984540054
 """The 95% interval of a Gaussian estimate is +- Z95 std."""
@@ -67,7 +71,7 @@ def _table(head: list[str], rows: list[list[str]], total: list[str] | None = Non
     return f"<table><tr>{cells}</tr>{body}</table>"
 
 
-def _interval(value: float, std: float, digits: str = ".8g") -> str:
+def _interval(value: float, std: float, digits: str = VALUE) -> str:
     """The 95% interval ``[value - Z95 std, value + Z95 std]``."""
     if std is None or not math.isfinite(std):
         return "not defined"
@@ -133,7 +137,7 @@ def _tensor_sections(result: dict) -> list[str]:
         "tensor's entries (Jxy = -integral of x y dm).</p>",
         _table(
             ["entry", "kg m^2", "std", "relative std", "95% interval"],
-            [[k, f"{v:.8g}", f"{std[k]:.2g}",
+            [[k, f"{v:{VALUE}}", f"{std[k]:.2g}",
               f"{std[k] / abs(v):.1e}" if v else "-", _interval(v, std[k])]
              for k, v in tensor.items()],
         ),
@@ -147,7 +151,7 @@ def _tensor_sections(result: dict) -> list[str]:
             "<h2>Principal moments and axes</h2>",
             _table(
                 ["", "kg m^2", "std", "95% interval", "axis (x, y, z)", "axis tilt std, deg"],
-                [[f"I{i + 1}", f"{m:.8g}", f"{s:.2g}", _interval(m, s),
+                [[f"I{i + 1}", f"{m:{VALUE}}", f"{s:.2g}", _interval(m, s),
                   "(" + ", ".join(f"{c:+.6f}" for c in a) + ")",
                   "not defined (equal moments)" if t is None else f"{t:.2g}"]
                  for i, (m, s, a, t) in enumerate(zip(moments, moments_std, axes, tilt))],
@@ -175,8 +179,8 @@ def _tensor_sections(result: dict) -> list[str]:
         "<h2>Axial moments</h2>",
         _table(
             ["stage", "node, deg", "J, kg m^2", "std", "node formula", "std"],
-            [[a["stage"], f"{a['phi_deg']:g}", f"{a['J']:.8g}", f"{a['J_std']:.2g}",
-              f"{a['J_node']:.8g}", f"{a['J_node_std']:.2g}"] for a in axes],
+            [[a["stage"], f"{a['phi_deg']:g}", f"{a['J']:{VALUE}}", f"{a['J_std']:.2g}",
+              f"{a['J_node']:{VALUE}}", f"{a['J_node_std']:.2g}"] for a in axes],
         ),
     ]
     return parts
@@ -239,7 +243,7 @@ def _calibration_section(result: dict) -> list[str]:
         after, after_std = refined.get(key), refined.get(f"{key}_std")
         if key == "empty_inertia":  # per stage, the harmonics of M_empty(phi)
             for k, (harmonics, stds) in enumerate(zip(value, std or [[None] * 5] * len(value))):
-                rows += [[f"stage {k + 1} empty system {name}, kg m^2", f"{v:.8g}",
+                rows += [[f"stage {k + 1} empty system {name}, kg m^2", f"{v:{VALUE}}",
                           "-" if s is None else f"{s:.2g}", "", ""]
                          for name, v, s in zip(HARMONICS, harmonics, stds)]
             continue
@@ -249,8 +253,8 @@ def _calibration_section(result: dict) -> list[str]:
         after_stds = after_std if isinstance(after_std, list) else [after_std] * len(values)
         names = _labels(key, len(values)) if isinstance(value, list) else [key.replace("_", " ")]
         for name, v, s, a, a_s in zip(names, values, stds, afters, after_stds):
-            rows.append([name, f"{v:.8g}", "-" if s is None else f"{s:.2g}",
-                         "" if a is None else f"{a:.8g}", "" if a_s is None else f"{a_s:.2g}"])
+            rows.append([name, f"{v:{VALUE}}", "-" if s is None else f"{s:.2g}",
+                         "" if a is None else f"{a:{VALUE}}", "" if a_s is None else f"{a_s:.2g}"])
     return [
         "<h2>Calibration</h2>",
         "<p>What identify took as known, with its std (calibration.toml, or device.toml's "

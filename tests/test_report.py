@@ -15,6 +15,7 @@ import pytest
 from rsp_inertia.cli import main
 from rsp_inertia.pipeline import create_default_experiment, identify, simulate
 from rsp_inertia.provenance import created_now
+from rsp_inertia.report import VALUE, Z95
 
 
 @pytest.fixture(scope="module")
@@ -54,7 +55,7 @@ def test_report_is_self_contained_and_says_what_went_in(tmp_path, capsys, identi
     page = (root / "report.html").read_text()
     result = json.loads((root / "result.json").read_text())
     for name, value in result["tensor"].items():
-        assert f"<td>{name}</td><td>{value:.8g}</td>" in page
+        assert f"<td>{name}</td><td>{value:{VALUE}}</td>" in page
     digest = hashlib.sha256((root / "device.toml").read_bytes()).hexdigest()
     assert f"<td>device.toml</td><td>{digest}</td><td>as read</td>" in page
     assert "stage1/braking.csv" in page and "virtual.toml" not in page
@@ -148,9 +149,9 @@ def test_the_report_states_intervals_principal_axes_and_a_budget_total(identifie
     page = (identified / "report.html").read_text()
     result = json.loads((identified / "result.json").read_text())
     Jx, std = result["tensor"]["Jx"], result["tensor_std"]["Jx"]
-    assert f"[{Jx - 1.959963984540054 * std:.8g}, {Jx + 1.959963984540054 * std:.8g}]" in page
+    assert f"[{Jx - Z95 * std:{VALUE}}, {Jx + Z95 * std:{VALUE}}]" in page
     for moment, m_std in zip(result["principal_moments"], result["principal_moments_std"]):
-        assert f"<td>{moment:.8g}</td><td>{m_std:.2g}</td>" in page
+        assert f"<td>{moment:{VALUE}}</td><td>{m_std:.2g}</td>" in page
     # The budget's total row: the sources' variances add up to each entry's variance.
     budget = result["least_squares"]["std_budget"]
     totals = []
