@@ -257,10 +257,10 @@ def format_plan(report: PlanReport) -> str:
         lines.append(f"trade-off figure -> {report.figure}")
     return "\n".join(lines)
 
+
 def _was(value: float | None) -> str:
     """A key's value before the plan, as the report prints it."""
     return "not stated" if value is None else format(value, "g")
-
 
 
 def _axial_guess(sm: StageModel, device: Device) -> float:
@@ -269,6 +269,7 @@ def _axial_guess(sm: StageModel, device: Device) -> float:
 
     return float(axial_moment(sm.model.inertia_harmonics[0], device.stages[sm.stage - 1]))
 
+
 def _set_key(table, name: str, value: float, unit: str) -> None:
     """``name = value`` in a ``[[stage]]`` table of device.toml: in place where the key is
     (its comment kept), else added with its unit as a comment."""
@@ -276,7 +277,6 @@ def _set_key(table, name: str, value: float, unit: str) -> None:
         table[name] = value
     else:
         table[name] = tomlkit.item(value).comment(unit)
-
 
 
 def plan(
