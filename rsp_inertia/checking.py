@@ -52,6 +52,7 @@ from rsp_inertia.estimation.passes import check_braking_monotone
 from rsp_inertia.estimation.reading import known_terms, read_run
 from rsp_inertia.estimation.runs import checked_run
 from rsp_inertia.estimation.smoothing import top_speed
+from rsp_inertia.plant.config import require_protocol
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.geometry import turns_past_last_node
@@ -120,11 +121,17 @@ def check(root: str | Path, calibration: bool = False) -> CheckReport:
     InputError
         The folder or its device.toml is missing or malformed (nothing else can be checked).
     """
-    exp = open_experiment(root)
+    exp = open_experiment(root, protocol=False)  # a stage without one: a missing line
     device = exp.device
     reference = exp.root / "reference.toml"
     report = CheckReport(exp.root, calibration=calibration or reference.is_file())
     report.add("ok", f"{exp.root / 'device.toml'}: {len(device.stages)} stage(s)")
+    try:
+        require_protocol(device, exp.root / "device.toml")
+        protocol = True
+    except InputError as error:  # before plan: its pilots are what the folder needs
+        report.add("missing", str(error))
+        protocol = False
     try:
         checked_design(device, str(exp.root / "device.toml"))
     except InputError as error:
@@ -134,7 +141,7 @@ def check(root: str | Path, calibration: bool = False) -> CheckReport:
     except InputError:
         encoder = ()  # a bad calibration.toml: its own line (_check_constants)
     for stage, st in enumerate(device.stages, 1):
-        for direction in st.directions:
+        for direction in st.directions if protocol else ():
             _check_run(exp, stage, direction, encoder, report)
         if exp.pilot_path(stage).is_file():
             _try_read(report, exp.pilot_path(stage), device, "pilot")

@@ -136,6 +136,19 @@ def test_a_stage_without_its_protocol_is_refused_naming_it_and_plan(experiment, 
     assert {p: p.read_bytes() for p in experiment.rglob("*") if p.is_file()} == before
 
 
+def test_check_lists_a_stage_without_its_protocol_as_missing(experiment, capsys):
+    # check is the list of what the folder lacks: before plan, the protocol is one of them.
+    assert main(["simulate", str(experiment), "--stage", "1"]) == 0
+    path = experiment / "device.toml"
+    path.write_text(path.read_text().replace("braking_torque = 0.12 ", "# plan: braking_torque"))
+    capsys.readouterr()
+    assert main(["check", str(experiment)]) == 1
+    out = capsys.readouterr().out
+    assert f"missing: {path}: stage[2].braking_torque: missing" in out
+    assert f"rsp-inertia plan {experiment}" in out
+    assert out.rstrip().endswith("suspicious)") and "not ready for identify" in out
+
+
 def test_no_such_stage(experiment, capsys):
     assert main(["simulate", str(experiment), "--stage", "3"]) == 2
     one_line_error(capsys, "device.toml", "stage 3")
