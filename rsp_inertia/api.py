@@ -371,10 +371,12 @@ def check(path: str | Path, *, calibration: bool = False) -> CheckResult:
 def write_report(path: str | Path) -> Path:
     """Write ``EXP/report.html`` from an identified experiment (``rsp-inertia report EXP``).
 
-    One self-contained file (figures inlined, no network): the tensor, the centre of mass
-    and the axial moments with their stds, the uncertainty budget, the warnings, the
-    calibration, each stage's protocol, the sha256 of every input file and the package
-    versions. (Named ``write_report``, not ``report``: ``rsp_inertia.report`` is the module
+    One self-contained, dated file (figures inlined, no network) that leads with a verdict:
+    whether the folder still holds the inputs identify read (result.json's sha256 of each)
+    and identify's warnings. Then the tensor, principal moments and axes and centre of mass
+    with stds and 95% intervals, the axial moments, the uncertainty budget by source, the
+    calibration, the protocol as stated and as logged, the figures the logs allow and the
+    software. (Named ``write_report``, not ``report``: ``rsp_inertia.report`` is the module
     that writes it.)
 
     Parameters

@@ -174,8 +174,9 @@ def _parser() -> argparse.ArgumentParser:
         "for identify)"
     )
     report_help = (
-        "EXP/result.json, protocol, input hashes, versions and figures -> EXP/report.html "
-        "(one self-contained file)"
+        "EXP/result.json -> EXP/report.html (one self-contained file): a verdict (inputs "
+        "changed since identify? warnings?), the result with 95%% intervals, budget, "
+        "calibration, protocol, figures from the logs"
     )
     for name, run, text in (
         ("check", _cmd_check, check_help),

@@ -189,17 +189,16 @@ def experiment_figures(exp, virtual=None) -> list[tuple[str, Figure]]:
     A stage without its forward braking and reverse logs is left out.
     """
     from rsp_inertia.estimation.smoothing import smooth_log
-    from rsp_inertia.plant.logs import read_log, read_program
+    from rsp_inertia.plant.logs import read_device_log, read_program
     from rsp_inertia.plant.virtual import free_motion
 
     device = exp.device
-    limit = device.motor.torque_limit
     figures = []
     for st in exp.stages():
         if not (exp.braking_path(st).is_file() and exp.reverse_path(st).is_file()):
             continue
-        braking = read_log(exp.braking_path(st), device.encoder, "braking", torque_limit=limit)
-        reverse = read_log(exp.reverse_path(st), device.encoder, "reverse", torque_limit=limit)
+        braking = read_device_log(exp.braking_path(st), device, "braking")
+        reverse = read_device_log(exp.reverse_path(st), device, "reverse")
         sb = smooth_log(braking, device.encoder.quantum)
         sr = smooth_log(reverse, device.encoder.quantum)
         every_b = max(1, len(sb.t) // PLOT_POINTS)

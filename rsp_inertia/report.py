@@ -19,9 +19,15 @@ import json
 import math
 from pathlib import Path
 
+import numpy as np
+
+from rsp_inertia.estimation.reading import identify_inputs
+from rsp_inertia.estimation.runs import runs
+from rsp_inertia.estimation.smoothing import smooth_log
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import Experiment, open_experiment
-from rsp_inertia.plant.logs import check_writable, file_sha256, write_atomic
+from rsp_inertia.plant.logs import check_writable, file_sha256, read_device_log, write_atomic
+from rsp_inertia.plots import errors_figure, experiment_figures, figure_png
 from rsp_inertia.provenance import created_now, input_changes, package_versions
 
 __all__ = ["FIGURES", "REPORT_FILE", "VALUE", "Z95", "write_report"]
@@ -84,15 +90,17 @@ def _read_result(exp: Experiment) -> dict:
         raise InputError(f"{path}: not found: run rsp-inertia identify {exp.root} first")
     try:
         result = json.loads(path.read_text())
-        result["tensor"], result["tensor_std"], result["axes"]  # noqa: B018 (checked)
-    except (json.JSONDecodeError, KeyError, TypeError) as error:
-        raise InputError(f"{path}: not a result.json written by identify ({error!r})") from None
+    except json.JSONDecodeError as error:
+        raise InputError(f"{path}: not a result.json written by identify ({error})") from None
+    missing = [key for key in ("tensor", "tensor_std", "axes")
+               if not isinstance(result, dict) or key not in result]
+    if missing:
+        raise InputError(f"{path}: not a result.json written by identify (no {missing[0]!r})")
     return result
 
 
 def _verdict(exp: Experiment, result: dict) -> str:
     """The box the report leads with: are the inputs those identify read, and its warnings."""
-    from rsp_inertia.estimation.reading import identify_inputs
 
     provenance = result.get("provenance") or {}
     warnings = result.get("warnings") or []
@@ -133,8 +141,8 @@ def _tensor_sections(result: dict) -> list[str]:
     tensor, std = result["tensor"], result["tensor_std"]
     parts = [
         "<h2>Inertia tensor (least squares), kg m^2</h2>",
-        "<p>In the rig's axes: z along the shaft, x and y as at phi = 0. Products are the "
-        "tensor's entries (Jxy = -integral of x y dm).</p>",
+        ("<p>In the rig's axes: z along the shaft, x and y as at phi = 0. Products are the "
+         "tensor's entries (Jxy = -integral of x y dm).</p>"),
         _table(
             ["entry", "kg m^2", "std", "relative std", "95% interval"],
             [[k, f"{v:{VALUE}}", f"{std[k]:.2g}",
@@ -162,8 +170,8 @@ def _tensor_sections(result: dict) -> list[str]:
         com_std = result.get("com_std") or {}
         parts += [
             "<h2>Centre of mass, mm</h2>",
-            "<p>z_c, along the shaft, does not change the potential energy on this gimbal: "
-            "one mounting does not measure it.</p>",
+            ("<p>z_c, along the shaft, does not change the potential energy on this gimbal: "
+             "one mounting does not measure it.</p>"),
             _table(
                 ["", "mm", "std", "95% interval"],
                 [[n, f"{com[n] * 1e3:.5f}", f"{com_std.get(n, float('nan')) * 1e3:.2g}",
@@ -232,8 +240,8 @@ def _calibration_section(result: dict) -> list[str]:
     calibration = result.get("calibration")
     if not calibration:
         return ["<h2>Calibration</h2>",
-                "<p>None applied: device.toml's tares, a torque gain of 1, a lossless drive "
-                "and the stated encoder error, taken as exact.</p>"]
+                ("<p>None applied: device.toml's tares, a torque gain of 1, a lossless drive "
+                 "and the stated encoder error, taken as exact.</p>")]
     refined = calibration.get("refined") or {}
     rows = []
     for key, value in calibration.items():
@@ -257,8 +265,8 @@ def _calibration_section(result: dict) -> list[str]:
                          "" if a is None else f"{a:{VALUE}}", "" if a_s is None else f"{a_s:.2g}"])
     return [
         "<h2>Calibration</h2>",
-        "<p>What identify took as known, with its std (calibration.toml, or device.toml's "
-        "stated stds); where the body's own runs refine a term, its value after them.</p>",
+        ("<p>What identify took as known, with its std (calibration.toml, or device.toml's "
+         "stated stds); where the body's own runs refine a term, its value after them.</p>"),
         _table(["quantity", "calibration", "std", "after the runs", "std"], rows),
     ]
 
@@ -266,9 +274,6 @@ def _calibration_section(result: dict) -> list[str]:
 def _run_rows(exp: Experiment) -> list[list[str]]:
     """Each run as logged: its release angle (the braking log's first angle), launch speed
     (the smoothed speed there), turns braked and the passes' durations."""
-    from rsp_inertia.estimation.runs import runs
-    from rsp_inertia.estimation.smoothing import smooth_log
-    from rsp_inertia.plant.logs import read_log
 
     device, rows = exp.device, []
     for stage, direction in runs(device):
@@ -277,13 +282,11 @@ def _run_rows(exp: Experiment) -> list[list[str]]:
         if not braking_path.is_file():
             rows.append([stage, direction, "no log", "", "", "", ""])
             continue
-        braking = read_log(braking_path, device.encoder, "braking", direction,
-                           device.motor.torque_limit)
+        braking = read_device_log(braking_path, device, "braking", direction)
         omega0 = float(smooth_log(braking, device.encoder.quantum).omega[0])
         reverse_s = "no log"
         if reverse_path.is_file():
-            reverse = read_log(reverse_path, device.encoder, "reverse", direction,
-                               device.motor.torque_limit)
+            reverse = read_device_log(reverse_path, device, "reverse", direction)
             reverse_s = f"{reverse.t[-1] - reverse.t[0]:.2f}"
         rows.append([
             stage, direction, f"{math.degrees(braking.phi[0]):.2f}", f"{omega0:.3f}",
@@ -318,8 +321,8 @@ def _protocol_section(exp: Experiment) -> list[str]:
              for k, st in enumerate(stages, 1)],
         ),
         "<h3>As the logs ran it</h3>",
-        "<p>Release angle: the braking log's first angle (for a backward run, where the "
-        "mirror releases); launch speed: the smoothed speed there.</p>",
+        ("<p>Release angle: the braking log's first angle (for a backward run, where the "
+         "mirror releases); launch speed: the smoothed speed there.</p>"),
         logged,
     ]
 
@@ -327,9 +330,7 @@ def _protocol_section(exp: Experiment) -> list[str]:
 def _difference_figure(result: dict):
     """A real rig's error chart: each method's axial moments against the least squares'
     (no true values on a rig), beside the least squares' own relative std."""
-    import numpy as np
 
-    from rsp_inertia.plots import errors_figure
 
     axes = result["axes"]
     J = np.array([a["J"] for a in axes])
@@ -350,7 +351,6 @@ def _difference_figure(result: dict):
 
 
 def _figures(exp: Experiment, result: dict) -> list[str]:
-    from rsp_inertia.plots import experiment_figures, figure_png
 
     pictures = [(name, (exp.root / name).read_bytes(), f"{name} (from the folder)")
                 for name in FIGURES if (exp.root / name).is_file()]
@@ -413,9 +413,9 @@ def write_report(root: str | Path) -> Path:
     written = created_now()
     parts = [
         f"<h1>rsp-inertia report: {name}</h1>",
-        f"<p class='meta'>Experiment folder <code>{html.escape(str(exp.root))}</code>. "
-        f"Result made {html.escape(made)} by rsp-inertia {html.escape(version)} (identify); "
-        f"report written {html.escape(written)}.</p>",
+        (f"<p class='meta'>Experiment folder <code>{html.escape(str(exp.root))}</code>. "
+         f"Result made {html.escape(made)} by rsp-inertia {html.escape(version)} (identify); "
+         f"report written {html.escape(written)}.</p>"),
         _verdict(exp, result),
         *_tensor_sections(result),
         *_budget_section(result),

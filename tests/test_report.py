@@ -38,7 +38,7 @@ def rig(identified, tmp_path):
 
 
 def _verdict(page: str) -> str:
-    match = re.search(r"<div class='verdict (\w+)'>(.*?)</div>", page, re.S)
+    match = re.search(r"<div class='verdict (\w+)'>(.*?)</div>", page, re.DOTALL)
     assert match, "no verdict box"
     return match.group(1), match.group(2)
 
@@ -84,9 +84,9 @@ def test_created_is_the_clock_unless_source_date_epoch_fixes_it(monkeypatch):
     monkeypatch.delenv("SOURCE_DATE_EPOCH")
     import datetime
 
-    now = datetime.datetime.now(datetime.timezone.utc)
+    now = datetime.datetime.now(datetime.UTC)
     made = datetime.datetime.strptime(created_now(), "%Y-%m-%dT%H:%M:%SZ").replace(
-        tzinfo=datetime.timezone.utc)
+        tzinfo=datetime.UTC)
     assert abs((made - now).total_seconds()) < 5
 
 
@@ -184,3 +184,12 @@ def test_a_log_broken_since_identify_still_gets_a_report_that_says_so(rig):
     level, box = _verdict(page)
     assert level == "stale" and "stage2/braking.csv: changed" in box
     assert "The logs cannot be read now: " in page and "stage2/braking.csv" in page
+
+
+@pytest.mark.parametrize("text", ["{", "[1, 2]", '{"tensor": {}}'], ids=["json", "list", "keys"])
+def test_a_result_json_not_identifys_is_one_line(rig, capsys, text):
+    (rig / "result.json").write_text(text)
+    capsys.readouterr()
+    assert main(["report", str(rig)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "not a result.json written by identify" in err

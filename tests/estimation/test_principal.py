@@ -35,7 +35,7 @@ def test_first_order_stds_agree_with_sampling():
     a = rng.normal(size=(6, 6)) * 2e-6
     cov = a @ a.T
     moments_std, tilt = principal_uncertainty(entries, cov)
-    moments, axes = principal(entries)
+    _, axes = principal(entries)
     draws = rng.multivariate_normal(entries, cov, size=20000)
     sampled_moments, sampled_tilt = [], []
     for d in draws:
