@@ -162,6 +162,27 @@ def _summary(
     )
 
 
+def _check_simulate_outputs(
+    exp: Experiment, stages: list[int], part: str, direction: str | None
+) -> None:
+    """Refuse, before any run is simulated, a log that :func:`simulate` could not write
+    (rsp_inertia.plant.logs.check_writable): in a stage folder that exists, each log; else
+    the experiment folder, where the stage folder is to be made."""
+    for st in stages:
+        if part == "pendulum":
+            nodes = len(exp.device.stages[st - 1].nodes)
+            paths = [exp.pendulum_path(st, k + 1) for k in range(nodes)]
+        elif part == "pilot":
+            paths = [exp.pilot_path(st)]
+        else:
+            directions = exp.device.stages[st - 1].directions if direction is None else (direction,)
+            where = exp.braking_path if part == "braking" else exp.reverse_path
+            paths = [where(st, d) for d in directions]
+        folder = exp.stage_dir(st)
+        for path in paths if folder.is_dir() else [folder]:
+            check_writable(path)
+
+
 def _write_log(exp: Experiment, virtual, path: Path, log) -> None:
     """A simulated log as the virtual rig's logger writes it: ``t,counts,torque`` with
     virtual.toml ``[logger] counts`` (device.toml's ``[encoder] counter_bits`` wide), else
@@ -282,6 +303,7 @@ def simulate(
             )
             raise InputError(f"{exp.root / 'device.toml'}: {fault}")
         stages = runs
+    _check_simulate_outputs(exp, stages, part, direction)
     summaries = []
     for st in stages:
         exp.stage_dir(st).mkdir(exist_ok=True)

@@ -35,7 +35,7 @@ from rsp_inertia.ocp.rehearsal import Rehearsal
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
-from rsp_inertia.plant.logs import Log, read_device_log, write_atomic
+from rsp_inertia.plant.logs import Log, check_writable, read_device_log, write_atomic
 from rsp_inertia.plant.model import ModelParameters
 
 __all__ = ["DEFAULT_MAX_DURATION", "PlanReport", "guess_model", "plan", "stage_models"]
@@ -294,6 +294,8 @@ def plan(
 
     start = time.perf_counter()
     exp = open_experiment(root, protocol=False)
+    for output in (exp.root / "device.toml", exp.root / PLAN_FIGURE):
+        check_writable(output)
     device = exp.device
     if max_duration is None:
         given = device.plan.max_duration if device.plan is not None else None

@@ -335,3 +335,25 @@ def test_an_output_path_that_is_a_folder_is_found_before_the_work(
     assert main(["identify", str(experiment)]) == 2
     one_line_error(capsys, "result.json: cannot be written: it is a folder")
     assert not started
+
+
+def test_simulate_and_plan_find_an_unwritable_output_before_the_work(
+    experiment, capsys, monkeypatch
+):
+    # A folder in an output's place stands for a read-only one (root writes anyway).
+    from rsp_inertia import planning
+    from rsp_inertia.plant import virtual
+
+    started = []
+    monkeypatch.setattr(virtual, "simulate_braking", lambda *a, **k: started.append(1))
+    monkeypatch.setattr(planning, "stage_models", lambda *a, **k: started.append(1))
+    (experiment / "stage2").mkdir()
+    (experiment / "stage2" / "braking.csv").mkdir()
+    capsys.readouterr()
+    assert main(["simulate", str(experiment)]) == 2
+    one_line_error(capsys, "stage2/braking.csv: cannot be written: it is a folder")
+    (experiment / "plan.png").mkdir()
+    assert main(["plan", str(experiment)]) == 2
+    one_line_error(capsys, "plan.png: cannot be written: it is a folder")
+    assert not started
+    assert not (experiment / "stage1").exists()  # nothing simulated, nothing written
