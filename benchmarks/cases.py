@@ -38,6 +38,7 @@ from rsp_inertia.estimation.pendulum import estimate_pendulum
 from rsp_inertia.estimation.reading import known_terms
 from rsp_inertia.estimation.runs import ExperimentLogs, Sources
 from rsp_inertia.pipeline import create_default_experiment, identify, program, simulate
+from rsp_inertia.plant.config import placed_body
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.logs import Log, read_log
@@ -262,7 +263,8 @@ def _run_experiment(root: Path, case: Case) -> dict:
         row[f"time_program_{stage}"] for stage in stages
     )
     row["axes"] = len(result.axes)
-    row.update(identification_errors(result, exp.load_virtual().body, exp.device))
+    body = placed_body(exp.device, exp.load_virtual())
+    row.update(identification_errors(result, body, exp.device))
     row["warnings"] = "; ".join(result.warnings).replace(str(root), "EXP")
     # Experiment time (physical): RSP's braking and reverse passes; the pendulum's logged
     # runs, one per node. Neither calibrates here (device.toml's tares and stiffness are
@@ -348,7 +350,7 @@ def _equal_time_pendulum(root: Path, result, row: dict) -> dict:
         ),
         known_terms(exp)[0], result.gravity, result.gravity_cov, warnings=warnings,
     )
-    body = exp.load_virtual().body
+    body = placed_body(exp.device, exp.load_virtual())
     out: dict = {
         "experiment_time_pendulum_equal": used,
         "pendulum_failures_equal": "; ".join(left_out + warnings) or None,

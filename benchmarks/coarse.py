@@ -48,6 +48,7 @@ from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.logs import read_program, write_log
 from rsp_inertia.plant.virtual import (
     ideal_program,
+    placed_body,
     run_program,
     simulate_braking,
     simulate_ideal_reverse,
@@ -135,7 +136,8 @@ def _score(exp, virtual, seconds: float) -> dict:
     result = identify(exp.root)
     J = np.array([a.J for a in result.axes])
     s = np.array([a.J_std for a in result.axes])
-    J_true = true_moments(np.array([a.direction for a in result.axes]), virtual.body.tensor)
+    body = placed_body(exp.device, virtual)
+    J_true = true_moments(np.array([a.direction for a in result.axes]), body.tensor)
     z = (J - J_true) / s
     return {
         "err": np.abs(J / J_true - 1).tolist(),

@@ -33,7 +33,7 @@ from rsp_inertia.estimation.tensor import axis_values, fit_tensor
 from rsp_inertia.pipeline import simulate
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.logs import write_atomic
-from rsp_inertia.plant.virtual import simulate_braking, simulate_ideal_reverse
+from rsp_inertia.plant.virtual import placed_body, simulate_braking, simulate_ideal_reverse
 
 
 def _std_with_exact_speeds(exp, virtual, directions: np.ndarray) -> np.ndarray:
@@ -87,12 +87,13 @@ def run_case(factor: float, seed: int) -> dict:
         identified = time.perf_counter() - start
         truth = exp.load_virtual()
         exact_std = _std_with_exact_speeds(exp, truth, np.array([a.direction for a in result.axes]))
-    J_true = true_moments([a.direction for a in result.axes], truth.body.tensor)
+        body = placed_body(exp.device, truth)
+    J_true = true_moments([a.direction for a in result.axes], body.tensor)
     J_ls = np.array([a.J for a in result.axes])
     J_ls_std = np.array([a.J_std for a in result.axes])
     J_node = np.array([a.J_node for a in result.axes])
     pend = result.pendulum
-    com_err = float(np.hypot(*(result.com - truth.body.com[:2])))
+    com_err = float(np.hypot(*(result.com - body.com[:2])))
     return {
         "friction x": factor,
         "seed": seed,
@@ -105,8 +106,8 @@ def run_case(factor: float, seed: int) -> dict:
         "std, exact speeds": float(np.max(exact_std / J_true)),
         "J_k LS max z": float(np.max(np.abs(J_ls - J_true) / J_ls_std)),
         "J_k node": float(np.max(np.abs(J_node / J_true - 1))),
-        "tensor LS": tensor_error(result.entries, truth.body),
-        "tensor node": tensor_error(result.node_entries, truth.body),
+        "tensor LS": tensor_error(result.entries, body),
+        "tensor node": tensor_error(result.node_entries, body),
         "com [mm]": com_err * 1e3,
         "J_k pendulum": float(np.max(np.abs(pend.J_classic / J_true - 1))),
         "J_k pendulum damped": float(np.max(np.abs(pend.J_damped / J_true - 1))),

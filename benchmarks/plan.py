@@ -30,7 +30,7 @@ from benchmarks.tables import command_line, markdown_table
 from benchmarks.truth import true_moments
 from rsp_inertia.pipeline import identify, program, simulate
 from rsp_inertia.planning import plan
-from rsp_inertia.plant.config import Device, Virtual, load_device, load_virtual
+from rsp_inertia.plant.config import Device, Virtual, load_device, load_virtual, placed_body
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.geometry import axis_direction
 from rsp_inertia.plant.logs import read_log, write_atomic
@@ -78,7 +78,7 @@ def _scenario_virtual(virtual: Virtual, scenario: str) -> Virtual:
 def truth_axes(root: Path) -> np.ndarray:
     """True J_k at every node, in identify's order (stages, nodes)."""
     device = load_device(root / "device.toml")
-    body = load_virtual(root / "virtual.toml").body
+    body = placed_body(device, load_virtual(root / "virtual.toml"))
     dirs = []
     for st in device.stages:
         nodes = [0.0] if st.gear_ratio == 0.0 else st.nodes_deg

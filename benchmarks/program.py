@@ -31,7 +31,7 @@ from rsp_inertia.ocp.program import make_program
 from rsp_inertia.pipeline import create_default_experiment
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.logs import write_atomic, write_log, write_program
-from rsp_inertia.plant.virtual import run_program, simulate_braking
+from rsp_inertia.plant.virtual import placed_body, run_program, simulate_braking
 from rsp_inertia.plots import plot_tracking
 
 CASES = [(1.0, 1.0), (1.3, 1.5), (1.3, 0.5), (0.7, 1.5), (0.7, 0.5)]
@@ -91,12 +91,13 @@ def run_case(inertia: float, friction: float, figures: bool) -> dict:
                     f"Stage {stage}: reverse pass in closed loop (paper Fig. 4)",
                 )
         result = identify_experiment(exp)
-        J_true = true_moments([a.direction for a in result.axes], virtual.body.tensor)
+        body = placed_body(device, virtual)
+        J_true = true_moments([a.direction for a in result.axes], body.tensor)
         row["J_k LS"] = float(np.max(np.abs(np.array([a.J for a in result.axes]) / J_true - 1)))
         row["J_k node"] = float(
             np.max(np.abs(np.array([a.J_node for a in result.axes]) / J_true - 1))
         )
-        row["tensor LS"] = tensor_error(result.entries, virtual.body)
+        row["tensor LS"] = tensor_error(result.entries, body)
         row["mismatch median"] = float(np.median(np.concatenate(mismatches)))
     return row
 

@@ -42,7 +42,7 @@ from rsp_inertia.pipeline import (
     program,
     simulate,
 )
-from rsp_inertia.plant.config import LoggerSettings, load_virtual
+from rsp_inertia.plant.config import LoggerSettings, load_device, load_virtual, placed_body
 from rsp_inertia.plant.geometry import relative_errors
 from rsp_inertia.plant.logs import write_atomic
 from rsp_inertia.rig_demo import demo
@@ -62,7 +62,7 @@ def _make_real(folder: Path) -> None:
 
 
 def _score(result, root: Path) -> dict:
-    body = load_virtual(root / "virtual.toml").body
+    body = placed_body(load_device(root / "device.toml"), load_virtual(root / "virtual.toml"))
     relative = relative_errors(result.entries, body.inertia)
     err = result.entries - np.asarray(body.inertia)
     std = np.sqrt(np.diag(result.entries_cov))

@@ -34,7 +34,7 @@ from benchmarks.scratch import scratch_folder
 from benchmarks.tables import fmt, new_figure, table_lines
 from benchmarks.truth import identification_errors
 from rsp_inertia.pipeline import create_default_experiment, identify, program, simulate
-from rsp_inertia.plant.config import Device
+from rsp_inertia.plant.config import Device, placed_body
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
 
@@ -122,7 +122,8 @@ def _run(p: Perturbation, row: dict) -> None:
                 vary(root, device=lambda d: _stated_stds(d, p))
             exp = open_experiment(root)
             result = identify(root)
-            errors = identification_errors(result, exp.load_virtual().body, exp.device)
+            body = placed_body(exp.device, exp.load_virtual())
+            errors = identification_errors(result, body, exp.device)
             row.update({f"{k}{suffix}": v for k, v in errors.items()
                         if k.endswith(tuple(SENSITIVITY_METHODS))})
             row[f"warnings{suffix}"] = "; ".join(result.warnings)

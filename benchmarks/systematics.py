@@ -99,7 +99,14 @@ from rsp_inertia.pipeline import (
     program,
     simulate,
 )
-from rsp_inertia.plant.config import Device, Rig, TrueBody, Virtual, write_reference
+from rsp_inertia.plant.config import (
+    Device,
+    Rig,
+    TrueBody,
+    Virtual,
+    placed_body,
+    write_reference,
+)
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.logs import write_atomic
 
@@ -308,7 +315,7 @@ def _score(root: Path) -> dict:
     """Errors of result.json against the virtual truth."""
     exp = open_experiment(root)
     virtual = exp.load_virtual()
-    body = virtual.body
+    body = placed_body(exp.device, virtual)
     r = json.loads((exp.root / "result.json").read_text())
     J = np.array([a["J"] for a in r["axes"]])
     s = np.array([a["J_std"] for a in r["axes"]])

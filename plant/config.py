@@ -2,13 +2,14 @@
 ``reference.toml``.
 
 ``device.toml`` describes the gimbal: its spring, motor, encoder, the stages (one gear ratio
-each, with the nodes where the tensor is sampled) and, optionally, the body's mass, the
-torsion-pendulum baseline and guesses for planning. ``virtual.toml`` exists only for a
-virtual device: the true body and fixture, the friction law, the rig's imperfections and
-the settings of the simulated runs. ``reference.toml`` holds a reference body's certified
-data. docs/files.md documents every key. This module is the public home of their config
-classes, readers and writers, which live in rsp_inertia.plant.device_config and
-rsp_inertia.plant.virtual_config; nothing else reads or writes these files.
+each, with the nodes where the tensor is sampled) and, optionally, the body's mass, how the
+body is mounted, the torsion-pendulum baseline and guesses for planning. ``virtual.toml``
+exists only for a virtual device: the true body and fixture, the friction law, the rig's
+imperfections, a body seated off its stated mounting, and the settings of the simulated runs.
+``reference.toml`` holds a reference body's certified data. docs/files.md documents every
+key. This module is the public home of their config classes, readers and writers, which
+live in rsp_inertia.plant.device_config and rsp_inertia.plant.virtual_config; nothing else
+reads or writes these files.
 
 Each file is a frozen config class (:class:`Device`, :class:`Virtual`; :class:`TrueBody` for
 reference.toml) whose fields declare the keys: name, type, unit, bounds, default and doc
@@ -33,10 +34,12 @@ from rsp_inertia.plant.device_config import (
     DIRECTIONS,
     PROTOCOL,
     REQUIRED_AXES,
+    ROTATION_TOLERANCE,
     Body,
     Device,
     Encoder,
     Motor,
+    Mounting,
     Pendulum,
     PlanGuess,
     Spring,
@@ -53,8 +56,10 @@ from rsp_inertia.plant.virtual_config import (
     RunSettings,
     TrueBody,
     Virtual,
+    VirtualMounting,
     load_reference,
     load_virtual,
+    placed_body,
     write_reference,
     write_virtual,
 )
@@ -64,6 +69,7 @@ __all__ = [
     "DIRECTIONS",
     "PROTOCOL",
     "REQUIRED_AXES",
+    "ROTATION_TOLERANCE",
     "Body",
     "ControllerSettings",
     "Device",
@@ -71,6 +77,7 @@ __all__ = [
     "Friction",
     "LoggerSettings",
     "Motor",
+    "Mounting",
     "Pendulum",
     "PlanGuess",
     "Rig",
@@ -79,9 +86,11 @@ __all__ = [
     "Stage",
     "TrueBody",
     "Virtual",
+    "VirtualMounting",
     "load_device",
     "load_reference",
     "load_virtual",
+    "placed_body",
     "require_protocol",
     "write_device",
     "write_reference",

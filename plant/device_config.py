@@ -1,10 +1,10 @@
 """``device.toml``: the gimbal and the protocol run on it, read and written.
 
 The file describes the gimbal's spring, motor and encoder, the stages (one gear ratio each,
-with the nodes where the tensor is sampled) and, optionally, the body's mass, the
-torsion-pendulum baseline and guesses for planning; docs/files.md documents every key. The
-config classes below declare the keys (rsp_inertia.plant.toml_schema): each field's name is
-its key, with its unit, bounds, default and doc.
+with the nodes where the tensor is sampled) and, optionally, the body's mass, how the body is
+mounted, the torsion-pendulum baseline and guesses for planning; docs/files.md documents
+every key. The config classes below declare the keys (rsp_inertia.plant.toml_schema): each
+field's name is its key, with its unit, bounds, default and doc.
 """
 
 from __future__ import annotations
@@ -215,6 +215,74 @@ class Body:
     )
 
 
+ROTATION_TOLERANCE = 1e-9
+"""How far ``[mounting] rotation`` may be from a rotation: largest entry of R R^T - I and
+distance of det R from +1."""
+
+_IDENTITY = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+
+
+def _rotation(rows: tuple[tuple[float, ...], ...], key: str) -> None:
+    """Refuse a ``rotation`` that is not a 3 x 3 rotation matrix (orthonormal, det +1, to
+    :data:`ROTATION_TOLERANCE`)."""
+    if len(rows) != 3:
+        raise ContentError(key, f"must have 3 rows (a 3 x 3 rotation), got {len(rows)}")
+    R = np.array(rows, dtype=float)
+    off = float(np.abs(R @ R.T - np.eye(3)).max())
+    if not off <= ROTATION_TOLERANCE:
+        raise ContentError(
+            key,
+            f"must be orthonormal (R R^T = I to {ROTATION_TOLERANCE:g}), got an entry of "
+            f"R R^T - I of {off:.3g}",
+        )
+    det = float(np.linalg.det(R))
+    if not abs(det - 1.0) <= ROTATION_TOLERANCE:
+        raise ContentError(
+            key, f"must have determinant +1 (a rotation, not a reflection), got {det:.6g}"
+        )
+
+
+@config_class
+class Mounting:
+    """How the body sits on the gimbal (``[mounting]``; docs/method.md §2, "Mountings"): its
+    own axes turned by ``rotation`` and its origin at ``origin``, both in the rig's axes (z
+    along the shaft, x and y as at phi = 0: the axes of result.json).
+
+    Two mountings are equal when their arrays are."""
+
+    rotation: tuple[tuple[float, ...], ...] = key(
+        _IDENTITY,
+        names=("x", "y", "z"),
+        check=_rotation,
+        doc="R, body axes -> rig axes (v_rig = R v_body), given by rows: row k is rig axis k "
+        "in body axes, column j body axis j in rig axes; orthonormal with determinant +1; "
+        "shape (3, 3), read-only.",
+    )
+    origin: tuple[float, float, float] = key(
+        (0.0, 0.0, 0.0),
+        unit="m",
+        names=("x", "y", "z"),
+        doc="o, the body frame's origin in rig axes, from the rig's centre O; shape (3,), "
+        "read-only.",
+    )
+
+    def __post_init__(self) -> None:
+        # Own read-only copies, so that a frozen mounting stays frozen however it was built.
+        for name, shape in (("rotation", (3, 3)), ("origin", (3,))):
+            array = np.array(getattr(self, name), dtype=float)
+            if array.shape != shape:
+                raise ValueError(f"Mounting.{name} must have shape {shape}, got {array.shape}")
+            array.flags.writeable = False
+            object.__setattr__(self, name, array)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Mounting):
+            return NotImplemented
+        return np.array_equal(self.rotation, other.rotation) and np.array_equal(
+            self.origin, other.origin
+        )
+
+
 @config_class
 class Pendulum:
     """Torsion-pendulum baseline runs: the torsion element attached for them, motor off
@@ -324,6 +392,11 @@ class Device:
     plan: PlanGuess | None = key(
         None, doc="The optional ``[plan]`` table (guesses for experiment planning)."
     )
+    mounting: Mounting | None = key(
+        None,
+        doc="The optional ``[mounting]`` table: how the body's axes sit in the rig's; None: "
+        "they are the rig's (R = identity, origin 0).",
+    )
 
     @property
     def n_axes(self) -> int:
@@ -362,7 +435,9 @@ def load_device(path: str | os.PathLike) -> Device:
         The file is missing or is not TOML; a key is missing, unknown, of the wrong type
         or out of range; a stage's ``braking_torque`` exceeds ``motor.torque_limit``;
         ``[plan]`` gives both ``inertia`` and ``box``, or ``box`` without
-        ``[body]``; or the stages give fewer than six distinct axes.
+        ``[body]``; ``[mounting] rotation`` is not a rotation (3 x 3, orthonormal with
+        determinant +1 to :data:`ROTATION_TOLERANCE`); or the stages give fewer than six
+        distinct axes.
 
     Examples
     --------

@@ -1,8 +1,9 @@
 """Axis geometry: instantaneous axes, the design matrix V and the axis designs.
 
 Pure numpy (plus one bounded scalar search from scipy). Every formula cites docs/method.md:
-the axis direction is §1, the tensor convention §2, the design matrix and the two
-designs of the paper (icosahedron, one cone plus the z axis) §5 "Axis designs".
+the axis direction is §1, the tensor convention and a body's mounting (its tensor and centre
+of mass carried from body axes to the rig's) §2, the design matrix and the two designs of the
+paper (icosahedron, one cone plus the z axis) §5 "Axis designs".
 """
 
 from __future__ import annotations
@@ -30,8 +31,10 @@ __all__ = [
     "entries_from_tensor",
     "icosahedron_design",
     "physical_margins",
+    "place_body",
     "rcond_curve",
     "relative_errors",
+    "small_rotation",
     "tensor_from_entries",
     "turns_past_last_node",
 ]
@@ -197,6 +200,89 @@ def entries_from_tensor(J: ArrayLike) -> np.ndarray:
         ],
         axis=-1,
     )
+
+
+def place_body(
+    inertia: ArrayLike,
+    com: ArrayLike,
+    mass: float,
+    rotation: ArrayLike,
+    origin: ArrayLike,
+) -> tuple[np.ndarray, np.ndarray]:
+    """A body's tensor and centre of mass carried from its own axes to the rig's
+    (docs/method.md §2, "Mountings").
+
+    The body frame is mounted with its origin at ``o`` (rig axes, from the rig's centre O)
+    and turned by R (v_rig = R v_body). With c_r = R c, the centre of mass in rig axes is
+    ``o + c_r``, and the parallel-axis theorem, applied once from the body's origin to its
+    centre of mass and once from there to O, gives the tensor about O in rig axes:
+
+        J_rig = R J R^T + m [(|o|^2 + 2 o.c_r) I - (o o^T + o c_r^T + c_r o^T)]
+
+    For given R, o and m the map is affine in (``inertia``, ``com``), exactly: a linear model
+    may be built by evaluating it on basis vectors.
+
+    Parameters
+    ----------
+    inertia : array_like
+        ``[Jx, Jy, Jz, Jxy, Jyz, Jxz]`` (kg m^2), shape ``(6,)``: the tensor about the body
+        frame's origin in body axes, products as tensor entries (Jxy = -integral of x y dm).
+    com : array_like
+        Centre of mass (m) in body axes, shape ``(3,)``.
+    mass : float
+        kg.
+    rotation : array_like
+        R, shape ``(3, 3)``, a rotation: body axes -> rig axes.
+    origin : array_like
+        o (m), the body frame's origin in rig axes, shape ``(3,)``.
+
+    Returns
+    -------
+    (inertia_rig, com_rig) : numpy.ndarray
+        Shapes ``(6,)`` and ``(3,)``: the entries about O in rig axes (the axes and the
+        centre of result.json's tensor) and the centre of mass in rig axes.
+
+    Examples
+    --------
+    >>> place_body([1.0, 2.0, 3.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0], 1.0, np.eye(3), [0, 0, 0])
+    (array([1., 2., 3., 0., 0., 0.]), array([0., 0., 0.]))
+    """
+    R = np.asarray(rotation, float)
+    o = np.asarray(origin, float)
+    c = R @ np.asarray(com, float)
+    J = R @ tensor_from_entries(inertia) @ R.T
+    cross = np.outer(o, o) + np.outer(o, c) + np.outer(c, o)
+    shift = (o @ o + 2.0 * (o @ c)) * np.eye(3) - cross
+    return entries_from_tensor(J + mass * shift), o + c
+
+
+def small_rotation(angles_deg: ArrayLike) -> np.ndarray:
+    """The rotation by small angles about the rig's x, y and z axes: Rx(ax) Ry(ay) Rz(az),
+    exact (not linearised) (docs/method.md §2, "Mountings").
+
+    Parameters
+    ----------
+    angles_deg : array_like
+        ``[ax, ay, az]`` (deg), shape ``(3,)``.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(3, 3)``, orthonormal with determinant +1; the identity for zero angles.
+
+    Examples
+    --------
+    >>> small_rotation([0.0, 0.0, 90.0]).round(12)
+    array([[ 0., -1.,  0.],
+           [ 1.,  0.,  0.],
+           [ 0.,  0.,  1.]])
+    """
+    ax, ay, az = np.radians(np.asarray(angles_deg, float))
+    cx, sx, cy, sy, cz, sz = np.cos(ax), np.sin(ax), np.cos(ay), np.sin(ay), np.cos(az), np.sin(az)
+    rx = np.array([[1.0, 0.0, 0.0], [0.0, cx, -sx], [0.0, sx, cx]])
+    ry = np.array([[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]])
+    rz = np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]])
+    return rx @ ry @ rz
 
 
 def physical_margins(j6: ArrayLike) -> tuple[np.ndarray, np.ndarray]:

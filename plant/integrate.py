@@ -24,7 +24,7 @@ import casadi as ca
 import numpy as np
 from scipy.optimize import brentq
 
-from rsp_inertia.plant.config import Device, Virtual
+from rsp_inertia.plant.config import Device, Virtual, placed_body
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.model import (
     MODEL,
@@ -144,8 +144,9 @@ def true_parameters(
 ) -> ModelParameters:
     """The true model of stage ``stage`` (1-based) while the body moves in ``direction``.
 
-    device.toml's gimbal with virtual.toml's moving system. The moving system is the body and
-    the fixture (either may be absent): their tensors, both about O in the body frame, add
+    device.toml's gimbal with virtual.toml's moving system. The moving system is the body,
+    placed on the rig by its mounting (:func:`rsp_inertia.plant.config.placed_body`), and the
+    fixture (either may be absent): their tensors, both about O in rig axes, add
     (docs/method.md §2), and so do their gravity terms Gs = sum m g x_c, Gc = sum m g y_c
     (docs/method.md §3). The tare is the rig's true one (``[rig] tare_inertia``, else
     device.toml's, :meth:`rsp_inertia.plant.config.Rig.true_tare`); the friction that of the
@@ -174,7 +175,7 @@ def true_parameters(
     if virtual.models is not None:
         return virtual.models[stage - 1]
     st = device.stages[stage - 1]
-    parts = [part for part in (virtual.body, virtual.fixture) if part is not None]
+    parts = [part for part in (placed_body(device, virtual), virtual.fixture) if part is not None]
     g = device.gravity
     inertia = sum((part.inertia for part in parts), np.zeros(6))
     tare = virtual.rig.true_tare(device, stage)

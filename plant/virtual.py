@@ -1,9 +1,10 @@
 """The virtual device: a simulated gimbal that writes logs as a real rig would (docs/files.md).
 
 It integrates the model of :mod:`rsp_inertia.plant.model` (the true body of ``virtual.toml``
-on the gimbal of ``device.toml``, :func:`true_parameters`) sample by sample, the motor torque
-held over each sample (zero-order hold, docs/method.md §4), with stops as events decided by
-static friction (:mod:`rsp_inertia.plant.integrate`). What leaves the device is what a rig
+placed on the gimbal of ``device.toml`` by its mounting, :func:`placed_body`,
+:func:`true_parameters`) sample by sample, the motor torque held over each sample
+(zero-order hold, docs/method.md §4), with stops as events decided by static friction
+(:mod:`rsp_inertia.plant.integrate`). What leaves the device is what a rig
 produces: encoder readings floor(phi/q) q at the drive's sampling instants and the logged
 command with its noise (:mod:`rsp_inertia.plant.drive`); the true states are returned beside
 the log.
@@ -34,7 +35,7 @@ import math
 
 import numpy as np
 
-from rsp_inertia.plant.config import Device, Stage, Virtual
+from rsp_inertia.plant.config import Device, Stage, Virtual, placed_body
 from rsp_inertia.plant.drive import (
     STREAM_BRAKING,
     STREAM_BRAKING_BACKWARD,
@@ -81,6 +82,7 @@ __all__ = [
     "ideal_program",
     "integrate_to_stop",
     "pendulum_parameters",
+    "placed_body",
     "release_angle",
     "run_program",
     "simulate_braking",

@@ -1,10 +1,11 @@
 """``virtual.toml`` and ``reference.toml``: the virtual device's truth, read and written.
 
-``virtual.toml`` exists only for a virtual device: the true body (absent for an
-empty-fixture run) and fixture, the friction law in each direction of motion, the rig's
-imperfections and the settings of the simulated runs. ``reference.toml`` holds a reference
-body's certified data, the ``[body]`` keys of virtual.toml. docs/files.md documents every
-key; the config classes below declare them (rsp_inertia.plant.toml_schema).
+``virtual.toml`` exists only for a virtual device: the true body in its own axes (absent for
+an empty-fixture run; :func:`placed_body` puts it on the rig) and the fixture, the friction
+law in each direction of motion, the rig's imperfections, a body seated off its stated
+mounting, and the settings of the simulated runs. ``reference.toml`` holds a reference body's
+certified data, the ``[body]`` keys of virtual.toml. docs/files.md documents every key; the
+config classes below declare them (rsp_inertia.plant.toml_schema).
 """
 
 from __future__ import annotations
@@ -13,9 +14,14 @@ import os
 
 import numpy as np
 
-from rsp_inertia.plant.device_config import Device
+from rsp_inertia.plant.device_config import Device, Mounting
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.geometry import physical_margins, tensor_from_entries
+from rsp_inertia.plant.geometry import (
+    physical_margins,
+    place_body,
+    small_rotation,
+    tensor_from_entries,
+)
 from rsp_inertia.plant.toml_schema import (
     ContentError,
     config_class,
@@ -254,6 +260,22 @@ class Rig:
 
 
 @config_class
+class VirtualMounting:
+    """How the body really sits, against device.toml's ``[mounting]`` (``[mounting]`` of
+    virtual.toml): a body not seated as the fixture's drawing says (docs/method.md §2,
+    "Mountings")."""
+
+    misalignment_deg: tuple[float, float, float] = key(
+        (0.0, 0.0, 0.0),
+        unit="deg",
+        names=("ax", "ay", "az"),
+        doc="Small angles about the rig's x, y and z axes by which the real mounting is "
+        "turned from the stated one: R_true = small_rotation(ax, ay, az) R_stated "
+        "(rsp_inertia.plant.geometry.small_rotation); the origin stays the stated one.",
+    )
+
+
+@config_class
 class Virtual:
     """The virtual device as described by ``virtual.toml``.
 
@@ -264,7 +286,9 @@ class Virtual:
     """
 
     body: TrueBody | None = key(
-        doc="The true body; None for an empty-fixture run (no ``[body]``)."
+        doc="The true body in its own axes (placed on the rig by device.toml's "
+        "``[mounting]``: rsp_inertia.plant.virtual.placed_body); None for an empty-fixture "
+        "run (no ``[body]``)."
     )
     friction: Friction = key(
         doc="The true friction law; forward motion always uses its coefficients."
@@ -272,7 +296,9 @@ class Virtual:
     run: RunSettings = key(doc="Run settings.")
     controller: ControllerSettings = key(doc="Controller settings.")
     fixture: TrueBody | None = key(
-        None, doc="The mounting plate, rigidly on the shaft with the body; None: none."
+        None,
+        doc="The mounting plate, rigidly on the shaft with the body, in the rig's axes (the "
+        "body's mounting does not move it); None: none.",
     )
     rig: Rig = key(Rig(), doc="The rig's imperfections; an exact rig by default.")
     friction_backward: Friction | None = key(
@@ -284,6 +310,10 @@ class Virtual:
     logger: LoggerSettings = key(
         LoggerSettings(),
         doc="The drive's sampling and logging; regular and lossless by default.",
+    )
+    mounting: VirtualMounting | None = key(
+        None,
+        doc="How the body really sits against device.toml's ``[mounting]``; None: as stated.",
     )
     models: tuple | None = None
 
@@ -305,6 +335,42 @@ class Virtual:
             viscous=self.friction.viscous * scale,
             quadratic=self.friction.quadratic * scale,
         )
+
+
+def placed_body(device: Device, virtual: Virtual) -> TrueBody | None:
+    """The virtual device's true body on the rig: its tensor about O and its centre of mass,
+    both in rig axes (docs/method.md §2, "Mountings").
+
+    ``virtual.toml``'s ``[body]`` is in the body's own axes; device.toml's ``[mounting]``
+    places it (rotation R, origin o), turned further by virtual.toml's ``[mounting]
+    misalignment_deg`` when the body is not seated as stated: R_true =
+    small_rotation(misalignment) R (rsp_inertia.plant.geometry.place_body, small_rotation).
+    Every use of the truth on the rig (the simulator's model, comparisons with identify's
+    result) goes through this function.
+
+    Parameters
+    ----------
+    device : Device
+        The gimbal; its ``mounting`` (None: R = identity, origin 0).
+    virtual : Virtual
+        The truth; its ``body`` and ``mounting``.
+
+    Returns
+    -------
+    TrueBody or None
+        None for an empty-fixture run (no ``[body]``); ``virtual.body`` itself when neither
+        file has a ``[mounting]`` table (the body's axes are the rig's); else the body placed:
+        the same mass, ``inertia`` about O in rig axes, ``com`` in rig axes.
+    """
+    body = virtual.body
+    if body is None or (device.mounting is None and virtual.mounting is None):
+        return body
+    stated = device.mounting if device.mounting is not None else Mounting()
+    rotation = stated.rotation
+    if virtual.mounting is not None:
+        rotation = small_rotation(virtual.mounting.misalignment_deg) @ rotation
+    inertia, com = place_body(body.inertia, body.com, body.mass, rotation, stated.origin)
+    return TrueBody(mass=body.mass, inertia=inertia, com=com)
 
 
 @config_class

@@ -106,8 +106,9 @@ def demo(
     Returns
     -------
     IdentifyResult
-        The calibrated identification, with ``truth`` set to the virtual body's entries:
-        ``str(result)`` is the demo's table against the truth.
+        The calibrated identification, with ``truth`` set to the virtual body's entries in
+        rig axes (rsp_inertia.plant.virtual.placed_body): ``str(result)`` is the demo's
+        table against the truth.
 
     Raises
     ------
@@ -118,11 +119,13 @@ def demo(
     --------
     >>> result = rsp_inertia.demo("demo-experiment", progress=print)    # doctest: +SKIP
     """
+    from rsp_inertia.plant.config import placed_body
     from rsp_inertia.plant.experiment import open_experiment
     from rsp_inertia.rig_demo import demo as run
 
     result = run(path, progress=_quiet(progress))
-    truth = open_experiment(path).load_virtual().body.inertia
+    exp = open_experiment(path)
+    truth = placed_body(exp.device, exp.load_virtual()).inertia
     return IdentifyResult._from(result, path, truth)
 
 

@@ -17,6 +17,7 @@ import numpy as np
 
 from rsp_inertia.identify_result import format_identification
 from rsp_inertia.pipeline import calibrate, create_rig_experiment, identify, program, simulate
+from rsp_inertia.plant.config import placed_body
 from rsp_inertia.plant.experiment import Experiment, open_experiment
 
 if TYPE_CHECKING:
@@ -51,10 +52,12 @@ def demo_figures(
     for name, figure in experiment_figures(exp, virtual):
         paths.append(out / name)
         save_figure(figure, paths[-1])
-    if virtual is None or virtual.body is None:  # no truth to compare with
+    body = None if virtual is None else placed_body(exp.device, virtual)
+    if body is None:  # no truth to compare with
         return paths
-    # The true moments about the axes: J_k = V_k . J (docs/method.md §5).
-    J_true = design_matrix(np.array([a.direction for a in result.axes])) @ virtual.body.inertia
+    # The true moments about the axes (rig axes, as identify's): J_k = V_k . J
+    # (docs/method.md §5).
+    J_true = design_matrix(np.array([a.direction for a in result.axes])) @ body.inertia
     errors = {
         "RSP least squares": np.array([a.J for a in result.axes]) / J_true - 1,
         "RSP node formula": np.array([a.J_node for a in result.axes]) / J_true - 1,
@@ -65,7 +68,7 @@ def demo_figures(
         pend = result.pendulum
         if pend.J_best is not None:
             # About the axis at each run's equilibrium, where the best practice measures.
-            J_best_true = design_matrix(pend.best_axes(exp.device)) @ virtual.body.inertia
+            J_best_true = design_matrix(pend.best_axes(exp.device)) @ body.inertia
             errors["pendulum best practice"] = pend.J_best / J_best_true - 1
     labels = [f"s{a.stage} {a.phi_deg:g} deg" for a in result.axes]
     paths.append(out / "errors.png")
@@ -99,22 +102,22 @@ def demo(
         if open_experiment(folder).device.pendulum is not None:
             simulate(folder, part="pendulum", progress=lambda s: say(str(s)))
     exp = open_experiment(root)
-    truth = exp.load_virtual()
+    truth = placed_body(exp.device, exp.load_virtual())
     (root / CALIBRATION_FILE).unlink(missing_ok=True)
     raw = identify(root)
     say(
         "without calibration: worst tensor error / largest moment "
-        f"{np.abs(relative_errors(raw.entries, truth.body.inertia)).max():.1e}, warnings:"
+        f"{np.abs(relative_errors(raw.entries, truth.inertia)).max():.1e}, warnings:"
     )
     for warning in raw.warnings:
         say(f"  {warning}")
     say(f"rsp-inertia calibrate {root} --empty {empty} --reference {reference}")
     say(str(calibrate(root, empty, reference)))
     result = identify(root, progress=say)
-    say(format_identification(result, truth.body.inertia))
+    say(format_identification(result, truth.inertia))
     say(f"figures -> {', '.join(str(p) for p in demo_figures(exp, result))}")
     if result.com is not None:
-        say(f"true centre of mass: x = {truth.body.com[0] * 1e3:.4f} mm, "
-            f"y = {truth.body.com[1] * 1e3:.4f} mm")
+        say(f"true centre of mass: x = {truth.com[0] * 1e3:.4f} mm, "
+            f"y = {truth.com[1] * 1e3:.4f} mm")
     say(f"result -> {root / 'result.json'}")
     return result

@@ -19,6 +19,7 @@ from rsp_inertia.plant.config import (
     Friction,
     LoggerSettings,
     Motor,
+    Mounting,
     Pendulum,
     PlanGuess,
     Rig,
@@ -27,6 +28,7 @@ from rsp_inertia.plant.config import (
     Stage,
     TrueBody,
     Virtual,
+    VirtualMounting,
     load_device,
     load_reference,
     load_virtual,
@@ -807,18 +809,24 @@ friction = [1e-4, 1e-4, 1e-3]
 com_offset = 0.003
 torque_noise = 1e-4
 max_duration = 120.0
+
+[mounting]
+rotation = [[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]]
+origin = [0.0, 0.01, -0.02]
 """
 
 EVERY_VIRTUAL_KEY = VIRTUAL_TOML + FIXTURE + RIG + "pendulum_stiffness = 2.01\n" + (
     TRANSMISSION + ENCODER_ERROR
 ) + (
     "\n[logger]\ntime_jitter = 0.1\ndropped_fraction = 0.001\ncounts = true\n"
-) + BACKWARD_TABLE
+) + BACKWARD_TABLE + "\n[mounting]\nmisalignment_deg = [0.5, -0.25, 0.0]\n"
 
 
 def test_every_optional_key_round_trips(tmp_path):
     device = load_device(write(tmp_path, "in-device.toml", EVERY_DEVICE_KEY))
-    assert None not in (device.motor.torque_gain_std, device.encoder.counter_bits, device.plan)
+    assert None not in (
+        device.motor.torque_gain_std, device.encoder.counter_bits, device.plan, device.mounting
+    )
     encoder = device.encoder
     assert None not in (encoder.error_cos, encoder.error_sin, encoder.error_std)
     write_device(tmp_path / "device.toml", device)
@@ -829,7 +837,9 @@ def test_every_optional_key_round_trips(tmp_path):
     assert load_device(tmp_path / "device.toml") == device
 
     virtual = load_virtual(write(tmp_path, "in-virtual.toml", EVERY_VIRTUAL_KEY))
-    assert None not in (virtual.fixture, virtual.friction_backward, virtual.rig.tare_inertia)
+    assert None not in (
+        virtual.fixture, virtual.friction_backward, virtual.rig.tare_inertia, virtual.mounting
+    )
     assert virtual.logger.counts and virtual.rig.pendulum_stiffness == 2.01
     assert (virtual.rig.efficiency_driving, virtual.rig.efficiency_backdriven) == (0.95, 0.9)
     assert virtual.rig.encoder_error.size == 4
@@ -1044,6 +1054,22 @@ def devices(draw):
             maybe(st.builds(Pendulum, positive, positive, positive, maybe(non_negative)))
         ),
         plan=plan,
+        mounting=draw(maybe(st.builds(Mounting, rotation=rotations(), origin=triples(finite)))),
+    )
+
+
+@st.composite
+def rotations(draw):
+    """A rotation matrix, from a unit quaternion."""
+    quaternion = np.array(draw(st.tuples(*[st.floats(-1, 1)] * 4)))
+    assume(np.linalg.norm(quaternion) > 0.1)
+    w, x, y, z = quaternion / np.linalg.norm(quaternion)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
     )
 
 
@@ -1052,16 +1078,7 @@ def true_bodies(draw):
     """A physical body: principal moments obeying the triangle inequality, turned."""
     m1, m2 = draw(st.floats(1e-3, 10.0)), draw(st.floats(1e-3, 10.0))
     m3 = abs(m1 - m2) + draw(st.floats(0.05, 0.95)) * (m1 + m2 - abs(m1 - m2))
-    quaternion = np.array(draw(st.tuples(*[st.floats(-1, 1)] * 4)))
-    assume(np.linalg.norm(quaternion) > 0.1)
-    w, x, y, z = quaternion / np.linalg.norm(quaternion)
-    turn = np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )
+    turn = draw(rotations())
     tensor = draw(st.floats(1e-4, 1e2)) * turn @ np.diag([m1, m2, m3]) @ turn.T
     inertia = [tensor[0, 0], tensor[1, 1], tensor[2, 2], tensor[0, 1], tensor[1, 2], tensor[0, 2]]
     return TrueBody(mass=draw(positive), inertia=inertia, com=draw(triples(finite)))
@@ -1095,6 +1112,7 @@ def virtuals(draw):
             draw(st.floats(0.0, 0.5, exclude_max=True)),
             draw(st.booleans()),
         ),
+        mounting=draw(maybe(st.builds(VirtualMounting, triples(finite)))),
     )
 
 
