@@ -255,7 +255,7 @@ def identify_logs(
     )
     return Identification(
         entries=fit.entries,
-        entries_cov=fit.entries_cov,
+        covariance=fit.cov,
         node_entries=node_entries,
         node_entries_cov=node_cov,
         axes=axes,
@@ -263,7 +263,6 @@ def identify_logs(
         com_std=com_std,
         gravity=fit.gravity,
         gravity_std=gravity_std,
-        gravity_cov=fit.gravity_cov,
         condition_number=cond,
         chi2_dof=fit.chi2_dof,
         n_equations=fit.n_equations,

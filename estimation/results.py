@@ -152,8 +152,11 @@ class Identification:
 
     entries: np.ndarray
     """[Jx, Jy, Jz, Jxy, Jyz, Jxz], kg m^2, least squares (headline)."""
-    entries_cov: np.ndarray
-    """(6, 6), kg^2 m^4."""
+    covariance: np.ndarray
+    """(8, 8) joint covariance of [entries, gravity], order Jx, Jy, Jz, Jxy, Jyz, Jxz,
+    m_g_xc, m_g_yc (kg^2 m^4, kg m^2 N m, N^2 m^2): the least squares fits them together
+    (rsp_inertia.estimation.tensor.TensorFit.cov); result.json's ``covariance``, which a
+    combination of mountings needs (rsp_inertia.estimation.combine)."""
     node_entries: np.ndarray
     """Same entries from the node formula's J_k through V."""
     node_entries_cov: np.ndarray
@@ -203,11 +206,20 @@ class Identification:
     against late turns."""
     calibration: dict | None = None
     """What the identification took from calibration.toml (None: device.toml's tares)."""
-    gravity_cov: np.ndarray | None = None
-    """(2, 2) covariance of ``gravity``, N^2 m^2 (the pendulum's gravity correction uses it)."""
     provenance: dict | None = None
     """When and by what the result was made, and the sha256 of every input file read
     (rsp_inertia.provenance.make_provenance; set by the ``identify`` command)."""
+
+    @property
+    def entries_cov(self) -> np.ndarray:
+        """(6, 6) covariance of ``entries``, kg^2 m^4: the upper-left block of ``covariance``."""
+        return self.covariance[:6, :6]
+
+    @property
+    def gravity_cov(self) -> np.ndarray:
+        """(2, 2) covariance of ``gravity``, N^2 m^2: the lower-right block of ``covariance``
+        (the pendulum's gravity correction uses it)."""
+        return self.covariance[6:, 6:]
 
     @property
     def entries_std(self) -> np.ndarray:
@@ -222,7 +234,7 @@ class Identification:
         return {
             "tensor": dict(zip(ENTRY_KEYS, map(float, self.entries))),
             "tensor_std": dict(zip(ENTRY_KEYS, map(float, self.entries_std))),
-            "tensor_cov": [[float(c) for c in row] for row in self.entries_cov],
+            "covariance": [[float(c) for c in row] for row in self.covariance],
             "principal_moments": [float(m) for m in moments],
             "principal_moments_std": [float(m) for m in moments_std],
             "principal_axes": [[float(c) for c in v] for v in vectors],

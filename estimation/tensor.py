@@ -80,12 +80,12 @@ class TensorFit:
 
     entries: np.ndarray
     """[Jx, Jy, Jz, Jxy, Jyz, Jxz], kg m^2 (products as tensor entries)."""
-    entries_cov: np.ndarray
-    """(6, 6) covariance, kg^2 m^4."""
     gravity: np.ndarray
     """[Gs, Gc] = m g [x_c, y_c], N m."""
-    gravity_cov: np.ndarray
-    """(2, 2) covariance, N^2 m^2."""
+    cov: np.ndarray
+    """(8, 8) joint covariance of [entries, gravity] (kg^2 m^4, kg m^2 N m, N^2 m^2): the
+    least squares solves them together, so their errors correlate (a combination of
+    mountings needs the whole matrix, rsp_inertia.estimation.combine)."""
     chi2_dof: float
     """Residual chi^2 per degree of freedom of the weighted fit (1 when the noise model fits)."""
     speed_noise_scale: list[float]
@@ -122,6 +122,16 @@ class TensorFit:
     prior_warnings: list[str] = field(default_factory=list)
     """A line per run whose friction slopes' prior its balances rejected
     (rsp_inertia.estimation.gls, priors)."""
+
+    @property
+    def entries_cov(self) -> np.ndarray:
+        """(6, 6) covariance of ``entries``, kg^2 m^4: the upper-left block of ``cov``."""
+        return self.cov[:6, :6]
+
+    @property
+    def gravity_cov(self) -> np.ndarray:
+        """(2, 2) covariance of ``gravity``, N^2 m^2: the lower-right block of ``cov``."""
+        return self.cov[6:, 6:]
 
 
 HARMONIC_NAMES = ("M0", "Mc2", "Ms2", "Ms1", "Mc1")
@@ -622,11 +632,13 @@ def fit_tensor(
         for j in range(3):
             asym[s - 1, j], asym_std[s - 1, j] = fit.value(f"e{j + 1}[{s}]")
     sub = np.ix_(shared, shared)
+    # The sum of the sources' parts is symmetric up to rounding (4e-10 of the smallest
+    # products); result.json and a combination of mountings take it exactly symmetric.
+    cov = (fit.cov[sub] + fit.cov[sub].T) / 2
     return TensorFit(
         entries=fit.x[shared[:6]],
-        entries_cov=fit.cov[sub][:6, :6],
         gravity=fit.x[shared[6:]],
-        gravity_cov=fit.cov[sub][6:, 6:],
+        cov=cov,
         chi2_dof=fit.chi2_dof,
         speed_noise_scale=fit.scales,
         n_equations=fit.n_equations,

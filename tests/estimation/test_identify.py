@@ -183,6 +183,23 @@ def test_result_json_holds_the_interface(ideal):
     assert doc["condition_number"] == pytest.approx(math.sqrt(5 / 2), abs=1e-9)
 
 
+def test_result_json_holds_the_joint_covariance_of_entries_and_gravity(ideal):
+    """result.json's ``covariance``: the least squares' 8 x 8 of the entries and the gravity
+    terms (what a combination of mountings needs), its diagonal the reported stds squared, its
+    off-diagonal blocks their correlation (the fit solves them together)."""
+    root, result, _ = ideal
+    doc = json.loads((root / "result.json").read_text())
+    assert "tensor_cov" not in doc
+    cov = np.array(doc["covariance"])
+    assert cov.shape == (8, 8)
+    np.testing.assert_array_equal(cov, cov.T)
+    std = [*(doc["tensor_std"][k] for k in ENTRY_NAMES), *doc["gravity_torque"]["std"]]
+    np.testing.assert_allclose(np.diag(cov), np.square(std), rtol=1e-15, atol=0)
+    np.testing.assert_array_equal(cov[:6, :6], result.entries_cov)
+    np.testing.assert_array_equal(cov[6:, 6:], result.gravity_cov)
+    assert np.all(np.linalg.eigvalsh(cov / np.outer(std, std)) > 0)
+
+
 def test_principal_moments_and_axes_diagonalise_the_tensor(ideal):
     root, _, _ = ideal
     doc = json.loads((root / "result.json").read_text())
