@@ -10,10 +10,13 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import json
 import math
 import tomllib
 from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
+
+import numpy as np
 
 from rsp_inertia.estimation.calibration import (
     Calibration,
@@ -22,6 +25,7 @@ from rsp_inertia.estimation.calibration import (
     known_terms_from_toml,
     stiffness_from_toml,
 )
+from rsp_inertia.estimation.combine import MountedResult
 from rsp_inertia.estimation.identify import identify_logs
 from rsp_inertia.estimation.results import Identification
 from rsp_inertia.estimation.runs import ExperimentLogs, Sources, runs
@@ -43,6 +47,7 @@ __all__ = [
     "known_terms",
     "load_calibration",
     "read_experiment",
+    "read_mounting",
     "read_run",
     "unterminated_warnings",
 ]
@@ -192,6 +197,41 @@ def identify_inputs(exp: Experiment) -> list[Path]:
     files += [Path(p) for pair in logs.sources.runs.values() for p in pair]
     files += [Path(p) for p in logs.sources.pendulum.values()]
     return [path for path in files if path.is_file()]
+
+
+def read_mounting(exp: Experiment) -> MountedResult:
+    """One mounting for ``combine``: the experiment's result.json (its entries, gravity terms
+    and their joint covariance) with device.toml's ``[mounting]`` (identity and 0 without
+    it), ``[body] mass`` and gravity (rsp_inertia.estimation.combine.MountedResult.from_result).
+
+    Raises
+    ------
+    InputError
+        No result.json (identify first), one that is not JSON or lacks the keys (an older
+        rsp-inertia's: identify again), no ``[body] mass``.
+    """
+    path = exp.result_path
+    if not path.is_file():
+        raise InputError(f"{path}: not found: run rsp-inertia identify {exp.root} first")
+    try:
+        document = json.loads(path.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise InputError(f"{path}: not a result.json written by identify ({error})") from None
+    device = exp.device
+    if device.body is None:
+        raise InputError(
+            f"{exp.root / 'device.toml'}: body.mass: missing: combining mountings needs the "
+            "body's mass (the centre of mass comes from the gravity terms m g x_c, m g y_c)"
+        )
+    mounting = device.mounting
+    return MountedResult.from_result(
+        str(exp.root),
+        document,
+        np.eye(3) if mounting is None else mounting.rotation,
+        np.zeros(3) if mounting is None else mounting.origin,
+        device.body.mass,
+        device.gravity,
+    )
 
 
 def unterminated_warnings(logs: ExperimentLogs) -> list[str]:

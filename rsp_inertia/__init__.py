@@ -10,7 +10,8 @@ folder and returning a result object::
     result.tensor, result.tensor_std            # (3, 3) arrays, kg m^2
 
 Functions: :func:`create_experiment`, :func:`simulate`, :func:`program`, :func:`identify`,
-:func:`calibrate`, :func:`plan`, :func:`check`, :func:`write_report`, :func:`demo`. Bad input
+:func:`calibrate`, :func:`plan`, :func:`check`, :func:`write_report`, :func:`combine`,
+:func:`demo`. Bad input
 raises :class:`InputError`, with the line the command line prints.
 
 The names are loaded on first use (module ``__getattr__``): ``import rsp_inertia`` imports
@@ -27,6 +28,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time, __getattr__ below
     from rsp_inertia.api import (
         CalibrateResult,
         CheckResult,
+        CombineResult,
         IdentifyResult,
         InputError,
         PlanResult,
@@ -34,6 +36,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time, __getattr__ below
         SimulateResult,
         calibrate,
         check,
+        combine,
         create_experiment,
         demo,
         identify,
@@ -47,6 +50,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time, __getattr__ below
 __all__ = [
     "CalibrateResult",
     "CheckResult",
+    "CombineResult",
     "IdentifyResult",
     "InputError",
     "PlanResult",
@@ -55,6 +59,7 @@ __all__ = [
     "__version__",
     "calibrate",
     "check",
+    "combine",
     "create_experiment",
     "demo",
     "identify",

@@ -34,7 +34,13 @@ import rsp_inertia
 from rsp_inertia.identify_result import IdentifyResult
 from rsp_inertia.plan_result import PlanResult
 from rsp_inertia.plant.errors import InputError  # noqa: F401 (public: raised by every function)
-from rsp_inertia.results import CalibrateResult, CheckResult, ProgramResult, SimulateResult
+from rsp_inertia.results import (
+    CalibrateResult,
+    CheckResult,
+    CombineResult,
+    ProgramResult,
+    SimulateResult,
+)
 
 __all__ = [name for name in rsp_inertia.__all__ if name != "__version__"]
 """The package's public names (one list, in rsp_inertia/__init__.py), without its version."""
@@ -433,3 +439,46 @@ def create_experiment(path: str | Path) -> Path:
     from rsp_inertia.pipeline import create_default_experiment
 
     return create_default_experiment(path)
+
+
+# --- combine --------------------------------------------------------------------------------
+
+
+def combine(paths: list[str | Path], out: str | Path) -> CombineResult:
+    """Combine several identified mountings of one body (``rsp-inertia combine EXP ... --out
+    OUT``): the tensor and the centre of mass (x, y and z) in body axes -> ``OUT/body.json``.
+
+    Each folder is an experiment that :func:`identify` has run, its device.toml's
+    ``[mounting]`` giving how the body sat on the rig (docs/files.md); one generalised least
+    squares over their results gives the body's tensor and centre of mass with their
+    covariance, and a chi^2 test of whether the mountings agree (a body not seated as its
+    mounting states is the usual cause when they do not).
+
+    Parameters
+    ----------
+    paths : list of str or pathlib.Path
+        The mountings' experiment folders.
+    out : str or pathlib.Path
+        The folder to write body.json into (created if needed).
+
+    Returns
+    -------
+    CombineResult
+        ``str`` is the table the command prints; ``combination`` the estimate.
+
+    Raises
+    ------
+    InputError
+        No folder or one given twice, folders of different devices or masses, a folder
+        without result.json or ``[body] mass``, mountings that cannot give z_c (the message
+        says which rotation would), an output that cannot be written.
+
+    Examples
+    --------
+    >>> body = rsp_inertia.combine(["bench-A", "bench-A-x90"], "body")    # doctest: +SKIP
+    >>> print(body)                                                        # doctest: +SKIP
+    """
+    from rsp_inertia.pipeline import combine as run
+
+    combination, path = run(paths, out)
+    return CombineResult(combination, path)

@@ -76,6 +76,10 @@ def _cmd_report(args: argparse.Namespace) -> None:
     print(f"report -> {rsp_inertia.write_report(args.exp)}")
 
 
+def _cmd_combine(args: argparse.Namespace) -> None:
+    print(rsp_inertia.combine(args.exp, args.out))
+
+
 def _cmd_design(args: argparse.Namespace) -> None:
     from rsp_inertia.design import run_design
 
@@ -193,10 +197,24 @@ def _parser() -> argparse.ArgumentParser:
             )
         p.set_defaults(run=run)
 
+    p = sub.add_parser(
+        "combine",
+        help="several identified mountings of one body (device.toml [mounting]) -> "
+        "OUT/body.json: the tensor and the whole centre of mass in body axes, and whether "
+        "the mountings agree",
+    )
+    p.add_argument("exp", type=Path, nargs="+", metavar="EXP", help="a mounting's folder")
+    p.add_argument(
+        "--out", type=Path, required=True, metavar="OUT",
+        help="folder to write body.json into (created if needed)",
+    )
+    p.set_defaults(run=_cmd_combine)
+
     p = sub.add_parser("design", help="conditioning of axis designs (icosahedron, cone + z, EXP)")
     p.add_argument(
-        "exp", nargs="?", type=Path, metavar="EXP",
-        help="also report the design of this experiment's device.toml",
+        "exp", nargs="*", type=Path, metavar="EXP",
+        help="also report the design of these experiments' device.toml; several (mountings "
+        "of one body) or one with [mounting]: their conditioning for the centre of mass",
     )
     p.add_argument(
         "--plot", type=Path, default=None, metavar="PNG",
@@ -238,11 +256,10 @@ def main(argv: list[str] | None = None) -> int:
 def _out_of_memory(args: argparse.Namespace) -> str:
     """The line for a command that ran out of memory: what it was processing (its experiment
     folders and their logs' rows) and what to do."""
-    folders = [
-        Path(folder)
-        for folder in (getattr(args, name, None) for name in ("exp", "empty", "reference"))
-        if folder is not None
-    ]
+    folders = []
+    for name in ("exp", "empty", "reference"):
+        value = getattr(args, name, None)
+        folders += [Path(v) for v in (value if isinstance(value, list) else [value]) if v]
     rows = sum(_rows(path) for folder in folders for path in folder.glob("stage*/*.csv"))
     where = " and ".join(str(folder) for folder in folders) or "its inputs"
     return (

@@ -6,6 +6,7 @@ The geometry itself (directions, V, cond(V), the optimum cone) lives in
 
 from __future__ import annotations
 
+import math
 import os
 from pathlib import Path
 
@@ -25,7 +26,14 @@ from rsp_inertia.plant.geometry import (
 )
 from rsp_inertia.plots import save_figure
 
-__all__ = ["DEFAULT_OPENINGS_DEG", "design_report", "plot_cone_conditioning", "run_design"]
+__all__ = [
+    "DEFAULT_OPENINGS_DEG",
+    "design_report",
+    "mounting_conditioning",
+    "mounting_report",
+    "plot_cone_conditioning",
+    "run_design",
+]
 
 DEFAULT_OPENINGS_DEG = np.linspace(10.0, 175.0, 661)
 """Opening angles 2 beta (deg) of the default Fig. 1 curve: 10 to 175 deg in 0.25 deg steps."""
@@ -149,30 +157,100 @@ def plot_cone_conditioning(
     save_figure(fig, path)
 
 
-def run_design(exp: Path | None = None, plot: Path | None = None) -> str:
-    """``rsp-inertia design``: both paper designs (and EXP's), their report, and Fig. 1.
+def mounting_conditioning(rotations: list[np.ndarray]) -> tuple[float, np.ndarray]:
+    """How well a set of mountings determines the centre of mass (docs/method.md §5,
+    "Combining mountings").
+
+    Mounting k measures m g (R_k c)_x and m g (R_k c)_y, the first two rows of R_k applied
+    to the body-axes centre of mass c (the shaft's component never changes the potential
+    energy). Stacked over the mountings they form G (2K x 3); with equal stds of the gravity
+    terms, the std of c along body axis i is proportional to sqrt((G^T G)^-1)_ii.
 
     Parameters
     ----------
-    exp : path, optional
-        An experiment folder whose device.toml design is reported too.
+    rotations : list of numpy.ndarray, shape (3, 3) each
+        Each mounting's R, body axes -> rig axes (device.toml ``[mounting] rotation``).
+
+    Returns
+    -------
+    condition : float
+        cond(G), 2-norm (1 is ideal; infinite when a body direction stays on the shaft in
+        every mounting).
+    gain : numpy.ndarray, shape (3,)
+        sqrt((G^T G)^-1)_ii for body x, y, z: the std of that coordinate over one mounting's
+        std of x_c (infinite for a coordinate no mounting sees).
+    """
+    G = np.vstack([np.asarray(R, dtype=float)[:2, :] for R in rotations])
+    values, vectors = np.linalg.eigh(G.T @ G)  # ascending: the squared singular values
+    if values[0] <= 1e-12 * values[-1]:
+        blind = np.abs(vectors[:, 0]) > 1e-6  # the body directions no mounting sees
+        gain = np.sqrt(np.diag(np.linalg.pinv(G.T @ G)))
+        return math.inf, np.where(blind, math.inf, gain)
+    return float(np.sqrt(values[-1] / values[0])), np.sqrt(np.diag(np.linalg.inv(G.T @ G)))
+
+
+def mounting_report(names: list[str], rotations: list[np.ndarray]) -> str:
+    """The mountings' part of the design report: each one's rotation, which body axes the
+    gravity terms see, and the set's conditioning for the centre of mass."""
+    condition, gain = mounting_conditioning(rotations)
+    lines = [f"Mountings for the centre of mass ({len(names)}):"]
+    for name, R in zip(names, rotations):
+        R = np.asarray(R, dtype=float)
+        shaft = R[2]  # the body direction that lies along the shaft (rig z)
+        lines.append(
+            f"  {name}: body direction on the shaft (not seen by gravity) "
+            f"[{', '.join(f'{c:+.3f}' for c in shaft)}]"
+        )
+    lines.append(
+        "  std of x_c, y_c, z_c over one mounting's std of x_c: "
+        + ", ".join("not measured" if not math.isfinite(g) else f"{g:.3f}" for g in gain)
+        + (f"; cond(G) = {condition:.4f}" if math.isfinite(condition) else "")
+    )
+    if not math.isfinite(condition):
+        lines.append(
+            "  the centre of mass is not determined: add a mounting turned 90 deg about the "
+            "rig's x axis (rotation = [[1, 0, 0], [0, 0, -1], [0, 1, 0]] from a body as drawn)"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def run_design(exps: list[Path] | Path | None = None, plot: Path | None = None) -> str:
+    """``rsp-inertia design``: both paper designs (and each EXP's), their report, Fig. 1, and
+    for several EXP (or one with ``[mounting]``) the mountings' conditioning for the centre
+    of mass (:func:`mounting_report`).
+
+    Parameters
+    ----------
+    exps : list of paths, or a path, optional
+        Experiment folders whose device.toml designs are reported too (mountings of one body).
     plot : path, optional
-        Where to write Fig. 1 (default: EXP/design.png, or ./design.png).
+        Where to write Fig. 1 (default: the first EXP/design.png, or ./design.png).
 
     Returns
     -------
     str
         The report, with the optimum opening angle and the plot's path.
     """
+    if exps is None:
+        exps = []
+    elif isinstance(exps, (str, Path)):
+        exps = [exps]
     best_deg, best_cond = best_cone_opening()
     designs = [icosahedron_design(), cone_plus_z_design(best_deg)]
-    if exp is not None:
-        designs.append(device_design(load_device(Path(exp) / "device.toml")))
+    devices = [load_device(Path(exp) / "device.toml") for exp in exps]
+    designs += [device_design(device) for device in devices]
+    mountings = ""
+    if len(devices) > 1 or any(device.mounting is not None for device in devices):
+        mountings = "\n" + mounting_report(
+            [str(exp) for exp in exps],
+            [np.eye(3) if d.mounting is None else d.mounting.rotation for d in devices],
+        )
     if plot is None:
-        plot = (Path(exp) if exp is not None else Path(".")) / "design.png"
+        plot = (Path(exps[0]) if exps else Path(".")) / "design.png"
     plot_cone_conditioning(plot)
     return (
         design_report(designs)
+        + mountings
         + f"\ncone + z: cond(V) is least at 2beta = {best_deg:.3f} deg, cond(V) = {best_cond:.4f}"
         + " (paper Fig. 1: 140 deg, 1.4899)"
         + f"\nplot of 1/cond(V) against 2beta -> {plot}"

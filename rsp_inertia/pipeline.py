@@ -37,16 +37,20 @@ from rsp_inertia.plant.logs import (
 # identification's modules (scipy.stats, the GLS) nor ``identify`` for the OCP's.
 if TYPE_CHECKING:
     from rsp_inertia.estimation.calibration import Calibration
+    from rsp_inertia.estimation.combine import Combination
     from rsp_inertia.estimation.results import Identification
     from rsp_inertia.ocp.program import ProgramResult
     from rsp_inertia.plant.virtual import SimulatedPass
 
 __all__ = [
+    "BODY_FILE",
     "PassSummary",
     "ProgramSummary",
     "calibrate",
+    "combine",
     "create_default_experiment",
     "create_rig_experiment",
+    "create_second_mounting",
     "identify",
     "program",
     "program_summaries",
@@ -134,6 +138,39 @@ def create_rig_experiment(root: str | Path) -> tuple[Path, Path, Path]:
             if not target.exists() and files.joinpath(name).is_file():
                 write_atomic(target, files.joinpath(name).read_text())
     return root, folders[1], folders[2]
+
+
+SECOND_MOUNTING = "mounting-x90"
+"""The demo's second mounting of its body, a subfolder of its experiment."""
+
+TURNED_X90 = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+"""A quarter turn about the rig's x axis: takes the body direction on the shaft across it."""
+
+
+def create_second_mounting(root: str | Path) -> Path:
+    """``root/mounting-x90``: the experiment ``root``'s body mounted again, turned 90 deg
+    about the rig's x axis (device.toml ``[mounting] rotation`` = TURNED_X90 times root's),
+    on the same rig (root's device.toml and virtual.toml otherwise). Files already present
+    are kept as they are; returns the folder."""
+    import tomlkit
+
+    root = Path(root)
+    folder = root / SECOND_MOUNTING
+    folder.mkdir(exist_ok=True)
+    device = folder / "device.toml"
+    if not device.exists():
+        first = open_experiment(root, protocol=False).device.mounting
+        rotation = TURNED_X90 @ (np.eye(3) if first is None else first.rotation)
+        table = tomlkit.table()
+        table["rotation"] = [[float(c) + 0.0 for c in row] for row in rotation]
+        table["origin"] = [0.0, 0.0, 0.0] if first is None else [float(c) for c in first.origin]
+        doc = tomlkit.parse((root / "device.toml").read_text())
+        doc["mounting"] = table
+        write_atomic(device, tomlkit.dumps(doc))
+    virtual = folder / "virtual.toml"
+    if not virtual.exists():
+        write_atomic(virtual, (root / "virtual.toml").read_text())
+    return folder
 
 
 def _summary(
@@ -480,3 +517,80 @@ def identify(
 def result_json(result: Identification) -> str:
     """The text of EXP/result.json: ``result.to_json()`` indented, with a final newline."""
     return json.dumps(result.to_json(), indent=2) + "\n"
+
+
+BODY_FILE = "body.json"
+"""What ``combine`` writes into its output folder."""
+
+
+def combine(roots: list[str | Path], out: str | Path) -> tuple[Combination, Path]:
+    """``rsp-inertia combine``: several identified mountings of one body -> OUT/body.json
+    (atomically), the tensor and the whole centre of mass in body axes
+    (rsp_inertia.estimation.combine.combine_mountings); returns it with the path written.
+
+    Each folder is an experiment identified as usual, its device.toml's ``[mounting]`` saying
+    how the body sat on the rig. A mounting whose inputs changed since identify (its
+    result.json's provenance against the folder) gives a warning.
+
+    Raises
+    ------
+    InputError
+        No folder, a folder given twice, folders of different devices (``[device] name``)
+        or masses, a folder without result.json or ``[body] mass``, mountings that cannot
+        give z_c (rsp_inertia.estimation.combine), an output that cannot be written (found
+        before anything is read).
+    """
+    from rsp_inertia.estimation.combine import combine_mountings
+    from rsp_inertia.estimation.reading import identify_inputs, read_mounting
+    from rsp_inertia.provenance import input_changes
+
+    if not roots:
+        raise InputError("combine: no experiment folder given: name every mounting's folder")
+    exps = [open_experiment(root, protocol=False) for root in roots]
+    seen: dict[Path, Path] = {}
+    for exp in exps:
+        same = seen.setdefault(exp.root.resolve(), exp.root)
+        if same is not exp.root:
+            raise InputError(f"{exp.root}: given twice (as {same}): each mounting once")
+    first = exps[0]
+    for exp in exps[1:]:
+        if exp.device.name != first.device.name:
+            raise InputError(
+                f"{exp.root / 'device.toml'}: device.name = {exp.device.name!r} differs from "
+                f"{first.root / 'device.toml'}'s {first.device.name!r}: the mountings must be "
+                "measured on one device"
+            )
+    folder = Path(out)
+    target = folder / BODY_FILE
+    if folder.exists() and not folder.is_dir():
+        raise InputError(f"{folder}: --out: is a file, not a folder; nothing was computed")
+    check_writable(target if folder.is_dir() else folder)
+    mountings = [read_mounting(exp) for exp in exps]
+    for exp, mounting in zip(exps[1:], mountings[1:]):
+        if mounting.mass != mountings[0].mass:
+            raise InputError(
+                f"{exp.root / 'device.toml'}: body.mass = {mounting.mass!r} differs from "
+                f"{first.root / 'device.toml'}'s {mountings[0].mass!r}: the mountings must be "
+                "of one body"
+            )
+    warnings = []
+    for exp in exps:
+        recorded = (json.loads(exp.result_path.read_text()).get("provenance") or {}).get("inputs")
+        if recorded is None:
+            warnings.append(f"{exp.result_path}: records no inputs: whether it still "
+                            "describes the folder's logs cannot be checked")
+            continue
+        changes = input_changes(exp.root, recorded, identify_inputs(exp))
+        if changes:
+            warnings.append(f"{exp.root}: identify again: {'; '.join(changes)}")
+    combination = combine_mountings(mountings)
+    if warnings:
+        combination = replace(combination, warnings=warnings + list(combination.warnings))
+    folder.mkdir(parents=True, exist_ok=True)
+    write_atomic(target, body_json(combination))
+    return combination, target
+
+
+def body_json(combination: Combination) -> str:
+    """The text of OUT/body.json: ``combination.to_json()`` indented, with a final newline."""
+    return json.dumps(combination.to_json(), indent=2) + "\n"

@@ -21,9 +21,17 @@ if TYPE_CHECKING:
     from rsp_inertia.checking import CheckReport
     from rsp_inertia.estimation.calibration import Calibration
     from rsp_inertia.estimation.calibration_file import CalibrationFile
+    from rsp_inertia.estimation.combine import Combination
     from rsp_inertia.pipeline import PassSummary, ProgramSummary
 
-__all__ = ["CalibrateResult", "CheckResult", "ProgramResult", "SimulateResult", "json_text"]
+__all__ = [
+    "CalibrateResult",
+    "CheckResult",
+    "CombineResult",
+    "ProgramResult",
+    "SimulateResult",
+    "json_text",
+]
 
 
 class _Records:
@@ -371,3 +379,49 @@ class CheckResult:
         """
         findings = [{"level": level, "message": text} for level, text in self.findings]
         return json_text({"experiment": self.experiment, "ready": self.ready, "findings": findings})
+
+
+# --- combine --------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class CombineResult:
+    """The body's tensor and whole centre of mass in body axes, from several mountings.
+
+    Returned by :func:`rsp_inertia.combine`.
+
+    Attributes
+    ----------
+    combination : rsp_inertia.estimation.combine.Combination
+        The generalised least squares over the mountings: ``entries`` (6,) kg m^2 about the
+        body frame's origin, ``com`` (3,) m, their joint ``cov`` (9, 9), the principal
+        moments and axes, each mounting's residuals in stds, the consistency test
+        (``chi2``, ``dof``, ``p``) and the ``warnings``.
+    path : pathlib.Path
+        The body.json written (``OUT/body.json``).
+
+    Examples
+    --------
+    >>> body = rsp_inertia.combine(["bench-A", "bench-A-x90"], "body")    # doctest: +SKIP
+    >>> body.combination.com, body.combination.com_std                     # doctest: +SKIP
+    """
+
+    combination: Combination
+    path: Path
+
+    def __str__(self) -> str:
+        return f"{self.combination}\nbody -> {self.path}"
+
+    def to_json(self) -> str:
+        """The text of body.json.
+
+        Returns
+        -------
+        str
+            The document of docs/files.md (body.json): ``tensor``, ``tensor_std``, ``com``,
+            ``com_std``, ``covariance``, the principal moments and axes, each mounting's
+            residuals, ``consistency`` and ``warnings``.
+        """
+        from rsp_inertia.pipeline import body_json
+
+        return body_json(self.combination)

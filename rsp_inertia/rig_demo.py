@@ -16,9 +16,18 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rsp_inertia.identify_result import format_identification
-from rsp_inertia.pipeline import calibrate, create_rig_experiment, identify, program, simulate
+from rsp_inertia.pipeline import (
+    calibrate,
+    combine,
+    create_rig_experiment,
+    create_second_mounting,
+    identify,
+    program,
+    simulate,
+)
 from rsp_inertia.plant.config import placed_body
 from rsp_inertia.plant.experiment import Experiment, open_experiment
+from rsp_inertia.plant.logs import write_atomic
 
 if TYPE_CHECKING:
     from rsp_inertia.estimation.results import Identification
@@ -120,4 +129,21 @@ def demo(
         say(f"true centre of mass: x = {truth.com[0] * 1e3:.4f} mm, "
             f"y = {truth.com[1] * 1e3:.4f} mm")
     say(f"result -> {root / 'result.json'}")
+    second = create_second_mounting(root)
+    say(f"second mounting: {second}, the body turned 90 deg about x, on the calibrated rig")
+    write_atomic(second / CALIBRATION_FILE, (root / CALIBRATION_FILE).read_text())
+    simulate(second, part="braking", progress=lambda s: say(str(s)))
+    program(second, progress=say)
+    simulate(second, part="reverse", progress=lambda s: say(str(s)))
+    identify(second)
+    combination, path = combine([root, second], root / "body")
+    say(str(combination))
+    body = exp.load_virtual().body  # body axes, about the body frame's origin
+    say(
+        "against the true body: worst tensor error / largest moment "
+        f"{np.abs(relative_errors(combination.entries, body.inertia)).max():.1e}; centre of "
+        "mass error x, y, z "
+        + ", ".join(f"{e * 1e3:+.4f}" for e in combination.com - body.com) + " mm"
+    )
+    say(f"body -> {path}")
     return result

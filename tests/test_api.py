@@ -107,12 +107,12 @@ def _documented_names(body: str) -> set[str]:
 
 
 API_FUNCTIONS = [
-    "calibrate", "check", "create_experiment", "demo", "identify", "plan", "program",
-    "simulate", "write_report",
+    "calibrate", "check", "combine", "create_experiment", "demo", "identify", "plan",
+    "program", "simulate", "write_report",
 ]
 API_CLASSES = [
-    "CalibrateResult", "CheckResult", "IdentifyResult", "PlanResult", "ProgramResult",
-    "SimulateResult",
+    "CalibrateResult", "CheckResult", "CombineResult", "IdentifyResult", "PlanResult",
+    "ProgramResult", "SimulateResult",
 ]
 
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import pytest
+
 from rsp_inertia.cli import main
 from rsp_inertia.design import design_report, plot_cone_conditioning
 from rsp_inertia.plant.geometry import best_cone_opening, cone_plus_z_design, icosahedron_design
@@ -75,3 +77,38 @@ def test_plot_accepts_its_own_openings(tmp_path: Path) -> None:
     out = tmp_path / "coarse.png"
     plot_cone_conditioning(str(out), openings_deg=[60.0, 100.0, 140.0, 170.0])
     assert out.read_bytes().startswith(PNG_SIGNATURE)
+
+
+def test_mounting_conditioning_closed_form():
+    # As drawn, the gravity terms see body x and y; turned 90 deg about x, body x and z.
+    # G^T G = diag(2, 1, 1): x_c's std 1/sqrt 2 of one mounting's, y_c's and z_c's 1.
+    import math
+
+    import numpy as np
+
+    from rsp_inertia.design import mounting_conditioning
+
+    turned = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+    condition, gain = mounting_conditioning([np.eye(3), turned])
+    assert condition == pytest.approx(math.sqrt(2))
+    assert gain == pytest.approx([1 / math.sqrt(2), 1.0, 1.0])
+    condition, gain = mounting_conditioning([np.eye(3)])
+    assert math.isinf(condition) and math.isinf(gain[2]) and gain[:2] == pytest.approx(1.0)
+
+
+def test_design_of_two_mountings_reports_the_centre_of_mass(tmp_path, capsys):
+    from rsp_inertia.cli import main
+    from rsp_inertia.pipeline import create_default_experiment
+
+    folders = []
+    for name, rows in (("a", None), ("b", "[[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]]")):
+        root = create_default_experiment(tmp_path / name)
+        if rows:
+            with open(root / "device.toml", "a") as file:
+                file.write(f"\n[mounting]\nrotation = {rows}\n")
+        folders.append(str(root))
+    assert main(["design", folders[0], "--plot", str(tmp_path / "d.png")]) == 0
+    assert "Mountings" not in capsys.readouterr().out  # one mounting as drawn: nothing to say
+    assert main(["design", *folders, "--plot", str(tmp_path / "d.png")]) == 0
+    out = capsys.readouterr().out
+    assert "std of x_c, y_c, z_c over one mounting's std of x_c: 0.707, 1.000, 1.000" in out
