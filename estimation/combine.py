@@ -21,22 +21,24 @@ other mountings: a set in which every mounting keeps the same body direction on 
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.linalg import solve_triangular
-from scipy.stats import chi2 as chi2_distribution
+from scipy.special import chdtrc
 
-from rsp_inertia.estimation.tensor import (
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.experiment import Experiment
+from rsp_inertia.plant.geometry import (
     ENTRY_KEYS,
     physical_warnings,
+    place_body,
     principal,
     principal_uncertainty,
 )
-from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.geometry import place_body
 
 __all__ = [
     "COM_KEYS",
@@ -50,6 +52,7 @@ __all__ = [
     "MountedResult",
     "combine_mountings",
     "mounting_model",
+    "read_mounting",
 ]
 
 MEASUREMENT_KEYS = (*ENTRY_KEYS, "m_g_xc", "m_g_yc")
@@ -205,7 +208,7 @@ class Combination:
 
     @property
     def principal_moments(self) -> np.ndarray:
-        """(3,) kg m^2, ascending (rsp_inertia.estimation.tensor.principal)."""
+        """(3,) kg m^2, ascending (rsp_inertia.plant.geometry.principal)."""
         return principal(self.entries)[0]
 
     @property
@@ -215,7 +218,7 @@ class Combination:
 
     @property
     def principal_moments_std(self) -> np.ndarray:
-        """(3,) kg m^2, to first order (rsp_inertia.estimation.tensor.principal_uncertainty)."""
+        """(3,) kg m^2, to first order (rsp_inertia.plant.geometry.principal_uncertainty)."""
         return principal_uncertainty(self.entries, self.cov[:6, :6])[0]
 
     @property
@@ -433,7 +436,7 @@ def combine_mountings(mountings: Sequence[MountedResult]) -> Combination:
         tested = var > RESIDUAL_FLOOR * np.diag(C)
         residuals[k, tested] = r[tested] / np.sqrt(var[tested])
     dof = 8 * len(mountings) - 9
-    p = float(chi2_distribution.sf(chi2, dof))
+    p = float(chdtrc(dof, chi2))
     names = tuple(m.name for m in mountings)
     warnings = []
     if p < CONSISTENCY_P:
@@ -495,7 +498,7 @@ def _odd_ones(
         except InputError:
             continue
         dof = 8 * len(rest) - 9
-        p = float(chi2_distribution.sf(chi2, dof))
+        p = float(chdtrc(dof, chi2))
         if p >= CONSISTENCY_P:
             found.append((m.name, chi2, dof, p))
     return found
@@ -554,3 +557,38 @@ def _disagreement(
 def _p_text(p: float) -> str:
     """``p = ...``; a p that underflows double precision as ``p < 1e-300``."""
     return f"p = {p:.2g}" if p > 1e-300 else "p < 1e-300"
+
+
+def read_mounting(exp: Experiment) -> MountedResult:
+    """One mounting for ``combine``: the experiment's result.json (its entries, gravity terms
+    and their joint covariance) with device.toml's ``[mounting]`` (identity and 0 without
+    it), ``[body] mass`` and gravity (rsp_inertia.estimation.combine.MountedResult.from_result).
+
+    Raises
+    ------
+    InputError
+        No result.json (identify first), one that is not JSON or lacks the keys (an older
+        rsp-inertia's: identify again), no ``[body] mass``.
+    """
+    path = exp.result_path
+    if not path.is_file():
+        raise InputError(f"{path}: not found: run rsp-inertia identify {exp.root} first")
+    try:
+        document = json.loads(path.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise InputError(f"{path}: not a result.json written by identify ({error})") from None
+    device = exp.device
+    if device.body is None:
+        raise InputError(
+            f"{exp.root / 'device.toml'}: body.mass: missing: combining mountings needs the "
+            "body's mass (the centre of mass comes from the gravity terms m g x_c, m g y_c)"
+        )
+    mounting = device.mounting
+    return MountedResult.from_result(
+        str(exp.root),
+        document,
+        np.eye(3) if mounting is None else mounting.rotation,
+        np.zeros(3) if mounting is None else mounting.origin,
+        device.body.mass,
+        device.gravity,
+    )

@@ -36,12 +36,17 @@ from rsp_inertia.estimation.tensor import (
     axis_values,
     fit_tensor,
     format_run,
-    physical_warnings,
     tensor_from_axes,
 )
 from rsp_inertia.plant.config import Device, Pendulum
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.geometry import AxisDesign, axis_direction, axis_nodes_deg, device_design
+from rsp_inertia.plant.geometry import (
+    AxisDesign,
+    axis_direction,
+    axis_nodes_deg,
+    device_design,
+    physical_warnings,
+)
 from rsp_inertia.plant.logs import Log
 
 __all__ = [

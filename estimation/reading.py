@@ -10,13 +10,10 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import json
 import math
 import tomllib
 from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
-
-import numpy as np
 
 from rsp_inertia.estimation.calibration import (
     Calibration,
@@ -25,7 +22,6 @@ from rsp_inertia.estimation.calibration import (
     known_terms_from_toml,
     stiffness_from_toml,
 )
-from rsp_inertia.estimation.combine import MountedResult
 from rsp_inertia.estimation.identify import identify_logs
 from rsp_inertia.estimation.results import Identification
 from rsp_inertia.estimation.runs import ExperimentLogs, Sources, runs
@@ -43,11 +39,9 @@ __all__ = [
     "calibrated_stiffness",
     "check_same_stages",
     "identify_experiment",
-    "identify_inputs",
     "known_terms",
     "load_calibration",
     "read_experiment",
-    "read_mounting",
     "read_run",
     "unterminated_warnings",
 ]
@@ -184,53 +178,6 @@ def identify_experiment(
     stiffness = calibrated_stiffness(exp) if logs.pendulum else None
     return identify_logs(
         logs, known, pendulum_stiffness=stiffness, warnings=warnings, progress=progress
-    )
-
-
-def identify_inputs(exp: Experiment) -> list[Path]:
-    """The files ``identify`` reads from ``exp`` that exist, in a fixed order: device.toml,
-    calibration.toml, every run's braking and reverse logs (:func:`read_experiment`'s runs)
-    and the pendulum logs. result.json records their sha256 (rsp_inertia.provenance), and
-    ``report`` checks them against the folder (a missing log is identify's to refuse)."""
-    logs = read_experiment(exp)
-    files = [Path(logs.sources.device), exp.root / CALIBRATION_FILE]
-    files += [Path(p) for pair in logs.sources.runs.values() for p in pair]
-    files += [Path(p) for p in logs.sources.pendulum.values()]
-    return [path for path in files if path.is_file()]
-
-
-def read_mounting(exp: Experiment) -> MountedResult:
-    """One mounting for ``combine``: the experiment's result.json (its entries, gravity terms
-    and their joint covariance) with device.toml's ``[mounting]`` (identity and 0 without
-    it), ``[body] mass`` and gravity (rsp_inertia.estimation.combine.MountedResult.from_result).
-
-    Raises
-    ------
-    InputError
-        No result.json (identify first), one that is not JSON or lacks the keys (an older
-        rsp-inertia's: identify again), no ``[body] mass``.
-    """
-    path = exp.result_path
-    if not path.is_file():
-        raise InputError(f"{path}: not found: run rsp-inertia identify {exp.root} first")
-    try:
-        document = json.loads(path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as error:
-        raise InputError(f"{path}: not a result.json written by identify ({error})") from None
-    device = exp.device
-    if device.body is None:
-        raise InputError(
-            f"{exp.root / 'device.toml'}: body.mass: missing: combining mountings needs the "
-            "body's mass (the centre of mass comes from the gravity terms m g x_c, m g y_c)"
-        )
-    mounting = device.mounting
-    return MountedResult.from_result(
-        str(exp.root),
-        document,
-        np.eye(3) if mounting is None else mounting.rotation,
-        np.zeros(3) if mounting is None else mounting.origin,
-        device.body.mass,
-        device.gravity,
     )
 
 

@@ -13,13 +13,13 @@ import numpy as np
 from rsp_inertia.estimation.best_practice import BestPractice
 from rsp_inertia.estimation.model_tests import ModelTest
 from rsp_inertia.estimation.pendulum import PendulumEstimate
-from rsp_inertia.estimation.tensor import (
+from rsp_inertia.estimation.tensor import format_run
+from rsp_inertia.plant.geometry import (
     ENTRY_KEYS,
-    format_run,
+    axis_direction,
     principal,
     principal_uncertainty,
 )
-from rsp_inertia.plant.geometry import axis_direction
 
 __all__ = ["AxisResult", "Identification", "PendulumResult"]
 

@@ -37,7 +37,7 @@ import numpy as np
 from rsp_inertia.estimation.balance import StageBalance
 from rsp_inertia.estimation.gls import NOISE_SOURCES, Block, Prior, solve_blocks
 from rsp_inertia.estimation.model_tests import ModelTest
-from rsp_inertia.plant.geometry import design_matrix, physical_margins, tensor_from_entries
+from rsp_inertia.plant.geometry import ENTRY_KEYS, design_matrix
 from rsp_inertia.plant.model import gravity_basis, inertia_basis, tensor_basis
 from rsp_inertia.plant.transducers import error_slope_basis
 
@@ -58,9 +58,6 @@ __all__ = [
     "fit_tensor",
     "format_run",
     "gravity_rows",
-    "physical_warnings",
-    "principal",
-    "principal_uncertainty",
     "run_columns",
     "run_key",
     "run_label",
@@ -70,8 +67,6 @@ __all__ = [
 ]
 
 
-ENTRY_KEYS = ("Jx", "Jy", "Jz", "Jxy", "Jyz", "Jxz")
-"""Names of the tensor entries, in the order of every 6-vector."""
 
 
 @dataclass(frozen=True)
@@ -682,88 +677,4 @@ def tensor_from_axes(values: np.ndarray, stds: np.ndarray, directions: np.ndarra
     cov = np.linalg.pinv((V * W[:, None]).T @ (V * W[:, None]))
     return x, cov
 
-
-def principal(entries: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Principal moments (ascending) and axes (rows, unit vectors) of the tensor."""
-    moments, vectors = np.linalg.eigh(tensor_from_entries(entries))
-    return moments, vectors.T
-
-
-def principal_uncertainty(
-    entries: np.ndarray, cov: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """Standard deviations of the principal moments and of the principal axes' directions,
-    to first order in the entries' errors (docs/method.md §5, principal moments and axes).
-
-    With J v_i = I_i v_i, a small change dJ of the tensor moves I_i by v_i^T dJ v_i and turns
-    v_i by sum_{j != i} (v_j^T dJ v_i) / (I_i - I_j) v_j. Both are linear in the six entries
-    ``[Jx, Jy, Jz, Jxy, Jyz, Jxz]`` (the tensor holds Jxy at (0, 1) and (1, 0)), so their
-    variances are quadratic forms in ``cov``.
-
-    Parameters
-    ----------
-    entries : numpy.ndarray, shape (6,)
-        kg m^2.
-    cov : numpy.ndarray, shape (6, 6)
-        kg^2 m^4, covariance of ``entries``.
-
-    Returns
-    -------
-    moments_std : numpy.ndarray, shape (3,)
-        kg m^2, in the order of :func:`principal` (ascending moments).
-    axes_tilt_std : numpy.ndarray, shape (3,)
-        rad, root mean square angle by which each principal axis is uncertain (the two
-        tilts towards the other axes added in quadrature); infinite for an axis whose moment
-        equals another's (its direction is then not defined).
-    """
-    moments, vectors = principal(entries)
-
-    def gradient(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """d(a^T J b) / d(entries) for unit vectors a, b."""
-        return np.array([
-            a[0] * b[0], a[1] * b[1], a[2] * b[2],
-            a[0] * b[1] + a[1] * b[0], a[1] * b[2] + a[2] * b[1], a[0] * b[2] + a[2] * b[0],
-        ])
-
-    moments_std = np.empty(3)
-    tilt_std = np.empty(3)
-    for i in range(3):
-        g = gradient(vectors[i], vectors[i])
-        moments_std[i] = math.sqrt(max(float(g @ cov @ g), 0.0))
-        variance = 0.0
-        for j in range(3):
-            if j == i:
-                continue
-            gap = moments[i] - moments[j]
-            h = gradient(vectors[j], vectors[i])
-            spread = max(float(h @ cov @ h), 0.0)
-            variance += math.inf if gap == 0.0 and spread > 0 else spread / gap**2 if gap else 0.0
-        tilt_std[i] = math.sqrt(variance)
-    return moments_std, tilt_std
-
-
-def physical_warnings(entries: np.ndarray, cov: np.ndarray, samples: int = 2000) -> list[str]:
-    """Warnings when the tensor is not a physical one within its uncertainty.
-
-    A rigid body's tensor is positive definite and its principal moments obey the triangle
-    inequality I1 + I2 >= I3 (rsp_inertia.plant.geometry.physical_margins). A violation is
-    reported when it holds beyond two standard deviations of the margin, estimated by
-    sampling the entries' covariance (seeded, deterministic).
-    """
-    rng = np.random.default_rng(0)
-    draws = rng.multivariate_normal(entries, cov, size=samples, check_valid="ignore")
-    smallest, triangle = physical_margins(entries)
-    std_small, std_tri = np.column_stack(physical_margins(draws)).std(axis=0)
-    warnings = []
-    if smallest < -2 * std_small:
-        warnings.append(
-            f"the tensor is not positive definite: smallest principal moment "
-            f"{smallest:.6g} +- {std_small:.2g} kg m^2"
-        )
-    if triangle < -2 * std_tri:
-        warnings.append(
-            f"the principal moments break the triangle inequality I1 + I2 >= I3 by "
-            f"{-triangle:.6g} +- {std_tri:.2g} kg m^2"
-        )
-    return warnings
 

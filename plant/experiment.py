@@ -87,6 +87,28 @@ class Experiment:
         return self.root / "result.json"
 
     @property
+    def calibration_path(self) -> Path:
+        """``calibration.toml`` (written by calibrate, applied by identify)."""
+        return self.root / "calibration.toml"
+
+    def identify_inputs(self) -> list[Path]:
+        """The files ``identify`` reads that exist, in a fixed order: device.toml,
+        calibration.toml, every run's braking and reverse logs (stage by stage, each
+        direction of ``stage.directions``) and the pendulum logs. result.json records their
+        sha256 (rsp_inertia.provenance); ``report`` and ``combine`` check them against the
+        folder (a missing log is identify's to refuse)."""
+        files = [self.root / "device.toml", self.calibration_path]
+        for stage, st in enumerate(self.device.stages, 1):
+            for direction in st.directions:
+                files += [self.braking_path(stage, direction), self.reverse_path(stage, direction)]
+        files += [
+            self.pendulum_path(stage, k)
+            for stage, st in enumerate(self.device.stages, 1)
+            for k in range(1, len(st.nodes) + 1)
+        ]
+        return [path for path in files if path.is_file()]
+
+    @property
     def virtual_path(self) -> Path:
         """``virtual.toml`` (virtual device only)."""
         return self.root / "virtual.toml"

@@ -14,11 +14,11 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.optimize import minimize_scalar
 
 from rsp_inertia.plant.errors import InputError
 
 __all__ = [
+    "ENTRY_KEYS",
     "AxisDesign",
     "axis_angles_deg",
     "axis_direction",
@@ -31,13 +31,19 @@ __all__ = [
     "entries_from_tensor",
     "icosahedron_design",
     "physical_margins",
+    "physical_warnings",
     "place_body",
+    "principal",
+    "principal_uncertainty",
     "rcond_curve",
     "relative_errors",
     "small_rotation",
     "tensor_from_entries",
     "turns_past_last_node",
 ]
+
+ENTRY_KEYS = ("Jx", "Jy", "Jz", "Jxy", "Jyz", "Jxz")
+"""Names of the tensor entries, in the order of every 6-vector."""
 
 
 def axis_direction(phi: ArrayLike, gear_ratio: ArrayLike) -> np.ndarray:
@@ -306,6 +312,91 @@ def physical_margins(j6: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     return m[..., 0], m[..., 0] + m[..., 1] - m[..., 2]
 
 
+def principal(entries: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Principal moments (ascending) and axes (rows, unit vectors) of the tensor."""
+    moments, vectors = np.linalg.eigh(tensor_from_entries(entries))
+    return moments, vectors.T
+
+
+def principal_uncertainty(
+    entries: np.ndarray, cov: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Standard deviations of the principal moments and of the principal axes' directions,
+    to first order in the entries' errors (docs/method.md §5, principal moments and axes).
+
+    With J v_i = I_i v_i, a small change dJ of the tensor moves I_i by v_i^T dJ v_i and turns
+    v_i by sum_{j != i} (v_j^T dJ v_i) / (I_i - I_j) v_j. Both are linear in the six entries
+    ``[Jx, Jy, Jz, Jxy, Jyz, Jxz]`` (the tensor holds Jxy at (0, 1) and (1, 0)), so their
+    variances are quadratic forms in ``cov``.
+
+    Parameters
+    ----------
+    entries : numpy.ndarray, shape (6,)
+        kg m^2.
+    cov : numpy.ndarray, shape (6, 6)
+        kg^2 m^4, covariance of ``entries``.
+
+    Returns
+    -------
+    moments_std : numpy.ndarray, shape (3,)
+        kg m^2, in the order of :func:`principal` (ascending moments).
+    axes_tilt_std : numpy.ndarray, shape (3,)
+        rad, root mean square angle by which each principal axis is uncertain (the two
+        tilts towards the other axes added in quadrature); infinite for an axis whose moment
+        equals another's (its direction is then not defined).
+    """
+    moments, vectors = principal(entries)
+
+    def gradient(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """d(a^T J b) / d(entries) for unit vectors a, b."""
+        return np.array([
+            a[0] * b[0], a[1] * b[1], a[2] * b[2],
+            a[0] * b[1] + a[1] * b[0], a[1] * b[2] + a[2] * b[1], a[0] * b[2] + a[2] * b[0],
+        ])
+
+    moments_std = np.empty(3)
+    tilt_std = np.empty(3)
+    for i in range(3):
+        g = gradient(vectors[i], vectors[i])
+        moments_std[i] = math.sqrt(max(float(g @ cov @ g), 0.0))
+        variance = 0.0
+        for j in range(3):
+            if j == i:
+                continue
+            gap = moments[i] - moments[j]
+            h = gradient(vectors[j], vectors[i])
+            spread = max(float(h @ cov @ h), 0.0)
+            variance += math.inf if gap == 0.0 and spread > 0 else spread / gap**2 if gap else 0.0
+        tilt_std[i] = math.sqrt(variance)
+    return moments_std, tilt_std
+
+
+def physical_warnings(entries: np.ndarray, cov: np.ndarray, samples: int = 2000) -> list[str]:
+    """Warnings when the tensor is not a physical one within its uncertainty.
+
+    A rigid body's tensor is positive definite and its principal moments obey the triangle
+    inequality I1 + I2 >= I3 (rsp_inertia.plant.geometry.physical_margins). A violation is
+    reported when it holds beyond two standard deviations of the margin, estimated by
+    sampling the entries' covariance (seeded, deterministic).
+    """
+    rng = np.random.default_rng(0)
+    draws = rng.multivariate_normal(entries, cov, size=samples, check_valid="ignore")
+    smallest, triangle = physical_margins(entries)
+    std_small, std_tri = np.column_stack(physical_margins(draws)).std(axis=0)
+    warnings = []
+    if smallest < -2 * std_small:
+        warnings.append(
+            f"the tensor is not positive definite: smallest principal moment "
+            f"{smallest:.6g} +- {std_small:.2g} kg m^2"
+        )
+    if triangle < -2 * std_tri:
+        warnings.append(
+            f"the principal moments break the triangle inequality I1 + I2 >= I3 by "
+            f"{-triangle:.6g} +- {std_tri:.2g} kg m^2"
+        )
+    return warnings
+
+
 def relative_errors(j6: ArrayLike, true_j6: ArrayLike) -> np.ndarray:
     """Errors of a tensor's entries against the true ones, relative to the true tensor's
     largest principal moment (the scale of every entry, products included).
@@ -485,6 +576,10 @@ def best_cone_opening() -> tuple[float, float]:
     conds = 1.0 / rcond_curve(grid)
     i = int(np.argmin(conds))
     lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
+    # Imported here: the one use of scipy.optimize, whose import (0.2-0.4 s) every command
+    # that reads a device.toml would pay through this module.
+    from scipy.optimize import minimize_scalar
+
     res = minimize_scalar(
         _cone_condition, bounds=(lo, hi), method="bounded", options={"xatol": 1e-6}
     )

@@ -98,8 +98,7 @@ class IdentifyResult:
     ) -> IdentifyResult:
         import numpy as np
 
-        from rsp_inertia.estimation.tensor import principal
-        from rsp_inertia.plant.geometry import tensor_from_entries
+        from rsp_inertia.plant.geometry import principal, tensor_from_entries
 
         result = identification
         moments, vectors = principal(result.entries)

@@ -502,12 +502,12 @@ def identify(
     """``rsp-inertia identify``: all stages' logs -> EXP/result.json (written atomically),
     with its provenance: the time, the software and every input's sha256 as identify read
     them (rsp_inertia.provenance)."""
-    from rsp_inertia.estimation.reading import identify_experiment, identify_inputs
+    from rsp_inertia.estimation.reading import identify_experiment
     from rsp_inertia.provenance import make_provenance
 
     exp = open_experiment(root)
     check_writable(exp.result_path)
-    provenance = make_provenance("identify", exp.root, identify_inputs(exp))
+    provenance = make_provenance("identify", exp.root, exp.identify_inputs())
     result = identify_experiment(exp, progress)
     result = replace(result, provenance=provenance)
     write_atomic(exp.result_path, result_json(result))
@@ -540,8 +540,7 @@ def combine(roots: list[str | Path], out: str | Path) -> tuple[Combination, Path
         give z_c (rsp_inertia.estimation.combine), an output that cannot be written (found
         before anything is read).
     """
-    from rsp_inertia.estimation.combine import combine_mountings
-    from rsp_inertia.estimation.reading import identify_inputs, read_mounting
+    from rsp_inertia.estimation.combine import combine_mountings, read_mounting
     from rsp_inertia.provenance import input_changes
 
     if not roots:
@@ -580,7 +579,7 @@ def combine(roots: list[str | Path], out: str | Path) -> tuple[Combination, Path
             warnings.append(f"{exp.result_path}: records no inputs: whether it still "
                             "describes the folder's logs cannot be checked")
             continue
-        changes = input_changes(exp.root, recorded, identify_inputs(exp))
+        changes = input_changes(exp.root, recorded, exp.identify_inputs())
         if changes:
             warnings.append(f"{exp.root}: identify again: {'; '.join(changes)}")
     combination = combine_mountings(mountings)

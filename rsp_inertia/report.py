@@ -21,7 +21,6 @@ from pathlib import Path
 
 import numpy as np
 
-from rsp_inertia.estimation.reading import identify_inputs
 from rsp_inertia.estimation.runs import runs
 from rsp_inertia.estimation.smoothing import smooth_log
 from rsp_inertia.plant.errors import InputError
@@ -106,7 +105,7 @@ def _verdict(exp: Experiment, result: dict) -> str:
     warnings = result.get("warnings") or []
     items, level = [], "ok"
     if "inputs" in provenance:
-        changes = input_changes(exp.root, provenance["inputs"], identify_inputs(exp))
+        changes = input_changes(exp.root, provenance["inputs"], exp.identify_inputs())
         if changes:
             level = "stale"
             items.append(

@@ -4,7 +4,7 @@
 import numpy as np
 import pytest
 
-from rsp_inertia.estimation.tensor import principal, principal_uncertainty
+from rsp_inertia.plant.geometry import principal, principal_uncertainty
 
 
 def test_a_diagonal_tensor_has_the_closed_form():

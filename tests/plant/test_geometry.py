@@ -238,19 +238,19 @@ def test_physical_margins_are_the_smallest_moment_and_the_triangle() -> None:
 
 
 def test_physical_warnings_take_the_margins_from_physical_margins(monkeypatch) -> None:
-    """estimation.tensor.physical_warnings judges the margins plant.geometry gives it."""
-    from rsp_inertia.estimation import tensor
+    """plant.geometry.physical_warnings judges the margins plant.geometry gives it."""
+    from rsp_inertia.plant import geometry
 
     body = np.array([0.025, 0.028, 0.022, 0.0012, -0.0009, 0.0015])
     cov = np.diag(np.full(6, 1e-14))
-    assert tensor.physical_warnings(body, cov) == []
+    assert geometry.physical_warnings(body, cov) == []
 
     def broken(j6):
         smallest, triangle = physical_margins(j6)
         return smallest - 1.0, triangle - 1.0
 
-    monkeypatch.setattr(tensor, "physical_margins", broken)
-    found = tensor.physical_warnings(body, cov)
+    monkeypatch.setattr(geometry, "physical_margins", broken)
+    found = geometry.physical_warnings(body, cov)
     assert len(found) == 2 and "not positive definite" in found[0] and "triangle" in found[1]
 
 
