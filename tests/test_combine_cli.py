@@ -102,25 +102,11 @@ def test_what_combine_refuses(tmp_path, capsys, case):
 
 
 def test_body_json_keys_are_documented_and_exist(tmp_path):
-    from tests.test_docs import _documented
-
-    def paths(value, path=""):
-        out = {path} if path else set()
-        if isinstance(value, dict):
-            for name, child in value.items():
-                if name in ("Jx", "Jy", "Jz", "Jxy", "Jyz", "Jxz", "m_g_xc", "m_g_yc"):
-                    name = "<quantity>" if path.endswith("residuals") else "<entry>"
-                elif path in ("com", "com_std"):
-                    name = "<coordinate>"
-                out |= paths(child, f"{path}.{name}" if path else name)
-        elif isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
-            for child in value:
-                out |= {p for p in paths(child, f"{path}[]") if p != f"{path}[]"}
-        return out
+    from tests.test_docs import _documented, _paths
 
     first = _mounting(tmp_path / "a", np.eye(3))
     second = _mounting(tmp_path / "b", TURNED_X90)
     assert main(["combine", str(first), str(second), "--out", str(tmp_path / "o")]) == 0
-    real = paths(json.loads((tmp_path / "o" / "body.json").read_text()))
+    real = _paths(json.loads((tmp_path / "o" / "body.json").read_text()))
     documented = set(_documented("body.json"))
     assert documented == real, (sorted(documented - real), sorted(real - documented))

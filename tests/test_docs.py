@@ -450,7 +450,8 @@ def result(tmp_path_factory) -> dict:
 
 
 def _paths(value, path: str = "") -> set[str]:
-    """Every key path of a JSON document in the notation of docs/files.md."""
+    """Every key path of a JSON document (result.json, body.json) in the notation of
+    docs/files.md."""
     out = {path} if path else set()
     if isinstance(value, dict):
         names = set(value)
@@ -463,6 +464,10 @@ def _paths(value, path: str = "") -> set[str]:
                 name = "<file>"
             elif path == "provenance.software":
                 name = "<package>"
+            elif path.endswith("residuals"):
+                name = "<quantity>"
+            elif path in ("com", "com_std") and names == {"x", "y", "z"}:
+                name = "<coordinate>"
             elif names == set(ENTRIES):
                 name = "<entry>"
             out |= _paths(child, f"{path}.{name}" if path else name)
