@@ -36,7 +36,7 @@ HOMES = [
     ("M = (c + k_g) / w_n^2", "estimation.best_practice", "best_practice_inertia",
      ["estimation.identify", "estimation.stiffness"]),
     ("V (design matrix)", "plant.geometry", "design_matrix", ["estimation.tensor", "estimation.predict"]),
-    ("J from its entries", "plant.geometry", "tensor_from_entries", ["estimation.tensor"]),
+    ("J from its entries", "plant.geometry", "tensor_from_entries", ["plant.virtual_config"]),
     ("e(phi)", "plant.geometry", "axis_direction", ["estimation.identify", "estimation.results"]),
     ("identify's axes and cond(V)", "plant.geometry", "device_design",
      ["estimation.identify", "estimation.predict"]),
@@ -142,9 +142,10 @@ def test_design_matrix_is_the_home_of_v(monkeypatch, default_device):
 
 def test_tensor_from_entries_is_the_home_of_j(monkeypatch):
     entries = np.array([0.025, 0.028, 0.022, 0.0012, -0.0009, 0.0015])
-    moments = tensor.principal(entries)[0]
-    monkeypatch.setattr(tensor, "tensor_from_entries", lambda e: 2 * geometry.tensor_from_entries(e))
-    np.testing.assert_allclose(tensor.principal(entries)[0], 2 * moments)
+    moments = geometry.principal(entries)[0]
+    home = geometry.tensor_from_entries
+    monkeypatch.setattr(geometry, "tensor_from_entries", lambda e: 2 * home(e))
+    np.testing.assert_allclose(geometry.principal(entries)[0], 2 * moments)
 
 
 def test_inertia_basis_is_the_home_of_m_empty(monkeypatch):
