@@ -37,6 +37,9 @@ class IdentifyResult:
         kg m^2, standard deviation of each entry of ``tensor``.
     entries : numpy.ndarray, shape (6,)
         kg m^2, ``[Jx, Jy, Jz, Jxy, Jyz, Jxz]``, the six independent entries of ``tensor``.
+    covariance : numpy.ndarray, shape (8, 8)
+        Joint covariance of ``entries`` and the gravity terms [m g x_c, m g y_c] (kg^2 m^4,
+        kg m^2 N m, N^2 m^2), as result.json's ``covariance``: what ``combine`` needs.
     entries_cov : numpy.ndarray, shape (6, 6)
         kg^2 m^4, covariance of ``entries``.
     principal_moments : numpy.ndarray, shape (3,)
@@ -79,6 +82,7 @@ class IdentifyResult:
     tensor: np.ndarray
     tensor_std: np.ndarray
     entries: np.ndarray
+    covariance: np.ndarray = field(repr=False)
     entries_cov: np.ndarray = field(repr=False)
     principal_moments: np.ndarray
     principal_axes: np.ndarray = field(repr=False)
@@ -107,6 +111,7 @@ class IdentifyResult:
             tensor=tensor_from_entries(result.entries),
             tensor_std=tensor_from_entries(result.entries_std),
             entries=np.array(result.entries, dtype=float),
+            covariance=np.array(result.covariance, dtype=float),
             entries_cov=np.array(result.entries_cov, dtype=float),
             principal_moments=np.array(moments),
             principal_axes=np.array(vectors),

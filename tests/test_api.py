@@ -214,6 +214,8 @@ def test_identify_result_fields(identified):
     assert result.tensor[0, 1] == result.entries[3] and result.tensor[1, 2] == result.entries[4]
     assert result.tensor_std[0, 2] == result.entries_std[5]
     np.testing.assert_allclose(np.diag(result.entries_cov), result.entries_std**2)
+    np.testing.assert_array_equal(result.covariance[:6, :6], result.entries_cov)
+    assert result.covariance.shape == (8, 8)
     np.testing.assert_allclose(result.principal_moments, document["principal_moments"])
     np.testing.assert_allclose(result.principal_axes, document["principal_axes"])
     # The principal axes diagonalise the tensor.
