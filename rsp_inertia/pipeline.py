@@ -541,7 +541,7 @@ def combine(roots: list[str | Path], out: str | Path) -> tuple[Combination, Path
         before anything is read).
     """
     from rsp_inertia.estimation.combine import combine_mountings, read_mounting
-    from rsp_inertia.provenance import input_changes
+    from rsp_inertia.provenance import input_changes, input_status
 
     if not roots:
         raise InputError("combine: no experiment folder given: name every mounting's folder")
@@ -579,7 +579,7 @@ def combine(roots: list[str | Path], out: str | Path) -> tuple[Combination, Path
             warnings.append(f"{exp.result_path}: records no inputs: whether it still "
                             "describes the folder's logs cannot be checked")
             continue
-        changes = input_changes(exp.root, recorded, exp.identify_inputs())
+        changes = input_changes(input_status(exp.root, recorded, exp.identify_inputs()))
         if changes:
             warnings.append(f"{exp.root}: identify again: {'; '.join(changes)}")
     combination = combine_mountings(mountings)

@@ -17,7 +17,15 @@ from pathlib import Path
 
 from rsp_inertia.plant.logs import file_sha256
 
-__all__ = ["PACKAGES", "created_now", "input_changes", "make_provenance", "package_versions"]
+__all__ = [
+    "CHANGES",
+    "PACKAGES",
+    "created_now",
+    "input_changes",
+    "input_status",
+    "make_provenance",
+    "package_versions",
+]
 
 PACKAGES = ("rsp-inertia", "numpy", "scipy", "casadi", "control", "matplotlib")
 """Whose installed versions a result records."""
@@ -68,24 +76,35 @@ def make_provenance(command: str, root: str | os.PathLike, inputs: Iterable[Path
     }
 
 
-def input_changes(
+CHANGES = {
+    "changed": "changed since the result was made",
+    "removed": "removed since the result was made",
+    "new": "not read when the result was made (written after it?)",
+}
+"""What :func:`input_changes` says of an input in each state but ``"as read"``."""
+
+
+def input_status(
     root: str | os.PathLike, recorded: dict[str, str], inputs: Iterable[Path]
-) -> list[str]:
-    """What differs between the inputs a result recorded (name -> sha256) and the folder now,
-    ``inputs`` being the files the command would read today: one line per file changed,
-    removed, or new (read today, not when the result was made). Empty: the same files."""
+) -> dict[str, str]:
+    """Each input's state against what a result recorded (name -> sha256), ``inputs`` being
+    the files the command would read today: ``"as read"``, ``"changed"``, ``"removed"``, or
+    ``"new"`` (read today, not when the result was made); the recorded names first, in their
+    order. Every file is hashed once."""
     root = Path(root)
     now = {_name(root, Path(p)): Path(p) for p in inputs}
-    lines = []
+    status = {}
     for name, digest in recorded.items():
         path = now.get(name, root / name)
         if not path.is_file():
-            lines.append(f"{name}: removed since the result was made")
-        elif file_sha256(path) != digest:
-            lines.append(f"{name}: changed since the result was made")
-    lines += [
-        f"{name}: not read when the result was made (written after it?)"
-        for name in now
-        if name not in recorded
-    ]
-    return lines
+            status[name] = "removed"
+        else:
+            status[name] = "as read" if file_sha256(path) == digest else "changed"
+    status.update({name: "new" for name in now if name not in recorded})
+    return status
+
+
+def input_changes(status: dict[str, str]) -> list[str]:
+    """One line per input of :func:`input_status` that is not as read. Empty: the same
+    files."""
+    return [f"{name}: {CHANGES[state]}" for name, state in status.items() if state != "as read"]

@@ -25,9 +25,9 @@ from rsp_inertia.estimation.runs import runs
 from rsp_inertia.estimation.smoothing import smooth_log
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import Experiment, open_experiment
-from rsp_inertia.plant.logs import check_writable, file_sha256, read_device_log, write_atomic
+from rsp_inertia.plant.logs import check_writable, read_device_log, write_atomic
 from rsp_inertia.plots import errors_figure, experiment_figures, figure_png
-from rsp_inertia.provenance import created_now, input_changes, package_versions
+from rsp_inertia.provenance import created_now, input_changes, input_status, package_versions
 
 __all__ = ["FIGURES", "REPORT_FILE", "VALUE", "Z95", "write_report"]
 
@@ -98,14 +98,14 @@ def _read_result(exp: Experiment) -> dict:
     return result
 
 
-def _verdict(exp: Experiment, result: dict) -> str:
-    """The box the report leads with: are the inputs those identify read, and its warnings."""
-
-    provenance = result.get("provenance") or {}
+def _verdict(exp: Experiment, result: dict, status: dict[str, str] | None) -> str:
+    """The box the report leads with: are the inputs those identify read (``status``:
+    rsp_inertia.provenance.input_status, None when result.json records none), and its
+    warnings."""
     warnings = result.get("warnings") or []
     items, level = [], "ok"
-    if "inputs" in provenance:
-        changes = input_changes(exp.root, provenance["inputs"], exp.identify_inputs())
+    if status is not None:
+        changes = input_changes(status)
         if changes:
             level = "stale"
             items.append(
@@ -370,15 +370,10 @@ def _figures(exp: Experiment, result: dict) -> list[str]:
     return parts
 
 
-def _provenance_sections(exp: Experiment, result: dict) -> list[str]:
+def _provenance_sections(result: dict, status: dict[str, str] | None) -> list[str]:
     provenance = result.get("provenance") or {}
     recorded = provenance.get("inputs") or {}
-    rows = []
-    for name, digest in recorded.items():
-        path = exp.root / name
-        now = file_sha256(path) if path.is_file() else None
-        status = "as read" if now == digest else "removed" if now is None else "changed"
-        rows.append([name, digest, status])
+    rows = [[name, digest, status[name]] for name, digest in recorded.items()]
     software = provenance.get("software") or {}
     current = package_versions()
     return [
@@ -406,6 +401,10 @@ def write_report(root: str | Path) -> Path:
     out = exp.root / REPORT_FILE
     check_writable(out)
     provenance = result.get("provenance") or {}
+    status = (
+        None if "inputs" not in provenance
+        else input_status(exp.root, provenance["inputs"], exp.identify_inputs())
+    )
     name = html.escape(exp.device.name)
     made = provenance.get("created", "at an unrecorded time")
     version = (provenance.get("software") or {}).get("rsp-inertia", "an unrecorded version")
@@ -415,13 +414,13 @@ def write_report(root: str | Path) -> Path:
         (f"<p class='meta'>Experiment folder <code>{html.escape(str(exp.root))}</code>. "
          f"Result made {html.escape(made)} by rsp-inertia {html.escape(version)} (identify); "
          f"report written {html.escape(written)}.</p>"),
-        _verdict(exp, result),
+        _verdict(exp, result, status),
         *_tensor_sections(result),
         *_budget_section(result),
         *_calibration_section(result),
         *_protocol_section(exp),
         *_figures(exp, result),
-        *_provenance_sections(exp, result),
+        *_provenance_sections(result, status),
     ]
     page = (
         "<!DOCTYPE html><html><head><meta charset='utf-8'>"
