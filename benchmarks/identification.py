@@ -32,7 +32,7 @@ from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs
 from rsp_inertia.estimation.tensor import axis_values, fit_tensor
 from rsp_inertia.pipeline import simulate
 from rsp_inertia.plant.experiment import open_experiment
-from rsp_inertia.plant.logs import write_atomic
+from rsp_inertia.plant.files import write_atomic
 from rsp_inertia.plant.virtual import placed_body, simulate_braking, simulate_ideal_reverse
 
 

@@ -32,8 +32,9 @@ from rsp_inertia.pipeline import identify, program, simulate
 from rsp_inertia.planning import plan
 from rsp_inertia.plant.config import Device, Virtual, load_device, load_virtual, placed_body
 from rsp_inertia.plant.experiment import open_experiment
+from rsp_inertia.plant.files import write_atomic
 from rsp_inertia.plant.geometry import axis_direction
-from rsp_inertia.plant.logs import read_log, write_atomic
+from rsp_inertia.plant.logs import read_log
 
 SCENARIOS = ("paper", "spring", "heavy-friction", "com-offset", "cone-z")
 CONE_OPENING = 140.0

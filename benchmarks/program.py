@@ -30,7 +30,8 @@ from rsp_inertia.ocp.nominal import fit_nominal
 from rsp_inertia.ocp.program import make_program
 from rsp_inertia.pipeline import create_default_experiment
 from rsp_inertia.plant.experiment import open_experiment
-from rsp_inertia.plant.logs import write_atomic, write_log, write_program
+from rsp_inertia.plant.files import write_atomic
+from rsp_inertia.plant.logs import write_log, write_program
 from rsp_inertia.plant.virtual import placed_body, run_program, simulate_braking
 from rsp_inertia.plots import plot_tracking
 

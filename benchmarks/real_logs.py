@@ -43,8 +43,8 @@ from rsp_inertia.pipeline import (
     simulate,
 )
 from rsp_inertia.plant.config import LoggerSettings, load_device, load_virtual, placed_body
+from rsp_inertia.plant.files import write_atomic
 from rsp_inertia.plant.geometry import relative_errors
-from rsp_inertia.plant.logs import write_atomic
 from rsp_inertia.rig_demo import demo
 
 LOGGER = LoggerSettings(time_jitter=0.2, dropped_fraction=0.001, counts=True)

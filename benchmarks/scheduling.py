@@ -24,7 +24,7 @@ from benchmarks.cases import Case, code_fingerprint
 from benchmarks.scratch import remove_stale
 from benchmarks.sensitivity import Perturbation
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.logs import write_atomic
+from rsp_inertia.plant.files import write_atomic
 
 __all__ = ["PACKAGES", "run_guarded", "run_sweep"]
 

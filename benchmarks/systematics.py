@@ -108,7 +108,7 @@ from rsp_inertia.plant.config import (
     write_reference,
 )
 from rsp_inertia.plant.experiment import open_experiment
-from rsp_inertia.plant.logs import write_atomic
+from rsp_inertia.plant.files import write_atomic
 
 BACKWARD_SCALE = 1.02
 TARE_ERROR = 1.02

@@ -46,7 +46,6 @@ as two pseudo-equations and tests it against the balances
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -66,7 +65,7 @@ from rsp_inertia.estimation.smoothing import median_step
 from rsp_inertia.estimation.whitening import Noise, add_bands, scaled_band
 from rsp_inertia.plant.config import Device, Stage
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.logs import Log, dropped_samples
+from rsp_inertia.plant.logs import Log, dropped_samples, mirrored_device
 from rsp_inertia.plant.model import potential, spring_parameters
 
 __all__ = [
@@ -84,8 +83,6 @@ __all__ = [
     "friction_shape",
     "friction_slope_prior",
     "harmonic_reach",
-    "mirror_log",
-    "mirrored_device",
     "mismatch_regressors",
     "short_overlap",
     "spring_potential",
@@ -394,24 +391,6 @@ class StageBalance:
         """(braking, reverse): the gain of each pass's main power flow (:attr:`back_driven`)."""
         return tuple(gains[1] if back else gains[0] for back in self.back_driven)
 
-
-def mirror_log(log: Log, quantum: float) -> Log:
-    """A backward run's log in the mirrored coordinate phi_m = -phi, torque u_m = -u.
-
-    The motor work sum u dphi is unchanged, so every balance reads the same. The encoder
-    reading y = floor(phi / q) q of the mirrored angle -phi is -y - q (for -phi off the grid),
-    so the mirrored log keeps the floor convention that the smoother assumes
-    (rsp_inertia.estimation.smoothing: true angle in [y, y + q)).
-    """
-    return Log(t=log.t, phi=-np.asarray(log.phi) - quantum, torque=-np.asarray(log.torque))
-
-
-def mirrored_device(device: Device) -> Device:
-    """The device seen in the mirrored coordinate phi_m = -phi of :func:`mirror_log`: the
-    spring c/2 (phi - phi0)^2 = c/2 (phi_m + phi0)^2 has its zero angle at -phi0 (the gravity
-    terms and M's odd harmonics, which change sign too, are fitted, never given)."""
-    spring = dataclasses.replace(device.spring, zero_angle=-device.spring.zero_angle)
-    return dataclasses.replace(device, spring=spring)
 
 
 def friction_shape(phi: np.ndarray, omega: np.ndarray) -> np.ndarray:

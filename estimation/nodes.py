@@ -111,7 +111,7 @@ def node_formula(
     ``speed_noise_scale`` (the calibration that the least squares finds on its residuals,
     rsp_inertia.estimation.tensor), and work noise from the torque logs (rsp_inertia.estimation.passes).
     ``direction`` -1: a backward run's passes, mirrored by
-    :func:`rsp_inertia.estimation.balance.mirror_log`; its node phi
+    :func:`rsp_inertia.plant.logs.mirror_log`; its node phi
     sits at -phi in the mirrored coordinate. ``gains``: (h_d, h_b), the drive's gains that make
     the logged motor work's driving and back-driven parts the work the body received
     (rsp_inertia.plant.transducers.drive_gains; a calibration's,

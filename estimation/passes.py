@@ -74,8 +74,7 @@ from rsp_inertia.estimation.smoothing import (
     smooth_log,
 )
 from rsp_inertia.estimation.whitening import Noise
-from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.logs import Log, dropped_samples
+from rsp_inertia.plant.logs import Log, dropped_samples, torque_noise
 from rsp_inertia.plant.transducers import power_flow_split
 
 __all__ = [
@@ -87,7 +86,6 @@ __all__ = [
     "angle_work_covariance",
     "angle_work_noise",
     "angle_work_variance",
-    "check_braking_monotone",
     "constancy_p_value",
     "estimate_pass",
     "gap_work",
@@ -96,7 +94,6 @@ __all__ = [
     "received_work",
     "sample_at",
     "speed_error_band",
-    "torque_noise",
     "work_covariance",
     "work_noise",
 ]
@@ -109,22 +106,6 @@ CONSTANCY_TAIL = 1e-3
 """The braking torque is taken as constant unless the chunks' chi^2 has a p-value below
 this (a false alarm once in a thousand honest logs, which only costs some accuracy)."""
 
-
-def torque_noise(log: Log) -> float:
-    """Standard deviation of the torque log's noise, N m, from its sample-to-sample changes.
-
-    Meant for the braking log, whose applied torque is constant by protocol: white logging
-    noise of std sigma makes the differences' std sigma sqrt(2); a robust scale (median
-    absolute deviation) keeps the odd genuine step out. Not for a closed-loop log: there the
-    regulator's response to each encoder count (k_phi q, ~0.02 N m on the default stage 2)
-    is real torque, doing real work, and would pass for noise 200 times the logging noise.
-    The logging noise belongs to the rig's torque channel, shared by both passes.
-    """
-    d = np.diff(log.torque)
-    if d.size < 2:
-        return 0.0
-    mad = np.median(np.abs(d - np.median(d)))
-    return float(1.4826 * mad / np.sqrt(2.0))
 
 
 @dataclass(frozen=True)
@@ -159,15 +140,6 @@ class PassEstimate:
     """J^2, cumulative variance of the work from the smoothed angle's error under the torque's
     changes, to each row (:func:`angle_work_variance`); None for a constant torque."""
 
-
-def check_braking_monotone(log: Log, source: str) -> None:
-    """The braking speed never reverses: encoder readings never decrease (docs/files.md)."""
-    back = np.nonzero(np.diff(log.phi) < 0)[0]
-    if back.size:
-        line = int(back[0]) + 3  # row k+1 of the data is line k+3 (header is line 1)
-        raise InputError(
-            f"{source}, line {line}: the angle decreases: the speed reverses inside the braking"
-        )
 
 
 def constancy_p_value(log: Log, phi: np.ndarray, sigma: float) -> float:

@@ -15,7 +15,7 @@ The generalised least squares then gives the covariance the noise model alone im
 is an ideal reverse's std, a closed loop's best case: it cannot foresee the closed-loop
 reverse's tracking mismatch (its friction slopes cost information; an exact mirror has
 none) nor the regulator's speed noise, which together put identify's std above it. The planner uses it to rank protocols; the closed-loop
-rehearsal of the chosen one (rsp_inertia.ocp.rehearsal) gives the std it promises. Neither foresees a
+rehearsal of the chosen one (rsp_inertia.design.rehearsal) gives the std it promises. Neither foresees a
 rig's imperfections beyond the noise model.
 """
 

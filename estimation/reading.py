@@ -29,8 +29,9 @@ from rsp_inertia.estimation.tensor import KnownTerms
 from rsp_inertia.plant.config import load_reference
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import Experiment
+from rsp_inertia.plant.files import file_sha256
 from rsp_inertia.plant.log_checks import unterminated_last_line
-from rsp_inertia.plant.logs import Log, align_counter, file_sha256, read_device_log
+from rsp_inertia.plant.logs import Log, align_counter, read_device_log
 
 __all__ = [
     "CALIBRATION_FILE",

@@ -16,16 +16,11 @@ from typing import TypeVar
 
 import numpy as np
 
-from rsp_inertia.estimation.balance import (
-    StageBalance,
-    balance_range,
-    mirror_log,
-    stage_balance,
-)
-from rsp_inertia.estimation.passes import PassEstimate, check_braking_monotone, estimate_pass
+from rsp_inertia.estimation.balance import StageBalance, balance_range, stage_balance
+from rsp_inertia.estimation.passes import PassEstimate, estimate_pass
 from rsp_inertia.estimation.smoothing import Smoothed
 from rsp_inertia.plant.config import Device
-from rsp_inertia.plant.logs import Log
+from rsp_inertia.plant.logs import Log, check_braking_monotone, mirror_log
 from rsp_inertia.plant.progress import report
 from rsp_inertia.plant.transducers import true_angle
 
@@ -114,7 +109,7 @@ def run_logs(
     """A run's braking and reverse logs as its passes are estimated: the readings taken back
     to the true angle (:func:`corrected_log`, ``encoder`` the error's coefficients) and a
     backward run mirrored into the forward coordinate
-    (rsp_inertia.estimation.balance.mirror_log)."""
+    (rsp_inertia.plant.logs.mirror_log)."""
     braking, reverse = corrected_log(braking, encoder), corrected_log(reverse, encoder)
     if direction == "backward":
         q = device.encoder.quantum

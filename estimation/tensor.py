@@ -593,7 +593,7 @@ def fit_tensor(
     e = [e1, e2, e3] per stage run in both directions. Solved, weighted and checked by
     :func:`rsp_inertia.estimation.gls.solve_blocks`. ``predict``: noise-free balances of a planned run,
     whose covariance is then the noise model's alone (rsp_inertia.estimation.predict); ``tests`` False:
-    no model tests (a rehearsal of a plan, rsp_inertia.ocp.rehearsal).
+    no model tests (a rehearsal of a plan, rsp_inertia.design.rehearsal).
     """
     if known is None:
         tares = {bal.stage: bal.tare_inertia for bal in balances}

@@ -21,11 +21,10 @@ from __future__ import annotations
 import numpy as np
 
 from rsp_inertia.estimation.modulated import fit_modulated
-from rsp_inertia.estimation.passes import torque_noise
 from rsp_inertia.estimation.smoothing import Smoothed
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.logs import Log
+from rsp_inertia.plant.logs import Log, torque_noise
 from rsp_inertia.plant.model import ModelParameters
 
 __all__ = ["UNKNOWN", "fit_nominal", "fit_nominal_with_covariance"]

@@ -13,8 +13,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rsp_inertia.estimation.balance import mirror_log, mirrored_device
-from rsp_inertia.estimation.passes import check_braking_monotone, torque_noise
 from rsp_inertia.estimation.smoothing import Smoothed, smooth_log
 from rsp_inertia.ocp.feedforward import (
     OcpSolution,
@@ -27,14 +25,21 @@ from rsp_inertia.ocp.nominal import fit_nominal_with_covariance
 from rsp_inertia.ocp.reference import Mirror, mirror
 from rsp_inertia.ocp.regulator import bandwidth, lqr_gains
 from rsp_inertia.plant.config import Device
-from rsp_inertia.plant.logs import Log, Program
+from rsp_inertia.plant.logs import (
+    Log,
+    Program,
+    check_braking_monotone,
+    mirror_log,
+    mirrored_device,
+    torque_noise,
+)
 from rsp_inertia.plant.model import ModelParameters, reduced_inertia
 
-__all__ = ["START_FADE_BANDWIDTHS", "ProgramResult", "make_program", "start_reference"]
+__all__ = ["START_FADE_BANDWIDTHS", "TorqueProgram", "make_program", "start_reference"]
 
 
 @dataclass(frozen=True)
-class ProgramResult:
+class TorqueProgram:
     """A program and how it was made."""
 
     program: Program
@@ -91,7 +96,7 @@ def make_program(
     source: str = "braking.csv",
     nominal: ModelParameters | None = None,
     direction: str = "forward",
-) -> ProgramResult:
+) -> TorqueProgram:
     """The torque program that drives stage ``stage`` back along the mirror of its braking.
 
     Parameters
@@ -149,7 +154,7 @@ def make_program(
         k_phi=k_phi,
         k_omega=k_omega,
     )
-    return ProgramResult(
+    return TorqueProgram(
         program=program,
         mirror=ref,
         nominal=model,

@@ -196,7 +196,7 @@ class Stage:
         doc="Where the rig releases the body for a forward braking pass (the backward pass: "
         "its negative); part of the protocol, which ``plan`` predicts for and writes. None: "
         "the virtual device releases at virtual.toml's ``[run] release_angle_deg``, and "
-        "``plan`` assumes a release rsp_inertia.ocp.plan.RELEASE_BEFORE_NODE_DEG before the "
+        "``plan`` assumes a release rsp_inertia.design.plan.RELEASE_BEFORE_NODE_DEG before the "
         "first node.",
     )
 
@@ -454,7 +454,7 @@ def load_device(path: str | os.PathLike) -> Device:
 
 def write_device(path: str | os.PathLike, device: Device) -> None:
     """Write ``device`` to ``path`` as a ``device.toml`` that :func:`load_device` reads back
-    equal; atomically (rsp_inertia.plant.logs.write_atomic).
+    equal; atomically (rsp_inertia.plant.files.write_atomic).
 
     Every key whose value is not None is written, in the order of the fields, with its unit
     as a comment.

@@ -15,18 +15,16 @@ exposed here too: they describe the logs this module reads.
 
 from __future__ import annotations
 
-import glob
-import hashlib
+import dataclasses
 import os
-import secrets
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
-from pathlib import Path
 
 import numpy as np
 
 from rsp_inertia.plant.config import DIRECTIONS, Device
 from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.files import write_atomic
 from rsp_inertia.plant.log_checks import (
     JITTER_LIMIT,
     EncoderLike,
@@ -50,13 +48,14 @@ __all__ = [
     "Log",
     "Program",
     "align_counter",
-    "check_writable",
+    "check_braking_monotone",
     "dropped_samples",
-    "file_sha256",
+    "mirror_log",
+    "mirrored_device",
     "read_device_log",
     "read_log",
     "read_program",
-    "write_atomic",
+    "torque_noise",
     "write_log",
     "write_program",
 ]
@@ -413,76 +412,48 @@ def write_program(path: str | os.PathLike, program: Program) -> None:
     write_atomic(path, _format_table(PROGRAM_COLUMNS, arrays))
 
 
-def write_atomic(path: str | os.PathLike, text: str) -> None:
-    """Replace ``path`` by a file holding ``text`` (UTF-8, newlines as given), all or nothing.
 
-    The text goes to a temporary file in the same folder, is flushed to disk and renamed over
-    ``path`` with ``os.replace``; a reader sees the old file or the new one, never a part. If
-    anything fails, the temporary file is removed and ``path`` is left as it was.
+def torque_noise(log: Log) -> float:
+    """Standard deviation of the torque log's noise, N m, from its sample-to-sample changes.
 
-    Parameters
-    ----------
-    path : str or path-like
-        Target file; its folder must exist.
-    text : str
-        The whole content.
+    Meant for the braking log, whose applied torque is constant by protocol: white logging
+    noise of std sigma makes the differences' std sigma sqrt(2); a robust scale (median
+    absolute deviation) keeps the odd genuine step out. Not for a closed-loop log: there the
+    regulator's response to each encoder count (k_phi q, ~0.02 N m on the default stage 2)
+    is real torque, doing real work, and would pass for noise 200 times the logging noise.
+    The logging noise belongs to the rig's torque channel, shared by both passes.
     """
-    target = Path(path)
-    _remove_stale_temporaries(target)
-    temp = target.with_name(f".{target.name}.{os.getpid()}.{secrets.token_hex(6)}.tmp")
-    # os.open with mode 0o666 lets the umask decide the permissions, as for a plain open().
-    fd = os.open(temp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as file:
-            file.write(text)
-            file.flush()
-            os.fsync(file.fileno())
-        os.replace(temp, target)
-    except BaseException:
-        temp.unlink(missing_ok=True)
-        raise
+    d = np.diff(log.torque)
+    if d.size < 2:
+        return 0.0
+    mad = np.median(np.abs(d - np.median(d)))
+    return float(1.4826 * mad / np.sqrt(2.0))
 
 
-def file_sha256(path: str | os.PathLike) -> str:
-    """The SHA-256 of a file's bytes, hexadecimal (read in pieces: a log may be hundreds of
-    MB). Recorded for every input by ``calibrate`` and ``identify``, checked by ``report``."""
-    with open(path, "rb") as file:
-        return hashlib.file_digest(file, "sha256").hexdigest()
-
-
-def check_writable(path: str | os.PathLike) -> None:
-    """Refuse, before any computation, an output that :func:`write_atomic` could not write:
-    it needs to create a file in the target's folder (and to replace the target there).
-
-    Raises
-    ------
-    InputError
-        Naming the file and why (a read-only folder, a missing one, a target that is a folder).
-    """
-    target = Path(path)
-    if target.is_dir():
-        raise InputError(f"{target}: cannot be written: it is a folder; nothing was computed")
-    probe = target.with_name(f".{target.name}.{os.getpid()}.{secrets.token_hex(6)}.tmp")
-    try:
-        os.close(os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
-    except OSError as error:
+def check_braking_monotone(log: Log, source: str) -> None:
+    """The braking speed never reverses: encoder readings never decrease (docs/files.md)."""
+    back = np.nonzero(np.diff(log.phi) < 0)[0]
+    if back.size:
+        line = int(back[0]) + 3  # row k+1 of the data is line k+3 (header is line 1)
         raise InputError(
-            f"{target}: cannot be written ({error.strerror or error}); nothing was computed"
-        ) from None
-    probe.unlink(missing_ok=True)
+            f"{source}, line {line}: the angle decreases: the speed reverses inside the braking"
+        )
 
 
-def _remove_stale_temporaries(target: Path) -> None:
-    """Remove the temporary files that a writer of ``target`` killed before it could clean up
-    left behind (:func:`write_atomic` names them after its process id): those of processes
-    that no longer run. A live writer's is left alone."""
-    for temp in target.parent.glob(f".{glob.escape(target.name)}.*.tmp"):
-        pid = temp.name[len(target.name) + 2 :].split(".")[0]
-        if not pid.isdigit() or int(pid) == os.getpid():
-            continue
-        try:
-            os.kill(int(pid), 0)
-        except ProcessLookupError:
-            temp.unlink(missing_ok=True)
-        except (PermissionError, OSError):
-            continue  # another user's live process, or we cannot tell: keep it
+def mirror_log(log: Log, quantum: float) -> Log:
+    """A backward run's log in the mirrored coordinate phi_m = -phi, torque u_m = -u.
+
+    The motor work sum u dphi is unchanged, so every balance reads the same. The encoder
+    reading y = floor(phi / q) q of the mirrored angle -phi is -y - q (for -phi off the grid),
+    so the mirrored log keeps the floor convention that the smoother assumes
+    (rsp_inertia.estimation.smoothing: true angle in [y, y + q)).
+    """
+    return Log(t=log.t, phi=-np.asarray(log.phi) - quantum, torque=-np.asarray(log.torque))
+
+
+def mirrored_device(device: Device) -> Device:
+    """The device seen in the mirrored coordinate phi_m = -phi of :func:`mirror_log`: the
+    spring c/2 (phi - phi0)^2 = c/2 (phi_m + phi0)^2 has its zero angle at -phi0 (the gravity
+    terms and M's odd harmonics, which change sign too, are fitted, never given)."""
+    spring = dataclasses.replace(device.spring, zero_angle=-device.spring.zero_angle)
+    return dataclasses.replace(device, spring=spring)

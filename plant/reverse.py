@@ -96,7 +96,7 @@ def run_program(
         pass's noise stream (the motion follows the program, in whichever direction).
     coarse : bool
         One RK4 step per sample instead of SUBSTEPS (4x faster): for a rehearsal on a
-        nominal model (rsp_inertia.ocp.rehearsal), where the body's motion over a sample,
+        nominal model (rsp_inertia.design.rehearsal), where the body's motion over a sample,
         h w ~ 0.01 at the 2 Omega harmonic, leaves an RK4 error ~(h w)^5 / 120, far below
         what the model knows.
 

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 import tomlkit
 
+from rsp_inertia.plant.files import write_atomic
 from rsp_inertia.plant.toml_schema import ContentError, Key, is_table, layout
 
 
@@ -103,9 +104,6 @@ def write_file(
         no file holds).
     """
     text = checked_text(value, header, read, str(path))
-    # Imported here: rsp_inertia.plant.logs imports the config module that imports this one.
-    from rsp_inertia.plant.logs import write_atomic
-
     write_atomic(path, text)
 
 

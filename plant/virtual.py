@@ -254,7 +254,7 @@ def simulate_pilot(device: Device, stage: int, virtual: Virtual) -> SimulatedPas
 
     The short run from which the planner estimates the stage's mean reduced inertia and its
     friction before the experiment (``stageN/pilot.csv``, the log format of braking.csv;
-    rsp_inertia.ocp.pilot fits it). Protocol, forward only:
+    rsp_inertia.design.pilot fits it). Protocol, forward only:
 
     1. The body starts at rest at the release angle (``virtual.run.release_angle_deg``).
     2. Powered part: the drive commands the constant torque PILOT_TORQUE_FRACTION x

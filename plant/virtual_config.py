@@ -282,7 +282,7 @@ class Virtual:
     ``models`` is no key of the file: per stage, the true model given directly
     (rsp_inertia.plant.model.ModelParameters, both directions of motion) in place of body,
     fixture, tare and friction, for a rehearsal of a plan on its nominal model
-    (rsp_inertia.ocp.rehearsal); None otherwise.
+    (rsp_inertia.design.rehearsal); None otherwise.
     """
 
     body: TrueBody | None = key(
@@ -420,7 +420,7 @@ def load_virtual(path: str | os.PathLike) -> Virtual:
 
 def write_virtual(path: str | os.PathLike, virtual: Virtual) -> None:
     """Write ``virtual`` to ``path`` as a ``virtual.toml`` that :func:`load_virtual` reads
-    back equal; atomically (rsp_inertia.plant.logs.write_atomic).
+    back equal; atomically (rsp_inertia.plant.files.write_atomic).
 
     Every key whose value is not None is written, in the order of the fields, with its unit
     as a comment.

@@ -37,18 +37,12 @@ from pathlib import Path
 
 import numpy as np
 
-from rsp_inertia.estimation.balance import (
-    NODE_GAP_SAMPLES,
-    check_node_gaps,
-    harmonic_reach,
-    mirror_log,
-)
+from rsp_inertia.estimation.balance import NODE_GAP_SAMPLES, check_node_gaps, harmonic_reach
 from rsp_inertia.estimation.identify import (
     checked_design,
     pendulum_settings,
     reduce_pendulum_run,
 )
-from rsp_inertia.estimation.passes import check_braking_monotone
 from rsp_inertia.estimation.reading import known_terms, read_run
 from rsp_inertia.estimation.runs import checked_run
 from rsp_inertia.estimation.smoothing import top_speed
@@ -57,7 +51,13 @@ from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.geometry import turns_past_last_node
 from rsp_inertia.plant.log_checks import unterminated_last_line
-from rsp_inertia.plant.logs import dropped_samples, read_device_log, read_program
+from rsp_inertia.plant.logs import (
+    check_braking_monotone,
+    dropped_samples,
+    mirror_log,
+    read_device_log,
+    read_program,
+)
 
 __all__ = ["LEVELS", "MIN_TURNS_PAST_LAST_NODE", "CheckReport", "check"]
 

@@ -2,7 +2,7 @@
 
 Each command calls its function of the Python API (:mod:`rsp_inertia.api`, the same
 function a script calls) and prints its progress lines and its result; ``design``, which has
-no API function, calls :func:`rsp_inertia.design.run_design`.
+no API function, calls :func:`rsp_inertia.design.mountings.run_design`.
 
 Bad input (:class:`rsp_inertia.plant.errors.InputError`) becomes one line on stderr and exit
 status 2, and so does running out of memory (a MemoryError anywhere: the line names the
@@ -81,7 +81,7 @@ def _cmd_combine(args: argparse.Namespace) -> None:
 
 
 def _cmd_design(args: argparse.Namespace) -> None:
-    from rsp_inertia.design import run_design
+    from rsp_inertia.design.mountings import run_design
 
     print(run_design(args.exp, args.plot))
 
@@ -244,7 +244,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"rsp-inertia: error: {_out_of_memory(args)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        # Every output is written atomically (rsp_inertia.plant.logs.write_atomic): an
+        # Every output is written atomically (rsp_inertia.plant.files.write_atomic): an
         # interrupted command leaves the files it had not finished as they were.
         progress.clear()
         print(f"rsp-inertia: interrupted: {args.command} stopped; nothing half-written",

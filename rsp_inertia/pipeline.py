@@ -23,12 +23,11 @@ import numpy as np
 from rsp_inertia.plant.config import DIRECTIONS
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import Experiment, open_experiment
+from rsp_inertia.plant.files import check_writable, write_atomic
 from rsp_inertia.plant.logs import (
     align_counter,
-    check_writable,
     read_device_log,
     read_program,
-    write_atomic,
     write_log,
     write_program,
 )
@@ -39,7 +38,7 @@ if TYPE_CHECKING:
     from rsp_inertia.estimation.calibration import Calibration
     from rsp_inertia.estimation.combine import Combination
     from rsp_inertia.estimation.results import Identification
-    from rsp_inertia.ocp.program import ProgramResult
+    from rsp_inertia.ocp.program import TorqueProgram
     from rsp_inertia.plant.virtual import SimulatedPass
 
 __all__ = [
@@ -203,7 +202,7 @@ def _check_simulate_outputs(
     exp: Experiment, stages: list[int], part: str, direction: str | None
 ) -> None:
     """Refuse, before any run is simulated, a log that :func:`simulate` could not write
-    (rsp_inertia.plant.logs.check_writable): in a stage folder that exists, each log; else
+    (rsp_inertia.plant.files.check_writable): in a stage folder that exists, each log; else
     the experiment folder, where the stage folder is to be made."""
     for st in stages:
         if part == "pendulum":
@@ -398,9 +397,9 @@ class ProgramSummary:
     """'forward' or 'backward'."""
     path: Path
     """The program.csv written."""
-    details: ProgramResult
+    details: TorqueProgram
     """How it was made: the program's arrays, the mirror, the nominal model, the OCP's
-    solution, the smoothed braking, the wall time (rsp_inertia.ocp.program.ProgramResult)."""
+    solution, the smoothed braking, the wall time (rsp_inertia.ocp.program.TorqueProgram)."""
 
     def __str__(self) -> str:
         prog = self.details.program
@@ -454,8 +453,8 @@ def program(
     root: str | Path,
     stage: int | None = None,
     progress: Callable[[str], None] | None = None,
-) -> list[ProgramResult]:
-    """``rsp-inertia program``: :func:`program_summaries`, each run's ProgramResult only."""
+) -> list[TorqueProgram]:
+    """``rsp-inertia program``: :func:`program_summaries`, each run's TorqueProgram only."""
     return [summary.details for summary in program_summaries(root, stage, progress)]
 
 

@@ -83,7 +83,7 @@ class PlanResult:
     def _from(cls, report: PlanReport) -> PlanResult:
         import numpy as np
 
-        from rsp_inertia.ocp.plan import planned_release
+        from rsp_inertia.design.plan import planned_release
 
         chosen = report.plan.chosen
         return cls(

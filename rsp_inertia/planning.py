@@ -2,13 +2,13 @@
 
 Reads ``EXP/device.toml`` and, per stage, ``stageN/pilot.csv`` when it exists (else the
 guesses of ``device.toml [plan]``), chooses every stage's ``launch_speed`` and
-``braking_torque`` (rsp_inertia.ocp.plan), writes them, and the release angle the plan assumed
+``braking_torque`` (rsp_inertia.design.plan), writes them, and the release angle the plan assumed
 (``release_angle_deg``, kept when device.toml states one), into ``EXP/device.toml`` (atomically, comments
 and key order kept; a key the stage lacked is added), and draws ``EXP/plan.png``. Nothing is
 written when a stage has no feasible protocol.
 
 device.toml's stages need not state a protocol (a new rig): the candidates tried come from
-the stage's model and the motor's limits alone (rsp_inertia.ocp.candidates); a protocol
+the stage's model and the motor's limits alone (rsp_inertia.design.candidates); a protocol
 device.toml does state is only evaluated beside the plan, for comparison.
 """
 
@@ -21,8 +21,7 @@ from pathlib import Path
 import numpy as np
 import tomlkit
 
-from rsp_inertia.estimation.balance import harmonic_reach
-from rsp_inertia.ocp.plan import (
+from rsp_inertia.design.plan import (
     TORQUE_MARGIN,
     Plan,
     StageModel,
@@ -30,12 +29,14 @@ from rsp_inertia.ocp.plan import (
     map_stages,
     planned_release,
 )
+from rsp_inertia.design.rehearsal import Rehearsal
+from rsp_inertia.estimation.balance import harmonic_reach
 from rsp_inertia.ocp.regulator import MAX_BANDWIDTH, bandwidth
-from rsp_inertia.ocp.rehearsal import Rehearsal
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
-from rsp_inertia.plant.logs import Log, check_writable, read_device_log, write_atomic
+from rsp_inertia.plant.files import check_writable, write_atomic
+from rsp_inertia.plant.logs import Log, read_device_log
 from rsp_inertia.plant.model import ModelParameters
 
 __all__ = ["DEFAULT_MAX_DURATION", "PlanReport", "guess_model", "plan", "stage_models"]
@@ -52,7 +53,7 @@ def guess_model(device: Device, stage: int) -> tuple[ModelParameters, float]:
 
     M0 = M_tare + (1 + lambda^2) J, J the mean of the guessed principal moments (the axis's
     J_e lies between the extreme ones; docs/method.md §2); no M harmonics (their effect on the
-    mirror's torque cancels, module docstring of rsp_inertia.ocp.candidates); gravity m g r from the mass and
+    mirror's torque cancels, module docstring of rsp_inertia.design.candidates); gravity m g r from the mass and
     the guessed offset of the centre of mass; friction and spring as given.
     """
     guess = device.plan
@@ -95,7 +96,7 @@ def stage_models(root: str | Path) -> list[StageModel]:
     """Per stage: the pilot run's fit if ``stageN/pilot.csv`` exists, else device.toml's guess.
 
     The pilots are read here (a bad log's error comes before any process starts) and fitted
-    per stage in parallel (rsp_inertia.ocp.plan.map_stages).
+    per stage in parallel (rsp_inertia.design.plan.map_stages).
     """
     exp = open_experiment(root, protocol=False)
     jobs = []
@@ -110,7 +111,7 @@ def _stage_model(device: Device, stage: int, path: Path, log: Log | None) -> Sta
     """One stage's model: its pilot's fit (``log``, read from ``path``), else device.toml's
     guess."""
     if log is not None:
-        from rsp_inertia.ocp.pilot import fit_pilot
+        from rsp_inertia.design.pilot import fit_pilot
 
         fit = fit_pilot(device, stage, log, str(path))
         bound = fit.a1 + 2 * fit.a1_std if np.isfinite(fit.a1_std) else fit.a1
@@ -134,7 +135,7 @@ class PlanReport:
     figure: Path | None
     seconds: float
     rehearsal: Rehearsal | None = None
-    """identify's stds on the plan run in closed loop on the nominal model (rsp_inertia.ocp.rehearsal);
+    """identify's stds on the plan run in closed loop on the nominal model (rsp_inertia.design.rehearsal);
     None when skipped."""
     rehearsal_error: str | None = None
     """Why the rehearsal could not run (what program or identify refused), if it did not."""
@@ -288,7 +289,7 @@ def plan(
     """``rsp-inertia plan``: choose, write device.toml and plan.png (module docstring).
 
     ``rehearse``: run the chosen plan in closed loop on the nominal model and predict with
-    identify's stds there (rsp_inertia.ocp.rehearsal); else the ideal reverse's prediction only.
+    identify's stds there (rsp_inertia.design.rehearsal); else the ideal reverse's prediction only.
     """
     import time
 
@@ -324,7 +325,7 @@ def plan(
     write_atomic(path, tomlkit.dumps(doc))
     rehearsal, rehearsal_error = None, None
     if rehearse:
-        from rsp_inertia.ocp.rehearsal import rehearse as run_rehearsal
+        from rsp_inertia.design.rehearsal import rehearse as run_rehearsal
 
         try:
             rehearsal = run_rehearsal(device, models, result.chosen, progress=progress)

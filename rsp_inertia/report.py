@@ -25,7 +25,8 @@ from rsp_inertia.estimation.runs import runs
 from rsp_inertia.estimation.smoothing import smooth_log
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import Experiment, open_experiment
-from rsp_inertia.plant.logs import check_writable, read_device_log, write_atomic
+from rsp_inertia.plant.files import check_writable, write_atomic
+from rsp_inertia.plant.logs import read_device_log
 from rsp_inertia.plots import errors_figure, experiment_figures, figure_png
 from rsp_inertia.provenance import created_now, input_changes, input_status, package_versions
 

@@ -139,7 +139,7 @@ class ProgramResult(_Records):
     ----------
     runs : tuple of rsp_inertia.pipeline.ProgramSummary
         One per program.csv written, each with ``stage``, ``direction``, ``path`` and
-        ``details`` (rsp_inertia.ocp.program.ProgramResult: ``program``, the arrays of
+        ``details`` (rsp_inertia.ocp.program.TorqueProgram: ``program``, the arrays of
         program.csv, ``t`` s, ``phi_ref`` rad, ``omega_ref`` rad/s, ``torque_ff`` N m,
         ``k_phi`` N m/rad, ``k_omega`` N m s/rad; the ``mirror``, the ``nominal`` model, the
         ``ocp`` solution, the ``smoothed`` braking and the wall time ``seconds``).

@@ -27,7 +27,7 @@ from rsp_inertia.pipeline import (
 )
 from rsp_inertia.plant.config import placed_body
 from rsp_inertia.plant.experiment import Experiment, open_experiment
-from rsp_inertia.plant.logs import write_atomic
+from rsp_inertia.plant.files import write_atomic
 
 if TYPE_CHECKING:
     from rsp_inertia.estimation.results import Identification
@@ -49,7 +49,7 @@ def demo_figures(
     the paths written, in that order.
     """
     # Imported here: only the demo draws, and matplotlib costs the other commands a second.
-    from rsp_inertia.design import plot_cone_conditioning
+    from rsp_inertia.design.mountings import plot_cone_conditioning
     from rsp_inertia.plant.geometry import design_matrix
     from rsp_inertia.plots import experiment_figures, plot_errors, save_figure
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from rsp_inertia.cli import main
-from rsp_inertia.design import design_report, plot_cone_conditioning
+from rsp_inertia.design.mountings import design_report, plot_cone_conditioning
 from rsp_inertia.plant.geometry import best_cone_opening, cone_plus_z_design, icosahedron_design
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
@@ -86,7 +86,7 @@ def test_mounting_conditioning_closed_form():
 
     import numpy as np
 
-    from rsp_inertia.design import mounting_conditioning
+    from rsp_inertia.design.mountings import mounting_conditioning
 
     turned = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
     condition, gain = mounting_conditioning([np.eye(3), turned])

@@ -59,7 +59,7 @@ HOMES = [
     ("smoothed states", "estimation.smoothing", "smooth_log", ["estimation.passes"]),
     ("W_K, Stieltjes sum over the smoothed angle", "estimation.passes", "motor_work",
      ["estimation.passes", "estimation.predict"]),
-    ("mirrored coordinate of a backward run", "estimation.balance", "mirror_log",
+    ("mirrored coordinate of a backward run", "plant.logs", "mirror_log",
      ["estimation.runs"]),
     ("common range of the passes", "estimation.balance", "usable_range",
      ["estimation.balance", "estimation.nodes"]),

@@ -11,10 +11,10 @@ from rsp_inertia.estimation.passes import (
     constancy_p_value,
     estimate_pass,
     sample_at,
-    torque_noise,
     work_covariance,
 )
 from rsp_inertia.plant import virtual as vd
+from rsp_inertia.plant.logs import torque_noise
 from tests.estimation.conftest import STAGES
 
 

@@ -15,7 +15,7 @@ import pytest
 
 from rsp_inertia.cli import main
 from rsp_inertia.estimation import identify as identify_module
-from rsp_inertia.estimation.balance import mirror_log, stage_balance
+from rsp_inertia.estimation.balance import stage_balance
 from rsp_inertia.estimation.passes import estimate_pass
 from rsp_inertia.estimation.reading import load_calibration
 from rsp_inertia.estimation.runs import ExperimentLogs
@@ -25,6 +25,7 @@ from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.config import Pendulum, load_device, write_device
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.geometry import axis_direction, tensor_from_entries
+from rsp_inertia.plant.logs import mirror_log
 from rsp_inertia.plant.transducers import true_angle
 from tests.estimation.test_uncertainty import honest_band
 

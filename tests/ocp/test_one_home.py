@@ -11,29 +11,30 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rsp_inertia.ocp import candidates, regulator
+from rsp_inertia.design import candidates
+from rsp_inertia.ocp import regulator
 from rsp_inertia.plant.model import ModelParameters
 from tests.one_home import assert_calls_home, home_cases
 
 # (formula, home module, function, consumer modules)
 HOMES = [
     ("M(phi)", "plant.model", "reduced_inertia",
-     ["ocp.candidates", "ocp.regulator", "ocp.program"]),
+     ["design.candidates", "ocp.regulator", "ocp.program"]),
     ("dPi/dphi, the hold torque", "plant.model", "static_torque",
-     ["ocp.candidates", "ocp.feedforward"]),
+     ["design.candidates", "ocp.feedforward"]),
     ("Lagrange's equation solved for u", "plant.model", "motor_torque",
-     ["ocp.candidates", "ocp.feedforward"]),
-    ("Lagrange's equation solved for eps", "plant.model", "acceleration", ["ocp.candidates"]),
-    ("D(Omega)", "plant.model", "dissipation", ["ocp.candidates"]),
+     ["design.candidates", "ocp.feedforward"]),
+    ("Lagrange's equation solved for eps", "plant.model", "acceleration", ["design.candidates"]),
+    ("D(Omega)", "plant.model", "dissipation", ["design.candidates"]),
     ("RK4 step", "plant.model", "rk4_step", ["ocp.feedforward"]),
-    ("M's harmonics from the entries", "plant.model", "harmonics_matrix", ["ocp.rehearsal"]),
-    ("smoothed braking", "estimation.smoothing", "smooth_log", ["ocp.program", "ocp.pilot"]),
+    ("M's harmonics from the entries", "plant.model", "harmonics_matrix", ["design.rehearsal"]),
+    ("smoothed braking", "estimation.smoothing", "smooth_log", ["ocp.program", "design.pilot"]),
     ("cubic Hermite between states", "estimation.smoothing", "hermite",
-     ["ocp.reference", "ocp.candidates"]),
-    ("mirrored coordinate of a backward run", "estimation.balance", "mirror_log", ["ocp.program"]),
-    ("torque noise level", "estimation.passes", "torque_noise", ["ocp.pilot"]),
+     ["ocp.reference", "design.candidates"]),
+    ("mirrored coordinate of a backward run", "plant.logs", "mirror_log", ["ocp.program"]),
+    ("torque noise level", "plant.logs", "torque_noise", ["design.pilot"]),
     ("modulated least squares", "estimation.modulated", "fit_modulated",
-     ["ocp.nominal", "ocp.pilot"]),
+     ["ocp.nominal", "design.pilot"]),
     ("the rest point", "ocp.reference", "rest_fit", ["ocp.reference"]),
     ("the time mirror", "ocp.reference", "mirror", ["ocp.program"]),
     ("the mirror's torque on the nominal model", "ocp.feedforward", "required_torque",
@@ -41,14 +42,14 @@ HOMES = [
     ("the regulator's bandwidth", "ocp.regulator", "bandwidth",
      ["ocp.regulator", "ocp.program"]),
     ("LQR gains", "ocp.regulator", "lqr_gains", ["ocp.program"]),
-    ("the planned release", "ocp.candidates", "planned_release",
-     ["ocp.candidates", "ocp.rehearsal"]),
-    ("a candidate protocol", "ocp.candidates", "evaluate", ["ocp.candidates", "ocp.plan"]),
-    ("the stage balance", "estimation.balance", "stage_balance", ["ocp.rehearsal"]),
+    ("the planned release", "design.candidates", "planned_release",
+     ["design.candidates", "design.rehearsal"]),
+    ("a candidate protocol", "design.candidates", "evaluate", ["design.candidates", "design.plan"]),
+    ("the stage balance", "estimation.balance", "stage_balance", ["design.rehearsal"]),
     ("predicted information of a run", "estimation.predict", "run_information",
-     ["ocp.candidates"]),
-    ("predicted J_k stds", "estimation.predict", "axis_stds", ["ocp.plan"]),
-    ("identify's least squares", "estimation.tensor", "fit_tensor", ["ocp.rehearsal"]),
+     ["design.candidates"]),
+    ("predicted J_k stds", "estimation.predict", "axis_stds", ["design.plan"]),
+    ("identify's least squares", "estimation.tensor", "fit_tensor", ["design.rehearsal"]),
 ]
 
 

@@ -12,6 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.files import write_atomic
 from rsp_inertia.plant.log_checks import SPEED_MARGIN, TORQUE_MARGIN, unterminated_last_line
 from rsp_inertia.plant.logs import (
     JITTER_LIMIT,
@@ -20,7 +21,6 @@ from rsp_inertia.plant.logs import (
     dropped_samples,
     read_log,
     read_program,
-    write_atomic,
     write_log,
     write_program,
 )

@@ -1,4 +1,4 @@
-"""The closed-loop rehearsal of a plan (rsp_inertia.ocp.rehearsal) and the pieces it stands on."""
+"""The closed-loop rehearsal of a plan (rsp_inertia.design.rehearsal) and the pieces it stands on."""
 
 from __future__ import annotations
 
@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 
 from rsp_inertia.cli import main
+from rsp_inertia.design.candidates import StageModel
+from rsp_inertia.design.plan import map_stages
+from rsp_inertia.design.rehearsal import consistent_models
 from rsp_inertia.estimation.reading import read_run
 from rsp_inertia.estimation.runs import estimate_run
-from rsp_inertia.ocp.candidates import StageModel
-from rsp_inertia.ocp.plan import map_stages
 from rsp_inertia.ocp.program import make_program
-from rsp_inertia.ocp.rehearsal import consistent_models
 from rsp_inertia.pipeline import create_default_experiment, simulate
 from rsp_inertia.plant.config import ControllerSettings, Friction, RunSettings, Virtual
 from rsp_inertia.plant.experiment import open_experiment

@@ -17,7 +17,7 @@ that identify sees and the ideal prediction cannot:
 The rehearsal therefore runs what the experiment will run, with the nominal model as the
 truth: for every stage and direction the braking of the chosen protocol (encoder
 quantization, the torque log's noise of the pilot or the guess; the release where the plan
-puts it, rsp_inertia.ocp.candidates.planned_release), ``program`` from that
+puts it, rsp_inertia.design.candidates.planned_release), ``program`` from that
 braking log (its own nominal fit, blind to a1 as on the rig), the closed-loop reverse on a
 drive with the regulator's assumed speed observer (rsp_inertia.ocp.regulator.OBSERVER_BANDWIDTH) and the
 motor's limits, and identify's least squares on those logs. Its reported stds are the
@@ -35,11 +35,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rsp_inertia.design.candidates import Candidate, StageModel, planned_release
+from rsp_inertia.design.plan import map_stages
 from rsp_inertia.estimation.balance import stage_balance
 from rsp_inertia.estimation.runs import estimate_run
 from rsp_inertia.estimation.tensor import axis_values, fit_tensor, format_run
-from rsp_inertia.ocp.candidates import Candidate, StageModel, planned_release
-from rsp_inertia.ocp.plan import map_stages
 from rsp_inertia.ocp.program import make_program
 from rsp_inertia.ocp.regulator import OBSERVER_BANDWIDTH
 from rsp_inertia.plant.config import ControllerSettings, Device, Friction, RunSettings, Virtual
@@ -110,7 +110,7 @@ def rehearse(
     """Simulate the chosen protocols in closed loop on the models and identify them.
 
     The stages are independent until the least squares, so they run in parallel processes
-    (rsp_inertia.ocp.plan.map_stages); each stage's noise has its own seeded stream.
+    (rsp_inertia.design.plan.map_stages); each stage's noise has its own seeded stream.
 
     Raises
     ------

@@ -30,11 +30,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from rsp_inertia.estimation.modulated import fit_modulated
-from rsp_inertia.estimation.passes import torque_noise
 from rsp_inertia.estimation.smoothing import smooth_log
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.logs import Log
+from rsp_inertia.plant.logs import Log, torque_noise
 from rsp_inertia.plant.model import ModelParameters
 
 __all__ = ["PILOT_UNKNOWNS", "PilotFit", "fit_pilot"]
@@ -84,7 +83,7 @@ class PilotFit:
     a3_std: float
     """N m s^2, std of ``a3``."""
     torque_noise: float
-    """N m, std of the torque log's noise (rsp_inertia.estimation.passes.torque_noise: the median
+    """N m, std of the torque log's noise (rsp_inertia.plant.logs.torque_noise: the median
     absolute deviation of the sample-to-sample changes, which the one step at the switch-off
     does not move)."""
     top_speed: float

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from rsp_inertia.cli import main
+from rsp_inertia.design.candidates import NOMINAL_COULOMB_SHARE, TORQUE_MARGIN, StageModel, evaluate
 from rsp_inertia.estimation.predict import (
     PlannedPass,
     combine_information,
@@ -19,7 +20,6 @@ from rsp_inertia.estimation.predict import (
 )
 from rsp_inertia.estimation.reading import identify_experiment
 from rsp_inertia.estimation.tensor import axis_values, fit_tensor
-from rsp_inertia.ocp.candidates import NOMINAL_COULOMB_SHARE, TORQUE_MARGIN, StageModel, evaluate
 from rsp_inertia.pipeline import create_default_experiment, simulate
 from rsp_inertia.plant.config import load_device, load_virtual
 from rsp_inertia.plant.experiment import open_experiment
@@ -82,7 +82,7 @@ def test_structured_information_equals_the_least_squares_covariance(paper):
 
 def test_mirror_torque_is_braking_torque_plus_twice_friction(paper):
     """Subtracting the braking's equation of motion from the mirror's at the same angle
-    leaves u' = -(u_b + 2 D(|Omega|)): inertia, gravity and spring cancel (rsp_inertia.ocp.plan)."""
+    leaves u' = -(u_b + 2 D(|Omega|)): inertia, gravity and spring cancel (rsp_inertia.design.plan)."""
     device, virtual = paper
     model = dataclasses.replace(true_parameters(device, 1, virtual, 1.0), stiffness=0.02)
     b, r, _ = _planned(device, 1, model, 10.0, 0.01)

@@ -7,13 +7,13 @@ each the standard deviations that ``identify`` will report (rsp_inertia.estimati
 balances, the same noise model) and picks, over all stages together, the protocols with the
 smallest predicted std of the worst J_k whose total duration fits the user's budget.
 
-The candidates of each stage and the limits that admit them: rsp_inertia.ocp.candidates.
+The candidates of each stage and the limits that admit them: rsp_inertia.design.candidates.
 
 Objective: the smallest predicted worst std over the axes. The runs' noises are independent,
 so each candidate's information matrix is computed once (rsp_inertia.estimation.predict.run_information)
 and combinations of one candidate per stage are summed and inverted exhaustively. These
 stds are an ideal reverse's, right for ranking protocols; what the chosen plan promises in
-closed loop comes from its rehearsal (rsp_inertia.ocp.rehearsal).
+closed loop comes from its rehearsal (rsp_inertia.design.rehearsal).
 """
 
 from __future__ import annotations
@@ -27,8 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rsp_inertia.estimation.predict import axis_stds, combine_information
-from rsp_inertia.ocp.candidates import (
+from rsp_inertia.design.candidates import (
     RELEASE_BEFORE_NODE_DEG,
     TORQUE_MARGIN,
     Candidate,
@@ -37,12 +36,13 @@ from rsp_inertia.ocp.candidates import (
     planned_release,
     stage_candidates,
 )
+from rsp_inertia.estimation.predict import axis_stds, combine_information
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.geometry import device_design
 
 # RELEASE_BEFORE_NODE_DEG, TORQUE_MARGIN, StageModel and planned_release live in
-# rsp_inertia.ocp.candidates; they are re-exported here, where rsp_inertia.planning,
+# rsp_inertia.design.candidates; they are re-exported here, where rsp_inertia.planning,
 # rsp_inertia.api and plant.device_config's message name them.
 __all__ = [
     "MAX_COMBINATIONS",

@@ -5,7 +5,7 @@ candidate is simulated on the stage's nominal model (:class:`StageModel`: a pilo
 or the rough guesses of ``device.toml [plan]``), checked against every limit below and, when
 admitted, given its predicted information on the tensor (rsp_inertia.estimation.predict: the
 balances and noise model of ``identify``). The plan search over all stages is
-rsp_inertia.ocp.plan.
+rsp_inertia.design.plan.
 
 Limits, each with its reason:
 

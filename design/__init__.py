@@ -1,0 +1,1 @@
+"""Experiment design: pilot fit, candidate protocols, rehearsal, plan, device.toml edit."""
