@@ -32,7 +32,39 @@ from rsp_inertia.plant.config import (
 )
 from rsp_inertia.plant.errors import InputError
 
-__all__ = ["Experiment", "open_experiment"]
+__all__ = [
+    "BODY_FILE",
+    "CALIBRATION_FILE",
+    "DEVICE_FILE",
+    "ENCODER_FIGURE",
+    "PLAN_FIGURE",
+    "REFERENCE_FILE",
+    "REPORT_FILE",
+    "RESULT_FILE",
+    "VIRTUAL_FILE",
+    "Experiment",
+    "open_experiment",
+]
+
+# The names of an experiment's files: the one place they are spelled (docs/files.md).
+DEVICE_FILE = "device.toml"
+"""The gimbal, the protocol and the mounting (required)."""
+VIRTUAL_FILE = "virtual.toml"
+"""The virtual device's truth (a virtual device only)."""
+REFERENCE_FILE = "reference.toml"
+"""A reference body's certified data (a calibration's reference folder)."""
+CALIBRATION_FILE = "calibration.toml"
+"""Written by ``calibrate``, applied by ``identify``."""
+RESULT_FILE = "result.json"
+"""Written by ``identify``."""
+REPORT_FILE = "report.html"
+"""Written by ``report``."""
+BODY_FILE = "body.json"
+"""Written by ``combine`` into its --out folder."""
+PLAN_FIGURE = "plan.png"
+"""Written by ``plan``."""
+ENCODER_FIGURE = "encoder_error.png"
+"""Written by ``calibrate`` when it estimates the encoder's error."""
 
 
 @dataclass(frozen=True)
@@ -48,6 +80,11 @@ class Experiment:
     def n_stages(self) -> int:
         """Number of [[stage]] tables in device.toml."""
         return len(self.device.stages)
+
+    @property
+    def device_path(self) -> Path:
+        """``device.toml``."""
+        return self.root / DEVICE_FILE
 
     def stage_dir(self, stage: int) -> Path:
         """Folder of stage ``stage`` (1-based)."""
@@ -84,12 +121,12 @@ class Experiment:
     @property
     def result_path(self) -> Path:
         """``result.json``."""
-        return self.root / "result.json"
+        return self.root / RESULT_FILE
 
     @property
     def calibration_path(self) -> Path:
         """``calibration.toml`` (written by calibrate, applied by identify)."""
-        return self.root / "calibration.toml"
+        return self.root / CALIBRATION_FILE
 
     def identify_inputs(self) -> list[Path]:
         """The files ``identify`` reads that exist, in a fixed order: device.toml,
@@ -97,7 +134,7 @@ class Experiment:
         direction of ``stage.directions``) and the pendulum logs. result.json records their
         sha256 (rsp_inertia.provenance); ``report`` and ``combine`` check them against the
         folder (a missing log is identify's to refuse)."""
-        files = [self.root / "device.toml", self.calibration_path]
+        files = [self.device_path, self.calibration_path]
         for stage, st in enumerate(self.device.stages, 1):
             for direction in st.directions:
                 files += [self.braking_path(stage, direction), self.reverse_path(stage, direction)]
@@ -109,9 +146,19 @@ class Experiment:
         return [path for path in files if path.is_file()]
 
     @property
+    def report_path(self) -> Path:
+        """``report.html``."""
+        return self.root / REPORT_FILE
+
+    @property
+    def plan_figure_path(self) -> Path:
+        """``plan.png``."""
+        return self.root / PLAN_FIGURE
+
+    @property
     def virtual_path(self) -> Path:
         """``virtual.toml`` (virtual device only)."""
-        return self.root / "virtual.toml"
+        return self.root / VIRTUAL_FILE
 
     def load_virtual(self) -> Virtual:
         """The virtual device's truth; an error if this is not a virtual experiment.
@@ -135,7 +182,7 @@ class Experiment:
         """Raise InputError unless 1 <= stage <= n_stages."""
         if not 1 <= stage <= self.n_stages:
             raise InputError(
-                f"{self.root / 'device.toml'}: no stage {stage}: the device has "
+                f"{self.device_path}: no stage {stage}: the device has "
                 f"{self.n_stages} stage(s), numbered from 1"
             )
 
@@ -157,7 +204,7 @@ def open_experiment(path: str | os.PathLike, protocol: bool = True) -> Experimen
     root = Path(path)
     if not root.is_dir():
         raise InputError(f"{root}: not an experiment folder (no such directory)")
-    device = load_device(root / "device.toml")
+    device = load_device(root / DEVICE_FILE)
     if protocol:
-        require_protocol(device, root / "device.toml")
+        require_protocol(device, root / DEVICE_FILE)
     return Experiment(root=root, device=device)
