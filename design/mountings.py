@@ -14,11 +14,12 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from numpy.typing import ArrayLike
+from scipy.optimize import minimize_scalar
 
 from rsp_inertia.plant.config import load_device
 from rsp_inertia.plant.geometry import (
     AxisDesign,
-    best_cone_opening,
+    cone_condition,
     cone_plus_z_design,
     device_design,
     icosahedron_design,
@@ -28,6 +29,7 @@ from rsp_inertia.plots import save_figure
 
 __all__ = [
     "DEFAULT_OPENINGS_DEG",
+    "best_cone_opening",
     "design_report",
     "mounting_conditioning",
     "mounting_report",
@@ -112,7 +114,7 @@ def plot_cone_conditioning(
 ) -> None:
     """Write the paper's Fig. 1 as a PNG: 1/cond(V) of the cone-plus-z design vs 2 beta.
 
-    The optimum opening (:func:`rsp_inertia.plant.geometry.best_cone_opening`) is marked and the
+    The optimum opening (:func:`rsp_inertia.design.mountings.best_cone_opening`) is marked and the
     icosahedron's 1/cond(V) = sqrt(2/5) is drawn as a horizontal reference
     (docs/method.md §5 "Axis designs"). The file is written atomically: to a temporary file in
     the same folder, then renamed over ``path``.
@@ -255,3 +257,29 @@ def run_design(exps: list[Path] | Path | None = None, plot: Path | None = None) 
         + " (paper Fig. 1: 140 deg, 1.4899)"
         + f"\nplot of 1/cond(V) against 2beta -> {plot}"
     )
+
+
+def best_cone_opening() -> tuple[float, float]:
+    """Opening angle 2 beta of the cone-plus-z design that minimises cond(V) (docs/method.md §5).
+
+    cond(V) has a cusp at its minimum (two singular values cross there), so a smooth
+    optimiser alone is unreliable: a 0.1 deg grid over (0, 180) locates the basin, then a
+    bounded scalar search (xatol 1e-6 deg) refines it within one grid step either side.
+
+    Returns
+    -------
+    tuple of float
+        ``(opening_deg, cond)``: about 141.967 deg and 1.48925 (the paper's Fig. 1 reads
+        140 deg, 1.4899).
+    """
+    step = 0.1
+    grid = np.arange(step, 180.0, step)
+    conds = 1.0 / rcond_curve(grid)
+    i = int(np.argmin(conds))
+    lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
+    res = minimize_scalar(
+        cone_condition, bounds=(lo, hi), method="bounded", options={"xatol": 1e-6}
+    )
+    if res.fun <= conds[i]:
+        return float(res.x), float(res.fun)
+    return float(grid[i]), float(conds[i])

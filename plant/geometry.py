@@ -23,8 +23,8 @@ __all__ = [
     "axis_angles_deg",
     "axis_direction",
     "axis_nodes_deg",
-    "best_cone_opening",
     "condition_number",
+    "cone_condition",
     "cone_plus_z_design",
     "design_matrix",
     "device_design",
@@ -535,7 +535,7 @@ def cone_plus_z_design(opening_deg: float) -> AxisDesign:
     )
 
 
-def _cone_condition(opening_deg: float) -> float:
+def cone_condition(opening_deg: float) -> float:
     """cond(V) of the cone-plus-z design at one opening angle (deg)."""
     return cone_plus_z_design(opening_deg).condition
 
@@ -554,38 +554,9 @@ def rcond_curve(openings_deg: ArrayLike) -> np.ndarray:
         Same shape as ``openings_deg``; 0 where V is singular (2 beta = 0).
     """
     openings = np.asarray(openings_deg, float)
-    flat = [1.0 / _cone_condition(float(o)) for o in openings.reshape(-1)]
+    flat = [1.0 / cone_condition(float(o)) for o in openings.reshape(-1)]
     return np.array(flat, float).reshape(openings.shape)
 
-
-def best_cone_opening() -> tuple[float, float]:
-    """Opening angle 2 beta of the cone-plus-z design that minimises cond(V) (docs/method.md §5).
-
-    cond(V) has a cusp at its minimum (two singular values cross there), so a smooth
-    optimiser alone is unreliable: a 0.1 deg grid over (0, 180) locates the basin, then a
-    bounded scalar search (xatol 1e-6 deg) refines it within one grid step either side.
-
-    Returns
-    -------
-    tuple of float
-        ``(opening_deg, cond)``: about 141.967 deg and 1.48925 (the paper's Fig. 1 reads
-        140 deg, 1.4899).
-    """
-    step = 0.1
-    grid = np.arange(step, 180.0, step)
-    conds = 1.0 / rcond_curve(grid)
-    i = int(np.argmin(conds))
-    lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
-    # Imported here: the one use of scipy.optimize, whose import (0.2-0.4 s) every command
-    # that reads a device.toml would pay through this module.
-    from scipy.optimize import minimize_scalar
-
-    res = minimize_scalar(
-        _cone_condition, bounds=(lo, hi), method="bounded", options={"xatol": 1e-6}
-    )
-    if res.fun <= conds[i]:
-        return float(res.x), float(res.fun)
-    return float(grid[i]), float(conds[i])
 
 
 def axis_nodes_deg(stage: Any) -> list[float]:

@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 
 from rsp_inertia.cli import main
-from rsp_inertia.design.mountings import design_report, plot_cone_conditioning
-from rsp_inertia.plant.geometry import best_cone_opening, cone_plus_z_design, icosahedron_design
+from rsp_inertia.design.mountings import best_cone_opening, design_report, plot_cone_conditioning
+from rsp_inertia.plant.geometry import cone_plus_z_design, icosahedron_design
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 

@@ -16,6 +16,7 @@ import shutil
 import numpy as np
 import pytest
 
+from rsp_inertia.design.mountings import best_cone_opening
 from rsp_inertia.estimation.calibration import device_known_terms
 from rsp_inertia.estimation.identify import identify_logs
 from rsp_inertia.estimation.runs import ExperimentLogs
@@ -23,12 +24,7 @@ from rsp_inertia.pipeline import create_default_experiment, identify, simulate
 from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.config import load_device, write_device
 from rsp_inertia.plant.experiment import open_experiment
-from rsp_inertia.plant.geometry import (
-    best_cone_opening,
-    device_design,
-    relative_errors,
-    tensor_from_entries,
-)
+from rsp_inertia.plant.geometry import device_design, relative_errors, tensor_from_entries
 from rsp_inertia.plant.logs import read_log, write_log
 
 ENTRY_NAMES = ("Jx", "Jy", "Jz", "Jxy", "Jyz", "Jxz")

@@ -9,12 +9,12 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from rsp_inertia.design.mountings import best_cone_opening
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.geometry import (
     axis_angles_deg,
     axis_direction,
     axis_nodes_deg,
-    best_cone_opening,
     condition_number,
     cone_plus_z_design,
     design_matrix,
