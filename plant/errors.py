@@ -1,4 +1,4 @@
-"""The project's single error type for bad input (STYLE.md, principle 5)."""
+"""The project's single error type for bad input: one class, one-line messages, exit status 2."""
 
 
 class InputError(Exception):

@@ -1,7 +1,7 @@
 """Passes of the default experiment on the virtual device, simulated once per session.
 
 The truth (PassTruth) rides beside every log, so estimates can be compared with what the
-virtual body really did, never with numbers from an earlier run (STYLE.md, principle 6).
+virtual body really did, never with numbers from an earlier run.
 """
 
 import pytest

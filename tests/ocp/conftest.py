@@ -1,7 +1,7 @@
 """The default experiment's braking passes and torque programs, made once per session.
 
 Every estimate in these tests is compared with the virtual device's truth (PassTruth rides
-beside each log), never with numbers from an earlier run (STYLE.md, principle 6).
+beside each log), never with numbers from an earlier run.
 """
 
 from __future__ import annotations

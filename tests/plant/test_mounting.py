@@ -35,7 +35,7 @@ HOMES = [
     ("the virtual body on the rig", "plant.virtual_config", "placed_body",
      ["plant.integrate", "rig_demo"]),
 ]
-"""(formula, home module, function, consumers): each consumer calls the home (STYLE.md §1)."""
+"""(formula, home module, function, consumers): each consumer calls the home: a formula lives in one module."""
 
 MOUNTING = f"""
 [mounting]
