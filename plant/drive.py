@@ -77,14 +77,45 @@ def braking_torque(stage: Stage, virtual: Virtual, s: float) -> tuple[float, flo
     body, moving in direction s, back-drives the motor and receives h_b x the command
     (``[rig]``: torque gain and back-driven efficiency,
     :func:`rsp_inertia.plant.transducers.delivered_torque`).
+
+    Parameters
+    ----------
+    stage : Stage
+        The stage; its ``braking_torque``, N m, is the command's magnitude.
+    virtual : Virtual
+        The virtual device; its ``[rig]`` drive gains give h_b.
+    s : float
+        Direction of the motion, +1.0 forward, -1.0 backward (:func:`direction_sign`).
+
+    Returns
+    -------
+    command : float
+        N m, the logged command -s braking_torque.
+    delivered : float
+        N m, the torque the body receives, h_b x the command.
     """
     command = -s * stage.braking_torque
     return command, delivered_torque(command, s, virtual.rig.drive_gains)
 
 
 def encoder_reading(phi: np.ndarray, quantum: float, error=()) -> np.ndarray:
-    """Incremental encoder: floor((phi + e(phi)) / q) q (docs/files.md, logs), ``error`` the
-    coefficients of its reading error e (``[rig]``, rsp_inertia.plant.transducers); none: e = 0."""
+    """Incremental encoder: floor((phi + e(phi)) / q) q (docs/files.md, logs).
+
+    Parameters
+    ----------
+    phi : numpy.ndarray
+        rad, the true angles.
+    quantum : float
+        q, rad, the encoder's step.
+    error : sequence of float, optional
+        The coefficients of its reading error e (``[rig]``, rsp_inertia.plant.transducers);
+        none: e = 0.
+
+    Returns
+    -------
+    numpy.ndarray
+        rad, the readings, shaped like ``phi``.
+    """
     return transducers.encoder_reading(phi, quantum, error)
 
 
@@ -123,7 +154,21 @@ def sampling_instants(virtual: Virtual, seed: tuple, n: int, dt: float) -> np.nd
     """s, the drive's first ``n`` sampling instants (k + d_k) dt, d_0 = 0 and d_k uniform
     within +-``[logger] time_jitter`` (a fraction of the period); k dt exactly without jitter.
 
-    ``seed`` names the pass's random stream (the same instants for the same pass).
+    Parameters
+    ----------
+    virtual : Virtual
+        The virtual device: its ``[logger] time_jitter`` and ``[run] seed``.
+    seed : tuple
+        Names the pass's random stream (the same instants for the same pass).
+    n : int
+        How many instants.
+    dt : float
+        s, the nominal sampling period.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n,)
+        s, the instants, from 0.
     """
     jitter = virtual.logger.time_jitter
     k = np.arange(n, dtype=float)
@@ -135,15 +180,28 @@ def sampling_instants(virtual: Virtual, seed: tuple, n: int, dt: float) -> np.nd
 
 
 def resample(truth: PassTruth, pair: Pair, instants: np.ndarray) -> PassTruth:
-    """The pass ``truth`` (states on the regular grid, the physical torque held over each
-    grid sample) at the drive's sampling ``instants`` (from 0; an instant past the grid's
-    last sample advances from that sample).
+    """The pass ``truth`` at the drive's sampling ``instants``.
 
     Exact for the passes whose torque is constant between the grid's samples and the
     instants (braking, pendulum: one torque throughout; a pilot's switch-off is a grid
     sample, so its one row around the switch carries the command of the grid sample before
     it). Each state advances from the grid sample before it, stops and static friction
     included (:func:`rsp_inertia.plant.integrate.advance`).
+
+    Parameters
+    ----------
+    truth : PassTruth
+        The pass: states on the regular grid, the physical torque held over each grid sample.
+    pair : Pair
+        The true plant the states advance in.
+    instants : numpy.ndarray
+        s, the drive's sampling instants, from 0; an instant past the grid's last sample
+        advances from that sample.
+
+    Returns
+    -------
+    PassTruth
+        The states at ``instants`` (``truth`` itself when the instants are its grid).
     """
     if np.array_equal(instants, truth.t):
         return truth
@@ -162,7 +220,26 @@ def resample(truth: PassTruth, pair: Pair, instants: np.ndarray) -> PassTruth:
 def jittered(
     truth: PassTruth, pair: Pair, virtual: Virtual, seed: tuple, dt: float
 ) -> PassTruth:
-    """``truth`` at the drive's jittered sampling instants before its end_time."""
+    """``truth`` at the drive's jittered sampling instants before its end_time.
+
+    Parameters
+    ----------
+    truth : PassTruth
+        The pass on the regular grid.
+    pair : Pair
+        The true plant the states advance in.
+    virtual : Virtual
+        The virtual device: its ``[logger] time_jitter``.
+    seed : tuple
+        Names the pass's random stream (:func:`sampling_instants`).
+    dt : float
+        s, the nominal sampling period.
+
+    Returns
+    -------
+    PassTruth
+        The pass at the jittered instants; ``truth`` itself without jitter.
+    """
     if virtual.logger.time_jitter == 0.0:
         return truth
     instants = sampling_instants(virtual, seed, truth.t.size + 2, dt)
@@ -173,9 +250,29 @@ def logged(
     truth: PassTruth, command: np.ndarray, virtual: Virtual, seed: tuple, quantum: float
 ) -> SimulatedPass:
     """What the logger writes of a pass: encoder readings and the command plus noise at
-    every sampling instant (noise drawn on the stream ``seed``), less the rows it drops
-    (``[logger] dropped_fraction``: at random, never the first or the last); ``truth`` is
-    cut to the rows kept."""
+    every sampling instant, less the rows it drops (``[logger] dropped_fraction``: at random,
+    never the first or the last).
+
+    Parameters
+    ----------
+    truth : PassTruth
+        The pass at the drive's sampling instants.
+    command : numpy.ndarray
+        N m, the drive's command at each instant.
+    virtual : Virtual
+        The virtual device: ``[run]`` seed and torque noise, ``[rig]`` encoder error,
+        ``[logger]`` dropped fraction.
+    seed : tuple
+        The pass's random stream; the noise is drawn on it, the drops on it plus
+        :data:`STREAM_DROPS`.
+    quantum : float
+        rad, the encoder's step.
+
+    Returns
+    -------
+    SimulatedPass
+        The log and ``truth`` cut to the rows kept.
+    """
     rng = np.random.default_rng([virtual.run.seed, *seed])
     noise = virtual.run.torque_noise
     torque = command + (rng.normal(0.0, noise, len(command)) if noise > 0 else 0.0)

@@ -378,6 +378,21 @@ def physical_warnings(entries: np.ndarray, cov: np.ndarray, samples: int = 2000)
     inequality I1 + I2 >= I3 (rsp_inertia.plant.geometry.physical_margins). A violation is
     reported when it holds beyond two standard deviations of the margin, estimated by
     sampling the entries' covariance (seeded, deterministic).
+
+    Parameters
+    ----------
+    entries : numpy.ndarray, shape (6,)
+        kg m^2, the tensor's entries ``[Jx, Jy, Jz, Jxy, Jyz, Jxz]``.
+    cov : numpy.ndarray, shape (6, 6)
+        (kg m^2)^2, their covariance.
+    samples : int, optional
+        How many draws of the entries estimate the margins' standard deviations.
+
+    Returns
+    -------
+    list of str
+        One warning per violated condition (positive definiteness, triangle inequality);
+        empty for a physical tensor.
     """
     rng = np.random.default_rng(0)
     draws = rng.multivariate_normal(entries, cov, size=samples, check_valid="ignore")

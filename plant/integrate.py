@@ -81,9 +81,27 @@ def _step(x: np.ndarray, u: float, direction: float, p: np.ndarray, h: float, fn
 
 
 def step_block(x: np.ndarray, u: float, direction: float, p: np.ndarray, h: float) -> np.ndarray:
-    """The states (phi, Omega) after each of ``BLOCK`` steps of length ``h`` from ``x``, shape
-    (BLOCK, 2): the torque ``u``, the friction sign ``direction`` and the parameter vector
-    ``p`` held throughout (``SUBSTEPS`` RK4 steps each; a negative ``h`` integrates back)."""
+    """The states (phi, Omega) after each of ``BLOCK`` steps of length ``h`` from ``x``, with
+    the inputs held throughout (``SUBSTEPS`` RK4 steps each).
+
+    Parameters
+    ----------
+    x : numpy.ndarray, shape (2,)
+        The initial state (phi, Omega), rad and rad/s.
+    u : float
+        N m, the motor torque.
+    direction : float
+        The friction sign, +1 or -1.
+    p : numpy.ndarray, shape (12,)
+        The model's parameter vector.
+    h : float
+        s, the step length; a negative ``h`` integrates back.
+
+    Returns
+    -------
+    numpy.ndarray, shape (BLOCK, 2)
+        The states after each step.
+    """
     return np.asarray(_STEP_BLOCK(x, u, direction, p, h)).T
 
 
@@ -98,14 +116,33 @@ def integrate_to_stop(
 ) -> tuple[np.ndarray, np.ndarray, float, float] | None:
     """A motion under the constant torque ``u`` from ``x0`` until the speed first reaches zero.
 
-    RK4 (``SUBSTEPS`` per sample) of the model with parameter vector ``p`` and friction
-    sign ``direction`` (the sign of the speed), whole blocks of samples per call; the stop
-    is an event located inside its sample by Brent's method on the step length. Returns the
-    sample times, the states (phi, Omega) at every sample before the stop (and at the stop
-    if it falls on a sample), the stop's time and angle; None if the body still moves after
-    ``max_time`` seconds. ``coarse``: one RK4 step per sample, for planning (at 1 kHz and
-    the 2 Omega harmonic of a 15 rad/s pass, h w = 0.03: a local error ~(h w)^5 / 120 = 2e-10
-    of the state per step).
+    RK4 (``SUBSTEPS`` per sample) of the model, whole blocks of samples per call; the stop
+    is an event located inside its sample by Brent's method on the step length.
+
+    Parameters
+    ----------
+    x0 : numpy.ndarray, shape (2,)
+        The initial state (phi, Omega), rad and rad/s.
+    u : float
+        N m, the constant motor torque.
+    direction : float
+        The friction sign: the sign of the speed, +1 or -1.
+    p : numpy.ndarray, shape (12,)
+        The model's parameter vector.
+    dt : float
+        s, the sampling period.
+    max_time : float
+        s, how long the body may move before giving up.
+    coarse : bool, optional
+        One RK4 step per sample, for planning (at 1 kHz and the 2 Omega harmonic of a
+        15 rad/s pass, h w = 0.03: a local error ~(h w)^5 / 120 = 2e-10 of the state per step).
+
+    Returns
+    -------
+    tuple or None
+        The sample times (s), the states (phi, Omega) at every sample before the stop (and
+        at the stop if it falls on a sample), the stop's time (s) and angle (rad); None if
+        the body still moves after ``max_time`` seconds.
     """
     step_blocks, step = (_COARSE_BLOCK, _COARSE_STEP) if coarse else (_STEP_BLOCK, _STEP)
     x = np.asarray(x0, dtype=float)
@@ -154,8 +191,12 @@ def true_parameters(
 
     Parameters
     ----------
-    device, stage, virtual
-        The gimbal, the stage number (from 1) and the virtual device's truth.
+    device : Device
+        The gimbal.
+    stage : int
+        The stage number, from 1.
+    virtual : Virtual
+        The virtual device's truth.
     direction : {+1, -1}
         The sign of Omega: +1 forward motion, -1 backward motion.
 
@@ -193,7 +234,22 @@ def true_parameters(
 
 
 def true_pair(device: Device, stage: int, virtual: Virtual) -> Pair:
-    """(p_forward, p_backward) of :func:`true_parameters`."""
+    """(p_forward, p_backward) of :func:`true_parameters`.
+
+    Parameters
+    ----------
+    device : Device
+        The gimbal.
+    stage : int
+        The stage number, from 1.
+    virtual : Virtual
+        The virtual device's truth.
+
+    Returns
+    -------
+    Pair
+        The parameter vectors for Omega > 0 and Omega < 0.
+    """
     forward = true_parameters(device, stage, virtual, 1).vector
     return forward, true_parameters(device, stage, virtual, -1).vector
 
@@ -205,8 +261,31 @@ def pendulum_parameters(
 
     The torsion element of device.toml's ``[pendulum]`` is attached and zeroed at the node,
     with the rig's true stiffness (virtual.toml ``[rig] pendulum_stiffness``, else
-    device.toml's); everything else (body, fixture, gravity, the friction of ``direction``,
-    the sign of Omega) is the stage's (:func:`true_parameters`).
+    device.toml's); everything else (body, fixture, gravity, the friction of ``direction``)
+    is the stage's (:func:`true_parameters`).
+
+    Parameters
+    ----------
+    device : Device
+        The gimbal, with its ``[pendulum]`` table.
+    stage : int
+        The stage number, from 1.
+    virtual : Virtual
+        The virtual device's truth.
+    node : int
+        The node's index in the stage, from 0.
+    direction : {+1, -1}
+        The sign of Omega, whose friction applies.
+
+    Returns
+    -------
+    ModelParameters
+        The stage's true model with the pendulum's spring.
+
+    Raises
+    ------
+    InputError
+        device.toml has no ``[pendulum]`` table.
     """
     if device.pendulum is None:
         raise InputError("device.toml: pendulum: missing [pendulum] table (its stiffness)")
@@ -236,7 +315,25 @@ def advance(
     forward, backward); a zero crossing of the speed inside the interval is located (Brent),
     the body is set at rest there, and static friction decides (docs/method.md §4): it stays
     while |u - static torque| <= a1, a1 that of the direction the net torque would move it,
-    else it breaks away in that direction. ``coarse``: one RK4 step instead of ``SUBSTEPS``.
+    else it breaks away in that direction.
+
+    Parameters
+    ----------
+    x : numpy.ndarray, shape (2,)
+        The true state (phi, Omega), rad and rad/s.
+    u : float
+        N m, the physical torque, held over the interval.
+    h : float
+        s, the interval's length.
+    pair : Pair
+        The parameter vectors (forward, backward).
+    coarse : bool, optional
+        One RK4 step instead of ``SUBSTEPS``.
+
+    Returns
+    -------
+    numpy.ndarray, shape (2,)
+        The state after ``h``.
     """
     fn = _COARSE_STEP if coarse else _STEP
     remaining = h
@@ -269,8 +366,24 @@ def integrate_free(x0: np.ndarray, pair: Pair, n: int, dt: float) -> np.ndarray:
     """True states at n samples of a motion with the motor off (u = 0), stops included.
 
     Between stops whole blocks are integrated at once, with the parameter vector of the
-    direction of motion (``pair``: forward, backward); the sample holding a stop goes
-    through :func:`advance` (event and static friction).
+    direction of motion; the sample holding a stop goes through :func:`advance` (event and
+    static friction).
+
+    Parameters
+    ----------
+    x0 : numpy.ndarray, shape (2,)
+        The initial state (phi, Omega), rad and rad/s.
+    pair : Pair
+        The parameter vectors (forward, backward).
+    n : int
+        How many samples, the first being ``x0``.
+    dt : float
+        s, the sampling period.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n, 2)
+        The states at the samples.
     """
     x = np.array(x0, dtype=float)
     traj = np.empty((n, 2))
