@@ -1,0 +1,264 @@
+"""The package's architecture, read from the installed package's sources (docs/api.md, "Layers").
+
+Every module of ``rsp_inertia`` is found by walking the installed package (pkgutil), its source
+parsed (ast, nothing imported), and its imports of ``rsp_inertia`` modules collected: at module
+level and inside functions, but not under ``if TYPE_CHECKING:`` (annotations only, never run).
+On that graph:
+
+- no import cycle, of any length;
+- each layer imports only the layers below it (``LAYERS``);
+- imports inside functions only at the lazy boundary (``rsp_inertia.api``, and the packages'
+  ``__init__``, which load their names on first use), each with its reason in a comment.
+"""
+
+from __future__ import annotations
+
+import ast
+import importlib.util
+import pkgutil
+from pathlib import Path
+
+import pytest
+
+import rsp_inertia
+
+LAYERS = {
+    "plant": {"plant"},
+    "estimation": {"plant", "estimation"},
+    "ocp": {"plant", "ocp", "estimation.smoothing", "estimation.modulated"},
+    "design": {"plant", "estimation", "ocp", "design"},
+    "commands": {"plant", "estimation", "ocp", "design", "commands"},
+}
+"""What each layer may import. The torque program (ocp) uses the identification's smoother and
+its modulating-function fit of Lagrange's equation (its nominal model), nothing else of
+estimation; experiment design sits above both; the command layer (the modules of rsp_inertia/
+itself) above everything."""
+
+LAZY_BOUNDARY = {"rsp_inertia", "rsp_inertia.api"}
+"""The modules whose functions may import: ``rsp_inertia.__getattr__`` loads the API on first use,
+and each API function loads its command's modules, so that ``rsp-inertia --help`` and the light
+commands do not pay for casadi, matplotlib and the estimation stack."""
+
+
+def _modules() -> dict[str, Path]:
+    """Every module of the installed package, with its source file: the walk starts at the
+    package and its command line, follows every import of an rsp_inertia module, and lists
+    every package it reaches (an editable install keeps the layers' folders apart, so the
+    packages are found through the imports, not by their place on disk)."""
+    found: dict[str, Path] = {}
+    queue = ["rsp_inertia", "rsp_inertia.cli"]
+    while queue:
+        name = queue.pop()
+        if name in found:
+            continue
+        spec = importlib.util.find_spec(name)
+        assert spec is not None and spec.origin is not None, name
+        found[name] = Path(spec.origin)
+        parts = name.split(".")
+        queue += [".".join(parts[:k]) for k in range(1, len(parts))]  # its packages
+        if spec.submodule_search_locations is not None:  # a package: all its modules
+            queue += [
+                info.name
+                for info in pkgutil.iter_modules(spec.submodule_search_locations, name + ".")
+                if info.ispkg or importlib.util.find_spec(info.name).origin.endswith(".py")
+            ]
+        queue += _imported_names(name, found[name])
+    return found
+
+
+def _imported_names(name: str, path: Path) -> list[str]:
+    """The rsp_inertia modules (or their packages) that module ``name`` names in an import."""
+    names = []
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            names += [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and not node.level and node.module:
+            names.append(node.module)
+            names += [f"{node.module}.{alias.name}" for alias in node.names]
+    return [n for n in names if n.startswith("rsp_inertia") and _is_module(n)]
+
+
+def _is_module(name: str) -> bool:
+    """Whether ``name`` is a module (not a name inside one), found without importing it: only
+    its packages' ``__init__`` run."""
+    parent = name.rpartition(".")[0]
+    if parent and not (_is_module(parent) and _spec(parent).submodule_search_locations):
+        return False
+    return _spec(name) is not None
+
+
+def _spec(name: str):
+    try:
+        return importlib.util.find_spec(name)
+    except ModuleNotFoundError:
+        return None
+
+
+MODULES = _modules()
+
+
+def _is_type_checking(node: ast.If) -> bool:
+    test = node.test
+    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (
+        isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING"
+    )
+
+
+def _imports(name: str) -> list[tuple[str, int, bool]]:
+    """(imported rsp_inertia module, line, inside a function) for each import in ``name``."""
+    tree = ast.parse(MODULES[name].read_text(), str(MODULES[name]))
+    package = name if MODULES[name].name == "__init__.py" else name.rpartition(".")[0]
+    found: list[tuple[str, int, bool]] = []
+
+    def visit(node: ast.AST, in_function: bool) -> None:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.If) and _is_type_checking(child):
+                for sub in child.orelse:
+                    visit(sub, in_function)
+                continue
+            inner = in_function or isinstance(
+                child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)
+            )
+            if isinstance(child, ast.Import):
+                for alias in child.names:
+                    found.append((alias.name, child.lineno, in_function))
+            elif isinstance(child, ast.ImportFrom):
+                if child.level:
+                    base = package.rsplit(".", child.level - 1)[0]
+                    base = f"{base}.{child.module}" if child.module else base
+                else:
+                    base = child.module or ""
+                for alias in child.names:
+                    sub = f"{base}.{alias.name}"
+                    found.append((sub if sub in MODULES else base, child.lineno, in_function))
+            visit(child, inner)
+
+    visit(tree, False)
+    return [(target, line, local) for target, line, local in found if target in MODULES]
+
+
+IMPORTS = {name: _imports(name) for name in MODULES}
+
+
+def _layer(name: str) -> str:
+    """The layer of a module: plant, estimation, ocp, design, or commands (rsp_inertia/)."""
+    parts = name.split(".")
+    if len(parts) > 1 and parts[1] in ("plant", "estimation", "ocp", "design"):
+        return parts[1]
+    return "commands"
+
+
+def _allowed(source: str, target: str) -> bool:
+    allowed = LAYERS[_layer(source)]
+    rest = target.split(".", 1)[1] if "." in target else ""
+    return _layer(target) in allowed or any(
+        rest == entry or rest.startswith(entry + ".") for entry in allowed if "." in entry
+    )
+
+
+def test_the_walk_finds_every_layer() -> None:
+    """The walk sees the installed package whole: every layer, with its known modules."""
+    layers = {_layer(name) for name in MODULES}
+    assert layers == set(LAYERS)
+    for name in ("rsp_inertia.api", "rsp_inertia.plant.model", "rsp_inertia.estimation.tensor",
+                 "rsp_inertia.ocp.program", "rsp_inertia.design.plan"):
+        assert name in MODULES
+    assert any(IMPORTS[name] for name in MODULES)
+
+
+def _cycles(imports: dict[str, list[tuple[str, int, bool]]]) -> list[list[str]]:
+    """The strongly connected components of more than one module of ``imports`` (Tarjan)."""
+    graph = {name: sorted({t for t, _, _ in edges if t != name}) for name, edges in imports.items()}
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    found: list[list[str]] = []
+
+    def connect(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in graph[v]:
+            if w not in index:
+                connect(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for v in graph:
+        if v not in index:
+            connect(v)
+    return found
+
+
+def test_no_import_cycle() -> None:
+    assert _cycles(IMPORTS) == []
+
+
+def test_the_cycle_finder_finds_a_cycle() -> None:
+    """The check can fail: an edge back from plant.errors to plant.logs closes a cycle of three
+    (logs -> files -> errors -> logs)."""
+    edges = dict(IMPORTS)
+    edges["rsp_inertia.plant.errors"] = [("rsp_inertia.plant.logs", 1, True)]
+    closed = [cycle for cycle in _cycles(edges) if "rsp_inertia.plant.errors" in cycle]
+    assert len(closed) == 1 and "rsp_inertia.plant.logs" in closed[0]
+
+
+@pytest.mark.parametrize("name", sorted(MODULES))
+def test_layers_import_only_below(name: str) -> None:
+    wrong = [f"line {line}: {target}" for target, line, _ in IMPORTS[name]
+             if not _allowed(name, target)]
+    assert wrong == [], f"{name} ({_layer(name)}) imports above its layer: {wrong}"
+
+
+def test_the_layer_rule_can_fail() -> None:
+    assert not _allowed("rsp_inertia.plant.model", "rsp_inertia.estimation.smoothing")
+    assert not _allowed("rsp_inertia.ocp.program", "rsp_inertia.estimation.balance")
+    assert not _allowed("rsp_inertia.estimation.tensor", "rsp_inertia.design.plan")
+    assert _allowed("rsp_inertia.ocp.program", "rsp_inertia.estimation.smoothing")
+    assert _allowed("rsp_inertia.design.plan", "rsp_inertia.estimation.predict")
+
+
+@pytest.mark.parametrize("name", sorted(MODULES))
+def test_function_local_imports_only_at_the_lazy_boundary(name: str) -> None:
+    tree = ast.parse(MODULES[name].read_text())
+    local = []
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            local += [
+                sub.lineno for sub in ast.walk(node) if isinstance(sub, (ast.Import, ast.ImportFrom))
+            ]
+    if name in LAZY_BOUNDARY:
+        lines = MODULES[name].read_text().splitlines()
+        unexplained = [n for n in sorted(set(local)) if not _has_reason(lines, n)]
+        assert unexplained == [], f"{name}: lazy imports without a reason at lines {unexplained}"
+    else:
+        assert local == [], f"{name}: imports inside functions at lines {sorted(set(local))}"
+
+
+def _has_reason(lines: list[str], lineno: int) -> bool:
+    """A comment on the import's line or in the comment block right above it (through other
+    imports of the same group)."""
+    k = lineno - 1
+    if "#" in lines[k]:
+        return True
+    k -= 1
+    while k >= 0:
+        text = lines[k].strip()
+        if text.startswith("#"):
+            return True
+        if not (text.startswith(("from ", "import ")) or text.endswith(",") or text in ("", ")")):
+            return False
+        k -= 1
+    return False
