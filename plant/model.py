@@ -294,10 +294,25 @@ def rk4_step(
 ) -> ca.SX:
     """x advanced by h: ``substeps`` classical fourth-order Runge-Kutta steps of h / substeps.
 
-    ``derivative(x)`` is dx/dt as a CasADi expression of the state (the model's equation of
-    motion with its inputs held over the step, :meth:`GimbalModel.state_derivative`); the
-    result is an expression in x and h, which the simulator (rsp_inertia.plant.virtual) and the
-    optimal-control problem (rsp_inertia.ocp.feedforward) make into their step functions.
+    The simulator (rsp_inertia.plant.virtual) and the optimal-control problem
+    (rsp_inertia.ocp.feedforward) make the result into their step functions.
+
+    Parameters
+    ----------
+    derivative : callable
+        ``derivative(x)`` is dx/dt as a CasADi expression of the state (the model's equation
+        of motion with its inputs held over the step, :meth:`GimbalModel.state_derivative`).
+    x : casadi.SX
+        The state at the start of the step.
+    h : casadi.SX or float
+        s, the step length.
+    substeps : int, optional
+        How many RK4 steps of h / substeps.
+
+    Returns
+    -------
+    casadi.SX
+        The state after h, an expression in x and h.
     """
     dt = h / substeps
     for _ in range(substeps):
@@ -376,7 +391,22 @@ def static_torque(phi, params: ModelParameters | np.ndarray):
 
 
 def dissipation(Omega, params: ModelParameters | np.ndarray, direction=None):
-    """D(Omega), N m (docs/method.md §3); ``direction`` defaults to sign(Omega)."""
+    """D(Omega), N m (docs/method.md §3).
+
+    Parameters
+    ----------
+    Omega : array_like
+        rad/s, the speed.
+    params : ModelParameters or numpy.ndarray
+        The model's parameters (or the vector p).
+    direction : array_like, optional
+        The sign used by the Coulomb and quadratic friction; defaults to sign(Omega).
+
+    Returns
+    -------
+    float or numpy.ndarray
+        N m, element-wise over the broadcast inputs.
+    """
     if direction is None:
         direction = np.sign(Omega)
     return _evaluate("dissipation", (Omega, direction), _p(params))
@@ -385,8 +415,24 @@ def dissipation(Omega, params: ModelParameters | np.ndarray, direction=None):
 def acceleration(phi, Omega, u, params: ModelParameters | np.ndarray, direction=None):
     """eps = dOmega/dt, rad/s^2, from Lagrange's equation (docs/method.md §3).
 
-    ``direction`` (the sign used by the Coulomb and quadratic friction) defaults to
-    sign(Omega); pass it explicitly at rest.
+    Parameters
+    ----------
+    phi : array_like
+        rad, the angle.
+    Omega : array_like
+        rad/s, the speed.
+    u : array_like
+        N m, the motor torque.
+    params : ModelParameters or numpy.ndarray
+        The model's parameters (or the vector p).
+    direction : array_like, optional
+        The sign used by the Coulomb and quadratic friction; defaults to sign(Omega); pass
+        it explicitly at rest.
+
+    Returns
+    -------
+    float or numpy.ndarray
+        rad/s^2, element-wise over the broadcast inputs.
     """
     if direction is None:
         direction = np.sign(Omega)
@@ -396,7 +442,23 @@ def acceleration(phi, Omega, u, params: ModelParameters | np.ndarray, direction=
 def motor_torque(phi, Omega, eps, params: ModelParameters | np.ndarray, direction=None):
     """Inverse dynamics: the motor torque u, N m, that gives acceleration ``eps`` (docs/method.md §3).
 
-    ``direction`` (sign used by the Coulomb and quadratic friction) defaults to sign(Omega).
+    Parameters
+    ----------
+    phi : array_like
+        rad, the angle.
+    Omega : array_like
+        rad/s, the speed.
+    eps : array_like
+        rad/s^2, the acceleration.
+    params : ModelParameters or numpy.ndarray
+        The model's parameters (or the vector p).
+    direction : array_like, optional
+        Sign used by the Coulomb and quadratic friction; defaults to sign(Omega).
+
+    Returns
+    -------
+    float or numpy.ndarray
+        N m, element-wise over the broadcast inputs.
     """
     if direction is None:
         direction = np.sign(Omega)
@@ -411,12 +473,42 @@ def _regressor(name: str, args: tuple, p: np.ndarray) -> np.ndarray:
 
 
 def energy_regressor(phi, Omega, params: ModelParameters | np.ndarray):
-    """dE/dp at each sample, rows of shape (12,): E = regressor . p up to the spring's term."""
+    """dE/dp at each sample, rows of shape (12,): E = regressor . p up to the spring's term.
+
+    Parameters
+    ----------
+    phi : array_like
+        rad, the angles.
+    Omega : array_like
+        rad/s, the speeds.
+    params : ModelParameters or numpy.ndarray
+        The model's parameters (or the vector p).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape of the broadcast inputs + (12,).
+    """
     return _regressor("energy_regressor", (phi, Omega), _p(params))
 
 
 def dissipation_regressor(Omega, params: ModelParameters | np.ndarray, direction=None):
-    """dD/dp at each sample, rows of shape (12,): D = regressor . p exactly."""
+    """dD/dp at each sample, rows of shape (12,): D = regressor . p exactly.
+
+    Parameters
+    ----------
+    Omega : array_like
+        rad/s, the speeds.
+    params : ModelParameters or numpy.ndarray
+        The model's parameters (or the vector p).
+    direction : array_like, optional
+        The sign of the Coulomb and quadratic friction; defaults to sign(Omega).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape of the broadcast inputs + (12,).
+    """
     if direction is None:
         direction = np.sign(Omega)
     return _regressor("dissipation_regressor", (Omega, direction), _p(params))
@@ -424,15 +516,46 @@ def dissipation_regressor(Omega, params: ModelParameters | np.ndarray, direction
 
 def momentum_regressor(phi, Omega, params: ModelParameters | np.ndarray):
     """d(M Omega)/dp at each sample, rows of shape (12,): M(phi) Omega = regressor . p
-    exactly (docs/method.md §3, the momentum form)."""
+    exactly (docs/method.md §3, the momentum form).
+
+    Parameters
+    ----------
+    phi : array_like
+        rad, the angles.
+    Omega : array_like
+        rad/s, the speeds.
+    params : ModelParameters or numpy.ndarray
+        The model's parameters (or the vector p).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape of the broadcast inputs + (12,).
+    """
     return _regressor("momentum_regressor", (phi, Omega), _p(params))
 
 
 def force_regressor(phi, Omega, params: ModelParameters | np.ndarray, direction=None):
     """dF/dp at each sample, rows of shape (12,), F = 1/2 M' Omega^2 - D - S the generalised
     force of the momentum form d(M Omega)/dt = u + F (docs/method.md §3): F = regressor . p
-    up to the spring's part of S, which is not linear in (c, phi0). ``direction`` (the sign
-    of the Coulomb and quadratic friction) defaults to sign(Omega)."""
+    up to the spring's part of S, which is not linear in (c, phi0).
+
+    Parameters
+    ----------
+    phi : array_like
+        rad, the angles.
+    Omega : array_like
+        rad/s, the speeds.
+    params : ModelParameters or numpy.ndarray
+        The model's parameters (or the vector p).
+    direction : array_like, optional
+        The sign of the Coulomb and quadratic friction; defaults to sign(Omega).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape of the broadcast inputs + (12,).
+    """
     if direction is None:
         direction = np.sign(Omega)
     return _regressor("force_regressor", (phi, Omega, direction), _p(params))
@@ -441,10 +564,40 @@ def force_regressor(phi, Omega, params: ModelParameters | np.ndarray, direction=
 def force_curvature_regressor(phi, params: ModelParameters | np.ndarray, direction=1.0):
     """d^3 F / dOmega^2 dp at each sample, rows of shape (12,): F is quadratic in Omega, so a
     speed error e of variance var moves its mean by var / 2 times regressor . p
-    (E[F(Omega + e)] = F(Omega) + F'' var / 2). ``direction``: the sign of the motion."""
+    (E[F(Omega + e)] = F(Omega) + F'' var / 2).
+
+    Parameters
+    ----------
+    phi : array_like
+        rad, the angles.
+    params : ModelParameters or numpy.ndarray
+        The model's parameters (or the vector p).
+    direction : array_like, optional
+        The sign of the motion (+1.0 by default).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape of the broadcast inputs + (12,).
+    """
     return _regressor("force_curvature_regressor", (phi, direction), _p(params))
 
 
 def mechanical_energy(phi, Omega, params: ModelParameters | np.ndarray):
-    """E = M(phi) Omega^2 / 2 + Pi(phi), J (docs/method.md §3)."""
+    """E = M(phi) Omega^2 / 2 + Pi(phi), J (docs/method.md §3).
+
+    Parameters
+    ----------
+    phi : array_like
+        rad, the angle.
+    Omega : array_like
+        rad/s, the speed.
+    params : ModelParameters or numpy.ndarray
+        The model's parameters (or the vector p).
+
+    Returns
+    -------
+    float or numpy.ndarray
+        J, element-wise over the broadcast inputs.
+    """
     return _evaluate("mechanical_energy", (phi, Omega), _p(params))

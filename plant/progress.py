@@ -36,7 +36,18 @@ _reporter: contextvars.ContextVar[Reporter | None] = contextvars.ContextVar(
 
 def report(task: str, done: float, total: float = 1.0) -> None:
     """Tell the installed reporter that ``done`` of ``total`` of ``task`` is done (nothing
-    happens without one)."""
+    happens without one).
+
+    Parameters
+    ----------
+    task : str
+        The task's name, as the progress line shows it.
+    done : float
+        How much of the task is done, in the units of ``total``.
+    total : float, optional
+        The whole task; the reporter receives done / total clipped to [0, 1] (1 when
+        ``total`` is not positive).
+    """
     reporter = _reporter.get()
     if reporter is not None:
         reporter(task, min(max(done / total, 0.0), 1.0) if total > 0 else 1.0)

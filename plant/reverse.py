@@ -80,8 +80,12 @@ def run_program(
 
     Parameters
     ----------
-    device, stage, virtual
-        The gimbal, the stage number (from 1) and the virtual device's truth.
+    device : Device
+        The gimbal.
+    stage : int
+        The stage number, from 1.
+    virtual : Virtual
+        The virtual device's truth.
     program : Program
         The torque program.
     start : (phi, Omega)
@@ -240,12 +244,26 @@ def ideal_program(
 
     Parameters
     ----------
-    device, stage, virtual
-        The gimbal, the stage number (from 1) and the virtual device's truth.
+    device : Device
+        The gimbal.
+    stage : int
+        The stage number, from 1.
+    virtual : Virtual
+        The virtual device's truth.
     braking : SimulatedPass
         The braking pass of ``direction`` (:func:`rsp_inertia.plant.virtual.simulate_braking`).
     direction : {"forward", "backward"}
         The direction of the braking: a backward braking's mirror moves phi up.
+
+    Returns
+    -------
+    Program
+        The mirror's reference, its feedforward (a physical torque, N m) and the gains.
+
+    Raises
+    ------
+    ValueError
+        The braking pass does not run in ``direction``.
     """
     s = direction_sign(direction)
     if not braking.truth.omega[0] * s > 0.0:
@@ -300,8 +318,26 @@ def simulate_ideal_reverse(
     (feedback on the true state); the feedforward is the true inverse dynamics
     (:func:`ideal_program`). The speed matches the braking's at the same angle to about
     1e-6 rad/s, so identification can be tested apart from the optimal-control work. The
-    log is the encoder's, as always. ``direction`` is the braking's (a backward braking's
-    mirror moves phi up) and selects the pass's noise stream.
+    log is the encoder's, as always.
+
+    Parameters
+    ----------
+    device : Device
+        The gimbal.
+    stage : int
+        The stage number, from 1.
+    virtual : Virtual
+        The virtual device's truth.
+    braking : SimulatedPass
+        The braking pass of ``direction``; the reverse starts at its rest point.
+    direction : {"forward", "backward"}
+        The braking's direction (a backward braking's mirror moves phi up); it selects the
+        pass's noise stream.
+
+    Returns
+    -------
+    SimulatedPass
+        The log and the true states of the reverse pass.
     """
     program = ideal_program(device, stage, virtual, braking, direction)
     return run_program(

@@ -90,7 +90,22 @@ def error_coefficients(amplitude, phase_deg) -> np.ndarray:
 
 def encoder_reading(phi, quantum: float, coefficients=()) -> np.ndarray | float:
     """What the encoder reads at true angle ``phi``: floor((phi + e(phi)) / q) q (docs/files.md,
-    logs); e = 0 without ``coefficients``. A number for a number (a drive's loop)."""
+    logs).
+
+    Parameters
+    ----------
+    phi : float or array_like
+        rad, the true angle.
+    quantum : float
+        q, rad, the encoder's step.
+    coefficients : sequence of float, optional
+        theta_e, rad, of the reading error e (module docstring); e = 0 without them.
+
+    Returns
+    -------
+    float or numpy.ndarray
+        rad, the reading: a number for a number (a drive's loop).
+    """
     read = np.asarray(phi, dtype=float)
     if len(coefficients):
         read = read + angle_error(read, coefficients)
@@ -116,7 +131,22 @@ def drive_gains(
     torque_gain: float = 1.0, efficiency_driving: float = 1.0, efficiency_backdriven: float = 1.0
 ) -> tuple[float, float]:
     """(h_d, h_b): the torque the body receives per unit of logged torque while the motor
-    drives it, and while the body drives the motor back (module docstring)."""
+    drives it, and while the body drives the motor back (module docstring).
+
+    Parameters
+    ----------
+    torque_gain : float, optional
+        g, logged torque per unit of the motor's actual torque.
+    efficiency_driving : float, optional
+        eta_d, the transmission's efficiency while the motor drives the body.
+    efficiency_backdriven : float, optional
+        eta_b, its efficiency while the body drives the motor back.
+
+    Returns
+    -------
+    h_d, h_b : float
+        eta_d / g and 1 / (eta_b g).
+    """
     return efficiency_driving / torque_gain, 1.0 / (efficiency_backdriven * torque_gain)
 
 
@@ -139,8 +169,23 @@ def power_flow_split(torque, motion) -> tuple[np.ndarray, np.ndarray]:
 
 
 def delivered_torque(command, motion, gains: tuple[float, float]) -> np.ndarray | float:
-    """The torque the body receives, N m, for the logged ``command`` (N m) while it moves in
-    direction ``motion`` (sign): h_d x the driving part + h_b x the back-driven part."""
+    """The torque the body receives, N m, for the logged ``command``: h_d x the driving part
+    + h_b x the back-driven part.
+
+    Parameters
+    ----------
+    command : float or array_like
+        N m, the logged command.
+    motion : float or array_like
+        The direction the body moves in (a sign, or an angle increment).
+    gains : tuple of float
+        (h_d, h_b), :func:`drive_gains`.
+
+    Returns
+    -------
+    float or numpy.ndarray
+        N m: a number for numbers.
+    """
     if np.ndim(command) == 0 and np.ndim(motion) == 0:  # one sample: plain numbers, fast
         return float(command) * (gains[1] if _back_driven(command, motion) else gains[0])
     driving, back = power_flow_split(command, motion)
@@ -148,9 +193,24 @@ def delivered_torque(command, motion, gains: tuple[float, float]) -> np.ndarray 
 
 
 def logged_torque(torque, motion, gains: tuple[float, float]) -> np.ndarray | float:
-    """The logged command, N m, that makes the body receive ``torque`` (N m) while it moves in
-    direction ``motion``: the inverse of :func:`delivered_torque` (both gains are positive, so
-    the command has the torque's sign and the same split applies)."""
+    """The logged command, N m, that makes the body receive ``torque``: the inverse of
+    :func:`delivered_torque` (both gains are positive, so the command has the torque's sign
+    and the same split applies).
+
+    Parameters
+    ----------
+    torque : float or array_like
+        N m, the torque the body receives.
+    motion : float or array_like
+        The direction the body moves in (a sign, or an angle increment).
+    gains : tuple of float
+        (h_d, h_b), :func:`drive_gains`.
+
+    Returns
+    -------
+    float or numpy.ndarray
+        N m, the command: a number for numbers.
+    """
     if np.ndim(torque) == 0 and np.ndim(motion) == 0:
         return float(torque) / (gains[1] if _back_driven(torque, motion) else gains[0])
     driving, back = power_flow_split(torque, motion)

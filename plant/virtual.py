@@ -144,8 +144,12 @@ def simulate_braking(
 
     Parameters
     ----------
-    device, stage, virtual
-        The gimbal, the stage number (from 1) and the virtual device's truth.
+    device : Device
+        The gimbal.
+    stage : int
+        The stage number, from 1.
+    virtual : Virtual
+        The virtual device's truth.
     direction : {"forward", "backward"}
         The direction of the run (``rsp_inertia.plant.config.DIRECTIONS``); each has its
         own noise stream.
@@ -193,9 +197,25 @@ def simulate_braking(
 def simulate_pendulum(device: Device, stage: int, virtual: Virtual, node: int) -> SimulatedPass:
     """Torsion-pendulum run at node ``node`` (0-based) of a stage: motor off, free oscillation.
 
-    Released at rest, ``amplitude_deg`` past the node, and logged for ``duration`` seconds;
-    each stop (twice a period) is an event with static friction, as in every pass.
-    The logged torque is the motor's: zero, plus the log's noise.
+    Released at rest, ``amplitude_deg`` past the node, and logged for ``duration`` seconds
+    (device.toml ``[pendulum]``); each stop (twice a period) is an event with static
+    friction, as in every pass. The logged torque is the motor's: zero, plus the log's noise.
+
+    Parameters
+    ----------
+    device : Device
+        The gimbal, with its ``[pendulum]`` table.
+    stage : int
+        The stage number, from 1.
+    virtual : Virtual
+        The virtual device's truth.
+    node : int
+        The node's index in the stage, from 0.
+
+    Returns
+    -------
+    SimulatedPass
+        The log and the true states.
     """
     params = pendulum_parameters(device, stage, virtual, node)
     pair = (params.vector, pendulum_parameters(device, stage, virtual, node, -1).vector)
@@ -232,8 +252,24 @@ def free_motion(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The body released as for the braking pass but with the motor off (paper Fig. 3).
 
-    ``damped`` keeps the friction (free damped motion); otherwise friction is removed too
-    (free undamped motion: energy is conserved). Returns true (t, phi, Omega).
+    Parameters
+    ----------
+    device : Device
+        The gimbal.
+    stage : int
+        The stage number, from 1.
+    virtual : Virtual
+        The virtual device's truth.
+    duration : float
+        s, how long the motion is followed.
+    damped : bool
+        Keep the friction (free damped motion); otherwise friction is removed too (free
+        undamped motion: energy is conserved).
+
+    Returns
+    -------
+    t, phi, Omega : numpy.ndarray
+        The true motion: s, rad, rad/s at each sample.
     """
     pair = true_pair(device, stage, virtual)
     if not damped:
@@ -280,8 +316,12 @@ def simulate_pilot(device: Device, stage: int, virtual: Virtual) -> SimulatedPas
 
     Parameters
     ----------
-    device, stage, virtual
-        The gimbal, the stage number (from 1) and the virtual device's truth.
+    device : Device
+        The gimbal.
+    stage : int
+        The stage number, from 1.
+    virtual : Virtual
+        The virtual device's truth.
 
     Returns
     -------
