@@ -37,7 +37,24 @@ device.toml, a1 is put to 0 (module docstring)."""
 
 def fit_nominal(device: Device, stage: int, log: Log, sm: Smoothed) -> ModelParameters:
     """Least-squares nominal model of stage ``stage`` from its smoothed braking pass
-    (:func:`fit_nominal_with_covariance`, without the covariance)."""
+    (:func:`fit_nominal_with_covariance`, without the covariance).
+
+    Parameters
+    ----------
+    device : Device
+        The gimbal (its spring is known).
+    stage : int
+        The stage number, from 1 (for messages).
+    log : Log
+        The stage's braking log.
+    sm : Smoothed
+        The smoothed braking pass.
+
+    Returns
+    -------
+    ModelParameters
+        The nominal model, a1 = 0 (module docstring).
+    """
     return fit_nominal_with_covariance(device, stage, log, sm)[0]
 
 
@@ -45,14 +62,37 @@ def fit_nominal_with_covariance(
     device: Device, stage: int, log: Log, sm: Smoothed
 ) -> tuple[ModelParameters, np.ndarray]:
     """Least-squares nominal model of stage ``stage`` from its smoothed braking pass, and the
-    (2, 2) covariance of its friction slopes [a2, a3] (zero where not fitted; an estimate held
-    at its bound 0 keeps the unbounded fit's spread).
+    covariance of its friction slopes.
 
     The equation of motion is fitted in its momentum form, modulated over overlapping
     windows of the pass (rsp_inertia.estimation.modulated.fit_modulated): linear in p like
     the equation itself, but with neither the acceleration nor a speed at one instant,
     whose noise in a regressor would bias the least squares toward zero (errors in
     variables).
+
+    Parameters
+    ----------
+    device : Device
+        The gimbal (its spring is known).
+    stage : int
+        The stage number, from 1 (for messages).
+    log : Log
+        The stage's braking log (its torque noise weighs the fit).
+    sm : Smoothed
+        The smoothed braking pass.
+
+    Returns
+    -------
+    model : ModelParameters
+        The nominal model, a1 = 0 (module docstring).
+    friction_cov : numpy.ndarray, shape (2, 2)
+        The covariance of the friction slopes [a2, a3] (zero where not fitted; an estimate
+        held at its bound 0 keeps the unbounded fit's spread).
+
+    Raises
+    ------
+    InputError
+        The fitted reduced inertia is not positive.
     """
     values, cov = fit_modulated(
         device, [(log, sm)], UNKNOWN, f"stage {stage}: braking.csv",

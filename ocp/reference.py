@@ -87,7 +87,28 @@ class RestFit:
 
 
 def rest_fit(sm: Smoothed, source: str, quantum: float) -> RestFit:
-    """The deceleration to rest fitted over the braking's end (module docstring)."""
+    """The deceleration to rest fitted over the braking's end (module docstring).
+
+    Parameters
+    ----------
+    sm : Smoothed
+        The smoothed braking pass.
+    source : str
+        Names the log in messages.
+    quantum : float
+        rad, the encoder's count: the window holds at least REST_COUNTS of them.
+
+    Returns
+    -------
+    RestFit
+        The fitted line and the rest angle phi7.
+
+    Raises
+    ------
+    InputError
+        The body is not decelerating at the end of the log, or the log ends well before
+        the rest: the braking did not reach rest.
+    """
     dt = median_step(sm.t)  # the sample period (time stamps may jitter)
     n = max(round(REST_WINDOW / dt), 3)
     moved = sm.phi[-1] - sm.phi  # distance still to go at each sample
@@ -118,7 +139,21 @@ def braking_states_at(sm: Smoothed, times: np.ndarray, rest: tuple[float, float]
     """Smoothed braking (phi, Omega, eps) at arbitrary times of the braking log.
 
     Cubic Hermite between samples (phi with Omega, Omega with eps); after the last sample,
-    the constant deceleration that ends at the rest point ``rest`` = (T, phi7).
+    the constant deceleration that ends at the rest point.
+
+    Parameters
+    ----------
+    sm : Smoothed
+        The smoothed braking pass.
+    times : numpy.ndarray
+        s, times of the braking log.
+    rest : tuple of float
+        The rest point (T, phi7): s, rad.
+
+    Returns
+    -------
+    phi, Omega, eps : numpy.ndarray
+        rad, rad/s, rad/s^2 at ``times``.
     """
     times = np.asarray(times, dtype=float)
     t = sm.t
@@ -142,7 +177,29 @@ def braking_states_at(sm: Smoothed, times: np.ndarray, rest: tuple[float, float]
 def mirror(
     sm: Smoothed, sample_rate: float, quantum: float, source: str = "braking.csv"
 ) -> Mirror:
-    """The time mirror of a smoothed braking pass at the encoder's sample rate (q: a count)."""
+    """The time mirror of a smoothed braking pass at the encoder's sample rate.
+
+    Parameters
+    ----------
+    sm : Smoothed
+        The smoothed braking pass.
+    sample_rate : float
+        Hz, the encoder's sample rate: the mirror's grid.
+    quantum : float
+        q, rad: an encoder count (:func:`rest_fit`).
+    source : str, optional
+        Names the log in messages.
+
+    Returns
+    -------
+    Mirror
+        The reverse pass's reference.
+
+    Raises
+    ------
+    InputError
+        The braking did not reach rest (:func:`rest_fit`).
+    """
     fit = rest_fit(sm, source, quantum)
     T, phi7 = fit.rest_time, fit.phi7
     dt = 1.0 / sample_rate
