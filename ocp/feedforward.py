@@ -138,14 +138,34 @@ def mirror_torque(
     """The torque the mirror needs, N m, at its samples, and its standard deviation.
 
     u' = u_b + 2 D(Omega') (module docstring; docs/method.md §4), u_b the braking's applied
-    torque (its log's mean), D the nominal dissipation (rsp_inertia.plant.model.dissipation)
-    at the mirror's speed. The std carries the friction slopes' covariance ``friction_cov``
-    ([a2, a3], rsp_inertia.ocp.nominal.fit_nominal_with_covariance) and the mean torque's
-    variance. Coulomb friction a1 is not in it: a braking pass cannot tell it from the braking
+    torque, D the nominal dissipation (rsp_inertia.plant.model.dissipation) at the mirror's
+    speed. The std carries the friction slopes' covariance and the mean torque's variance.
+    Coulomb friction a1 is not in it: a braking pass cannot tell it from the braking
     torque, so the nominal model puts it to 0 and its friction slopes come out scaled by
     u_b / (u_b + a1) (rsp_inertia.ocp.nominal), which leaves the need short by
     2 a1 (1 + D / (u_b + a1)) ~ a1 (u' + u_b) / u_b: 7.5e-3 N m (1.7%) at 15 rad/s on the default
     stage 1, whose braking torque is 0.005 N m (:func:`check_mirror` says so).
+
+    Parameters
+    ----------
+    mirror : Mirror
+        The reverse pass's reference (its speed Omega').
+    nominal : ModelParameters
+        The nominal model (its dissipation D).
+    braking_torque : float
+        u_b, N m, the braking's applied torque (its log's mean).
+    friction_cov : numpy.ndarray, shape (2, 2), optional
+        The covariance of the friction slopes [a2, a3]
+        (rsp_inertia.ocp.nominal.fit_nominal_with_covariance); none: not in the std.
+    braking_torque_var : float, optional
+        (N m)^2, the variance of the mean braking torque.
+
+    Returns
+    -------
+    need : numpy.ndarray
+        N m, u' at the mirror's samples.
+    std : numpy.ndarray
+        N m, its standard deviation.
     """
     omega = mirror.omega
     need = braking_torque + 2 * dissipation(omega, nominal)
@@ -165,10 +185,26 @@ def check_mirror(
     std: np.ndarray,
     braking_torque: float | None = None,
 ) -> list[str]:
-    """The mirror's need against the motor's limits (module docstring): the warnings of a thin
-    margin (empty when there is room). With the braking's torque u_b given, the messages say
-    how much Coulomb friction a1, which a braking cannot see, adds to the need: a1 times
-    (|u'| + |u_b|) / |u_b| (:func:`mirror_torque`).
+    """The mirror's need against the motor's limits (module docstring).
+
+    Parameters
+    ----------
+    device : Device
+        The gimbal: its motor's ``torque_limit`` and ``torque_rate_limit``.
+    stage : int
+        The stage number, from 1 (for messages).
+    mirror : Mirror
+        The reverse pass's reference (its time grid).
+    need, std : numpy.ndarray
+        N m, the mirror's torque and its standard deviation (:func:`mirror_torque`).
+    braking_torque : float, optional
+        u_b, N m. Given, the messages say how much Coulomb friction a1, which a braking
+        cannot see, adds to the need: a1 times (|u'| + |u_b|) / |u_b| (:func:`mirror_torque`).
+
+    Returns
+    -------
+    list of str
+        The warnings of a thin margin (empty when there is room).
 
     Raises
     ------
@@ -330,6 +366,22 @@ def solve_program_ocp(
 
     The mirror's feasibility is :func:`check_mirror`'s (rsp_inertia.ocp.program calls it
     first); here the motor's limits are the OCP's bounds.
+
+    Parameters
+    ----------
+    device : Device
+        The gimbal: its motor's limits bound the torque and its rate.
+    stage : int
+        The stage number, from 1.
+    mirror : Mirror
+        The reverse pass's reference, on the encoder's sample grid.
+    nominal : ModelParameters
+        The nominal model of the stage (rsp_inertia.ocp.nominal).
+
+    Returns
+    -------
+    OcpSolution
+        The optimal torque on the OCP grid and how the solve went.
     """
     start = time.perf_counter()
     motor = device.motor
