@@ -77,6 +77,22 @@ def start_reference(
     it out with a half cosine over START_FADE_BANDWIDTHS / w, w the regulator's bandwidth.
     Not beyond: after the start the OCP tracks the mirror only to its cost's tolerance (up to
     6e-4 of the top speed on the default stages), which the regulator removes.
+
+    Parameters
+    ----------
+    device : Device
+        The gimbal: its motor's ``torque_rate_limit`` and the regulator's bandwidth.
+    ref : Mirror
+        The mirror, on the program's samples.
+    sol : OcpSolution
+        The OCP's solution on its grid.
+    model : ModelParameters
+        The nominal model.
+
+    Returns
+    -------
+    phi_ref, omega_ref : numpy.ndarray
+        rad and rad/s at the mirror's samples.
     """
     need = float(required_torque(ref, model)[0])
     step = abs(need - float(sol.torque[0])) / device.motor.torque_rate_limit
@@ -101,13 +117,33 @@ def make_program(
 
     Parameters
     ----------
+    device : Device
+        The gimbal.
+    stage : int
+        The stage number, from 1.
+    braking : Log
+        The stage's braking log.
+    source : str, optional
+        Names the log in messages.
     nominal : ModelParameters, optional
         Use this nominal model instead of fitting one (tests of robustness perturb it).
     direction : {"forward", "backward"}
         A backward braking (phi decreasing) is solved in the mirrored coordinate -phi, where it
-        is a forward one (rsp_inertia.estimation.balance mirror_log; the spring's zero angle mirrored
+        is a forward one (rsp_inertia.plant.logs.mirror_log; the spring's zero angle mirrored
         with it), and its program mirrored back: phi_ref, omega_ref and the feedforward
         change sign, the gains stay.
+
+    Returns
+    -------
+    TorqueProgram
+        The program (what program.csv holds) and how it was made.
+
+    Raises
+    ------
+    InputError
+        A braking log whose speed reverses or does not reach rest, a nominal inertia that is
+        not positive, or a mirror the motor cannot drive
+        (rsp_inertia.ocp.feedforward.check_mirror).
     """
     if direction == "backward":
         result = make_program(

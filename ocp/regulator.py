@@ -92,7 +92,9 @@ def lqr_gains(
 
     Parameters
     ----------
-    t, phi, omega, torque : arrays
+    device : Device
+        The gimbal: its encoder's sample period and the regulator's bandwidth.
+    t, phi, omega, torque : numpy.ndarray
         The reference (s, rad, rad/s) and its feedforward torque (N m), same length.
     nominal : ModelParameters
         The nominal model.
