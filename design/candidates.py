@@ -227,7 +227,27 @@ def evaluate(
     braking_torque: float,
     max_time: float = MAX_BRAKING_TIME,
 ) -> Candidate:
-    """One protocol of a stage on its nominal model: limits and predicted information."""
+    """One protocol of a stage on its nominal model: limits and predicted information.
+
+    Parameters
+    ----------
+    device : Device
+        The gimbal: motor limits, encoder, the stage's nodes and directions.
+    sm : StageModel
+        What the planner knows of the stage.
+    launch_speed : float
+        rad/s, the protocol's launch speed.
+    braking_torque : float
+        N m, the protocol's braking torque, against the motion.
+    max_time : float, optional
+        s, the longest braking admitted.
+
+    Returns
+    -------
+    Candidate
+        The protocol with its predicted braking, the limits it breaks (``violations``) and,
+        when it breaks none, its information on the tensor.
+    """
     st = device.stages[sm.stage - 1]
     model = sm.model
     p = model.vector
@@ -344,7 +364,25 @@ def evaluate(
 def stage_candidates(
     device: Device, sm: StageModel, max_duration: float, progress=None
 ) -> list[Candidate]:
-    """The grid of protocols of one stage (module docstring), each evaluated."""
+    """The grid of protocols of one stage (module docstring), each evaluated.
+
+    Parameters
+    ----------
+    device : Device
+        The gimbal.
+    sm : StageModel
+        What the planner knows of the stage.
+    max_duration : float
+        s, the experiment's longest duration: bounds each braking (half of it per direction).
+    progress : callable, optional
+        Called with each :class:`Candidate` as it is evaluated.
+
+    Returns
+    -------
+    list of Candidate
+        Every protocol tried; a single infeasible one when the mirror cannot be driven at
+        any speed.
+    """
     top = _top_speed(device, sm.model)
     if top <= 0:
         a1 = sm.model.coulomb

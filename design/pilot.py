@@ -146,6 +146,7 @@ def fit_pilot(device: Device, stage: int, log: Log, source: str | None = None) -
     Returns
     -------
     PilotFit
+        The fitted mean reduced inertia, harmonics, gravity and friction with their stds.
 
     Raises
     ------

@@ -112,6 +112,23 @@ def make_plan(
 ) -> Plan:
     """Choose every stage's protocol (module docstring).
 
+    Parameters
+    ----------
+    device : Device
+        The gimbal, with the protocols it states now (evaluated for comparison).
+    models : list of StageModel
+        What the planner knows of each stage.
+    max_duration : float
+        s, the budget: the whole experiment's motion time.
+    progress : callable, optional
+        Called with each :class:`Candidate` as it is evaluated; the stages then run one
+        after the other (without it, in parallel processes, :func:`map_stages`).
+
+    Returns
+    -------
+    Plan
+        The chosen protocols, what they promise and what else was tried.
+
     Raises
     ------
     InputError

@@ -112,6 +112,26 @@ def rehearse(
     The stages are independent until the least squares, so they run in parallel processes
     (rsp_inertia.design.plan.map_stages); each stage's noise has its own seeded stream.
 
+    Parameters
+    ----------
+    device : Device
+        The gimbal; the chosen protocols replace its stages' own.
+    models : sequence of StageModel
+        What the planner knows of each stage: made consistent (:func:`consistent_models`),
+        the models are the rehearsal's truth.
+    chosen : sequence of Candidate
+        The protocol chosen for each stage.
+    seed : int, optional
+        The noise's random seed.
+    progress : callable, optional
+        Called with a line (str) when the rehearsal starts.
+
+    Returns
+    -------
+    Rehearsal
+        identify's stds on the rehearsed experiment, its speed-noise scales and the largest
+        share of reverse samples at the drive's limits.
+
     Raises
     ------
     InputError
