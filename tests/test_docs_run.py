@@ -13,8 +13,8 @@ How a page is read (``steps``), block by block in the page's order:
 - a plain block without commands lists files (its lines' first words): each exists once the
   page has run.
 
-docs/api.md: its ```python block runs as a script, and the block after it ("It prints") is
-its output.
+docs/api.md: its ```python blocks run in order as one script (one session: a later block uses
+what an earlier one made), and the block after each (its "It prints") is its output.
 
 What is printed is compared with what the page shows (``placed``) line by line and exactly,
 the numbers included. Two things a reader sees on the page are not compared: a line ``...``
@@ -287,25 +287,43 @@ def run_page(page: Path, folder: Path, shape: Shape | None = None) -> Outcome:
     return outcome
 
 
-def api_example(page: Path) -> tuple[str, int, list[str], int]:
-    """docs/api.md's one ```python block and its first line, and the output the page shows
-    after it ("It prints") and its first line."""
+@dataclass(frozen=True)
+class ApiBlock:
+    """One ```python block of docs/api.md and the output the page shows after it."""
+
+    code: str
+    line: int
+    """The block's first line in the page."""
+    shown: list[str]
+    shown_line: int
+    """The first line of the output block."""
+
+
+def api_examples(page: Path) -> list[ApiBlock]:
+    """docs/api.md's ```python blocks, in order, each with the output the page shows after it."""
     blocks = list(_blocks(page.read_text(encoding="utf-8")))
     code = [k for k, block in enumerate(blocks) if block[0] == "python"]
-    assert len(code) == 1, f"{page.name}: {len(code)} python blocks, expected one"
-    source, shown = blocks[code[0]], blocks[code[0] + 1]
-    assert shown[0] == "", f"{page.name}: the python block is not followed by its output"
-    return source[1], source[2], shown[1].splitlines(), shown[2]
+    assert code, f"{page.name}: no python block"
+    examples = []
+    for k in code:
+        source, shown = blocks[k], blocks[k + 1]
+        assert shown[0] == "", f"{page.name}:{source[2]}: the python block is not followed by its output"
+        examples.append(ApiBlock(source[1], source[2], shown[1].splitlines(), shown[2]))
+    return examples
 
 
-def run_api_example(page: Path, folder: Path) -> list[str]:
-    """The printed lines of docs/api.md's example, run in ``folder``."""
-    code, line, _, _ = api_example(page)
-    printed = io.StringIO()
-    compiled = compile("\n" * (line - 1) + code, str(page), "exec")
-    with _inside(folder), contextlib.redirect_stdout(printed):
-        exec(compiled, {"__name__": "__main__"})  # noqa: S102 (the example of our own docs)
-    return printed.getvalue().splitlines()
+def run_api_examples(page: Path, folder: Path) -> list[list[str]]:
+    """The printed lines of each of docs/api.md's python blocks, run in order in one namespace
+    in ``folder``."""
+    namespace = {"__name__": "__main__"}
+    printed = []
+    for block in api_examples(page):
+        out = io.StringIO()
+        compiled = compile("\n" * (block.line - 1) + block.code, str(page), "exec")
+        with _inside(folder), contextlib.redirect_stdout(out):
+            exec(compiled, namespace)  # noqa: S102 (the examples of our own docs)
+        printed.append(out.getvalue().splitlines())
+    return printed
 
 
 # --- the tests -------------------------------------------------------------------------------
@@ -349,13 +367,15 @@ def _numbers_or_text() -> Shape | None:
 
 
 def test_api_example_prints_what_the_page_shows(tmp_path):
-    """docs/api.md's example as a script in an empty folder (15 s on 2 cores)."""
-    _, _, shown, line = api_example(API)
+    """docs/api.md's examples as one script in an empty folder (15 s on 2 cores)."""
     printed = in_pinned_process("api", tmp_path)["printed"]
     shape = _numbers_or_text()
-    assert placed(shown, printed, shape) is not None, f"api.md:{line}\n" + differences(
-        shown, printed
-    )
+    blocks = api_examples(API)
+    assert len(printed) == len(blocks)
+    for block, lines in zip(blocks, printed, strict=True):
+        assert placed(block.shown, lines, shape) is not None, (
+            f"api.md:{block.shown_line}\n" + differences(block.shown, lines)
+        )
     root = tmp_path / "virtual-bench"
     figures = sorted(p.name for p in (root / "figures").iterdir())
     assert figures == sorted(
@@ -440,11 +460,10 @@ def _rewrite() -> int:
     with tempfile.TemporaryDirectory() as scratch:
         api = in_pinned_process("api", Path(scratch))["printed"]
     lines = API.read_text(encoding="utf-8").splitlines(keepends=True)
-    _, _, shown, first = api_example(API)
-    if _update(lines, first - 1, shown, api):
-        API.write_text("".join(lines), encoding="utf-8")
-    else:
-        left.append(f"api.md:{first}\n" + differences(shown, api))
+    for block, printed_block in zip(api_examples(API), api, strict=True):
+        if not _update(lines, block.shown_line - 1, block.shown, printed_block):
+            left.append(f"api.md:{block.shown_line}\n" + differences(block.shown, printed_block))
+    API.write_text("".join(lines), encoding="utf-8")
     print("\n\n".join(left) or "both pages print what they show")
     return 1 if left else 0
 
@@ -454,7 +473,7 @@ def _run(page: str, folder: Path) -> None:
     process of ``in_pinned_process``)."""
     folder.mkdir(parents=True, exist_ok=True)
     if page == "api":
-        found = {"printed": run_api_example(API, folder)}
+        found = {"printed": run_api_examples(API, folder)}
     else:
         outcome = run_page(REAL_RIG, folder)
         found = {"faults": outcome.faults, "printed": outcome.printed}
