@@ -151,6 +151,20 @@ def encoder_edges(t: np.ndarray, phi: np.ndarray, quantum: float) -> tuple[np.nd
     no longer the staircase's q / sqrt 12, constant over the samples that stay on one count.
     A step of several counts (a fine encoder, a fast body) crosses several levels; their mean
     is the same expression, and the error that of the readings' mean.
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        s, the samples' times.
+    phi : numpy.ndarray
+        rad, the encoder's readings floor(x / q) q.
+    quantum : float
+        q, rad, the encoder's count.
+
+    Returns
+    -------
+    time, angle : numpy.ndarray
+        s and rad, one entry per change of the reading.
     """
     change = np.nonzero(np.diff(phi) != 0.0)[0]
     return 0.5 * (t[change] + t[change + 1]), 0.5 * (phi[change] + phi[change + 1]) + quantum / 2
@@ -170,6 +184,28 @@ def half_cycle_fit(log: Log, period: float, quantum: float, source: str) -> Half
     reading that stays on one count for many samples is a staircase whose odd harmonics,
     over a half-cycle window, lean on the frequency's column and bias it, while an edge is
     the crossing of a known level.
+
+    Parameters
+    ----------
+    log : Log
+        The pendulum run's log.
+    period : float
+        s, the oscillation's approximate period (the start of the fit; it sets the turning
+        points' detection, :func:`turning_points`).
+    quantum : float
+        q, rad, the encoder's count.
+    source : str
+        Names the log in messages.
+
+    Returns
+    -------
+    HalfCycleFit
+        The frequency at zero amplitude with its std, the decay, kappa and the centre.
+
+    Raises
+    ------
+    InputError
+        Fewer than MIN_HALF_CYCLES half cycles above MIN_AMPLITUDE_COUNTS counts.
     """
     turns = turning_points(log, period)
     t, phi = log.t, log.phi
@@ -293,14 +329,33 @@ def best_practice_inertia(
     gravity: np.ndarray,
     gravity_cov: np.ndarray,
 ) -> BestPractice:
-    """M = (c + k_g) / w_n^2 at node angle ``node`` (rad), k_g = -(Gs sin + Gc cos)(node).
+    """M = (c + k_g) / w_n^2 at node angle ``node``, k_g = -(Gs sin + Gc cos)(node).
 
-    ``gravity``: [Gs, Gc], N m, of everything on the shaft (body and fixture), with its
-    covariance. Two model errors are budgeted at the size of the correction they come from:
+    Two model errors are budgeted at the size of the correction they come from:
     the damping model's, M (delta / w_n)^2 (quadratic friction's frequency effect is of that
     order), and the amplitude extrapolation's, 2 M |kappa| A_max^2 (KAPPA_BOUND for kappa
     when it was not fitted; w (1 + kappa A^2) is only the first term of the frequency's
     dependence on the amplitude).
+
+    Parameters
+    ----------
+    fit : HalfCycleFit
+        The oscillation's fit (:func:`half_cycle_fit`).
+    stiffness : float
+        c, N m/rad, the torsion element's stiffness.
+    stiffness_std : float
+        N m/rad, its std.
+    node : float
+        rad, the node's angle.
+    gravity : numpy.ndarray, shape (2,)
+        [Gs, Gc], N m, of everything on the shaft (body and fixture).
+    gravity_cov : numpy.ndarray, shape (2, 2)
+        N^2 m^2, their covariance.
+
+    Returns
+    -------
+    BestPractice
+        M, kg m^2, with its std and the budget's parts.
     """
     rows = np.array([-math.sin(node), -math.cos(node)])  # d k_g / d[Gs, Gc]
     k_g = gravity_stiffness(gravity, node)
