@@ -140,8 +140,29 @@ class MountedResult:
         mass: float,
         g: float,
     ) -> MountedResult:
-        """The mounting from identify's result.json document (docs/files.md: ``tensor``,
-        ``gravity_torque``, ``covariance``) and its ``[mounting]``, mass and gravity.
+        """The mounting from identify's result.json document and its ``[mounting]``, mass and
+        gravity.
+
+        Parameters
+        ----------
+        name : str
+            Names the mounting in messages (its experiment folder).
+        document : dict
+            The parsed result.json (docs/files.md: ``tensor``, ``gravity_torque``,
+            ``covariance``).
+        rotation : numpy.ndarray, shape (3, 3)
+            R, body axes -> rig axes: v_rig = R v_body (device.toml ``[mounting]``).
+        origin : numpy.ndarray, shape (3,)
+            m, the body frame's origin in rig axes (device.toml ``[mounting]``).
+        mass : float
+            kg, the body's (device.toml ``[body] mass``).
+        g : float
+            m/s^2, the gravity of the rig (device.toml ``[device] gravity``).
+
+        Returns
+        -------
+        MountedResult
+            What the mounting measured and how the body was mounted.
 
         Raises
         ------

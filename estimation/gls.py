@@ -337,6 +337,12 @@ def solve_blocks(
         The runs' speed-noise scales, when an earlier fit of the same runs found them (a
         calibration's repeated fit on the corrected logs, whose scales were already taken
         with the correction's terms off the runs' own fits): not searched again.
+
+    Returns
+    -------
+    BalanceFit
+        The unknowns' estimate and covariance, the runs' speed-noise scales and the model
+        tests' results.
     """
     names = list(dict.fromkeys(name for block in blocks for name in block.columns))
     y = np.concatenate([block.rhs for block in blocks])
