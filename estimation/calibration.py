@@ -53,9 +53,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from rsp_inertia.estimation.calibration_file import (
+    CalibrationFile,
     calibration_file,
     calibration_text,
-    read_calibration_file,
 )
 from rsp_inertia.estimation.gls import BalanceFit, Block, solve_blocks
 from rsp_inertia.estimation.model_tests import ModelTest, model_warnings
@@ -76,15 +76,15 @@ from rsp_inertia.estimation.tensor import (
 )
 from rsp_inertia.plant.config import Device, TrueBody
 from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.experiment import CALIBRATION_FILE
 from rsp_inertia.plant.model import inertia_basis, inertia_harmonics
 
 __all__ = [
     "Calibration",
     "calibrate_logs",
+    "calibrated_known_terms",
     "device_known_terms",
     "fit_calibration",
-    "known_terms_from_toml",
-    "stiffness_from_toml",
 ]
 
 STIFFNESS_CHI2_WARN = 4.0
@@ -131,10 +131,17 @@ class Calibration:
     stiffness: StiffnessCalibration | None = None
     """The pendulum's torsion stiffness, when both folders have pendulum runs at a node."""
 
+    def to_file(self) -> CalibrationFile:
+        """The calibration as calibration.toml holds it
+        (rsp_inertia.estimation.calibration_file.calibration_file): what
+        rsp_inertia.estimation.calibration_file.write_calibration_file writes, equal to what
+        its reader gives back from the file."""
+        return calibration_file(self)
+
     def to_toml(self) -> str:
         """The calibration.toml text (rsp_inertia.estimation.calibration_file): deterministic,
         the same calibration gives the same bytes, and checked to read back equal."""
-        return calibration_text(calibration_file(self))
+        return calibration_text(self.to_file())
 
     def __str__(self) -> str:
         k = self.known
@@ -286,9 +293,11 @@ def fit_calibration(
         With a reference: the encoder's error coefficients (ENCODER_ORDERS orders) already
         taken off the logs of the balances; the fit measures what is left and adds it.
         Without a reference the encoder is device.toml's (:func:`device_known_terms`).
-    scales, tests
-        The runs' speed-noise scales when an earlier fit found them, and whether to make the
-        model tests (rsp_inertia.estimation.gls.solve_blocks).
+    scales : list of float, optional
+        The runs' speed-noise scales when an earlier fit found them
+        (rsp_inertia.estimation.gls.solve_blocks).
+    tests : bool
+        Whether to make the model tests (rsp_inertia.estimation.gls.solve_blocks).
 
     Returns
     -------
@@ -340,10 +349,27 @@ def calibrate_logs(
 ) -> Calibration:
     """Calibrate the rig of ``device`` from the empty-fixture and reference experiments' logs.
 
-    ``reference_body``: the reference experiment's known body (reference.toml), with
-    ``reference``. With a reference the fit repeats on the logs corrected with the encoder's
-    error found so far (module docstring). The torsion stiffness comes from the nodes with a
-    pendulum log in both. ``inputs`` is left empty: the reader of the files records them.
+    With a reference the fit repeats on the logs corrected with the encoder's error found so
+    far (module docstring). The torsion stiffness comes from the nodes with a pendulum log in
+    both.
+
+    Parameters
+    ----------
+    device : Device
+        The calibrated experiment's device.
+    empty : ExperimentLogs
+        The empty-fixture experiment's logs.
+    reference : ExperimentLogs, optional
+        The reference experiment's logs.
+    reference_body : TrueBody, optional
+        The reference experiment's known body (reference.toml), with ``reference``.
+    progress : callable, optional
+        Called with a line of text as the calibration goes.
+
+    Returns
+    -------
+    Calibration
+        What calibrate found; ``inputs`` is left empty: the reader of the files records them.
 
     Raises
     ------
@@ -426,20 +452,35 @@ def _corrected_pendulum(logs: ExperimentLogs, encoder: np.ndarray) -> Experiment
     return dataclasses.replace(logs, pendulum=pendulum)
 
 
-def known_terms_from_toml(doc: dict, device: Device, source: str) -> tuple[KnownTerms, list[str]]:
-    """A calibration.toml document (parsed TOML) as KnownTerms, checked to be made for
-    ``device``; ``source`` names the file in messages. With the warnings it gives: a file
-    of an older rsp-inertia, without the drive's gains and the encoder's error, is applied
-    with a lossless drive and an exact encoder (its torque_gain as both gains), and says so.
+def calibrated_known_terms(
+    calibration: CalibrationFile, device: Device, source: str
+) -> tuple[KnownTerms, list[str]]:
+    """A calibration.toml's terms, checked to be made for ``device``.
+
+    Parameters
+    ----------
+    calibration : CalibrationFile
+        The file as its reader gives it
+        (rsp_inertia.estimation.calibration_file.read_calibration_file).
+    device : Device
+        The experiment's device: its name, encoder and stages must be the calibration's.
+    source : str
+        The file's name in messages.
+
+    Returns
+    -------
+    (KnownTerms, list of str)
+        The calibrated terms (:meth:`CalibrationFile.known_terms`) and the warnings they
+        give: a file of an older rsp-inertia, without the drive's gains and the encoder's
+        error, is applied with a lossless drive and an exact encoder (its torque_gain as
+        both gains), and says so.
 
     Raises
     ------
     InputError
-        A malformed document (rsp_inertia.estimation.calibration_file.read_calibration_file),
-        or one made for another device (name, encoder or stages differ).
+        A calibration made for another device (name, encoder or stages differ).
     """
     path = source
-    calibration = read_calibration_file(doc, source)
     head = calibration.calibration
     if head.device != device.name:
         raise InputError(
@@ -473,23 +514,8 @@ def known_terms_from_toml(doc: dict, device: Device, source: str) -> tuple[Known
     return calibration.known_terms(), warnings
 
 
-def stiffness_from_toml(doc: dict, source: str) -> tuple[float, float] | None:
-    """(c, std), N m/rad, of a calibration.toml document's ``[pendulum]``; None without one.
-
-    Raises
-    ------
-    InputError
-        A malformed document (rsp_inertia.estimation.calibration_file.read_calibration_file;
-        ``source`` names the file).
-    """
-    pendulum = read_calibration_file(doc, source).pendulum
-    if pendulum is None:
-        return None
-    return pendulum.stiffness, pendulum.stiffness_std
-
-
 def device_known_terms(
-    device: Device, calibration_source: str = "calibration.toml"
+    device: Device, calibration_source: str = CALIBRATION_FILE
 ) -> tuple[KnownTerms, list[str]]:
     """The rig's known terms without a calibration: device.toml's tares, a torque gain of 1, a
     lossless drive and the encoder's error as device.toml states it (none: exact).

@@ -24,6 +24,7 @@ import numpy as np
 
 from rsp_inertia.estimation.tensor import HARMONIC_NAMES, KnownTerms
 from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.experiment import CALIBRATION_FILE
 from rsp_inertia.plant.toml_schema import (
     Bound,
     ContentError,
@@ -217,9 +218,18 @@ class CalibrationFile:
         names = zeros.names()
         return ["h", *names[2:]] if self.legacy else names
 
+    def pendulum_stiffness(self) -> tuple[float, float] | None:
+        """(c, std), N m/rad, of ``[pendulum]``: the torsion element's calibrated stiffness;
+        None without the table."""
+        if self.pendulum is None:
+            return None
+        return self.pendulum.stiffness, self.pendulum.stiffness_std
+
     def known_terms(self) -> KnownTerms:
         """The calibrated terms and their covariance; an older file's as a lossless drive
-        (its torque_gain for both gains) and an exact encoder."""
+        (its torque_gain for both gains) and an exact encoder. Whether the file was made for
+        the experiment's device is rsp_inertia.estimation.calibration.calibrated_known_terms's
+        check."""
         inertia = np.array([stage.empty_inertia for stage in self.stages], dtype=float)
         gravity = np.array(self.fixture.gravity, dtype=float)
         size = len(self.covariance.parameters)
@@ -332,7 +342,7 @@ def read_calibration_file(
     0.94713...
     """
     if isinstance(path_or_doc, dict):
-        doc, name = path_or_doc, "calibration.toml"
+        doc, name = path_or_doc, CALIBRATION_FILE
     else:
         doc, name = read_file(path_or_doc), str(path_or_doc)
     try:
@@ -361,7 +371,7 @@ def write_calibration_file(path: str | os.PathLike, value: CalibrationFile) -> N
     write_file(path, value, HEADER, _calibration)
 
 
-def calibration_text(value: CalibrationFile, source: str = "calibration.toml") -> str:
+def calibration_text(value: CalibrationFile, source: str = CALIBRATION_FILE) -> str:
     """The ``calibration.toml`` text of ``value``: a header on theta, then every table in
     the order of :class:`CalibrationFile` with each key's unit as a comment; the same value
     gives the same bytes.

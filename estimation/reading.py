@@ -4,6 +4,11 @@ The estimators work on data in memory (rsp_inertia.estimation.identify.identify_
 rsp_inertia.estimation.calibration.calibrate_logs). This module is the one of the package
 that opens the files they need: it reads them, names every input by its path for the
 messages (rsp_inertia.estimation.runs.Sources), and calls the estimators.
+
+An experiment's calibration.toml is read once per command (:func:`read_calibration`: parsed
+and validated into its config class, rsp_inertia.estimation.calibration_file.CalibrationFile);
+what identify and check take from it (the known terms, the pendulum's stiffness) comes from
+that one reading.
 """
 
 from __future__ import annotations
@@ -18,45 +23,54 @@ from pathlib import Path
 from rsp_inertia.estimation.calibration import (
     Calibration,
     calibrate_logs,
+    calibrated_known_terms,
     device_known_terms,
-    known_terms_from_toml,
-    stiffness_from_toml,
 )
+from rsp_inertia.estimation.calibration_file import CalibrationFile, read_calibration_file
 from rsp_inertia.estimation.identify import identify_logs
 from rsp_inertia.estimation.results import Identification
 from rsp_inertia.estimation.runs import ExperimentLogs, Sources, runs
 from rsp_inertia.estimation.tensor import KnownTerms
 from rsp_inertia.plant.config import load_reference
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.experiment import Experiment
+from rsp_inertia.plant.experiment import CALIBRATION_FILE, REFERENCE_FILE, Experiment
 from rsp_inertia.plant.files import file_sha256
 from rsp_inertia.plant.log_checks import unterminated_last_line
 from rsp_inertia.plant.logs import Log, align_counter, read_device_log
 
 __all__ = [
-    "CALIBRATION_FILE",
-    "REFERENCE_FILE",
+    "CALIBRATION_FILE",  # the command layer's import until it takes plant.experiment's
     "calibrate_experiment",
     "calibrated_stiffness",
     "check_same_stages",
     "identify_experiment",
     "known_terms",
     "load_calibration",
+    "read_calibration",
     "read_experiment",
     "read_run",
     "unterminated_warnings",
 ]
 
-CALIBRATION_FILE = "calibration.toml"
-"""Written into the experiment folder by ``rsp-inertia calibrate``, read by identify."""
-
-REFERENCE_FILE = "reference.toml"
-"""The reference body's known data, in the reference experiment's folder."""
-
 
 def read_run(exp: Experiment, stage: int, direction: str) -> tuple[Log, Log]:
-    """One run's braking and reverse logs as logged, the reverse's counter continuing the
-    braking's (rsp_inertia.plant.logs.align_counter)."""
+    """One run's braking and reverse logs as logged.
+
+    Parameters
+    ----------
+    exp : Experiment
+        The experiment folder.
+    stage : int
+        The stage, 1-based.
+    direction : str
+        ``"forward"`` or ``"backward"``.
+
+    Returns
+    -------
+    (Log, Log)
+        The braking log and the reverse log, the reverse's counter continuing the braking's
+        (rsp_inertia.plant.logs.align_counter).
+    """
     device = exp.device
     braking = read_device_log(exp.braking_path(stage, direction), device, "braking", direction)
     # The reverse starts where the braking stopped: one counter, one angle.
@@ -103,7 +117,7 @@ def read_experiment(exp: Experiment) -> ExperimentLogs:
     ]
     sources = Sources(
         experiment=str(exp.root),
-        device=str(exp.root / "device.toml"),
+        device=str(exp.device_path),
         runs={
             (s, d): (str(exp.braking_path(s, d)), str(exp.reverse_path(s, d))) for s, d in keys
         },
@@ -124,16 +138,73 @@ def read_experiment(exp: Experiment) -> ExperimentLogs:
     )
 
 
-def _calibration_document(exp: Experiment) -> dict | None:
-    """``EXP/calibration.toml`` parsed, None if absent."""
-    path = exp.root / CALIBRATION_FILE
+def read_calibration(exp: Experiment) -> CalibrationFile | None:
+    """``EXP/calibration.toml`` parsed and validated, once: everything a command takes from
+    it comes from this reading (:func:`known_terms`,
+    rsp_inertia.estimation.calibration_file.CalibrationFile.pendulum_stiffness).
+
+    Parameters
+    ----------
+    exp : Experiment
+        The experiment folder.
+
+    Returns
+    -------
+    CalibrationFile or None
+        The file's tables; None if the folder has no calibration.toml.
+
+    Raises
+    ------
+    InputError
+        A file that is not TOML or breaks a rule of calibration.toml
+        (rsp_inertia.estimation.calibration_file.read_calibration_file), the path in front.
+    """
+    path = exp.calibration_path
     if not path.is_file():
         return None
     try:
         with open(path, "rb") as file:
-            return tomllib.load(file)
+            doc = tomllib.load(file)
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as error:
         raise InputError(f"{path}: cannot read as TOML: {' '.join(str(error).split())}") from None
+    return read_calibration_file(doc, str(path))
+
+
+_UNREAD = object()
+"""known_terms's default while the command layer still calls it with the experiment alone."""
+
+
+def known_terms(
+    exp: Experiment, calibration: CalibrationFile | None = _UNREAD
+) -> tuple[KnownTerms, list[str]]:
+    """The rig's known terms for identify: calibration.toml's, checked to be made for this
+    device (rsp_inertia.estimation.calibration.calibrated_known_terms), else device.toml's
+    (rsp_inertia.estimation.calibration.device_known_terms).
+
+    Parameters
+    ----------
+    exp : Experiment
+        The experiment folder.
+    calibration : CalibrationFile or None
+        Its calibration.toml as :func:`read_calibration` gives it (None: the folder has none).
+
+    Returns
+    -------
+    (KnownTerms, list of str)
+        The terms, with the warnings they give (a file of an older rsp-inertia; device.toml's
+        unstated stds).
+
+    Raises
+    ------
+    InputError
+        A calibration made for another device (name, encoder or stages differ).
+    """
+    if calibration is _UNREAD:
+        calibration = read_calibration(exp)
+    source = str(exp.calibration_path)
+    if calibration is not None:
+        return calibrated_known_terms(calibration, exp.device, source)
+    return device_known_terms(exp.device, source)
 
 
 def load_calibration(exp: Experiment) -> tuple[KnownTerms, list[str]] | None:
@@ -145,38 +216,35 @@ def load_calibration(exp: Experiment) -> tuple[KnownTerms, list[str]] | None:
     InputError
         A malformed file, or one made for another device (name, encoder or stages differ).
     """
-    doc = _calibration_document(exp)
-    if doc is None:
+    calibration = read_calibration(exp)
+    if calibration is None:
         return None
-    return known_terms_from_toml(doc, exp.device, str(exp.root / CALIBRATION_FILE))
+    return known_terms(exp, calibration)
 
 
 def calibrated_stiffness(exp: Experiment) -> tuple[float, float] | None:
     """(c, std), N m/rad, of calibration.toml's ``[pendulum]`` when it has one (checked to be
     made for this device, :func:`load_calibration`); None otherwise."""
-    if load_calibration(exp) is None:
+    calibration = read_calibration(exp)
+    if calibration is None:
         return None
-    return stiffness_from_toml(_calibration_document(exp), str(exp.root / CALIBRATION_FILE))
-
-
-def known_terms(exp: Experiment) -> tuple[KnownTerms, list[str]]:
-    """The rig's known terms for identify: calibration.toml, else device.toml's
-    (rsp_inertia.estimation.calibration.device_known_terms), with the warnings they give."""
-    calibrated = load_calibration(exp)
-    if calibrated is not None:
-        return calibrated
-    return device_known_terms(exp.device, str(exp.root / CALIBRATION_FILE))
+    known_terms(exp, calibration)
+    return calibration.pendulum_stiffness()
 
 
 def identify_experiment(
     exp: Experiment, progress: Callable[[str], None] | None = None
 ) -> Identification:
     """Identify an experiment folder: its logs, calibration and pendulum runs read, then
-    rsp_inertia.estimation.identify.identify_logs (its errors and warnings name the files)."""
-    known, warnings = known_terms(exp)
+    rsp_inertia.estimation.identify.identify_logs (its errors and warnings name the files).
+    calibration.toml is read once (:func:`read_calibration`)."""
+    calibration = read_calibration(exp)
+    known, warnings = known_terms(exp, calibration)
     logs = read_experiment(exp)
     warnings += unterminated_warnings(logs)
-    stiffness = calibrated_stiffness(exp) if logs.pendulum else None
+    stiffness = None
+    if calibration is not None and logs.pendulum:
+        stiffness = calibration.pendulum_stiffness()
     return identify_logs(
         logs, known, pendulum_stiffness=stiffness, warnings=warnings, progress=progress
     )
@@ -198,13 +266,28 @@ def unterminated_warnings(logs: ExperimentLogs) -> list[str]:
 def check_same_stages(exp: Experiment, other: Experiment, role: str) -> None:
     """Raise InputError unless ``other`` is ``exp``'s device: its ``[device] name``, its stages
     (gear ratios and nodes) and its encoder's counts per revolution (a calibration made on
-    another gimbal would be applied to this one without a word, docs/real-rig.md)."""
+    another gimbal would be applied to this one without a word, docs/real-rig.md).
+
+    Parameters
+    ----------
+    exp : Experiment
+        The experiment to calibrate.
+    other : Experiment
+        A calibration folder.
+    role : str
+        What ``other`` is (``"empty"``, ``"reference"``), in messages.
+
+    Raises
+    ------
+    InputError
+        ``other``'s device.toml differs from ``exp``'s (naming both files and the key).
+    """
     mine, theirs = exp.device.stages, other.device.stages
-    where = other.root / "device.toml"
+    mine_path, where = exp.device_path, other.device_path
     if other.device.name != exp.device.name:
         raise InputError(
             f"{where}: device.name = {other.device.name!r} differs from "
-            f"{exp.root / 'device.toml'}'s {exp.device.name!r}: the {role} runs must be made "
+            f"{mine_path}'s {exp.device.name!r}: the {role} runs must be made "
             "on the same device"
         )
     if len(theirs) != len(mine):
@@ -216,16 +299,16 @@ def check_same_stages(exp: Experiment, other: Experiment, role: str) -> None:
         if not math.isclose(a.gear_ratio, b.gear_ratio, rel_tol=1e-9, abs_tol=1e-12):
             raise InputError(
                 f"{where}: stage[{k}].gear_ratio = {b.gear_ratio!r} differs from "
-                f"{exp.root / 'device.toml'}'s {a.gear_ratio!r}"
+                f"{mine_path}'s {a.gear_ratio!r}"
             )
         if tuple(a.nodes_deg) != tuple(b.nodes_deg):
             raise InputError(
                 f"{where}: stage[{k}].nodes_deg = {list(b.nodes_deg)} differs from "
-                f"{exp.root / 'device.toml'}'s {list(a.nodes_deg)}"
+                f"{mine_path}'s {list(a.nodes_deg)}"
             )
     if other.device.encoder.counts_per_rev != exp.device.encoder.counts_per_rev:
         raise InputError(
-            f"{where}: encoder.counts_per_rev differs from {exp.root / 'device.toml'}'s: "
+            f"{where}: encoder.counts_per_rev differs from {mine_path}'s: "
             "calibration runs must be made on the same device"
         )
 
@@ -238,6 +321,23 @@ def calibrate_experiment(
 ) -> Calibration:
     """Calibrate ``exp``'s rig from the empty-fixture and reference experiment folders
     (rsp_inertia.estimation.calibration.calibrate_logs), recording every input file's sha256.
+
+    Parameters
+    ----------
+    exp : Experiment
+        The experiment whose rig is calibrated (its device names the calibration).
+    empty : Experiment
+        The empty-fixture calibration folder.
+    reference : Experiment, optional
+        The reference-body calibration folder (its reference.toml holds the body).
+    progress : callable, optional
+        Called with a line of text as the calibration goes.
+
+    Returns
+    -------
+    Calibration
+        What calibrate found, its ``inputs`` the sha256 of every file read (paths as the
+        folders give them) and its warnings led by the logs' unterminated last lines.
 
     Raises
     ------
@@ -262,7 +362,7 @@ def calibrate_experiment(
     for folder, logs in ((empty, empty_logs), (reference, reference_logs)):
         if folder is None:
             continue
-        files = [str(folder.root / "device.toml")]
+        files = [str(folder.device_path)]
         if folder is reference:
             files.append(str(folder.root / REFERENCE_FILE))
         for names in logs.sources.runs.values():

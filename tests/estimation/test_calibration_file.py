@@ -12,10 +12,11 @@ import numpy as np
 import pytest
 
 import rsp_inertia.plant
+from rsp_inertia.estimation import reading
 from rsp_inertia.estimation.calibration import (
     Calibration,
-    known_terms_from_toml,
-    stiffness_from_toml,
+    calibrated_known_terms,
+    device_known_terms,
 )
 from rsp_inertia.estimation.calibration_file import (
     calibration_file,
@@ -26,6 +27,7 @@ from rsp_inertia.estimation.stiffness import StiffnessCalibration
 from rsp_inertia.estimation.tensor import KnownTerms
 from rsp_inertia.plant.config import load_device
 from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.results import CalibrateResult
 
 DEVICE = load_device(Path(rsp_inertia.plant.__file__).parent / "defaults" / "device.toml")
@@ -95,13 +97,15 @@ def test_what_calibrate_writes_reads_back_as_the_same_terms(tmp_path, orders, pe
     text = cal.to_toml()
     assert text == cal.to_toml()  # deterministic
     doc = tomllib.loads(text)
-    known, warnings = known_terms_from_toml(doc, DEVICE, "calibration.toml")
+    file = read_calibration_file(doc)
+    assert file == cal.to_file()  # what the reader gives back is what calibrate gives
+    known, warnings = calibrated_known_terms(file, DEVICE, "calibration.toml")
     assert warnings == []
     assert_same_terms(known, cal.known)
-    assert stiffness_from_toml(doc, "calibration.toml") == ((2.0099, 3.6e-4) if pendulum else None)
+    assert file.pendulum_stiffness() == ((2.0099, 3.6e-4) if pendulum else None)
     assert (doc["encoder"]["error_cos"] == []) == (orders == 0)
     # The file written is the text, byte for byte, and so is the file written from its reading.
-    write_calibration_file(tmp_path / "a.toml", calibration_file(cal))
+    write_calibration_file(tmp_path / "a.toml", cal.to_file())
     write_calibration_file(tmp_path / "b.toml", read_calibration_file(tmp_path / "a.toml"))
     assert (tmp_path / "a.toml").read_text() == (tmp_path / "b.toml").read_text() == text
 
@@ -194,7 +198,8 @@ def test_a_file_of_the_older_format_is_read_with_a_lossless_drive_and_a_warning(
     source = "EXP/calibration.toml"
     with open(path, "rb") as file:
         doc = tomllib.load(file)
-    known, warnings = known_terms_from_toml(doc, DEVICE, source)
+    file = read_calibration_file(doc, source)
+    known, warnings = calibrated_known_terms(file, DEVICE, source)
     assert warnings == [
         (
             f"{source}: written by an older rsp-inertia, without the drive's gains by direction "
@@ -214,8 +219,8 @@ def test_a_file_of_the_older_format_is_read_with_a_lossless_drive_and_a_warning(
     expected[0, 0] = old[0, 0]
     np.testing.assert_array_equal(known.cov, expected)
     assert known.names()[:3] == ["h_d", "h_b", "M0[1]"]
-    assert stiffness_from_toml(doc, source) == (2.0099386080645836, 0.0003631198571374831)
-    assert read_calibration_file(path).legacy
+    assert file.pendulum_stiffness() == (2.0099386080645836, 0.0003631198571374831)
+    assert file.legacy and read_calibration_file(path) == file
 
 
 def test_an_older_file_is_checked_as_strictly():
@@ -436,7 +441,9 @@ def test_bad_toml_and_a_missing_file_are_one_line(tmp_path):
 )
 def test_a_calibration_of_another_device_is_refused(edit, fault):
     with pytest.raises(InputError, match="^EXP/calibration.toml: ") as error:
-        known_terms_from_toml(tomllib.loads(edit(SMALL)), DEVICE, "EXP/calibration.toml")
+        calibrated_known_terms(
+            read_calibration_file(tomllib.loads(edit(SMALL))), DEVICE, "EXP/calibration.toml"
+        )
     assert fault in str(error.value)
 
 
@@ -448,3 +455,89 @@ def test_writing_what_the_reader_refuses_raises_and_writes_nothing(tmp_path):
     with pytest.raises(ValueError, match=f"^{path}: calibration.chi2_dof: must be >= 0"):
         write_calibration_file(path, calibration_file(bad))
     assert not path.exists()
+
+
+# --- read once per command ------------------------------------------------------------------
+
+
+def _calibrated_experiment(root: Path, text: str | None) -> Path:
+    """DEVICE's experiment folder with ``text`` as its calibration.toml (None: none) and a
+    pendulum log at one node (empty: the estimators are not run)."""
+    (root / "stage1").mkdir(parents=True)
+    (root / "device.toml").write_text(
+        (Path(rsp_inertia.plant.__file__).parent / "defaults" / "device.toml").read_text()
+    )
+    (root / "stage1" / "pendulum_k1.csv").write_text("")
+    if text is not None:
+        (root / "calibration.toml").write_text(text)
+    return root
+
+
+def _count_parses(monkeypatch) -> list[str]:
+    """Every parse of a calibration.toml's text from now on (tomllib.load and loads), listed."""
+    parses: list[str] = []
+    load, loads = tomllib.load, tomllib.loads
+
+    def counted_load(file, **kwargs):
+        doc = load(file, **kwargs)
+        if Path(file.name).name == "calibration.toml":
+            parses.append(file.name)
+        return doc
+
+    def counted_loads(text, **kwargs):
+        if text.startswith("# calibration.toml"):
+            parses.append("text")
+        return loads(text, **kwargs)
+
+    monkeypatch.setattr(tomllib, "load", counted_load)
+    monkeypatch.setattr(tomllib, "loads", counted_loads)
+    return parses
+
+
+def test_identify_reads_the_calibration_once(tmp_path, monkeypatch):
+    """identify_experiment parses and validates calibration.toml once; the known terms and
+    the pendulum's stiffness it hands to the estimator come from that reading."""
+    root = _calibrated_experiment(tmp_path, SMALL)
+    exp = open_experiment(root)
+    handed = {}
+
+    def estimator(logs, known, *, pendulum_stiffness, warnings, progress):
+        handed.update(known=known, stiffness=pendulum_stiffness, warnings=warnings)
+        return "identified"
+
+    monkeypatch.setattr(reading, "identify_logs", estimator)
+    parses = _count_parses(monkeypatch)
+    assert reading.identify_experiment(exp) == "identified"
+    assert parses == [str(root / "calibration.toml")]
+    assert_same_terms(handed["known"], calibration(orders=1).known)
+    assert handed["stiffness"] == (2.0099, 3.6e-4) and handed["warnings"] == []
+
+
+def test_check_reads_the_calibration_once(tmp_path, monkeypatch):
+    """What check reports of calibration.toml (its terms and warnings, its stiffness) comes
+    from one reading (read_calibration, then known_terms and pendulum_stiffness of it)."""
+    exp = open_experiment(_calibrated_experiment(tmp_path, SMALL))
+    parses = _count_parses(monkeypatch)
+    calibrated = reading.read_calibration(exp)
+    known, warnings = reading.known_terms(exp, calibrated)
+    assert calibrated.pendulum_stiffness() == (2.0099, 3.6e-4) and warnings == []
+    assert_same_terms(known, calibration(orders=1).known)
+    assert len(parses) == 1
+
+
+def test_without_a_calibration_the_device_states_the_terms(tmp_path):
+    exp = open_experiment(_calibrated_experiment(tmp_path, None))
+    assert reading.read_calibration(exp) is None
+    known, warnings = reading.known_terms(exp, None)
+    expected, expected_warnings = device_known_terms(DEVICE, str(exp.calibration_path))
+    assert warnings == expected_warnings
+    for name in ("gains", "inertia", "gravity", "cov", "encoder", "calibrated"):
+        np.testing.assert_array_equal(getattr(known, name), getattr(expected, name))
+
+
+def test_an_experiments_calibration_that_is_not_toml_is_one_line(tmp_path):
+    exp = open_experiment(_calibrated_experiment(tmp_path, SMALL.replace("[drive]", "[drive")))
+    with pytest.raises(InputError) as error:
+        reading.read_calibration(exp)
+    assert str(error.value).startswith(f"{exp.calibration_path}: cannot read as TOML: ")
+    assert "\n" not in str(error.value)
