@@ -71,8 +71,20 @@ WARN_CONDITION = 10.0
 def axial_moment(M, stage, empty=None) -> np.ndarray | float:
     """J_e = (M - M_tare) / (1 + lam^2) about a stage's axis (docs/method.md §2).
 
-    ``empty``: the empty system's reduced inertia at the node (tare and fixture, from a
-    calibration); device.toml's tare by default.
+    Parameters
+    ----------
+    M : float or array_like
+        kg m^2, the reduced inertia at the node.
+    stage : Stage
+        The stage (its gear ratio lam and tare).
+    empty : float, optional
+        kg m^2, the empty system's reduced inertia at the node (tare and fixture, from a
+        calibration); device.toml's tare by default.
+
+    Returns
+    -------
+    float or numpy.ndarray
+        J_e, kg m^2, shaped like ``M``.
     """
     tare = stage.tare_inertia if empty is None else empty
     return (np.asarray(M) - tare) / (1.0 + stage.gear_ratio**2)
@@ -157,6 +169,12 @@ def identify_logs(
         Warnings found before (by the reader of the inputs): the result's list starts with them.
     progress : callable, optional
         Called with a line as each run is balanced and when the pendulum runs are reduced.
+
+    Returns
+    -------
+    Identification
+        The tensor by least squares and by the node formula, the centre of mass, the axes,
+        the std budget, the model tests, the pendulum baseline and the warnings.
 
     Raises
     ------
@@ -296,14 +314,36 @@ def pendulum_baseline(
 ) -> PendulumResult | None:
     """The torsion-pendulum baseline from the pendulum logs of ``logs`` (one per node run).
 
-    None when there is no such log. The classic and damped reductions take device.toml's
-    ``[pendulum]`` stiffness; the empty system's inertia at the node is the calibration's
-    when ``known`` has one (the same tare and fixture as the RSP result), else device.toml's
-    tare. ``gravity`` (the body's [Gs, Gc], N m, with ``gravity_cov``: the RSP least
-    squares') feeds the best-practice reduction's gravity stiffness, with the fixture's from
-    ``known``; without it that reduction is skipped. The best practice takes ``stiffness``
-    (c, std), the calibrated one, else device.toml's. A run the best-practice reduction
-    cannot take (too few half cycles) gets None there and a line in ``warnings``.
+    The classic and damped reductions take device.toml's ``[pendulum]`` stiffness.
+
+    Parameters
+    ----------
+    logs : ExperimentLogs
+        The device and the logs; its pendulum logs are reduced.
+    known : KnownTerms, optional
+        The calibration: the empty system's inertia at the node is the calibration's when
+        ``known`` has one (the same tare and fixture as the RSP result), else device.toml's
+        tare; it also gives the fixture's gravity terms and the encoder's error.
+    gravity : numpy.ndarray, shape (2,), optional
+        The body's [Gs, Gc], N m (the RSP least squares'): it feeds the best-practice
+        reduction's gravity stiffness, with the fixture's from ``known``; without it that
+        reduction is skipped.
+    gravity_cov : numpy.ndarray, shape (2, 2), optional
+        Its covariance (the RSP least squares').
+    stiffness : tuple of float, optional
+        (c, std), N m/rad, the calibrated stiffness the best practice takes; device.toml's
+        without it.
+    warnings : list of str, optional
+        A run the best-practice reduction cannot take (too few half cycles) gets None there
+        and a line here.
+    progress : callable, optional
+        Called with a line when the pendulum runs are reduced.
+
+    Returns
+    -------
+    PendulumResult or None
+        The reductions of every run and, when every node has one, their tensors; None when
+        there is no pendulum log.
 
     Raises
     ------
@@ -386,11 +426,33 @@ def pendulum_settings(device: Device, source: str = "device.toml") -> Pendulum:
 def reduce_pendulum_run(
     device: Device, log: Log, stage: int, node: int, source: str, encoder=()
 ) -> tuple[Log, PendulumEstimate]:
-    """One pendulum run (``stage``, ``node`` from 1) reduced as :func:`pendulum_baseline`
-    reduces it: its readings taken back to the true angle with the encoder's error
-    coefficients ``encoder`` (the RSP runs' encoder, rsp_inertia.estimation.runs.corrected_log),
-    then rsp_inertia.estimation.pendulum.estimate_pendulum with the stiffness of
-    :func:`pendulum_settings`. Returns the corrected log and its reduction.
+    """One pendulum run reduced as :func:`pendulum_baseline` reduces it: its readings taken
+    back to the true angle with the encoder's error coefficients (the RSP runs' encoder,
+    rsp_inertia.estimation.runs.corrected_log), then
+    rsp_inertia.estimation.pendulum.estimate_pendulum with the stiffness of
+    :func:`pendulum_settings`.
+
+    Parameters
+    ----------
+    device : Device
+        The gimbal, with its ``[pendulum]`` table.
+    log : Log
+        The pendulum run's log.
+    stage : int
+        The stage number, from 1.
+    node : int
+        The node's number in the stage, from 1.
+    source : str
+        Names the log in messages.
+    encoder : sequence of float, optional
+        theta_e, rad, the encoder's error coefficients (none: the readings as they are).
+
+    Returns
+    -------
+    log : Log
+        The corrected log.
+    estimate : PendulumEstimate
+        Its reduction.
 
     Raises
     ------
