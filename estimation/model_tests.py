@@ -107,12 +107,35 @@ def run_model_tests(
     """The three tests (between runs, early against late turns, per turn) of a joint fit, and
     one per probe.
 
-    ``names``, ``A``, ``y``: the stacked equations of ``blocks``, ``x`` their joint estimate,
-    ``factors`` the Cholesky factors of their covariance (rsp_inertia.estimation.whitening);
-    the unknowns of ``fixed_in_tests`` are held at ``x``. ``nuisance``: see
-    :func:`_consistency`. ``probes``: cause -> the columns it would add (module docstring);
-    ``probe_factors``: the covariance's factors for the probe tests when they differ (speed
-    noise scales taken with the probes in each run's own fit, rsp_inertia.estimation.gls).
+    The unknowns of the blocks' ``fixed_in_tests`` are held at ``x``.
+
+    Parameters
+    ----------
+    blocks : list of Block
+        The runs' blocks of equations (rsp_inertia.estimation.gls.Block).
+    names : list of str
+        The unknowns, in the order of ``A``'s columns.
+    A : numpy.ndarray
+        The stacked equations' design matrix.
+    y : numpy.ndarray
+        Their right-hand side.
+    x : numpy.ndarray
+        The joint estimate of the unknowns.
+    factors : list
+        The Cholesky factors of the equations' covariance (rsp_inertia.estimation.whitening).
+    nuisance : tuple, optional
+        (B, p): columns of p standardised calibration errors (prior N(0, 1) each) that both
+        fits of a test take as unknowns.
+    probes : dict of str to numpy.ndarray, optional
+        Cause -> the columns it would add (module docstring).
+    probe_factors : list, optional
+        The covariance's factors for the probe tests when they differ (speed-noise scales
+        taken with the probes in each run's own fit, rsp_inertia.estimation.gls).
+
+    Returns
+    -------
+    list of ModelTest
+        One per test made, each marked significant at the family-wise level.
     """
     found_tests = []
     fixed = [j for j, n in enumerate(names) if any(n in b.fixed_in_tests for b in blocks)]
@@ -296,6 +319,22 @@ def coarse_encoder_warnings(balances, quantum: float, dt: float, labels: list[st
     mean (err/std)^2 0.81 over 30 closed-loop experiments), but the closure tests lose their
     footing: on an ideal reverse of a lossless drive with an exact 10-bit encoder they named a
     drive loss in 17 of 30 experiments and an unclosed balance in nearly all.
+
+    Parameters
+    ----------
+    balances : list of StageBalance
+        The runs' balances (rsp_inertia.estimation.balance), their ``speed_sq`` S, rad^2/s^2.
+    quantum : float
+        rad, the encoder's count.
+    dt : float
+        s, the sampling period.
+    labels : list of str
+        The runs' names, one per balance.
+
+    Returns
+    -------
+    list of str
+        The warnings, one per coarse run.
     """
     warnings = []
     for bal, label in zip(balances, labels):
@@ -314,7 +353,22 @@ def coarse_encoder_warnings(balances, quantum: float, dt: float, labels: list[st
 
 
 def model_warnings(tests: list[ModelTest], scales: list[float], labels: list[str]) -> list[str]:
-    """Warnings from the balance model's tests and the runs' speed-noise scales."""
+    """Warnings from the balance model's tests and the runs' speed-noise scales.
+
+    Parameters
+    ----------
+    tests : list of ModelTest
+        The fit's model tests (:func:`run_model_tests`).
+    scales : list of float
+        The runs' speed-noise scales: one at SCALE_CAP means the balances do not close.
+    labels : list of str
+        The runs' names, one per scale.
+
+    Returns
+    -------
+    list of str
+        One warning per significant test and per run at the scale's cap.
+    """
     warnings = []
     for label, scale in zip(labels, scales):
         if scale >= SCALE_CAP:
