@@ -93,11 +93,29 @@ def calibrate_stiffness(
     fixture_gravity_cov: np.ndarray,
     empty_inertia: np.ndarray,
 ) -> StiffnessCalibration | None:
-    """c from every node that has a pendulum log in both experiments (module docstring); None
-    when no node has both or the empty experiment's device has no ``[pendulum]`` table.
+    """c from every node that has a pendulum log in both experiments (module docstring).
 
-    ``fixture_gravity`` [Gs, Gc] (N m) with its covariance and ``empty_inertia`` (stages, 5)
-    harmonics are the RSP calibration's.
+    Parameters
+    ----------
+    empty : ExperimentLogs
+        The empty-fixture experiment's logs, with its pendulum logs.
+    reference : ExperimentLogs
+        The reference experiment's logs, with its pendulum logs.
+    body : TrueBody
+        The reference body (reference.toml): mass, centre of mass and tensor.
+    fixture_gravity : np.ndarray
+        [Gs, Gc] of the fixture, N m: the RSP calibration's.
+    fixture_gravity_cov : np.ndarray
+        Their 2 x 2 covariance.
+    empty_inertia : np.ndarray
+        (stages, 5) harmonics of the empty system's reduced inertia, kg m^2: the RSP
+        calibration's.
+
+    Returns
+    -------
+    StiffnessCalibration or None
+        The weighted mean of the nodes' c with its std; None when no node has both logs or
+        the empty experiment's device has no ``[pendulum]`` table.
 
     Raises
     ------

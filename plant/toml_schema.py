@@ -134,6 +134,12 @@ def key(
     free_key : str
         For a free table: what its keys stand for, as the docs name them
         (``inputs.<file>`` for ``free_key="file"``; :func:`accepted_keys`).
+
+    Returns
+    -------
+    dataclasses.Field
+        The field, its metadata holding all of the above for the reader, the writer and
+        :func:`config_class`'s documentation.
     """
     bounds = (bound,) if isinstance(bound, (str, Bound)) else bound
     metadata = {
@@ -305,8 +311,23 @@ def read_file(path: str | os.PathLike) -> dict[str, Any]:
 
 
 def read_table(cls: type, table: dict[str, Any], where: str = "", without=()) -> Any:
-    """An instance of config class ``cls`` from ``table`` (a whole file when ``where`` is
-    ''), leaving out the keys in ``without``.
+    """An instance of config class ``cls`` from a parsed TOML table.
+
+    Parameters
+    ----------
+    cls : type
+        The config class (:func:`config_class`).
+    table : dict
+        The table as tomllib gives it.
+    where : str
+        Its dotted key in the file, for messages ('' for a whole file).
+    without : tuple of str
+        Keys of ``cls`` that this table does not hold (they keep their defaults).
+
+    Returns
+    -------
+    object
+        The instance: every key converted, checked and defaulted.
 
     Raises
     ------

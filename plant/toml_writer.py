@@ -94,7 +94,18 @@ def write_file(
     path: str | os.PathLike, value: Any, header: str, read: Callable[[dict[str, Any]], Any]
 ) -> None:
     """Write config instance ``value`` to ``path`` atomically, after checking that ``read``
-    (the file's reader, from the parsed document) gives ``value`` back.
+    gives ``value`` back.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file; its folder must exist.
+    value : object
+        The config instance (rsp_inertia.plant.toml_schema.config_class).
+    header : str
+        The file's header, written as a comment (one per line).
+    read : callable
+        The file's reader, from the parsed document to the instance (raising ContentError).
 
     Raises
     ------
@@ -110,8 +121,24 @@ def write_file(
 def checked_text(
     value: Any, header: str, read: Callable[[dict[str, Any]], Any], source: str
 ) -> str:
-    """:func:`write_text`'s text of config instance ``value``, once ``read`` (the file's
-    reader, from the parsed document) gives ``value`` back from it.
+    """:func:`write_text`'s text of config instance ``value``, once ``read`` gives ``value``
+    back from it.
+
+    Parameters
+    ----------
+    value : object
+        The config instance (rsp_inertia.plant.toml_schema.config_class).
+    header : str
+        The file's header, written as a comment (one per line).
+    read : callable
+        The file's reader, from the parsed document to the instance (raising ContentError).
+    source : str
+        The file's name, in front of messages.
+
+    Returns
+    -------
+    str
+        The TOML text.
 
     Raises
     ------
@@ -130,9 +157,23 @@ def checked_text(
 
 
 def difference(written: Any, read: Any, where: str = "") -> str | None:
-    """Where config instance ``written`` and its file's reading ``read`` first differ
-    (dotted field: both values), or None when they are equal (arrays entry by entry, NaN
-    equal to NaN)."""
+    """Where config instance ``written`` and its file's reading ``read`` first differ.
+
+    Parameters
+    ----------
+    written : object
+        What was written: a config instance, or one of its values.
+    read : object
+        What the reader gave back from the text.
+    where : str
+        The dotted field of ``written`` (for the message; '' at the top).
+
+    Returns
+    -------
+    str or None
+        ``"{dotted field}: {written!r} would be read back as {read!r}"`` at the first
+        difference, None when they are equal (arrays entry by entry, NaN equal to NaN).
+    """
     if dataclasses.is_dataclass(written) and type(written) is type(read):
         for field in dataclasses.fields(written):
             child = f"{where}.{field.name}" if where else field.name

@@ -241,7 +241,21 @@ class Rig:
         return error_coefficients(self.encoder_error_amplitude, self.encoder_error_phase_deg)
 
     def true_tare(self, device: Device, stage: int, source: str = "virtual.toml") -> float:
-        """The true M_tare of stage ``stage`` (1-based), kg m^2 (docs/method.md §2).
+        """The true M_tare of a stage (docs/method.md §2).
+
+        Parameters
+        ----------
+        device : Device
+            The experiment's device: its stages, and their stated tares.
+        stage : int
+            The stage, 1-based.
+        source : str
+            The virtual.toml file, in messages.
+
+        Returns
+        -------
+        float
+            M_tare, kg m^2: ``tare_inertia``'s entry, or device.toml's stated tare without it.
 
         Raises
         ------
