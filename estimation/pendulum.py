@@ -111,7 +111,31 @@ def pendulum_inertia(stiffness: float, omega_n: float) -> float:
 def estimate_pendulum(
     log: Log, stiffness: float, stage: int, node_deg: float, source: str
 ) -> PendulumEstimate:
-    """Both pendulum reductions of one run."""
+    """Both pendulum reductions of one run (module docstring: classic and damped fit).
+
+    Parameters
+    ----------
+    log : Log
+        The pendulum run's log.
+    stiffness : float
+        c, N m/rad, the torsion element's stiffness.
+    stage : int
+        The stage number, from 1.
+    node_deg : float
+        deg, the node where the element is zeroed.
+    source : str
+        Names the log in messages.
+
+    Returns
+    -------
+    PendulumEstimate
+        The period and both reductions' M, kg m^2, with their stds.
+
+    Raises
+    ------
+    InputError
+        Fewer than 3 oscillations in the log (:func:`crossing_period`).
+    """
     tau, tau_std = crossing_period(log, source)
     M_classic = pendulum_inertia(stiffness, 2 * math.pi / tau)
     params, stds = damped_fit(log, tau)
