@@ -53,14 +53,7 @@ import numpy as np
 from scipy.integrate import cumulative_trapezoid
 
 from rsp_inertia.estimation.modulated import fit_modulated
-from rsp_inertia.estimation.passes import (
-    PassEstimate,
-    angle_work_noise,
-    mainly_back_driven,
-    sample_at,
-    speed_error_band,
-    work_noise,
-)
+from rsp_inertia.estimation.passes import PassEstimate, angle_work_noise
 from rsp_inertia.estimation.smoothing import median_step
 from rsp_inertia.estimation.whitening import Noise, add_bands, scaled_band
 from rsp_inertia.plant.config import Device, Stage
@@ -138,12 +131,11 @@ one smoother time constant's travel at the default stages' top speeds (12 rad/s 
 = 2.9 deg on stage 1), plus margin."""
 
 
-def _long_gaps(log: Log, sample_rate: float) -> tuple[np.ndarray, np.ndarray]:
-    """Rows k of the log after which more than NODE_GAP_SAMPLES samples are missing, and how
-    many."""
-    missing = dropped_samples(log.t, sample_rate)
-    rows = np.flatnonzero(missing > NODE_GAP_SAMPLES)
-    return rows, missing[rows]
+def _long_gaps(dropped: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows k of a log after which more than NODE_GAP_SAMPLES samples are missing, and how
+    many, from its ``dropped`` samples after each row (rsp_inertia.plant.logs.dropped_samples)."""
+    rows = np.flatnonzero(dropped > NODE_GAP_SAMPLES)
+    return rows, dropped[rows]
 
 
 def check_node_gaps(
@@ -154,17 +146,39 @@ def check_node_gaps(
     lo: float = -math.inf,
     hi: float = math.inf,
     direction: int = 1,
+    dropped: np.ndarray | None = None,
 ) -> None:
     """Refuse a gap of more than NODE_GAP_SAMPLES dropped samples within NODE_GAP_WINDOW_DEG
-    of a node's passage in the balanced range [lo, hi] (rad, the log's coordinate; a
-    backward run's log mirrored by :func:`mirror_log` has its nodes at -node).
+    of a node's passage in the balanced range [lo, hi].
+
+    Parameters
+    ----------
+    device : Device
+        The device (its encoder's sample rate, the stage's nodes).
+    stage : int
+        Stage number, from 1.
+    log : Log
+        The pass's log.
+    source : str
+        The log's file, for the message.
+    lo, hi : float
+        rad, the balanced range in the log's coordinate (default: all of it).
+    direction : int
+        -1: a backward run's log mirrored by rsp_inertia.plant.logs.mirror_log, its nodes at
+        -node.
+    dropped : np.ndarray, optional
+        (n - 1,) int, the log's dropped samples after each row when already found
+        (:attr:`rsp_inertia.estimation.passes.PassEstimate.dropped`); None: found here at the
+        encoder's sample rate (rsp_inertia.plant.logs.dropped_samples).
 
     Raises
     ------
     InputError
         Naming ``source`` (the log's file), the line after the gap, its times and the node.
     """
-    rows, missing = _long_gaps(log, device.encoder.sample_rate)
+    if dropped is None:
+        dropped = dropped_samples(log.t, device.encoder.sample_rate)
+    rows, missing = _long_gaps(dropped)
     if rows.size == 0:
         return
     st = device.stages[stage - 1]
@@ -186,10 +200,11 @@ def check_node_gaps(
                 )
 
 
-def _outside_gaps(est: PassEstimate, times: np.ndarray, sample_rate: float) -> np.ndarray:
-    """Which of ``times`` lie outside every gap of more than NODE_GAP_SAMPLES dropped samples,
-    each widened by one smoother time constant on either side (NODE_GAP_SAMPLES)."""
-    rows, _ = _long_gaps(est.log, sample_rate)
+def _outside_gaps(est: PassEstimate, times: np.ndarray) -> np.ndarray:
+    """Which of ``times`` lie outside every gap of more than NODE_GAP_SAMPLES dropped samples
+    of the pass (:attr:`PassEstimate.dropped`), each widened by one smoother time constant on
+    either side (NODE_GAP_SAMPLES)."""
+    rows, _ = _long_gaps(est.dropped)
     keep = np.ones(times.shape, dtype=bool)
     margin = 1.0 / est.smoothed.bandwidth
     for k in rows.tolist():
@@ -211,6 +226,18 @@ pair, and the least squares sees M's pattern repeat (docs/method.md §4: at leas
 def usable_range(braking: PassEstimate, reverse: PassEstimate, stage: int) -> tuple[float, float]:
     """Angles covered by both passes, at a braking speed worth balancing (constants above).
 
+    Parameters
+    ----------
+    braking, reverse : PassEstimate
+        The run's two passes (a backward run's mirrored).
+    stage : int
+        Stage number, from 1, for the message.
+
+    Returns
+    -------
+    lo, hi : float
+        rad, the range in the passes' coordinate.
+
     Raises
     ------
     InputError
@@ -230,14 +257,27 @@ def usable_range(braking: PassEstimate, reverse: PassEstimate, stage: int) -> tu
 def short_overlap(
     braking: PassEstimate, reverse: PassEstimate, stage: int, last_fast: float
 ) -> str:
-    """Why two passes share fewer than MIN_TURNS turns at useful speed, naming the log at fault
-    (``last_fast``: rad, the braking's last angle at useful speed).
+    """Why two passes share fewer than MIN_TURNS turns at useful speed, naming the log at fault.
 
     The reverse mirrors the braking: it starts where the braking stopped and runs back past the
     release. When the braking alone covers MIN_TURNS turns at useful speed, the reverse is at
     fault: it stopped before it was back at the release, or its log starts short of where the
     braking stopped (its first rows missing). Otherwise the braking is too short, whatever
     the reverse did (a new braking needs a new program and reverse anyway).
+
+    Parameters
+    ----------
+    braking, reverse : PassEstimate
+        The run's two passes.
+    stage : int
+        Stage number, from 1.
+    last_fast : float
+        rad, the braking's last angle at useful speed.
+
+    Returns
+    -------
+    str
+        The message, naming the log at fault.
     """
     b, r = braking.smoothed, reverse.smoothed
     turn = 2 * math.pi
@@ -277,10 +317,25 @@ def balance_range(
     reverse: PassEstimate,
     direction: int = 1,
 ) -> tuple[float, float]:
-    """The range [lo, hi] (rad, the passes' coordinate) where a run is balanced, checked:
-    :func:`usable_range` (the passes share MIN_TURNS turns at useful speed), and no gap of
-    dropped samples near a node's passage in it (:func:`check_node_gaps`, both logs;
-    ``direction`` -1: a backward run's mirrored passes).
+    """The range [lo, hi] where a run is balanced, checked: :func:`usable_range` (the passes
+    share MIN_TURNS turns at useful speed), and no gap of dropped samples near a node's
+    passage in it (:func:`check_node_gaps`, both logs, with the gaps each pass estimate found).
+
+    Parameters
+    ----------
+    device : Device
+        The device.
+    stage : int
+        Stage number, from 1.
+    braking, reverse : PassEstimate
+        The run's two passes.
+    direction : int
+        -1: a backward run's mirrored passes.
+
+    Returns
+    -------
+    lo, hi : float
+        rad, the range in the passes' coordinate.
 
     Raises
     ------
@@ -289,7 +344,7 @@ def balance_range(
     """
     lo, hi = usable_range(braking, reverse, stage)
     for est in (braking, reverse):
-        check_node_gaps(device, stage, est.log, est.source, lo, hi, direction)
+        check_node_gaps(device, stage, est.log, est.source, lo, hi, direction, est.dropped)
     return lo, hi
 
 
@@ -328,7 +383,7 @@ class StageBalance:
     """W(phi) = A(release->phi) + A'(phi7->phi) minus 2 Pi_spring(phi), J."""
     braking_work_noise: Noise
     """The covariance of the braking pass's share of ``work`` (its torque log's noise,
-    rsp_inertia.estimation.passes.work_noise), J^2."""
+    rsp_inertia.estimation.passes.PassEstimate.work_noise), J^2."""
     reverse_work_noise: Noise
     """The same for the reverse pass, J^2."""
     direction: int = 1
@@ -340,7 +395,7 @@ class StageBalance:
     motion (rad, rad^2/s, rad^3/s^2), braking speeds: the work that a dissipative torque
     e1 + e2 |Omega| + e3 Omega^2 does over the balance range (:func:`friction_shape`)."""
     motor_work_back: np.ndarray | None = None
-    """J, the back-driven part of ``motor_work`` (rsp_inertia.estimation.passes.motor_work):
+    """J, the back-driven part of ``motor_work`` (rsp_inertia.plant.logs.motor_work):
     the drive delivers h_d x (motor_work - this) + h_b x this (docs/method.md §3); None: no
     part is back-driven."""
     back_driven: tuple[bool, bool] = (True, False)
@@ -423,26 +478,45 @@ def stage_balance(
 ) -> StageBalance:
     """The balance equations of one run of stage ``stage`` at evenly spaced common angles.
 
-    ``direction`` -1: the passes are a backward run's, mirrored by :func:`mirror_log`.
-    ``slope_prior``: make the friction slopes' prior (:func:`friction_slope_prior`; a planned
-    run of exact passes has no tracking mismatch and needs none).
+    Parameters
+    ----------
+    device : Device
+        The device.
+    stage : int
+        Stage number, from 1.
+    braking, reverse : PassEstimate
+        The run's two passes.
+    direction : int
+        -1: the passes are a backward run's, mirrored by rsp_inertia.plant.logs.mirror_log.
+    slope_prior : bool
+        Make the friction slopes' prior (:func:`friction_slope_prior`; a planned run of exact
+        passes has no tracking mismatch and needs none).
+
+    Returns
+    -------
+    StageBalance
+        The run's balance equations.
+
+    Raises
+    ------
+    InputError
+        From :func:`balance_range`, naming the log at fault.
     """
     st: Stage = device.stages[stage - 1]
     lo, hi = balance_range(device, stage, braking, reverse, direction)
-    rate = device.encoder.sample_rate
     phi = np.arange(lo, hi, balance_spacing(braking, reverse))
-    b = sample_at(braking, phi)
-    r = sample_at(reverse, phi)
-    keep = _outside_gaps(braking, b.time, rate) & _outside_gaps(reverse, r.time, rate)
+    b = braking.sample_at(phi)
+    r = reverse.sample_at(phi)
+    keep = _outside_gaps(braking, b.time) & _outside_gaps(reverse, r.time)
     if not keep.all():  # a logger's longer gaps, away from the nodes: left out
         phi = phi[keep]
-        b = sample_at(braking, phi)
-        r = sample_at(reverse, phi)
+        b = braking.sample_at(phi)
+        r = reverse.sample_at(phi)
     S = b.omega**2 + r.omega**2
     # cov(S_i, S_j) = 4 Omega_i Omega_j cov(Omega_i, Omega_j) per pass, as bands.
     S_band = add_bands(
-        scaled_band(speed_error_band(braking, b), 2 * b.omega),
-        scaled_band(speed_error_band(reverse, r), 2 * r.omega),
+        scaled_band(braking.speed_error_band(b), 2 * b.omega),
+        scaled_band(reverse.speed_error_band(r), 2 * r.omega),
     )
     spring = 2 * spring_potential(direction * phi, device)
     work = b.work + r.work - spring
@@ -456,13 +530,13 @@ def stage_balance(
         speed_sq_band=S_band,
         mismatch=mismatch,
         work=work,
-        braking_work_noise=work_noise(braking, b),
-        reverse_work_noise=work_noise(reverse, r),
+        braking_work_noise=braking.work_noise(b),
+        reverse_work_noise=reverse.work_noise(r),
         direction=direction,
         spring=spring,
         friction_shape=friction_shape(phi, b.omega),
         motor_work_back=b.work_back + r.work_back,
-        back_driven=(mainly_back_driven(braking), mainly_back_driven(reverse)),
+        back_driven=(braking.mainly_back_driven, reverse.mainly_back_driven),
         angle_work_var=(b.work_var_angle, r.work_var_angle),
         slope_prior=(
             friction_slope_prior(device, braking, reverse, direction) if slope_prior else None
@@ -480,8 +554,22 @@ def friction_slope_prior(
     (rsp_inertia.estimation.modulated.fit_modulated, the unknowns PRIOR_UNKNOWNS, the
     regressors every PRIOR_QUADRATURE), in the passes' coordinate (a backward run's mirrored,
     its spring's zero angle with it). The covariance is the fit's plus
-    (FRICTION_PRIOR_ALLOWANCE d)^2 on each slope. None when the passes are too short for the
-    fit or its covariance is not positive definite.
+    (FRICTION_PRIOR_ALLOWANCE d)^2 on each slope.
+
+    Parameters
+    ----------
+    device : Device
+        The device (its spring, which the fit takes as known).
+    braking, reverse : PassEstimate
+        The run's two passes.
+    direction : int
+        -1: a backward run's mirrored passes.
+
+    Returns
+    -------
+    tuple of np.ndarray, or None
+        (mean (2,), covariance (2, 2)) of [d1, d2]; None when the passes are too short for
+        the fit or its covariance is not positive definite.
     """
     if direction < 0:
         device = mirrored_device(device)
@@ -533,10 +621,24 @@ class HarmonicReach:
 
 
 def harmonic_reach(device: Device, bandwidth: float, top_speed: float) -> HarmonicReach:
-    """Whether a regulator of ``bandwidth`` (rad/s) follows the speed harmonics 2 Omega of a
-    braking from ``top_speed`` (rad/s) over the balances' range, and the encoder's counts per
-    sample at its slowest speed (rsp_inertia.ocp.regulator sets the bandwidth; check and plan
-    ask this)."""
+    """Whether a regulator follows the speed harmonics 2 Omega of a braking over the balances'
+    range, and the encoder's counts per sample at its slowest speed
+    (rsp_inertia.ocp.regulator sets the bandwidth; check and plan ask this).
+
+    Parameters
+    ----------
+    device : Device
+        The device (its encoder).
+    bandwidth : float
+        rad/s, the regulator's bandwidth w.
+    top_speed : float
+        rad/s, the braking's top speed.
+
+    Returns
+    -------
+    HarmonicReach
+        The bandwidth against the slowest speed balanced.
+    """
     slowest = MIN_SPEED_FRACTION * top_speed
     return HarmonicReach(
         bandwidth=bandwidth,
@@ -545,9 +647,22 @@ def harmonic_reach(device: Device, bandwidth: float, top_speed: float) -> Harmon
     )
 
 
-def mismatch_regressors(phi: np.ndarray, omega: np.ndarray, omega_rev: np.ndarray):
-    """(n, 2) [R1, R2] of the module docstring from ``phi[0]``: int delta dphi and
-    int (|Omega| delta + delta^2 / 2) dphi, delta = |Omega'| - |Omega| (trapezoid)."""
+def mismatch_regressors(phi: np.ndarray, omega: np.ndarray, omega_rev: np.ndarray) -> np.ndarray:
+    """[R1, R2] of the module docstring from ``phi[0]``: int delta dphi and
+    int (|Omega| delta + delta^2 / 2) dphi, delta = |Omega'| - |Omega| (trapezoid).
+
+    Parameters
+    ----------
+    phi : np.ndarray, shape (n,), rad
+        The balance angles, ascending.
+    omega, omega_rev : np.ndarray, shape (n,), rad/s
+        The braking's and the reverse's speeds there.
+
+    Returns
+    -------
+    np.ndarray, shape (n, 2)
+        R1 (rad^2/s) and R2 (rad^3/s^2) at each angle.
+    """
     delta = np.abs(omega_rev) - np.abs(omega)
     return np.column_stack(
         [

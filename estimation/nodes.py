@@ -28,14 +28,7 @@ from rsp_inertia.estimation.balance import (
     spring_potential,
     usable_range,
 )
-from rsp_inertia.estimation.passes import (
-    PassEstimate,
-    angle_work_covariance,
-    mainly_back_driven,
-    sample_at,
-    speed_error_band,
-    work_covariance,
-)
+from rsp_inertia.estimation.passes import PassEstimate, angle_work_noise
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
 
@@ -163,8 +156,8 @@ def node_passages(
                 f"whole turn from it at useful speed ({passages.size} passage(s) in the common "
                 "range); the braking must cover more turns"
             )
-        b = sample_at(braking, passages)
-        r = sample_at(reverse, passages)
+        b = braking.sample_at(passages)
+        r = reverse.sample_at(passages)
         a_, b_ = slice(None, -1), slice(1, None)
         # Received work [driving, back-driven] of each pair: braking a -> b (negative) taken
         # from the reverse's b -> a (positive when driving).
@@ -179,13 +172,12 @@ def node_passages(
         # log's noise times the gain of its pass's power flow.
         step = np.diff(np.eye(passages.size), axis=0)
         scale_b, scale_r = (
-            gains[1] if mainly_back_driven(p) else gains[0] for p in (braking, reverse)
+            gains[1] if p.mainly_back_driven else gains[0] for p in (braking, reverse)
         )
         n = passages.size
-        num_cov = step @ (
-            scale_b**2 * (work_covariance(braking, b) + angle_work_covariance(b.work_var_angle, n))
-            + scale_r**2 * (work_covariance(reverse, r) + angle_work_covariance(r.work_var_angle, n))
-        ) @ step.T
+        cov_b = braking.work_covariance(b) + angle_work_noise(b.work_var_angle, n).dense()
+        cov_r = reverse.work_covariance(r) + angle_work_noise(r.work_var_angle, n).dense()
+        num_cov = step @ (scale_b**2 * cov_b + scale_r**2 * cov_r) @ step.T
         R = _mismatch_at(braking, reverse, lo, passages)
         wb2, wr2 = b.omega**2, r.omega**2
         # Passages a turn apart: their speed errors are independent (R decays in ~40 / w_c).
@@ -199,8 +191,8 @@ def node_passages(
                 mismatch=R[a_] - R[b_],
                 speed_sq=(wb2, wr2),
                 speed_sq_var=(
-                    4 * wb2 * speed_error_band(braking, b)[0],
-                    4 * wr2 * speed_error_band(reverse, r)[0],
+                    4 * wb2 * braking.speed_error_band(b)[0],
+                    4 * wr2 * reverse.speed_error_band(r)[0],
                 ),
             )
         )
@@ -253,7 +245,7 @@ def _mismatch_at(braking: PassEstimate, reverse: PassEstimate, lo: float, at: np
     :func:`rsp_inertia.estimation.balance.stage_balance` at the angles ``at``,
     integrated from ``lo`` on the balance's own grid, then interpolated."""
     phi = np.append(np.arange(lo, at.max(), balance_spacing(braking, reverse)), at.max())
-    R = mismatch_regressors(phi, sample_at(braking, phi).omega, sample_at(reverse, phi).omega)
+    R = mismatch_regressors(phi, braking.sample_at(phi).omega, reverse.sample_at(phi).omega)
     return np.column_stack([np.interp(at, phi, R[:, j]) for j in range(2)])
 
 

@@ -3,10 +3,11 @@
 A pass is turned into functions of the angle: the speed (smoothed), the motor work from the
 start of the pass (Stieltjes sum of the logged torque over encoder increments), and the
 variance that the torque log's noise puts into that work. The node formula and the least
-squares both read a stage through :func:`sample_at`.
+squares both read a stage through :meth:`PassEstimate.sample_at`.
 
 Motor work: the Stieltjes sum of the logged torque over the *smoothed* angle's increments,
-W_K = sum_{k<K} u_k (phi^_{k+1} - phi^_k), not over the raw readings y. Over readings the
+W_K = sum_{k<K} u_k (phi^_{k+1} - phi^_k) (rsp_inertia.plant.logs.motor_work, the package's
+one zero-order-hold sum), not over the raw readings y. Over readings the
 sum differs from the true work by sum u_k (e_{k+1} - e_k), e = y - phi the quantization
 error; that telescopes to nothing only while u is independent of e. Under closed-loop
 control it is not: the regulator feeds back the reading, u_k contains -k_phi e_k, and the sum
@@ -43,8 +44,9 @@ the sample-by-sample sum's random walk sigma^2 sum dphi_k^2. The assumption is c
 drifts or ripples beyond its noise falls back to the sample-by-sample sum, which is exact
 for any applied torque, and identify says so.
 
-Dropped samples (rsp_inertia.plant.logs: a logger may lose rows; the drive still acted at
-those instants). Over a gap of n missing rows between rows k and k+1 the zero-order-hold sum
+Dropped samples (rsp_inertia.plant.logs.dropped_samples: a logger may lose rows; the drive
+still acted at those instants; :func:`estimate_pass` finds them once and the estimate keeps
+them, :attr:`PassEstimate.dropped`, for the balances' checks). Over a gap of n missing rows between rows k and k+1 the zero-order-hold sum
 would hold u_k over the whole gap, while the drive set n unlogged torques there. A constant
 torque's mean is not affected; a sample-by-sample sum is (a closed-loop reverse's torque
 moves by the regulator's response to every count). The gap's missing
@@ -74,7 +76,7 @@ from rsp_inertia.estimation.smoothing import (
     smooth_log,
 )
 from rsp_inertia.estimation.whitening import Noise
-from rsp_inertia.plant.logs import Log, dropped_samples, torque_noise
+from rsp_inertia.plant.logs import Log, dropped_samples, motor_work, torque_noise
 from rsp_inertia.plant.transducers import power_flow_split
 
 __all__ = [
@@ -83,19 +85,11 @@ __all__ = [
     "CONSTANCY_TAIL",
     "AngleSample",
     "PassEstimate",
-    "angle_work_covariance",
     "angle_work_noise",
     "angle_work_variance",
     "constancy_p_value",
     "estimate_pass",
     "gap_work",
-    "mainly_back_driven",
-    "motor_work",
-    "received_work",
-    "sample_at",
-    "speed_error_band",
-    "work_covariance",
-    "work_noise",
 ]
 
 CONSTANCY_CHUNK = math.pi / 2
@@ -109,8 +103,41 @@ this (a false alarm once in a thousand honest logs, which only costs some accura
 
 
 @dataclass(frozen=True)
+class AngleSample:
+    """A pass's quantities at given angles (:meth:`PassEstimate.sample_at`)."""
+
+    phi: np.ndarray
+    """rad, the angles asked for."""
+    time: np.ndarray
+    """s, when the pass is there (smoothed angle)."""
+    omega: np.ndarray
+    """rad/s, speed there (signed)."""
+    omega_std: np.ndarray
+    """rad/s, std of ``omega``."""
+    work: np.ndarray
+    """J, motor work from the pass's first row to there."""
+    work_back: np.ndarray
+    """J, its back-driven part (:attr:`PassEstimate.work_back`)."""
+    work_var_steps: np.ndarray
+    """rad^2, sum of squared encoder increments to there (torque-noise variance factor)."""
+    work_var_gaps: np.ndarray | None = None
+    """J^2, the work's variance from the gaps of dropped samples to there (None: none)."""
+    work_var_angle: np.ndarray | None = None
+    """J^2, the work's variance from the smoothed angle's error to there (None: a constant
+    torque)."""
+
+    def received_work(self, gains: tuple[float, float]) -> np.ndarray:
+        """J, the work the body received up to the sample's angles: h_d x the logged work's
+        driving part + h_b x its back-driven part (``gains`` = (h_d, h_b),
+        rsp_inertia.plant.transducers.drive_gains)."""
+        return gains[0] * (self.work - self.work_back) + gains[1] * self.work_back
+
+
+@dataclass(frozen=True)
 class PassEstimate:
-    """One pass, ready for energy balances."""
+    """One pass, ready for energy balances: what :func:`estimate_pass` found in its log, and
+    the pass read at any angle (:meth:`sample_at`) with its noise (:meth:`work_noise`,
+    :meth:`speed_error_band`)."""
 
     log: Log
     """The encoder log."""
@@ -128,6 +155,11 @@ class PassEstimate:
     """N m, std of the torque log's noise."""
     source: str
     """Name of the log for messages."""
+    dropped: np.ndarray
+    """(n - 1,) int, the samples missing after each row of the log
+    (rsp_inertia.plant.logs.dropped_samples at the sample rate :func:`estimate_pass` was
+    given), found once: the work over the gaps (:func:`gap_work`) and the balances' checks
+    near the nodes (rsp_inertia.estimation.balance) read it."""
     torque_mean: float | None = None
     """N m: the applied torque as the mean of the whole log when the pass is modelled with a
     constant torque (module docstring); None when the work is the sample-by-sample sum."""
@@ -140,15 +172,116 @@ class PassEstimate:
     """J^2, cumulative variance of the work from the smoothed angle's error under the torque's
     changes, to each row (:func:`angle_work_variance`); None for a constant torque."""
 
+    def sample_at(self, phi: np.ndarray) -> AngleSample:
+        """Speed, motor work and their noise factors where the pass is at angles ``phi`` (rad).
+
+        The smoothed angle is monotone along a pass; the instant it reaches phi* is found by
+        linear interpolation between rows and one Newton step with the smoothed speed; the
+        speed there by cubic Hermite interpolation with the smoothed acceleration.
+        """
+        sm = self.smoothed
+        phi = np.asarray(phi, dtype=float)
+        rising = sm.phi[-1] > sm.phi[0]
+        order = slice(None) if rising else slice(None, None, -1)
+        ang = sm.phi[order]
+        if np.any(ang[1:] <= ang[:-1]):  # (not np.diff: no float array of the pass's length)
+            # Near rest the smoothed angle can stall; keep the monotone envelope for the search.
+            ang = np.maximum.accumulate(ang)
+        idx = np.clip(np.searchsorted(ang, phi, side="right") - 1, 0, len(ang) - 2)
+        rows = idx if rising else len(ang) - 1 - idx  # row index in the log's order
+        nxt = rows + 1 if rising else rows - 1
+        a0, a1 = sm.phi[rows], sm.phi[nxt]
+        frac = np.where(a1 != a0, (phi - a0) / np.where(a1 != a0, a1 - a0, 1.0), 0.0)
+        t = sm.t[rows] + frac * (sm.t[nxt] - sm.t[rows])
+        # One Newton step on phi(t) = phi* with the Hermite form of the smoothed angle.
+        k = np.minimum(rows, nxt)
+        t0, t1 = sm.t[k], sm.t[k + 1]
+        p = hermite(t0, t1, sm.phi[k], sm.omega[k], sm.phi[k + 1], sm.omega[k + 1], t)
+        w_lin = sm.omega[k] + (sm.omega[k + 1] - sm.omega[k]) * (t - t0) / (t1 - t0)
+        t = t + np.where(w_lin != 0, (phi - p) / np.where(w_lin != 0, w_lin, 1.0), 0.0)
+        t = np.clip(t, t0, t1)
+        s = (t - t0) / (t1 - t0)
+        omega = hermite(t0, t1, sm.omega[k], sm.eps[k], sm.omega[k + 1], sm.eps[k + 1], t)
+        omega_std = sm.omega_std[k] + (sm.omega_std[k + 1] - sm.omega_std[k]) * s
+        # Motor work at the smoothed angle (module docstring): last row at or before time t.
+        K = k
+        held = self.log.torque[K] if self.torque_mean is None else self.torque_mean
+        rest = phi - sm.phi[K]
+        work = self.work[K] + held * rest
+        work_back = self.work_back[K] + power_flow_split(held, rest)[1] * rest
+        return AngleSample(
+            phi=phi,
+            time=t,
+            omega=omega,
+            omega_std=omega_std,
+            work=work,
+            work_back=work_back,
+            work_var_steps=self.work_var_steps[K],
+            work_var_gaps=None if self.work_var_gaps is None else self.work_var_gaps[K],
+            work_var_angle=None if self.work_var_angle is None else self.work_var_angle[K],
+        )
+
+    def work_noise(self, a: AngleSample) -> Noise:
+        """The covariance that the torque log's noise puts into the pass's motor work at the
+        angles of ``a`` (this pass's :meth:`sample_at`), by structure
+        (rsp_inertia.estimation.whitening), J^2.
+
+        Sample-by-sample sum: a random walk, sigma^2 min(s_i, s_j) with s the sum of squared
+        angle increments from the pass's start, plus the gaps' interpolation variance, another
+        random walk (:func:`gap_work`). Constant-torque model: one shared error of the mean
+        torque, rank one: sigma^2 / N (a_i - phi^_0)(a_j - phi^_0) (module docstring).
+        """
+        n = a.phi.size
+        sigma2 = self.sigma_torque**2
+        if self.torque_mean is not None:
+            start = self.smoothed.phi[0]
+            return Noise(n, rank_one=(math.sqrt(sigma2 / len(self.log)) * (a.phi - start),))
+        walks = (sigma2 * a.work_var_steps,)
+        if a.work_var_gaps is not None:
+            walks += (a.work_var_gaps,)
+        return Noise(n, walks=walks)
+
+    def work_covariance(self, a: AngleSample) -> np.ndarray:
+        """(n, n) :meth:`work_noise`, whole (a few angles: the node formula's passages), J^2."""
+        return self.work_noise(a).dense()
+
+    def speed_error_band(self, a: AngleSample) -> np.ndarray:
+        """(w, n) lower band of the covariance of the pass's smoothed speed at the angles of
+        ``a`` (this pass's :meth:`sample_at`), rad^2/s^2 (rsp_inertia.estimation.smoothing: the
+        derived error autocovariance at the instants the pass is there, zero beyond its
+        span)."""
+        return self.smoothed.speed_error_band(a.time, a.omega_std)
+
+    @property
+    def mainly_back_driven(self) -> bool:
+        """Whether most of the pass's work is back-driven (a braking), not driving (a reverse):
+        its main direction of power flow sets the gain (h_b or h_d) on its torque log's
+        noise."""
+        back = abs(float(self.work_back[-1]))
+        return back > abs(float(self.work[-1]) - float(self.work_back[-1]))
 
 
 def constancy_p_value(log: Log, phi: np.ndarray, sigma: float) -> float:
     """p-value of "the applied torque is constant" on a log with white noise of std sigma.
 
-    The rows are grouped by angle (``phi``, the smoothed angle at each row) into chunks of
-    CONSTANCY_CHUNK; with n_j rows and mean m_j per chunk and u_bar the mean of all rows,
-    sum_j n_j (m_j - u_bar)^2 / sigma^2 is chi^2 with (chunks - 1) degrees of freedom when the
-    torque is constant. A noise-free log (sigma = 0) is constant only if every row is equal.
+    The rows are grouped by angle into chunks of CONSTANCY_CHUNK; with n_j rows and mean m_j
+    per chunk and u_bar the mean of all rows, sum_j n_j (m_j - u_bar)^2 / sigma^2 is chi^2
+    with (chunks - 1) degrees of freedom when the torque is constant. A noise-free log
+    (sigma = 0) is constant only if every row is equal.
+
+    Parameters
+    ----------
+    log : Log
+        The pass's log; its torque is tested.
+    phi : np.ndarray, shape (n,), rad
+        The smoothed angle at each row, which groups the rows into chunks.
+    sigma : float
+        N m, the std of the torque log's white noise.
+
+    Returns
+    -------
+    float
+        The test's p-value (1 or 0 for a noise-free log).
     """
     u = np.asarray(log.torque, dtype=float)
     if sigma <= 0.0:
@@ -173,14 +306,34 @@ def estimate_pass(
 ) -> PassEstimate:
     """Smooth a pass and accumulate its motor work (docs/method.md §3, Stieltjes sum; see above).
 
-    ``sigma_torque`` is the torque channel's logging noise; by default it is estimated from
-    this log (right for a braking log, see :func:`torque_noise`). ``constant_torque``: the
-    protocol holds the applied torque constant (a braking pass); the log is tested for it and,
-    unless the test rejects it, the work is the log's mean torque times the angle.
-    ``smoothed``: the log's smoothed states when already computed (``smooth_log`` of this
-    very log, as ``program`` does for a braking). ``sample_rate`` (Hz, the encoder's): the
-    sample-by-sample sum fills the log's gaps of dropped samples (:func:`gap_work`); by
-    default it is taken from the log's median step.
+    Parameters
+    ----------
+    log : Log
+        The pass's encoder/torque log.
+    quantum : float
+        rad, the encoder's q (the smoother's quantization).
+    source : str
+        The log's name in messages.
+    sigma_torque : float, optional
+        N m, the torque channel's logging noise; by default it is estimated from this log
+        (right for a braking log, see rsp_inertia.plant.logs.torque_noise).
+    constant_torque : bool
+        The protocol holds the applied torque constant (a braking pass); the log is tested
+        for it and, unless the test rejects it, the work is the log's mean torque times the
+        angle.
+    smoothed : Smoothed, optional
+        The log's smoothed states when already computed (``smooth_log`` of this very log, as
+        ``program`` does for a braking).
+    sample_rate : float, optional
+        Hz, the encoder's: the log's dropped samples are found at it
+        (rsp_inertia.plant.logs.dropped_samples, kept as :attr:`PassEstimate.dropped`) and
+        the sample-by-sample sum fills their gaps (:func:`gap_work`); by default it is taken
+        from the log's median step.
+
+    Returns
+    -------
+    PassEstimate
+        The pass, ready for energy balances.
     """
     if smoothed is None:
         smoothed = smooth_log(log, quantum, source)
@@ -190,10 +343,11 @@ def estimate_pass(
     # The angle term first: its convolution's temporaries come before the work's arrays.
     angle = None if constant else angle_work_variance(log.torque, smoothed)
     work, work_back, steps, mean = motor_work(log.torque, smoothed.phi, constant)
+    rate = 1.0 / median_step(log.t) if sample_rate is None else sample_rate
+    dropped = dropped_samples(log.t, rate)
     gaps = None
     if mean is None:
-        rate = 1.0 / median_step(log.t) if sample_rate is None else sample_rate
-        correction, correction_back, gaps = gap_work(log, smoothed, rate)
+        correction, correction_back, gaps = gap_work(log, smoothed, dropped)
         if gaps is not None:
             work += correction  # motor_work's own arrays, added to in place
             work_back += correction_back
@@ -205,6 +359,7 @@ def estimate_pass(
         work_var_steps=steps,
         sigma_torque=sigma,
         source=source,
+        dropped=dropped,
         torque_mean=mean,
         constancy_p=p_value,
         work_var_gaps=gaps,
@@ -261,34 +416,42 @@ def angle_work_variance(torque: np.ndarray, smoothed: Smoothed) -> np.ndarray:
 
 
 def gap_work(
-    log: Log, smoothed: Smoothed, sample_rate: float
+    log: Log, smoothed: Smoothed, dropped: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """What the zero-order-hold sum misses over the log's gaps of dropped samples (module
     docstring), as cumulative arrays per row.
+
+    Parameters
+    ----------
+    log : Log
+        The pass's log.
+    smoothed : Smoothed
+        Its smoothed states (the missing instants' angles, by Hermite interpolation).
+    dropped : np.ndarray, shape (n - 1,), int
+        The samples missing after each row (rsp_inertia.plant.logs.dropped_samples).
 
     Returns
     -------
     correction : np.ndarray, shape (n,), J
         Work to add to the sample-by-sample sum from the first row to each row.
     correction_back : np.ndarray, shape (n,), J
-        Its back-driven part (:func:`motor_work`).
+        Its back-driven part (rsp_inertia.plant.logs.motor_work).
     variance : np.ndarray, shape (n,), J^2, or None
         Cumulative variance of that work from the interpolated torques' errors; None (and a
         zero correction) when nothing is missing.
     """
     n = len(log)
-    missing = dropped_samples(log.t, sample_rate)
-    rows = np.flatnonzero(missing)
+    rows = np.flatnonzero(dropped)
     if rows.size == 0:
         return np.zeros(n), np.zeros(n), None
     u, t, sm = log.torque, log.t, smoothed
     add = np.zeros(n)
     add_back = np.zeros(n)
     var = np.zeros(n)
-    for gap in np.unique(missing[rows]).tolist():
-        at = rows[missing[rows] == gap]
+    for gap in np.unique(dropped[rows]).tolist():
+        at = rows[dropped[rows] == gap]
         frac = np.arange(1, gap + 1) / (gap + 1)  # where the missing instants fall, (gap,)
-        mean_square = _interpolation_mean_square(u, missing, gap, frac)
+        mean_square = _interpolation_mean_square(u, dropped, gap, frac)
         t0, t1 = t[at, None], t[at + 1, None]
         tm = t0 + (t1 - t0) * frac  # (gaps, gap) missing instants
         args = (sm.phi[at, None], sm.omega[at, None], sm.phi[at + 1, None], sm.omega[at + 1, None])
@@ -322,170 +485,9 @@ def _interpolation_mean_square(
     return np.mean(errors**2, axis=0)
 
 
-def motor_work(
-    torque: np.ndarray, phi: np.ndarray, constant: bool
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, float | None]:
-    """Motor work from a pass's first row to each row, and its noise factors (module docstring).
-
-    Returns the work W (J), its back-driven part (J: the sum over the increments where the
-    held torque opposes the motion, rsp_inertia.plant.transducers.power_flow_split; a drive
-    with losses delivers h_d x the rest and h_b x this, docs/method.md §3), the cumulative sum
-    of squared angle increments (rad^2: the work's noise variance per unit sigma^2 for the
-    sample-by-sample sum) and, for a ``constant`` applied torque, the log's mean torque (N m;
-    the work is then mean x (phi - phi_0)), else None (the Stieltjes sum of the logged torque
-    over the increments of ``phi``).
-    """
-    dphi = np.diff(phi)
-    steps = _running_sum(dphi * dphi)
-    mean = float(np.mean(torque)) if constant else None
-    held = mean if constant else np.asarray(torque[:-1], dtype=float)  # a number: no array
-    back = power_flow_split(held, dphi)[1]
-    back *= dphi
-    back = _running_sum(back)
-    if constant:
-        work = phi - phi[0]
-        work *= mean
-        return work, back, steps, mean
-    return _running_sum(held * dphi), back, steps, None
-
-
-def _running_sum(increments: np.ndarray) -> np.ndarray:
-    """[0, x_0, x_0 + x_1, ...]: the sum of ``increments`` before each row (n + 1 values),
-    summed into place (no concatenated copy)."""
-    out = np.empty(increments.size + 1)
-    out[0] = 0.0
-    np.cumsum(increments, out=out[1:])
-    return out
-
-
-@dataclass(frozen=True)
-class AngleSample:
-    """A pass's quantities at given angles."""
-
-    phi: np.ndarray
-    """rad, the angles asked for."""
-    time: np.ndarray
-    """s, when the pass is there (smoothed angle)."""
-    omega: np.ndarray
-    """rad/s, speed there (signed)."""
-    omega_std: np.ndarray
-    """rad/s, std of ``omega``."""
-    work: np.ndarray
-    """J, motor work from the pass's first row to there."""
-    work_back: np.ndarray
-    """J, its back-driven part (:attr:`PassEstimate.work_back`)."""
-    work_var_steps: np.ndarray
-    """rad^2, sum of squared encoder increments to there (torque-noise variance factor)."""
-    work_var_gaps: np.ndarray | None = None
-    """J^2, the work's variance from the gaps of dropped samples to there (None: none)."""
-    work_var_angle: np.ndarray | None = None
-    """J^2, the work's variance from the smoothed angle's error to there (None: a constant
-    torque)."""
-
-
-def sample_at(est: PassEstimate, phi: np.ndarray) -> AngleSample:
-    """Speed, motor work and their noise factors where the pass is at angles ``phi``.
-
-    The smoothed angle is monotone along a pass; the instant it reaches phi* is found by
-    linear interpolation between rows and one Newton step with the smoothed speed; the speed
-    there by cubic Hermite interpolation with the smoothed acceleration.
-    """
-    sm = est.smoothed
-    phi = np.asarray(phi, dtype=float)
-    rising = sm.phi[-1] > sm.phi[0]
-    order = slice(None) if rising else slice(None, None, -1)
-    ang = sm.phi[order]
-    if np.any(ang[1:] <= ang[:-1]):  # (not np.diff: no float array of the pass's length)
-        # Near rest the smoothed angle can stall; keep the monotone envelope for the search.
-        ang = np.maximum.accumulate(ang)
-    idx = np.clip(np.searchsorted(ang, phi, side="right") - 1, 0, len(ang) - 2)
-    rows = idx if rising else len(ang) - 1 - idx  # row index in the log's order
-    nxt = rows + 1 if rising else rows - 1
-    a0, a1 = sm.phi[rows], sm.phi[nxt]
-    frac = np.where(a1 != a0, (phi - a0) / np.where(a1 != a0, a1 - a0, 1.0), 0.0)
-    t = sm.t[rows] + frac * (sm.t[nxt] - sm.t[rows])
-    # One Newton step on phi(t) = phi* with the Hermite form of the smoothed angle.
-    k = np.minimum(rows, nxt)
-    t0, t1 = sm.t[k], sm.t[k + 1]
-    p = hermite(t0, t1, sm.phi[k], sm.omega[k], sm.phi[k + 1], sm.omega[k + 1], t)
-    w_lin = sm.omega[k] + (sm.omega[k + 1] - sm.omega[k]) * (t - t0) / (t1 - t0)
-    t = t + np.where(w_lin != 0, (phi - p) / np.where(w_lin != 0, w_lin, 1.0), 0.0)
-    t = np.clip(t, t0, t1)
-    s = (t - t0) / (t1 - t0)
-    omega = hermite(t0, t1, sm.omega[k], sm.eps[k], sm.omega[k + 1], sm.eps[k + 1], t)
-    omega_std = sm.omega_std[k] + (sm.omega_std[k + 1] - sm.omega_std[k]) * s
-    # Motor work at the smoothed angle (module docstring): last row at or before time t.
-    K = k
-    held = est.log.torque[K] if est.torque_mean is None else est.torque_mean
-    rest = phi - sm.phi[K]
-    work = est.work[K] + held * rest
-    work_back = est.work_back[K] + power_flow_split(held, rest)[1] * rest
-    return AngleSample(
-        phi=phi,
-        time=t,
-        omega=omega,
-        omega_std=omega_std,
-        work=work,
-        work_back=work_back,
-        work_var_steps=est.work_var_steps[K],
-        work_var_gaps=None if est.work_var_gaps is None else est.work_var_gaps[K],
-        work_var_angle=None if est.work_var_angle is None else est.work_var_angle[K],
-    )
-
-
-def work_noise(est: PassEstimate, a: AngleSample) -> Noise:
-    """The covariance that the torque log's noise puts into the pass's motor work at the
-    angles of ``a``, by structure (rsp_inertia.estimation.whitening), J^2.
-
-    Sample-by-sample sum: a random walk, sigma^2 min(s_i, s_j) with s the sum of squared
-    angle increments from the pass's start, plus the gaps' interpolation variance, another
-    random walk (:func:`gap_work`). Constant-torque model: one shared error of the mean
-    torque, rank one: sigma^2 / N (a_i - phi^_0)(a_j - phi^_0) (module docstring).
-    """
-    n = a.phi.size
-    sigma2 = est.sigma_torque**2
-    if est.torque_mean is not None:
-        start = est.smoothed.phi[0]
-        return Noise(n, rank_one=(math.sqrt(sigma2 / len(est.log)) * (a.phi - start),))
-    walks = (sigma2 * a.work_var_steps,)
-    if a.work_var_gaps is not None:
-        walks += (a.work_var_gaps,)
-    return Noise(n, walks=walks)
-
-
-def work_covariance(est: PassEstimate, a: AngleSample) -> np.ndarray:
-    """(n, n) :func:`work_noise`, whole (a few angles: the node formula's passages), J^2."""
-    return work_noise(est, a).dense()
-
-
 def angle_work_noise(variance: np.ndarray | None, n: int) -> Noise:
     """The covariance that the smoothed angle's error puts into a pass's motor work under a
     changing torque, J^2: the random walk min(v_i, v_j) of its variance at the angles
     (:attr:`AngleSample.work_var_angle`; module docstring); none for None (a constant
     torque)."""
     return Noise(n) if variance is None else Noise(n, walks=(variance,))
-
-
-def angle_work_covariance(variance: np.ndarray | None, n: int) -> np.ndarray:
-    """(n, n) :func:`angle_work_noise`, whole, J^2."""
-    return angle_work_noise(variance, n).dense()
-
-
-def speed_error_band(est: PassEstimate, a: AngleSample) -> np.ndarray:
-    """(w, n) lower band of the covariance of the pass's smoothed speed at the angles of
-    ``a``, rad^2/s^2 (rsp_inertia.estimation.smoothing: the derived error autocovariance at
-    the instants the pass is there, zero beyond its span)."""
-    return est.smoothed.speed_error_band(a.time, a.omega_std)
-
-
-def received_work(sample: AngleSample, gains: tuple[float, float]) -> np.ndarray:
-    """J, the work the body received up to the sample's angles: h_d x the logged work's driving
-    part + h_b x its back-driven part (rsp_inertia.plant.transducers.drive_gains)."""
-    return gains[0] * (sample.work - sample.work_back) + gains[1] * sample.work_back
-
-
-def mainly_back_driven(est: PassEstimate) -> bool:
-    """Whether most of the pass's work is back-driven (a braking), not driving (a reverse):
-    its main direction of power flow sets the gain (h_b or h_d) on its torque log's noise."""
-    back = abs(float(est.work_back[-1]))
-    return back > abs(float(est.work[-1]) - float(est.work_back[-1]))

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rsp_inertia.estimation.balance import StageBalance, stage_balance
-from rsp_inertia.estimation.passes import PassEstimate, motor_work
+from rsp_inertia.estimation.passes import PassEstimate
 from rsp_inertia.estimation.smoothing import Smoothed, noise_density, smoother_bandwidth
 from rsp_inertia.estimation.tensor import (
     ENTRY_KEYS,
@@ -37,7 +37,7 @@ from rsp_inertia.estimation.tensor import (
 from rsp_inertia.estimation.whitening import Noise, information, scaled_band
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.geometry import design_matrix, device_design
-from rsp_inertia.plant.logs import Log
+from rsp_inertia.plant.logs import Log, motor_work
 
 __all__ = [
     "SHARED",
@@ -110,6 +110,7 @@ def planned_estimate(
         work_var_steps=steps,
         sigma_torque=sigma_torque,
         source=source,
+        dropped=np.zeros(planned.t.size - 1, dtype=np.int64),  # planned at every sample
         torque_mean=mean,
         constancy_p=None,
     )

@@ -37,6 +37,7 @@ from rsp_inertia.plant.log_checks import (
     read_table,
     unwrap_counts,
 )
+from rsp_inertia.plant.transducers import power_flow_split
 
 __all__ = [
     "COUNT_COLUMNS",
@@ -52,6 +53,7 @@ __all__ = [
     "dropped_samples",
     "mirror_log",
     "mirrored_device",
+    "motor_work",
     "read_device_log",
     "read_log",
     "read_program",
@@ -115,8 +117,8 @@ class Log:
         return len(self.t)
 
     def motor_work(self) -> np.ndarray:
-        """Cumulative motor work along the log, the Stieltjes sum of u over phi
-        (docs/method.md §3-4).
+        """Cumulative motor work along the log, the Stieltjes sum of u over the logged phi
+        (docs/method.md §3-4): :func:`motor_work` of this log's torque and angle.
 
         Returns
         -------
@@ -130,9 +132,7 @@ class Log:
         >>> Log(t=[0.0, 0.001, 0.002], phi=[0.0, 0.5, 1.5], torque=[2.0, -1.0, 7.0]).motor_work()
         array([0., 1., 0.])
         """
-        work = np.zeros(len(self))
-        np.cumsum(self.torque[:-1] * np.diff(self.phi), out=work[1:])
-        return work
+        return motor_work(self.torque, self.phi)[0]
 
 
 @dataclass(frozen=True, eq=False)
@@ -196,9 +196,25 @@ def dropped_samples(t: np.ndarray, sample_rate: float) -> np.ndarray:
 
 
 def align_counter(log: Log, phi: float, encoder: EncoderLike) -> Log:
-    """``log`` moved by whole ranges of a wrapping counter (``encoder.counter_bits``) so that
-    it starts nearest ``phi``: two logs of one counter (a braking and its reverse, which
-    starts where the braking stopped) then share one angle. Unchanged without a counter."""
+    """``log`` moved by whole ranges of a wrapping counter so that it starts nearest ``phi``:
+    two logs of one counter (a braking and its reverse, which starts where the braking
+    stopped) then share one angle.
+
+    Parameters
+    ----------
+    log : Log
+        A log read from counts (:func:`read_log`).
+    phi : float
+        rad, the angle it should start nearest (the braking's last, for its reverse).
+    encoder : encoder-like
+        Its ``counter_bits`` (the counter wraps at 2**counter_bits) and ``quantum``.
+
+    Returns
+    -------
+    Log
+        The log moved by whole ranges; ``log`` itself without a counter or when no move is
+        needed.
+    """
     bits = getattr(encoder, "counter_bits", None)
     if bits is None:
         return log
@@ -411,6 +427,65 @@ def write_program(path: str | os.PathLike, program: Program) -> None:
     arrays = [getattr(program, name) for name in PROGRAM_COLUMNS]
     write_atomic(path, _format_table(PROGRAM_COLUMNS, arrays))
 
+
+
+def motor_work(
+    torque: np.ndarray, phi: np.ndarray, constant: bool = False
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, float | None]:
+    """Motor work from a pass's first row to each row, and its noise factors: the one
+    zero-order-hold Stieltjes sum of the package (docs/method.md §3-4).
+
+    Row k's torque is held over [t_k, t_k+1) (:class:`Log`), so the work up to row K is
+    W_K = sum_{k<K} u_k (phi_{k+1} - phi_k). A pass's balances take it over the smoothed
+    angle, not the readings (rsp_inertia.estimation.passes says why); :meth:`Log.motor_work`
+    takes it over the log's own angle.
+
+    Parameters
+    ----------
+    torque : np.ndarray, shape (n,), N m
+        The logged torque; row k acts over the increment phi_{k+1} - phi_k.
+    phi : np.ndarray, shape (n,), rad
+        The angle at each row.
+    constant : bool
+        The applied torque is constant (a braking pass whose log passed the constancy
+        test): the work is then the log's mean torque times (phi - phi_0) instead of the
+        sum of the logged torques.
+
+    Returns
+    -------
+    work : np.ndarray, shape (n,), J
+        W from the first row to each row (``work[0] = 0``).
+    back : np.ndarray, shape (n,), J
+        Its back-driven part: the sum over the increments where the held torque opposes the
+        motion (rsp_inertia.plant.transducers.power_flow_split); a drive with losses
+        delivers h_d x the rest and h_b x this (docs/method.md §3).
+    steps : np.ndarray, shape (n,), rad^2
+        The cumulative sum of squared angle increments: the work's noise variance per unit
+        sigma^2 of the sample-by-sample sum.
+    mean : float or None
+        N m, the log's mean torque for a ``constant`` torque, else None.
+    """
+    dphi = np.diff(phi)
+    steps = _running_sum(dphi * dphi)
+    mean = float(np.mean(torque)) if constant else None
+    held = mean if constant else np.asarray(torque[:-1], dtype=float)  # a number: no array
+    back = power_flow_split(held, dphi)[1]
+    back *= dphi
+    back = _running_sum(back)
+    if constant:
+        work = phi - phi[0]
+        work *= mean
+        return work, back, steps, mean
+    return _running_sum(held * dphi), back, steps, None
+
+
+def _running_sum(increments: np.ndarray) -> np.ndarray:
+    """[0, x_0, x_0 + x_1, ...]: the sum of ``increments`` before each row (n + 1 values),
+    summed into place (no concatenated copy)."""
+    out = np.empty(increments.size + 1)
+    out[0] = 0.0
+    np.cumsum(increments, out=out[1:])
+    return out
 
 
 def torque_noise(log: Log) -> float:

@@ -207,7 +207,7 @@ def _check_timing(
     forward = log if direction == "forward" else mirror_log(log, exp.device.encoder.quantum)
     sign = 1 if direction == "forward" else -1
     try:
-        check_node_gaps(exp.device, stage, forward, str(path), direction=sign)
+        check_node_gaps(exp.device, stage, forward, str(path), direction=sign, dropped=missing)
     except InputError as error:
         report.add(
             "suspicious",

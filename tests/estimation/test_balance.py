@@ -4,7 +4,7 @@ The smoother is left out: each pass is handed to the balances with the virtual d
 angle, speed and acceleration and its true (noise-free) torque, so whatever error is left is
 the formulas' own plus the simulator's. The reverse pass is the ideal reverse, the exact
 mirror of the braking (docs/method.md §4); with it the identified tensor of the virtual body must be
-that body's tensor (STYLE.md, principle 6).
+that body's tensor.
 """
 
 import math
@@ -20,9 +20,8 @@ from rsp_inertia.estimation.smoothing import Smoothed
 from rsp_inertia.estimation.tensor import ENTRY_KEYS, KnownTerms, fit_tensor, tensor_block
 from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.geometry import relative_errors
-from rsp_inertia.plant.logs import Log
+from rsp_inertia.plant.logs import Log, dropped_samples, motor_work
 from rsp_inertia.plant.model import acceleration, gravity_basis, reduced_inertia, tensor_basis
-from rsp_inertia.plant.transducers import power_flow_split
 from tests.estimation.conftest import STAGES
 
 EXACT_REL = 1e-6
@@ -34,8 +33,11 @@ of order 1e-7 at the fastest stage; 1e-6 stays a decade below the smoother-limit
 (~1e-5) that the other tests check."""
 
 
-def exact_pass(sim: vd.SimulatedPass, params, direction: float) -> PassEstimate:
-    """A pass as estimate_pass would give it, but from the true states (no encoder, no noise)."""
+def exact_pass(
+    sim: vd.SimulatedPass, params, direction: float, sample_rate: float
+) -> PassEstimate:
+    """A pass as estimate_pass would give it, but from the true states (no encoder, no noise;
+    ``sample_rate``, Hz, the encoder's, finds its dropped samples)."""
     truth = sim.truth
     n = len(truth.t)
     eps = np.asarray(
@@ -52,15 +54,17 @@ def exact_pass(sim: vd.SimulatedPass, params, direction: float) -> PassEstimate:
         noise_density=12e-12 / 100.0**3,  # speed error variance r w_c^3 / 12 = (1e-6)^2
     )
     log = Log(t=truth.t, phi=truth.phi, torque=truth.torque)
-    back = power_flow_split(truth.torque[:-1], np.diff(truth.phi))[1] * np.diff(truth.phi)
+    # Exact: the torque is held over each row (ZOH), summed over the true angle.
+    work, back, steps, _ = motor_work(log.torque, log.phi)
     return PassEstimate(
         log=log,
         smoothed=smoothed,
-        work=log.motor_work(),  # exact: the torque is held over each row (ZOH)
-        work_back=np.concatenate([[0.0], np.cumsum(back)]),
-        work_var_steps=np.concatenate([[0.0], np.cumsum(np.diff(truth.phi) ** 2)]),
+        work=work,
+        work_back=back,
+        work_var_steps=steps,
         sigma_torque=0.0,
         source="exact",
+        dropped=dropped_samples(truth.t, sample_rate),
     )
 
 
@@ -70,9 +74,10 @@ def exact_passes(default_device, default_virtual, default_brakings, default_idea
     out = {}
     for s in STAGES:
         p = vd.true_parameters(default_device, s, default_virtual).vector
+        rate = default_device.encoder.sample_rate
         out[s] = (
-            exact_pass(default_brakings[s], p, +1.0),
-            exact_pass(default_ideal_reverses[s], p, -1.0),
+            exact_pass(default_brakings[s], p, +1.0, rate),
+            exact_pass(default_ideal_reverses[s], p, -1.0, rate),
         )
     return out
 

@@ -6,13 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from rsp_inertia.estimation.passes import (
-    CONSTANCY_TAIL,
-    constancy_p_value,
-    estimate_pass,
-    sample_at,
-    work_covariance,
-)
+from rsp_inertia.estimation.passes import CONSTANCY_TAIL, constancy_p_value, estimate_pass
 from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.logs import torque_noise
 from tests.estimation.conftest import STAGES
@@ -34,7 +28,7 @@ def test_constant_torque_does_torque_times_angle(stage, default_device, default_
     start = math.radians(default_virtual.run.release_angle_deg)
     end = braking.truth.end_phi
     phi = np.linspace(start + 0.05, end - 0.05, 997)  # angles between rows, whole pass
-    work = sample_at(est, phi).work
+    work = est.sample_at(phi).work
     # W = u (phi - phi_start): the Stieltjes sum telescopes to u (phi - y_0), y_0 the first
     # reading, which lies within one count below the true release angle.
     assert np.all(np.abs(work - u * (phi - start)) <= abs(u) * q)
@@ -69,11 +63,11 @@ def test_braking_work_is_the_mean_torque_times_the_angle(
 
     start = math.radians(default_virtual.run.release_angle_deg)
     phi = np.linspace(start + 0.05, braking.truth.end_phi - 0.05, 501)
-    sample = sample_at(est, phi)
+    sample = est.sample_at(phi)
     span = phi - est.smoothed.phi[0]
     assert np.all(np.abs(sample.work - u * (phi - start)) <= 5 * sigma_mean * span + abs(u) * q)
     # Its covariance is the mean's error, shared by every angle.
-    cov = work_covariance(est, sample)
+    cov = est.work_covariance(sample)
     np.testing.assert_allclose(np.sqrt(np.diag(cov)), est.sigma_torque / math.sqrt(n) * span)
 
 

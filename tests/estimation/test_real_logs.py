@@ -17,12 +17,12 @@ import tomlkit
 from scipy.stats import chi2
 
 from rsp_inertia.estimation.balance import NODE_GAP_SAMPLES, check_node_gaps
-from rsp_inertia.estimation.passes import gap_work, motor_work
+from rsp_inertia.estimation.passes import gap_work
 from rsp_inertia.estimation.smoothing import Smoothed
 from rsp_inertia.pipeline import create_default_experiment, identify, simulate
 from rsp_inertia.plant.config import load_virtual
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.logs import Log, read_log, write_log
+from rsp_inertia.plant.logs import Log, dropped_samples, motor_work, read_log, write_log
 
 
 def _smoothed(t, phi, omega) -> Smoothed:
@@ -49,7 +49,8 @@ def test_gap_work_restores_the_work_of_a_torque_that_is_linear_across_the_gap():
         full = Log(t=t, phi=phi, torque=torque)
         log = Log(t=t[keep], phi=phi[keep], torque=torque[keep])
         smoothed = _smoothed(t[keep], phi[keep], omega[keep])
-        correction, correction_back, variance = gap_work(log, smoothed, 1 / dt)
+        dropped = dropped_samples(log.t, 1 / dt)
+        correction, correction_back, variance = gap_work(log, smoothed, dropped)
         work = log.motor_work() + correction
         np.testing.assert_allclose(work, full.motor_work()[keep], rtol=0, atol=1e-15)
         np.testing.assert_allclose(variance, 0.0, atol=1e-30)
@@ -71,7 +72,8 @@ def test_gap_work_variance_is_the_interpolation_error_of_white_noise():
     keep[1000:19000:1000] = False
     phi, u = speed * t[keep], rng.normal(0.0, sigma, t.size)[keep]
     log = Log(t=t[keep], phi=phi, torque=u)
-    _, _, variance = gap_work(log, _smoothed(t[keep], phi, np.full(phi.size, speed)), 1 / dt)
+    smoothed = _smoothed(t[keep], phi, np.full(phi.size, speed))
+    _, _, variance = gap_work(log, smoothed, dropped_samples(log.t, 1 / dt))
     expected = 18 * 1.5 * sigma**2 * (speed * dt) ** 2
     assert variance[-1] == pytest.approx(expected, rel=0.05)
 
