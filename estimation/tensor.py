@@ -210,7 +210,22 @@ class KnownTerms:
         return np.concatenate([self.gains, self.inertia.ravel(), self.gravity, self.encoder])
 
     def with_theta(self, theta: np.ndarray, cov: np.ndarray, calibrated: bool = True):
-        """These terms' layout with the values ``theta`` and their covariance ``cov``."""
+        """These terms' layout with the values ``theta`` and their covariance ``cov``.
+
+        Parameters
+        ----------
+        theta : numpy.ndarray
+            The values, in the order of :meth:`names`.
+        cov : numpy.ndarray
+            Their covariance.
+        calibrated : bool, optional
+            Whether theta carries an uncertainty to propagate.
+
+        Returns
+        -------
+        KnownTerms
+            The new terms.
+        """
         theta = np.asarray(theta, dtype=float)
         return KnownTerms(
             gains=(float(theta[0]), float(theta[1])),
@@ -263,12 +278,27 @@ class KnownTerms:
     def node_variance(self, stage: int, phi: float, M_parts, M: float) -> float:
         """Variance the known terms give a node's J (1 + lam^2)^2, kg^2 m^4.
 
-        J = (M - M_empty(phi)) / (1 + lam^2), M the node formula's, ``M_parts`` its shares
-        from the driving and the back-driven work (h_d and h_b times the works' parts, so
-        dM/dh_d = M_parts[0] / h_d and likewise for h_b; a spring's potential, exact, is in
-        neither). The encoder's error scales both passes' squared speeds at the node by
-        1 + 2 e'(phi) alike, so dM/dtheta_e = 2 M e'_theta(phi); dM_empty = basis(phi) d(the
-        stage's harmonics).
+        J = (M - M_empty(phi)) / (1 + lam^2). The encoder's error scales both passes'
+        squared speeds at the node by 1 + 2 e'(phi) alike, so dM/dtheta_e = 2 M e'_theta(phi);
+        dM_empty = basis(phi) d(the stage's harmonics).
+
+        Parameters
+        ----------
+        stage : int
+            The stage number, from 1.
+        phi : float
+            rad, the node's angle.
+        M_parts : sequence of float
+            kg m^2, M's shares from the driving and the back-driven work (h_d and h_b times
+            the works' parts, so dM/dh_d = M_parts[0] / h_d and likewise for h_b; a spring's
+            potential, exact, is in neither).
+        M : float
+            kg m^2, the node formula's reduced inertia.
+
+        Returns
+        -------
+        float
+            kg^2 m^4, the variance.
         """
         g = np.zeros(self.cov.shape[0])
         g[0] = M_parts[0] / self.gains[0]
@@ -368,8 +398,22 @@ def encoder_names(orders: int) -> list[str]:
 def described(
     tests: list[ModelTest], known: KnownTerms, one_direction: bool = False
 ) -> list[ModelTest]:
-    """The model tests with their probes' :func:`probe_detail` filled in (their warnings');
-    ``one_direction``: some stage was run in one direction only."""
+    """The model tests with their probes' :func:`probe_detail` filled in (their warnings').
+
+    Parameters
+    ----------
+    tests : list of ModelTest
+        The fit's model tests.
+    known : KnownTerms
+        The rig's known terms the fit applied.
+    one_direction : bool, optional
+        Some stage was run in one direction only.
+
+    Returns
+    -------
+    list of ModelTest
+        The tests, the probes' with their ``detail``.
+    """
     return [
         replace(test, detail=probe_detail(test, known, one_direction))
         if test.kind in (DRIVE_PROBE, ENCODER_PROBE)
@@ -389,6 +433,20 @@ def probe_detail(test: ModelTest, known: KnownTerms, one_direction: bool = False
     stage run one way only, friction that differs between the directions of rotation leaves
     the same shape as a drive's loss (the braking turns one way, the reverse the other),
     so the drive's warning names it too.
+
+    Parameters
+    ----------
+    test : ModelTest
+        A model test, its ``estimate`` and ``estimate_cov`` the probe's fitted terms.
+    known : KnownTerms
+        The rig's known terms the fit applied (a calibration or none).
+    one_direction : bool, optional
+        Some stage was run in one direction only.
+
+    Returns
+    -------
+    str
+        The warning's text; empty for a test that is no probe.
     """
     x, cov = test.estimate, test.estimate_cov
     gains = known.gains
@@ -517,8 +575,24 @@ def run_columns(
 ) -> dict[str, np.ndarray]:
     """The columns every run has whatever the question: its constant, the tracking mismatch's
     friction slopes (rsp_inertia.estimation.balance; left out when the mismatch is exactly zero, exact
-    data), and the friction asymmetry of a stage run in both directions (shared by the runs of
-    ``group``, by default the stage).
+    data), and the friction asymmetry of a stage run in both directions.
+
+    Parameters
+    ----------
+    bal : StageBalance
+        The run's balance.
+    key : str
+        Names the run's own unknowns (``C[key]``, ``d1[key]``, ``d2[key]``).
+    both_directions : bool
+        The run's stage is run in both directions: the friction asymmetry's columns join.
+    group : str, optional
+        Names the friction asymmetry's unknowns, shared by the runs of ``group``; by default
+        the stage.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        Name -> column, one entry per balance angle.
     """
     group = str(bal.stage) if group is None else group
     n = len(bal.phi)
@@ -533,9 +607,24 @@ def run_columns(
 
 
 def run_priors(bal: StageBalance, columns: dict[str, np.ndarray], key: str) -> tuple[Prior, ...]:
-    """The run's priors on its own unknowns among ``columns`` (:func:`run_columns`): its
-    friction slopes' from its passes' dynamics (rsp_inertia.estimation.balance
-    .friction_slope_prior), when it has slope columns and the prior was made."""
+    """The run's priors on its own unknowns: its friction slopes' from its passes' dynamics
+    (rsp_inertia.estimation.balance.friction_slope_prior), when it has slope columns and the
+    prior was made.
+
+    Parameters
+    ----------
+    bal : StageBalance
+        The run's balance (its ``slope_prior``).
+    columns : dict of str to numpy.ndarray
+        The run's columns (:func:`run_columns`).
+    key : str
+        Names the run's own unknowns.
+
+    Returns
+    -------
+    tuple of Prior
+        The friction slopes' prior, or none.
+    """
     names = (f"d1[{key}]", f"d2[{key}]")
     if bal.slope_prior is None or not all(name in columns for name in names):
         return ()
@@ -553,8 +642,21 @@ def both_directions(balances: list[StageBalance]) -> set[int]:
 def tensor_block(bal: StageBalance, run: str, known: KnownTerms, asymmetry: bool) -> Block:
     """One run's equations in the tensor's unknowns (module docstring).
 
-    ``run`` names the run's own unknowns (its constant and friction slopes); ``asymmetry``:
-    the run's stage is run in both directions, so its friction asymmetry is an unknown.
+    Parameters
+    ----------
+    bal : StageBalance
+        The run's balance.
+    run : str
+        Names the run's own unknowns (its constant and friction slopes).
+    known : KnownTerms
+        The rig's known terms: the right-hand side and, when calibrated, their Jacobians.
+    asymmetry : bool
+        The run's stage is run in both directions, so its friction asymmetry is an unknown.
+
+    Returns
+    -------
+    Block
+        The run's equations for rsp_inertia.estimation.gls.solve_blocks.
     """
     v = tensor_basis(bal.phi, bal.gear_ratio)
     probes = cause_probes(bal)
@@ -591,9 +693,25 @@ def fit_tensor(
     Unknowns: the six entries and the gravity terms (shared by every run), one constant and
     the tracking mismatch's two friction slopes per run, and the friction asymmetry
     e = [e1, e2, e3] per stage run in both directions. Solved, weighted and checked by
-    :func:`rsp_inertia.estimation.gls.solve_blocks`. ``predict``: noise-free balances of a planned run,
-    whose covariance is then the noise model's alone (rsp_inertia.estimation.predict); ``tests`` False:
-    no model tests (a rehearsal of a plan, rsp_inertia.design.rehearsal).
+    :func:`rsp_inertia.estimation.gls.solve_blocks`.
+
+    Parameters
+    ----------
+    balances : list of StageBalance
+        Every run's balance.
+    known : KnownTerms, optional
+        The rig's known terms; device.toml's tares as exact by default.
+    predict : bool, optional
+        Noise-free balances of a planned run, whose covariance is then the noise model's
+        alone (rsp_inertia.estimation.predict).
+    tests : bool, optional
+        False: no model tests (a rehearsal of a plan, rsp_inertia.design.rehearsal).
+
+    Returns
+    -------
+    TensorFit
+        The entries and gravity terms with their covariance and budget, the runs' speed-noise
+        scales and friction terms, and the model tests.
     """
     if known is None:
         tares = {bal.stage: bal.tare_inertia for bal in balances}
@@ -656,7 +774,22 @@ def fit_tensor(
 
 
 def axis_values(entries: np.ndarray, cov: np.ndarray, directions: np.ndarray):
-    """J_k = e_k^T J e_k for unit directions, with standard deviations (docs/method.md §5 (8))."""
+    """J_k = e_k^T J e_k for unit directions, with standard deviations (docs/method.md §5 (8)).
+
+    Parameters
+    ----------
+    entries : numpy.ndarray, shape (6,)
+        kg m^2, the tensor's entries [Jx, Jy, Jz, Jxy, Jyz, Jxz].
+    cov : numpy.ndarray, shape (6, 6)
+        Their covariance.
+    directions : numpy.ndarray, shape (k, 3)
+        The axes' unit directions e_k.
+
+    Returns
+    -------
+    values, stds : numpy.ndarray
+        kg m^2, J_k and its std per axis.
+    """
     V = design_matrix(directions)
     values = V @ entries
     # v^T C v of a covariance is >= 0; a source that leaves an axis untouched (a tare std of
@@ -668,8 +801,21 @@ def axis_values(entries: np.ndarray, cov: np.ndarray, directions: np.ndarray):
 def tensor_from_axes(values: np.ndarray, stds: np.ndarray, directions: np.ndarray):
     """Tensor entries from axis moments through V: solve (6 axes) or weighted least squares.
 
-    Returns the entries and their covariance (the design's cond(V):
-    rsp_inertia.plant.geometry.device_design).
+    Parameters
+    ----------
+    values : numpy.ndarray
+        kg m^2, the axis moments J_k.
+    stds : numpy.ndarray
+        kg m^2, their standard deviations (the weights).
+    directions : numpy.ndarray, shape (k, 3)
+        The axes' unit directions.
+
+    Returns
+    -------
+    entries : numpy.ndarray, shape (6,)
+        kg m^2, [Jx, Jy, Jz, Jxy, Jyz, Jxz].
+    cov : numpy.ndarray, shape (6, 6)
+        Their covariance (the design's cond(V): rsp_inertia.plant.geometry.device_design).
     """
     V = design_matrix(directions)
     W = 1 / np.asarray(stds)
