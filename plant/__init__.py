@@ -1,1 +1,68 @@
-"""Gimbal model, geometry, device description and the virtual device."""
+"""Gimbal model, geometry, device description, the experiment's files and the virtual device.
+
+The names below are its public API, each from the module that is its home; they load on
+first use (module ``__getattr__``, as ``rsp_inertia`` does), so importing one module of the
+package does not import the others.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+_HOMES = {
+    "InputError": "errors",
+    "Device": "config",
+    "Virtual": "config",
+    "load_device": "config",
+    "load_reference": "config",
+    "load_virtual": "config",
+    "placed_body": "config",
+    "Experiment": "experiment",
+    "open_experiment": "experiment",
+    "Log": "logs",
+    "Program": "logs",
+    "dropped_samples": "logs",
+    "read_device_log": "logs",
+    "read_log": "logs",
+    "read_program": "logs",
+    "write_log": "logs",
+    "write_program": "logs",
+    "check_writable": "files",
+    "write_atomic": "files",
+    "GimbalModel": "model",
+    "MODEL": "model",
+    "ModelParameters": "model",
+    "inertia_harmonics": "model",
+    "reduced_inertia": "model",
+    "AxisDesign": "geometry",
+    "ENTRY_KEYS": "geometry",
+    "design_matrix": "geometry",
+    "device_design": "geometry",
+    "entries_from_tensor": "geometry",
+    "place_body": "geometry",
+    "principal": "geometry",
+    "principal_uncertainty": "geometry",
+    "tensor_from_entries": "geometry",
+    "SimulatedPass": "virtual",
+    "run_program": "virtual",
+    "simulate_braking": "virtual",
+    "simulate_ideal_reverse": "virtual",
+    "simulate_pendulum": "virtual",
+    "simulate_pilot": "virtual",
+}
+"""Each public name and the module (of this package) that defines it."""
+
+__all__ = sorted(_HOMES)
+
+
+def __getattr__(name: str):
+    """Load a public name from its home on first use (PEP 562) and keep it here."""
+    if name not in _HOMES:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"{__name__}.{_HOMES[name]}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

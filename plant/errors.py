@@ -1,5 +1,7 @@
 """The project's single error type for bad input: one class, one-line messages, exit status 2."""
 
+__all__ = ["InputError"]
+
 
 class InputError(Exception):
     """Bad input: a malformed file, a missing key, an impossible request.
