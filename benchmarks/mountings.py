@@ -34,6 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.tables import command_line
+
 COM_MM = (3.0, -2.0, 4.0)
 """The body's centre of mass in body axes, mm (the issue's)."""
 
@@ -146,18 +148,34 @@ def speed(folders: list[str], work: Path) -> dict[str, float]:
     return times
 
 
-def report(rows: list[dict], times: dict[str, float]) -> str:
-    """The Markdown report."""
+def report(rows: list[dict], times: dict[str, float], command: str) -> str:
+    """The Markdown report.
+
+    Parameters
+    ----------
+    rows : list of dict
+        One per seed, from :func:`run_seed`.
+    times : dict of str to float
+        Seconds of ``combine``, from :func:`speed`.
+    command : str
+        The command line that made them, written at the top.
+
+    Returns
+    -------
+    str
+        The report's text (mountings.md).
+    """
     acc = [r for r in rows if "entries_err" in r]
     mis = [r for r in rows if "misaligned_warned" in r]
     lines = [
         "# Combining mountings (virtual device)",
         "",
-        (f"Made by `python -m benchmarks.mountings` with {len(acc)} seeds for accuracy and "
-        f"{len(mis)} for the misalignment test. Body centre of mass at {COM_MM} mm in body "
-        "axes; mounting 1 as drawn, mounting 2 turned 90 deg about x; default experiment, "
-        f"ideal reverse, each mounting's release angle within {RELEASE_JITTER_DEG} deg of the "
-        "default's."),
+        f"Command: `{command}`",
+        "",
+        (f"Seeds: {len(acc)} for accuracy, {len(mis)} for the misalignment test. Body centre "
+        f"of mass at {COM_MM} mm in body axes; mounting 1 as drawn, mounting 2 turned 90 deg "
+        "about x; default experiment, ideal reverse, each mounting's release angle within "
+        f"{RELEASE_JITTER_DEG} deg of the default's."),
         "",
     ]
     if acc:
@@ -243,7 +261,7 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "mountings.json").write_text(json.dumps({"rows": rows, "combine_seconds": times},
                                                         indent=2) + "\n")
-    text = report(rows, times)
+    text = report(rows, times, command_line("mountings", argv))
     (args.out / "mountings.md").write_text(text)
     print(text)
     return 0

@@ -158,7 +158,7 @@ def main(argv: list[str] | None = None) -> None:
     lines = [
         "# Real logs: jittered stamps, dropped rows, wrapped counts",
         "",
-        f"Made by `{command}` ({elapsed / 60:.1f} min on this machine).",
+        f"Command: `{command}` ({elapsed / 60:.1f} min on this machine).",
         "",
         (
             "Real logs: virtual.toml `[logger]` time_jitter = 0.2 (of a period), "

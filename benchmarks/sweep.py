@@ -27,6 +27,7 @@ from benchmarks.cases import default_cases
 from benchmarks.report import SweepReport, write_report
 from benchmarks.scheduling import run_sweep
 from benchmarks.sensitivity import default_perturbations
+from benchmarks.tables import command_line
 from rsp_inertia.plant.errors import InputError
 
 __all__ = ["main", "sweep"]
@@ -94,9 +95,12 @@ def _parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Run the sweep from the command line; return the exit status."""
     args = _parser().parse_args(argv)
-    command = PROGRAM + (" --quick" if args.quick else f" --seeds {args.seeds}")
+    # The arguments that shape the results (not --jobs, --scheduler), so the default run
+    # writes `--seeds 2` whether typed or not.
+    shown = ["--quick"] if args.quick else ["--seeds", str(args.seeds)]
     if args.out.resolve() != RESULTS.resolve():
-        command += f" --out {args.out}"
+        shown += ["--out", str(args.out)]
+    command = command_line("sweep", shown)
     try:
         report = sweep(
             seeds=args.seeds,
