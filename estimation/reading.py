@@ -33,7 +33,7 @@ from rsp_inertia.estimation.runs import ExperimentLogs, Sources, runs
 from rsp_inertia.estimation.tensor import KnownTerms
 from rsp_inertia.plant.config import load_reference
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.experiment import CALIBRATION_FILE, REFERENCE_FILE, Experiment
+from rsp_inertia.plant.experiment import CALIBRATION_FILE, Experiment
 from rsp_inertia.plant.files import file_sha256
 from rsp_inertia.plant.log_checks import unterminated_last_line
 from rsp_inertia.plant.logs import Log, align_counter, read_device_log
@@ -349,7 +349,7 @@ def calibrate_experiment(
     body = None
     if reference is not None:
         check_same_stages(exp, reference, "reference")
-        body = load_reference(reference.root / REFERENCE_FILE)
+        body = load_reference(reference.reference_path)
     empty_logs = read_experiment(empty)
     reference_logs = None if reference is None else read_experiment(reference)
     result = calibrate_logs(exp.device, empty_logs, reference_logs, body, progress)
@@ -364,7 +364,7 @@ def calibrate_experiment(
             continue
         files = [str(folder.device_path)]
         if folder is reference:
-            files.append(str(folder.root / REFERENCE_FILE))
+            files.append(str(folder.reference_path))
         for names in logs.sources.runs.values():
             files += names
         inputs.update({path: file_sha256(path) for path in files})

@@ -14,6 +14,9 @@ One folder is one experiment::
     EXP/stageN/pilot.csv     pilot run for planning: spin-up at a known torque, then a free
                              coast (optional; the log format of braking.csv, forward only)
     EXP/result.json          written by ``identify``
+    EXP/calibration.toml     written by ``calibrate``, applied by ``identify`` (optional)
+    EXP/reference.toml       a reference body's certified data (a calibration's reference
+                             folder only)
 """
 
 from __future__ import annotations
@@ -127,6 +130,11 @@ class Experiment:
     def calibration_path(self) -> Path:
         """``calibration.toml`` (written by calibrate, applied by identify)."""
         return self.root / CALIBRATION_FILE
+
+    @property
+    def reference_path(self) -> Path:
+        """``reference.toml`` (a reference body's data, in a calibration's reference folder)."""
+        return self.root / REFERENCE_FILE
 
     def identify_inputs(self) -> list[Path]:
         """The files ``identify`` reads that exist, in a fixed order: device.toml,

@@ -3,11 +3,15 @@ both directions of a stage through ``rsp_inertia.pipeline.simulate``."""
 
 import math
 import re
+import shlex
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
 from rsp_inertia import pipeline
+from rsp_inertia.plant import experiment
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.logs import read_log
@@ -42,6 +46,29 @@ def test_backward_files_sit_beside_the_forward_ones(tmp_path):
         exp.braking_path(1, "up")
     with pytest.raises(InputError, match="no stage 3"):
         exp.reverse_path(3, "backward")
+
+
+def test_the_experiments_files_are_named_in_one_place(tmp_path):
+    """Each file of the folder has its name in plant.experiment, and its path on Experiment."""
+    exp = open_experiment(pipeline.create_default_experiment(tmp_path))
+    assert exp.device_path == tmp_path / experiment.DEVICE_FILE == tmp_path / "device.toml"
+    assert exp.virtual_path == tmp_path / experiment.VIRTUAL_FILE == tmp_path / "virtual.toml"
+    paths = {
+        "calibration.toml": exp.calibration_path,
+        "reference.toml": exp.reference_path,
+        "result.json": exp.result_path,
+        "report.html": exp.report_path,
+        "plan.png": exp.plan_figure_path,
+    }
+    assert paths == {name: tmp_path / name for name in paths}
+    assert (experiment.CALIBRATION_FILE, experiment.REFERENCE_FILE, experiment.RESULT_FILE) == (
+        "calibration.toml",
+        "reference.toml",
+        "result.json",
+    )
+    assert exp.identify_inputs() == [exp.device_path]  # the logs, once simulated, follow
+    (tmp_path / experiment.CALIBRATION_FILE).write_text("")
+    assert exp.identify_inputs() == [exp.device_path, exp.calibration_path]
 
 
 def test_simulate_writes_every_direction_of_each_stage(tmp_path):
@@ -112,10 +139,6 @@ def test_load_virtual_checks_the_rigs_tare_against_the_stages(tmp_path):
 def test_simulate_without_virtual_toml_says_where_to_get_one(tmp_path):
     """The message names the file and the way to one; following it, simulate runs on the
     device.toml already there (the one-line command the message gives, run as given)."""
-    import shlex
-    import subprocess
-    import sys
-
     root = short_experiment(tmp_path / "bench", '["forward"]')
     device = (root / "device.toml").read_text()
     (root / "virtual.toml").unlink()
