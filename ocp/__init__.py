@@ -21,9 +21,20 @@ _HOMES = {
     "TorqueProgram": "program",
     "make_program": "program",
 }
-"""Each public name and the module (of this package) that defines it."""
+"""Each public name and the module (of this package) that is its home."""
 
-__all__ = sorted(_HOMES)
+__all__ = [
+    "Mirror",
+    "OcpSolution",
+    "TorqueProgram",
+    "bandwidth",
+    "fit_nominal",
+    "lqr_gains",
+    "make_program",
+    "mirror",
+    "required_torque",
+    "solve_program_ocp",
+]
 
 
 def __getattr__(name: str):

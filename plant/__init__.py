@@ -50,9 +50,49 @@ _HOMES = {
     "simulate_pendulum": "virtual",
     "simulate_pilot": "virtual",
 }
-"""Each public name and the module (of this package) that defines it."""
+"""Each public name and the module (of this package) that is its home."""
 
-__all__ = sorted(_HOMES)
+__all__ = [
+    "AxisDesign",
+    "Device",
+    "ENTRY_KEYS",
+    "Experiment",
+    "GimbalModel",
+    "InputError",
+    "Log",
+    "MODEL",
+    "ModelParameters",
+    "Program",
+    "SimulatedPass",
+    "Virtual",
+    "check_writable",
+    "design_matrix",
+    "device_design",
+    "dropped_samples",
+    "entries_from_tensor",
+    "inertia_harmonics",
+    "load_device",
+    "load_reference",
+    "load_virtual",
+    "open_experiment",
+    "place_body",
+    "placed_body",
+    "principal",
+    "principal_uncertainty",
+    "read_device_log",
+    "read_log",
+    "read_program",
+    "reduced_inertia",
+    "run_program",
+    "simulate_braking",
+    "simulate_ideal_reverse",
+    "simulate_pendulum",
+    "simulate_pilot",
+    "tensor_from_entries",
+    "write_atomic",
+    "write_log",
+    "write_program",
+]
 
 
 def __getattr__(name: str):
