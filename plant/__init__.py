@@ -53,14 +53,14 @@ _HOMES = {
 """Each public name and the module (of this package) that is its home."""
 
 __all__ = [
+    "ENTRY_KEYS",
+    "MODEL",
     "AxisDesign",
     "Device",
-    "ENTRY_KEYS",
     "Experiment",
     "GimbalModel",
     "InputError",
     "Log",
-    "MODEL",
     "ModelParameters",
     "Program",
     "SimulatedPass",
