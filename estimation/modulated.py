@@ -114,8 +114,29 @@ def modulated_rows(
     starting every WINDOW / OVERLAP (shorter on a short pass: MIN_SPANS). The torque is the
     logged one, held over each sample and integrated exactly; the spring's part of F,
     -S_spring (its regressor is not linear in (c, phi0)), is moved to the right-hand side.
-    ``step``: the regressors' Simpson sums take every step-th sample (the windows' ends among
-    them); 1, every sample.
+
+    Parameters
+    ----------
+    device : Device
+        The device (its spring, taken as known).
+    log : Log
+        The pass's log (its torque).
+    sm : Smoothed
+        The pass's smoothed states.
+    source : str
+        The log's name in messages.
+    step : int
+        The regressors' Simpson sums take every step-th sample (the windows' ends among
+        them); 1, every sample.
+
+    Returns
+    -------
+    A : np.ndarray, shape (n, 12)
+        The rows over every parameter of rsp_inertia.plant.model.PARAMETER_NAMES.
+    y : np.ndarray, shape (n,)
+        Their right-hand side.
+    Q : np.ndarray, shape (OVERLAP, n)
+        The banded covariance of y per unit variance of the logged torque.
 
     Raises
     ------

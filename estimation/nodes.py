@@ -95,29 +95,53 @@ def node_formula(
     friction_slope: np.ndarray | None = None,
     friction_slope_cov: np.ndarray | None = None,
 ) -> list[NodeEstimate]:
-    """M at each of ``nodes_deg`` (deg) from every one-turn pair (phi_a, phi_a + 2 pi).
+    """M at each node from every one-turn pair (phi_a, phi_a + 2 pi).
 
     docs/method.md §5: M = 2 (A' - A + 2 dPi) / (Omega_a^2 + Omega'_a^2 - Omega_b^2 - Omega'_b^2),
     and the paper's plain form M = (A' - A + 2 dPi) / (Omega_a^2 - Omega_b^2). Gravity cancels
     over whole turns; dPi is the spring's. Pairs are combined by generalised least squares
     (:func:`_combine_pairs`): speed noise from the smoothers' derived error variance times
-    ``speed_noise_scale`` (the calibration that the least squares finds on its residuals,
-    rsp_inertia.estimation.tensor), and work noise from the torque logs (rsp_inertia.estimation.passes).
-    ``direction`` -1: a backward run's passes, mirrored by
-    :func:`rsp_inertia.plant.logs.mirror_log`; its node phi
-    sits at -phi in the mirrored coordinate. ``gains``: (h_d, h_b), the drive's gains that make
-    the logged motor work's driving and back-driven parts the work the body received
-    (rsp_inertia.plant.transducers.drive_gains; a calibration's,
-    rsp_inertia.estimation.calibration).
+    ``speed_noise_scale``, and work noise from the torque logs (rsp_inertia.estimation.passes).
 
-    ``friction_slope`` [d1, d2] (with its (2, 2) covariance): the run's tracking-mismatch
-    slopes that the least squares fits (module docstring). The balance of a pair then reads
+    With the friction slopes d = [d1, d2] the balance of a pair reads
     1/2 M (S_a - S_b) = N + (R_a - R_b) . d, R the mismatch regressors at the passages, so
     the correction joins every pair's numerator and its uncertainty the numerators'
-    covariance (the pairs share d). Without it the mismatch's friction work is left in M.
+    covariance (the pairs share d). Without them the mismatch's friction work is left in M.
 
     The two steps, :func:`node_passages` (from the passes) and :func:`node_estimates` (with
     the least squares' scale and slopes), one after the other.
+
+    Parameters
+    ----------
+    device : Device
+        The device.
+    stage : int
+        Stage number, from 1.
+    braking, reverse : PassEstimate
+        The run's two passes.
+    nodes_deg : sequence of float
+        deg, the nodes.
+    speed_noise_scale : float
+        The calibration of the smoothers' speed-error variance that the least squares finds
+        on its residuals (rsp_inertia.estimation.tensor).
+    direction : int
+        -1: a backward run's passes, mirrored by :func:`rsp_inertia.plant.logs.mirror_log`;
+        its node phi sits at -phi in the mirrored coordinate.
+    gains : tuple of float
+        (h_d, h_b), the drive's gains that make the logged motor work's driving and
+        back-driven parts the work the body received
+        (rsp_inertia.plant.transducers.drive_gains; a calibration's,
+        rsp_inertia.estimation.calibration).
+    friction_slope : np.ndarray, optional
+        [d1, d2], the run's tracking-mismatch slopes that the least squares fits (module
+        docstring); None: no correction.
+    friction_slope_cov : np.ndarray, optional
+        (2, 2) their covariance.
+
+    Returns
+    -------
+    list of NodeEstimate
+        One per node, in the order of ``nodes_deg``.
     """
     return node_estimates(
         node_passages(device, stage, braking, reverse, nodes_deg, direction, gains),
@@ -136,8 +160,28 @@ def node_passages(
     direction: int = 1,
     gains: tuple[float, float] = (1.0, 1.0),
 ) -> list[NodePassages]:
-    """The node formula's first step (:func:`node_formula`, whose arguments these are): the
-    passes sampled at every node's passages, a turn apart over their usable range.
+    """The node formula's first step (:func:`node_formula`): the passes sampled at every
+    node's passages, a turn apart over their usable range.
+
+    Parameters
+    ----------
+    device : Device
+        The device.
+    stage : int
+        Stage number, from 1.
+    braking, reverse : PassEstimate
+        The run's two passes.
+    nodes_deg : sequence of float
+        deg, the nodes.
+    direction : int
+        -1: a backward run's mirrored passes (:func:`node_formula`).
+    gains : tuple of float
+        (h_d, h_b), the drive's gains (:func:`node_formula`).
+
+    Returns
+    -------
+    list of NodePassages
+        One per node, in the order of ``nodes_deg``.
 
     Raises
     ------
@@ -205,8 +249,25 @@ def node_estimates(
     friction_slope: np.ndarray | None = None,
     friction_slope_cov: np.ndarray | None = None,
 ) -> list[NodeEstimate]:
-    """The node formula's second step (:func:`node_formula`, whose arguments these are): M at
-    each node of :func:`node_passages`, with the run's speed-noise scale and friction slopes."""
+    """The node formula's second step (:func:`node_formula`): M at each node of
+    :func:`node_passages`, with the run's speed-noise scale and friction slopes.
+
+    Parameters
+    ----------
+    passages : sequence of NodePassages
+        The first step's, one per node.
+    speed_noise_scale : float
+        The least squares' calibration of the speed-error variance (:func:`node_formula`).
+    friction_slope : np.ndarray, optional
+        [d1, d2], the run's friction slopes; None: no correction.
+    friction_slope_cov : np.ndarray, optional
+        (2, 2) their covariance.
+
+    Returns
+    -------
+    list of NodeEstimate
+        One per node of ``passages``.
+    """
     estimates = []
     a_, b_ = slice(None, -1), slice(1, None)
     for p in passages:

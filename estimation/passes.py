@@ -7,14 +7,14 @@ squares both read a stage through :meth:`PassEstimate.sample_at`.
 
 Motor work: the Stieltjes sum of the logged torque over the *smoothed* angle's increments,
 W_K = sum_{k<K} u_k (phi^_{k+1} - phi^_k) (rsp_inertia.plant.logs.motor_work, the package's
-one zero-order-hold sum), not over the raw readings y. Over readings the
-sum differs from the true work by sum u_k (e_{k+1} - e_k), e = y - phi the quantization
-error; that telescopes to nothing only while u is independent of e. Under closed-loop
-control it is not: the regulator feeds back the reading, u_k contains -k_phi e_k, and the sum
-gains k_phi sum (e_k^2 - e_k e_{k+1}) ~ k_phi N q^2/12 of spurious work (3e-3 J, 6e-4 of the
-kinetic energy, on the default stage 2). The smoothed angle's error is ~0.05 q and nearly
-free of the reading's sample-to-sample error, which removes the bias. Between rows the
-work is W(phi*) = W_K + u_K (phi* - phi^_K), K the last row at or before phi*.
+one zero-order-hold sum), not over the raw readings y. Over readings the sum differs from the true
+work by sum u_k (e_{k+1} - e_k), e = y - phi the quantization error; that telescopes to nothing
+only while u is independent of e. Under closed-loop control it is not: the regulator feeds back
+the reading, u_k contains -k_phi e_k, and the sum gains k_phi sum (e_k^2 - e_k e_{k+1}) ~ k_phi
+N q^2/12 of spurious work (3e-3 J, 6e-4 of the kinetic energy, on the default stage 2). The
+smoothed angle's error is ~0.05 q and nearly free of the reading's sample-to-sample error,
+which removes the bias. Between rows the work is W(phi*) = W_K + u_K (phi* - phi^_K), K the
+last row at or before phi*.
 
 The angle's own error. By parts, the sum up to row K is u_{K-1} phi^_K - u_0 phi^_0 -
 sum_{0<k<K} phi^_k (u_k - u_{k-1}); evaluated where the smoothed angle is phi* (as every
@@ -39,15 +39,16 @@ Braking pass: a constant torque. By protocol the motor holds one constant brakin
 channel's white noise. Then the best estimate of the applied torque is the mean of every
 row of the log, u_bar, and the work is W(phi) = u_bar (phi - phi^_0): its error
 (u_bar - u)(phi - phi^_0) has variance sigma^2 / N (phi - phi^_0)^2, N the rows, instead of
-the sample-by-sample sum's random walk sigma^2 sum dphi_k^2. The assumption is checked on the log itself
-(:func:`constancy_p_value`, a chi^2 test of quarter-turn means): a braking torque that
+the sample-by-sample sum's random walk sigma^2 sum dphi_k^2. The assumption is checked on the
+log itself (:func:`constancy_p_value`, a chi^2 test of quarter-turn means): a braking torque that
 drifts or ripples beyond its noise falls back to the sample-by-sample sum, which is exact
 for any applied torque, and identify says so.
 
 Dropped samples (rsp_inertia.plant.logs.dropped_samples: a logger may lose rows; the drive
 still acted at those instants; :func:`estimate_pass` finds them once and the estimate keeps
-them, :attr:`PassEstimate.dropped`, for the balances' checks). Over a gap of n missing rows between rows k and k+1 the zero-order-hold sum
-would hold u_k over the whole gap, while the drive set n unlogged torques there. A constant
+them, :attr:`PassEstimate.dropped`, for the balances' checks). Over a gap of n missing rows
+between rows k and k+1 the zero-order-hold sum would hold u_k over the whole gap, while the
+drive set n unlogged torques there. A constant
 torque's mean is not affected; a sample-by-sample sum is (a closed-loop reverse's torque
 moves by the regulator's response to every count). The gap's missing
 instants are taken evenly spaced between its two rows, their torques linearly interpolated

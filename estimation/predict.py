@@ -86,6 +86,26 @@ def planned_estimate(
 
     The states are exact; ``omega_std`` is the smoother's steady value sqrt(r w_c^3 / 6)
     everywhere (its start-up ramp at the ends is left out: the balances keep off the ends).
+    A planned pass has every sample: no dropped ones.
+
+    Parameters
+    ----------
+    planned : PlannedPass
+        The pass's exact states and torque.
+    quantum : float
+        rad, the encoder's q (the smoother's noise density).
+    sigma_torque : float
+        N m, the std of the torque log's noise.
+    constant_torque : bool
+        The work is the mean torque times the angle (a braking), else the sample-by-sample
+        sum (rsp_inertia.plant.logs.motor_work).
+    source : str
+        The pass's name in messages.
+
+    Returns
+    -------
+    PassEstimate
+        The pass, ready for the balances.
     """
     dt = float(planned.t[1] - planned.t[0])
     bandwidth = smoother_bandwidth(float(np.max(np.abs(planned.omega))))
@@ -125,8 +145,27 @@ def predicted_balance(
 ) -> StageBalance:
     """The balance equations identify would form from these passes (forward run).
 
-    Raises InputError (rsp_inertia.estimation.balance.usable_range) when the passes share fewer than
-    the turns the balances need.
+    Parameters
+    ----------
+    device : Device
+        The device.
+    stage : int
+        Stage number, from 1.
+    braking, reverse : PlannedPass
+        The planned braking and its reverse.
+    sigma_torque : float
+        N m, the std of the torque log's noise.
+
+    Returns
+    -------
+    StageBalance
+        The run's balance equations, without a tracking mismatch.
+
+    Raises
+    ------
+    InputError
+        The passes share fewer than the turns the balances need
+        (rsp_inertia.estimation.balance.usable_range).
     """
     q = device.encoder.quantum
     b = planned_estimate(braking, q, sigma_torque, True, f"stage {stage} planned braking")
@@ -144,11 +183,25 @@ def run_information(device: Device, balance: StageBalance, inertia: np.ndarray) 
     the runs' (:func:`combine_information`); each run's is A^T C^-1 A of its equations
     (rsp_inertia.estimation.tensor.tensor_block) with C its work covariance plus the speed noise's
     1/4 M_i M_j cov(S_i, S_j) (rsp_inertia.estimation.gls), and its own unknowns (the run's constant,
-    its friction slopes) taken out by the Schur complement. ``inertia``: M at the balance's
-    angles (the nominal model's), which the least squares takes from a first unweighted fit.
-    Equal to the least squares' own covariance of the planned balances (``fit_tensor(...,
-    predict=True)``, tests/ocp/test_plan.py), at a fraction of its cost, so that a
-    planner can try each stage's protocols once and combine them freely.
+    its friction slopes) taken out by the Schur complement. Equal to the least squares' own
+    covariance of the planned balances (``fit_tensor(..., predict=True)``,
+    tests/design/test_plan.py), at a fraction of its cost, so that a planner can try each
+    stage's protocols once and combine them freely.
+
+    Parameters
+    ----------
+    device : Device
+        The device (its stages' tare inertias).
+    balance : StageBalance
+        The planned run's balance equations (:func:`predicted_balance`).
+    inertia : np.ndarray, shape (n,), kg m^2
+        M at the balance's angles (the nominal model's), which the least squares takes from
+        a first unweighted fit.
+
+    Returns
+    -------
+    np.ndarray, shape (8, 8)
+        The information on :data:`SHARED`.
     """
     known = KnownTerms.from_tares([st.tare_inertia for st in device.stages])
     block = tensor_block(balance, "0", known, False)

@@ -2,7 +2,7 @@
 
 A run is one stage in one direction of rotation (device.toml ``[[stage]] directions``): its
 braking log and its reverse log. A backward run is mirrored into the forward coordinate
-(rsp_inertia.estimation.balance mirror_log), so everything downstream treats it as a forward run.
+(rsp_inertia.plant.logs.mirror_log), so everything downstream treats it as a forward run.
 
 The estimators take an experiment's logs in memory (:class:`ExperimentLogs`), named for their
 messages by :class:`Sources`; rsp_inertia.estimation.reading reads them from a folder.
@@ -20,6 +20,7 @@ from rsp_inertia.estimation.balance import StageBalance, balance_range, stage_ba
 from rsp_inertia.estimation.passes import PassEstimate, estimate_pass
 from rsp_inertia.estimation.smoothing import Smoothed
 from rsp_inertia.plant.config import Device
+from rsp_inertia.plant.experiment import DEVICE_FILE
 from rsp_inertia.plant.logs import Log, check_braking_monotone, mirror_log
 from rsp_inertia.plant.progress import report
 from rsp_inertia.plant.transducers import true_angle
@@ -45,7 +46,7 @@ class Sources:
 
     experiment: str | None = None
     """The experiment's name, prefixing the progress line of each run (None: no prefix)."""
-    device: str = "device.toml"
+    device: str = DEVICE_FILE
     """The device description."""
     runs: Mapping[tuple[int, str], tuple[str, str]] = field(default_factory=dict)
     """(stage, direction) -> the braking log's and the reverse log's names."""
@@ -107,9 +108,25 @@ def run_logs(
     device: Device, braking: Log, reverse: Log, direction: str, encoder=()
 ) -> tuple[Log, Log]:
     """A run's braking and reverse logs as its passes are estimated: the readings taken back
-    to the true angle (:func:`corrected_log`, ``encoder`` the error's coefficients) and a
-    backward run mirrored into the forward coordinate
-    (rsp_inertia.plant.logs.mirror_log)."""
+    to the true angle (:func:`corrected_log`) and a backward run mirrored into the forward
+    coordinate (rsp_inertia.plant.logs.mirror_log).
+
+    Parameters
+    ----------
+    device : Device
+        The device (its encoder's quantum).
+    braking, reverse : Log
+        The run's logs as logged.
+    direction : str
+        "forward" or "backward".
+    encoder : sequence of float
+        The encoder's error coefficients theta_e (empty: none).
+
+    Returns
+    -------
+    braking, reverse : Log
+        The logs in the true angle and the forward coordinate.
+    """
     braking, reverse = corrected_log(braking, encoder), corrected_log(reverse, encoder)
     if direction == "backward":
         q = device.encoder.quantum
@@ -129,11 +146,32 @@ def estimate_run(
     encoder=(),
 ) -> tuple[PassEstimate, PassEstimate]:
     """Both passes of one run from their logs in memory, checked and estimated (a backward
-    run mirrored); the sources name the logs in messages. ``braking_smoothed``: the
-    (mirrored) braking log's smoothed states when already computed (rsp_inertia.ocp.program's).
-    ``encoder``: the encoder's error coefficients; the readings are taken back to the true
-    angle first (:func:`corrected_log`). :func:`run_logs` then
-    :func:`estimate_forward_run`."""
+    run mirrored): :func:`run_logs` then :func:`estimate_forward_run`.
+
+    Parameters
+    ----------
+    device : Device
+        The device.
+    braking, reverse : Log
+        The run's logs as logged.
+    direction : str
+        "forward" or "backward".
+    warnings : list of str
+        Gets what identify warns about the passes.
+    braking_source, reverse_source : str
+        The logs' names in messages.
+    braking_smoothed : Smoothed, optional
+        The (mirrored) braking log's smoothed states when already computed
+        (rsp_inertia.ocp.program's).
+    encoder : sequence of float
+        The encoder's error coefficients; the readings are taken back to the true angle
+        first (:func:`corrected_log`).
+
+    Returns
+    -------
+    braking, reverse : PassEstimate
+        The run's passes.
+    """
     braking, reverse = run_logs(device, braking, reverse, direction, encoder)
     return estimate_forward_run(
         device, braking, reverse, warnings, braking_source, reverse_source, braking_smoothed
@@ -150,7 +188,27 @@ def estimate_forward_run(
     braking_smoothed: Smoothed | None = None,
 ) -> tuple[PassEstimate, PassEstimate]:
     """Both passes of one run whose logs :func:`run_logs` made (true angles, the forward
-    coordinate), checked and estimated; the arguments as :func:`estimate_run`'s."""
+    coordinate), checked and estimated; each pass finds its dropped samples at the encoder's
+    sample rate (:attr:`rsp_inertia.estimation.passes.PassEstimate.dropped`).
+
+    Parameters
+    ----------
+    device : Device
+        The device.
+    braking, reverse : Log
+        The run's logs, made by :func:`run_logs`.
+    warnings : list of str
+        Gets what identify warns about the passes.
+    braking_source, reverse_source : str
+        The logs' names in messages.
+    braking_smoothed : Smoothed, optional
+        As for :func:`estimate_run`.
+
+    Returns
+    -------
+    braking, reverse : PassEstimate
+        The run's passes.
+    """
     q = device.encoder.quantum
     check_braking_monotone(braking, braking_source)
     rate = device.encoder.sample_rate
@@ -188,9 +246,27 @@ def checked_run(
     useful speed, naming the log at fault; a gap of dropped samples near a node).
     ``rsp-inertia check`` runs it on every run whose two logs it could read.
 
-    ``pair``: the run's (braking, reverse) logs as logged (:attr:`ExperimentLogs.runs`);
-    ``sources``: their names in messages; ``warnings`` gets what identify warns about the
-    passes; ``encoder``: the encoder's error coefficients (:func:`corrected_log`).
+    Parameters
+    ----------
+    device : Device
+        The device.
+    stage : int
+        Stage number, from 1.
+    pair : tuple of Log
+        The run's (braking, reverse) logs as logged (:attr:`ExperimentLogs.runs`).
+    direction : str
+        "forward" or "backward".
+    warnings : list of str
+        Gets what identify warns about the passes.
+    sources : tuple of str
+        The logs' names in messages.
+    encoder : sequence of float
+        The encoder's error coefficients (:func:`corrected_log`).
+
+    Returns
+    -------
+    braking, reverse : PassEstimate
+        The run's passes.
 
     Raises
     ------
@@ -214,13 +290,32 @@ def balance_runs(
     keep: Callable[[int, int, PassEstimate, PassEstimate], T] | None = None,
 ) -> tuple[list[StageBalance], list[T]]:
     """Every run's balance equations (rsp_inertia.estimation.balance), in the device's order of
-    runs, and what ``keep`` takes of each run's passes. ``encoder``: the encoder's error
-    coefficients, taken off every log's readings (:func:`corrected_log`).
+    runs, and what ``keep`` takes of each run's passes.
 
     One run at a time: its logs are looked up, its passes estimated, balanced and handed to
     ``keep(stage, sign, braking, reverse)`` (sign +1 forward, -1 backward), then let go, so
-    that an experiment's memory is one run's passes whatever its number of runs. The second
-    list holds ``keep``'s results (empty without ``keep``).
+    that an experiment's memory is one run's passes whatever its number of runs.
+
+    Parameters
+    ----------
+    logs : ExperimentLogs
+        The experiment's logs in memory.
+    warnings : list of str
+        Gets what identify warns about the passes.
+    progress : callable, optional
+        Called with a line when a run is done.
+    encoder : sequence of float
+        The encoder's error coefficients, taken off every log's readings
+        (:func:`corrected_log`).
+    keep : callable, optional
+        ``keep(stage, sign, braking, reverse)``: what to keep of each run's passes.
+
+    Returns
+    -------
+    balances : list of StageBalance
+        Every run's balance equations.
+    kept : list
+        ``keep``'s results (empty without ``keep``).
 
     Raises
     ------

@@ -366,6 +366,20 @@ def block_speed_bias(block: int, bandwidth: float, dt: float) -> float:
     G's last row is zero. What is left is the readings' cubic residual r seen through the
     smoother: kappa = e_Omega / j, times dt^2 to bring it to seconds. A one-sample block has
     r = 0 and no bias (the per-sample smoother is exact for polynomials up to degree 5).
+
+    Parameters
+    ----------
+    block : int
+        Samples per block.
+    bandwidth : float
+        rad/s, the smoother's w_c.
+    dt : float
+        s, the sample period.
+
+    Returns
+    -------
+    float
+        kappa, s^2.
     """
     T = float(block)
     tau = np.arange(block) - (block - 1) / 2
@@ -418,6 +432,20 @@ def angle_error_autocovariance(tau, bandwidth: float, noise_density: float) -> n
     R_phi(0) - R_phi(dt), ~1e-4 of R_phi(0) at 1 kHz, which a grid's linear interpolation
     would swamp). The integrand falls like x^-12: cut at x = 8; 4,000 steps resolve
     cos(x s) to s = 40.
+
+    Parameters
+    ----------
+    tau : float or array_like
+        s, the lags.
+    bandwidth : float
+        rad/s, the smoother's w_c.
+    noise_density : float
+        r, rad^2 s, the readings' quantization noise density (:func:`noise_density`).
+
+    Returns
+    -------
+    np.ndarray
+        rad^2, R_phi at each lag, of the shape of ``tau``.
     """
     s = np.abs(np.asarray(tau, dtype=float)) * bandwidth
     x = np.linspace(0.0, 8.0, 4001)
@@ -430,7 +458,22 @@ def angle_error_autocovariance(tau, bandwidth: float, noise_density: float) -> n
 
 
 def speed_error_autocovariance(tau, bandwidth: float, noise_density: float) -> np.ndarray:
-    """R(tau) = r w_c^3 g(w_c |tau|) of the smoothed speed's error, rad^2/s^2 (module docstring)."""
+    """R(tau) = r w_c^3 g(w_c |tau|) of the smoothed speed's error (module docstring).
+
+    Parameters
+    ----------
+    tau : float or array_like
+        s, the lags.
+    bandwidth : float
+        rad/s, the smoother's w_c.
+    noise_density : float
+        r, rad^2 s, the readings' quantization noise density (:func:`noise_density`).
+
+    Returns
+    -------
+    np.ndarray
+        rad^2/s^2, R at each lag, of the shape of ``tau`` (zero beyond KERNEL_SPAN / w_c).
+    """
     s_grid, g = _speed_kernel()
     s = np.abs(np.asarray(tau, dtype=float)) * bandwidth
     return noise_density * bandwidth**3 * np.interp(s, s_grid, g, right=0.0)
@@ -448,10 +491,27 @@ _LINES_CHUNK = 2048
 def quantization_error_variance(
     omega, quantum: float, dt: float, bandwidth: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Variances of the smoothed angle's and speed's errors (rad^2, rad^2/s^2) at speeds
-    ``omega`` from the reading error's sawtooth lines (module docstring: quantization lines),
-    for an encoder of count ``quantum`` sampled every ``dt`` s and a smoother of bandwidth
-    ``bandwidth``."""
+    """Variances of the smoothed angle's and speed's errors at given speeds from the reading
+    error's sawtooth lines (module docstring: quantization lines).
+
+    Parameters
+    ----------
+    omega : float or array_like
+        rad/s, the speeds.
+    quantum : float
+        rad, the encoder's count q.
+    dt : float
+        s, the sample period.
+    bandwidth : float
+        rad/s, the smoother's w_c.
+
+    Returns
+    -------
+    angle : np.ndarray, rad^2
+        The smoothed angle's error variance at each speed (flattened).
+    speed : np.ndarray, rad^2/s^2
+        The smoothed speed's.
+    """
     omega = np.abs(np.asarray(omega, dtype=float)).reshape(-1)
     n = np.arange(1, QUANTIZATION_LINES + 1, dtype=float)
     power = quantum**2 / (2 * math.pi**2 * n * n)
@@ -471,7 +531,24 @@ def quantization_error_variance(
 
 
 def hermite(t0, t1, f0, d0, f1, d1, t):
-    """Cubic Hermite interpolation on [t0, t1] with values f and derivatives d (arrays)."""
+    """Cubic Hermite interpolation on [t0, t1] with values f and derivatives d (arrays).
+
+    Parameters
+    ----------
+    t0, t1 : array_like
+        The interval's ends.
+    f0, d0 : array_like
+        Value and derivative at t0.
+    f1, d1 : array_like
+        Value and derivative at t1.
+    t : array_like
+        Where to interpolate.
+
+    Returns
+    -------
+    np.ndarray
+        The cubic's values at ``t`` (broadcast shape).
+    """
     h = t1 - t0
     s = (t - t0) / h
     s2, s3 = s * s, s * s * s

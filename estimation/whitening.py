@@ -346,7 +346,26 @@ def lstsq_rows(pieces, width: int) -> tuple[float, int, np.ndarray]:
 def weighted_chi2(
     A: np.ndarray, y: np.ndarray, factors: list
 ) -> tuple[float, int, np.ndarray]:
-    """Weighted residual chi^2, rank of the whitened A and the estimate."""
+    """Weighted residual chi^2, rank of the whitened A and the estimate.
+
+    Parameters
+    ----------
+    A : np.ndarray, shape (n, p)
+        The stacked blocks' equations.
+    y : np.ndarray, shape (n,)
+        Their right-hand side.
+    factors : list
+        Each block's whitener (:func:`whitener`), in the order of the blocks.
+
+    Returns
+    -------
+    chi2 : float
+        The whitened residuals' sum of squares.
+    rank : int
+        The rank of the whitened A.
+    x : np.ndarray, shape (p,)
+        The weighted least-squares estimate.
+    """
     Aw, yw = whiten(A, factors), whiten(y, factors)
     x, _, rank, _ = np.linalg.lstsq(Aw, yw, rcond=None)
     r = yw - Aw @ x

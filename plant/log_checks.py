@@ -304,7 +304,22 @@ or scale error) that would pass for real work."""
 
 
 def check_torque(path: str | os.PathLike, torque: np.ndarray, torque_limit: float) -> None:
-    """Refuse the first row whose torque is beyond TORQUE_MARGIN x ``torque_limit`` (N m)."""
+    """Refuse the first row whose torque is beyond TORQUE_MARGIN x ``torque_limit``.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The log, for the message.
+    torque : np.ndarray, shape (n,), N m
+        The log's torque column.
+    torque_limit : float
+        N m, device.toml's ``motor.torque_limit``.
+
+    Raises
+    ------
+    InputError
+        Naming the line of the first torque beyond the margin.
+    """
     beyond = np.flatnonzero(np.abs(torque) > TORQUE_MARGIN * torque_limit)
     if beyond.size:
         k = int(beyond[0])
@@ -392,8 +407,25 @@ def check_speed(
 def check_time(
     path: str | os.PathLike, t: np.ndarray, encoder: EncoderLike, regular: bool = True
 ) -> None:
-    """t from 0, strictly increasing; ``regular``: one step per encoder sample (a program),
-    else a log's sampling instants (:data:`JITTER_LIMIT`: jitter and dropped samples)."""
+    """t from 0, strictly increasing, at the encoder's sample rate.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file, for the message.
+    t : np.ndarray, shape (n,), s
+        Its time column.
+    encoder : encoder-like
+        ``sample_rate`` (Hz).
+    regular : bool
+        One step per encoder sample (a program), else a log's sampling instants
+        (:data:`JITTER_LIMIT`: jitter and dropped samples).
+
+    Raises
+    ------
+    InputError
+        Naming the line (or the file, for a median or mean step off the sample rate).
+    """
     if abs(t[0]) > T0_TOLERANCE:
         raise InputError(f"{path}, line 2: t = {float(t[0])!r} s, the first row must be at t = 0")
     steps = np.diff(t)
@@ -448,13 +480,35 @@ def read_header(path: str | os.PathLike) -> list[str] | None:
         return None
 
 
-def unwrap_counts(path: str | os.PathLike, counts: np.ndarray, encoder: EncoderLike):
-    """Integer counts, a counter of ``encoder.counter_bits`` unwrapped (float array).
+def unwrap_counts(
+    path: str | os.PathLike, counts: np.ndarray, encoder: EncoderLike
+) -> np.ndarray:
+    """Integer counts, a counter of ``encoder.counter_bits`` unwrapped.
 
     A step between two samples is taken modulo 2**bits into [-2**(bits-1), 2**(bits-1)): a
     counter wraps, the body does not turn half a counter's range in one sample. Where the
     counter stood before the log began is unknown by whole wraps, so counts_per_rev must
     divide 2**bits for the angle modulo a turn (the nodes) to be defined.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The log, for the message.
+    counts : np.ndarray, shape (n,)
+        The log's counts column.
+    encoder : encoder-like
+        ``counter_bits`` (None or absent: no wrapping counter) and ``counts_per_rev``.
+
+    Returns
+    -------
+    np.ndarray, shape (n,)
+        The counts unwrapped (float), or ``counts`` itself without a counter.
+
+    Raises
+    ------
+    InputError
+        A count that is not an integer or is outside the counter, or a counter whose range
+        is not a whole number of turns.
     """
     bad = np.flatnonzero(counts != np.round(counts))
     if bad.size:
@@ -481,7 +535,22 @@ def unwrap_counts(path: str | os.PathLike, counts: np.ndarray, encoder: EncoderL
 
 
 def check_grid(path: str | os.PathLike, phi: np.ndarray, encoder: EncoderLike) -> None:
-    """phi a whole number of encoder counts."""
+    """phi a whole number of encoder counts (within GRID_TOLERANCE).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The log, for the message.
+    phi : np.ndarray, shape (n,), rad
+        The log's angle column.
+    encoder : encoder-like
+        ``quantum`` (rad).
+
+    Raises
+    ------
+    InputError
+        Naming the line of the first angle off the grid.
+    """
     q = float(encoder.quantum)
     counts = phi / q
     off_grid = np.flatnonzero(np.abs(counts - np.round(counts)) > GRID_TOLERANCE)
@@ -495,7 +564,24 @@ def check_grid(path: str | os.PathLike, phi: np.ndarray, encoder: EncoderLike) -
 
 def check_direction(path: str | os.PathLike, phi: np.ndarray, kind: str, direction: str) -> None:
     """A forward braking runs up from the release to rest and its reverse pass back down; a
-    backward run is the other way round."""
+    backward run is the other way round.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The log, for the message.
+    phi : np.ndarray, shape (n,), rad
+        The log's angle column.
+    kind : str
+        One of rsp_inertia.plant.logs.LOG_KINDS; only a braking and a reverse are checked.
+    direction : str
+        "forward" or "backward", the stage's run.
+
+    Raises
+    ------
+    InputError
+        Naming the last line, when the log ends on the wrong side of its start.
+    """
     if kind not in ("braking", "reverse"):
         return
     last_line = len(phi) + 1

@@ -36,8 +36,24 @@ of order 1e-7 at the fastest stage; 1e-6 stays a decade below the smoother-limit
 def exact_pass(
     sim: vd.SimulatedPass, params, direction: float, sample_rate: float
 ) -> PassEstimate:
-    """A pass as estimate_pass would give it, but from the true states (no encoder, no noise;
-    ``sample_rate``, Hz, the encoder's, finds its dropped samples)."""
+    """A pass as estimate_pass would give it, but from the true states (no encoder, no noise).
+
+    Parameters
+    ----------
+    sim : SimulatedPass
+        The virtual device's pass, with its truth.
+    params : np.ndarray
+        The true model parameters (rsp_inertia.plant.virtual.true_parameters).
+    direction : float
+        The sign of the pass's motion (+1 braking, -1 reverse), for the acceleration.
+    sample_rate : float
+        Hz, the encoder's: finds the pass's dropped samples.
+
+    Returns
+    -------
+    PassEstimate
+        The exact pass.
+    """
     truth = sim.truth
     n = len(truth.t)
     eps = np.asarray(

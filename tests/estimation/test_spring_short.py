@@ -30,7 +30,7 @@ import pytest
 from rsp_inertia.estimation import smoothing
 from rsp_inertia.estimation.smoothing import block_length, block_speed_bias, smooth_log
 from rsp_inertia.pipeline import create_default_experiment, identify, simulate
-from rsp_inertia.plant.experiment import open_experiment
+from rsp_inertia.plant.experiment import DEVICE_FILE, VIRTUAL_FILE, open_experiment
 from rsp_inertia.plant.logs import Log
 from rsp_inertia.plant.virtual import simulate_braking
 from tests.estimation.conftest import STAGES
@@ -60,9 +60,24 @@ def _set(text: str, key: str, values) -> str:
 
 
 def build(root, seed: int, release_deg: float):
-    """The default experiment with the spring, the short protocol and one realisation."""
+    """The default experiment with the spring, the short protocol and one realisation.
+
+    Parameters
+    ----------
+    root : pathlib.Path
+        The experiment's folder.
+    seed : int
+        The virtual device's seed.
+    release_deg : float
+        deg, the release angle of the virtual run.
+
+    Returns
+    -------
+    pathlib.Path
+        ``root``.
+    """
     create_default_experiment(root)
-    device = root / "device.toml"
+    device = root / DEVICE_FILE
     text = re.sub(
         r"(?m)^(\[spring\][^\n]*\n)stiffness\s*=\s*\S+",
         rf"\g<1>stiffness = {STIFFNESS!r}",
@@ -73,7 +88,7 @@ def build(root, seed: int, release_deg: float):
     # the log readers refuse a torque beyond 10 x the limit as a logging fault).
     text = _set(text, "torque_limit", [TORQUE_LIMIT])
     device.write_text(_set(text, "braking_torque", [PROTOCOL[s][1] for s in STAGES]))
-    virtual = root / "virtual.toml"
+    virtual = root / VIRTUAL_FILE
     text = _set(virtual.read_text(), "seed", [seed])
     virtual.write_text(_set(text, "release_angle_deg", [release_deg]))
     return root

@@ -243,6 +243,22 @@ def program_rows(n: int = 6) -> list[str]:
 
 
 def text(header: str, rows: list[str], end: str = "\n") -> str:
+    """A CSV file's text.
+
+    Parameters
+    ----------
+    header : str
+        The header line.
+    rows : list of str
+        The data lines.
+    end : str
+        The line end, after every line.
+
+    Returns
+    -------
+    str
+        The lines joined.
+    """
     return end.join([header, *rows]) + end
 
 
@@ -261,6 +277,19 @@ def program_with(index: int, row: str) -> str:
 
 
 def assert_one_line(error: pytest.ExceptionInfo, path, line: int | None, *words: str) -> None:
+    """An error message is one line naming the file, the line and the fault.
+
+    Parameters
+    ----------
+    error : pytest.ExceptionInfo
+        The error raised.
+    path : str or path-like
+        The file the message must start with.
+    line : int or None
+        The line it must name (None: no line).
+    *words : str
+        What else it must say.
+    """
     message = str(error.value)
     assert "\n" not in message and "\r" not in message
     assert message.startswith(str(path))
