@@ -33,19 +33,16 @@ from rsp_inertia.estimation.runs import ExperimentLogs, Sources, runs
 from rsp_inertia.estimation.tensor import KnownTerms
 from rsp_inertia.plant.config import load_reference
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.experiment import CALIBRATION_FILE, Experiment
+from rsp_inertia.plant.experiment import Experiment
 from rsp_inertia.plant.files import file_sha256
 from rsp_inertia.plant.log_checks import unterminated_last_line
 from rsp_inertia.plant.logs import Log, align_counter, read_device_log
 
 __all__ = [
-    "CALIBRATION_FILE",  # the command layer's import until it takes plant.experiment's
     "calibrate_experiment",
-    "calibrated_stiffness",
     "check_same_stages",
     "identify_experiment",
     "known_terms",
-    "load_calibration",
     "read_calibration",
     "read_experiment",
     "read_run",
@@ -170,12 +167,8 @@ def read_calibration(exp: Experiment) -> CalibrationFile | None:
     return read_calibration_file(doc, str(path))
 
 
-_UNREAD = object()
-"""known_terms's default while the command layer still calls it with the experiment alone."""
-
-
 def known_terms(
-    exp: Experiment, calibration: CalibrationFile | None = _UNREAD
+    exp: Experiment, calibration: CalibrationFile | None
 ) -> tuple[KnownTerms, list[str]]:
     """The rig's known terms for identify: calibration.toml's, checked to be made for this
     device (rsp_inertia.estimation.calibration.calibrated_known_terms), else device.toml's
@@ -199,37 +192,10 @@ def known_terms(
     InputError
         A calibration made for another device (name, encoder or stages differ).
     """
-    if calibration is _UNREAD:
-        calibration = read_calibration(exp)
     source = str(exp.calibration_path)
     if calibration is not None:
         return calibrated_known_terms(calibration, exp.device, source)
     return device_known_terms(exp.device, source)
-
-
-def load_calibration(exp: Experiment) -> tuple[KnownTerms, list[str]] | None:
-    """``EXP/calibration.toml`` as KnownTerms, checked to be made for this device, with the
-    warnings it gives (a file of an older rsp-inertia); None if absent.
-
-    Raises
-    ------
-    InputError
-        A malformed file, or one made for another device (name, encoder or stages differ).
-    """
-    calibration = read_calibration(exp)
-    if calibration is None:
-        return None
-    return known_terms(exp, calibration)
-
-
-def calibrated_stiffness(exp: Experiment) -> tuple[float, float] | None:
-    """(c, std), N m/rad, of calibration.toml's ``[pendulum]`` when it has one (checked to be
-    made for this device, :func:`load_calibration`); None otherwise."""
-    calibration = read_calibration(exp)
-    if calibration is None:
-        return None
-    known_terms(exp, calibration)
-    return calibration.pendulum_stiffness()
 
 
 def identify_experiment(

@@ -17,7 +17,7 @@ from rsp_inertia.cli import main
 from rsp_inertia.estimation import identify as identify_module
 from rsp_inertia.estimation.balance import stage_balance
 from rsp_inertia.estimation.passes import estimate_pass
-from rsp_inertia.estimation.reading import load_calibration
+from rsp_inertia.estimation.reading import known_terms, read_calibration
 from rsp_inertia.estimation.runs import ExperimentLogs
 from rsp_inertia.estimation.tensor import KnownTerms, axis_values, fit_tensor
 from rsp_inertia.pipeline import calibrate, create_default_experiment, identify, simulate
@@ -172,7 +172,8 @@ def test_calibration_makes_the_result_true(rig, capsys):
     capsys.readouterr()
     # The drive's gains and the encoder's error, measured within 4 of their stds (the
     # encoder's phases make e = sum A_n sin(n phi + p_n)).
-    known, _ = load_calibration(open_experiment(exp))
+    calibrated = open_experiment(exp)
+    known, _ = known_terms(calibrated, read_calibration(calibrated))
     rig = open_experiment(exp).load_virtual().rig
     std = known.std
     assert np.all(np.abs(np.array(known.gains) - rig.drive_gains) < 4 * std[:2])
