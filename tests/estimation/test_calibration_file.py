@@ -37,8 +37,22 @@ DIGEST = "f44d56eec0c682627bf7ecdabaa9ccce054a7c75442d00fbed1858d24b00072b"
 
 
 def known_terms(orders: int, reference: bool = True, seed: int = 1) -> KnownTerms:
-    """Calibrated terms of DEVICE's two stages with ``orders`` encoder orders and a full
-    covariance (without a reference: gains 1, exact)."""
+    """Calibrated terms of DEVICE's two stages.
+
+    Parameters
+    ----------
+    orders : int
+        The encoder's orders.
+    reference : bool
+        Whether a reference fixed the gains (without one: gains 1, exact).
+    seed : int
+        Of the random covariance and encoder terms.
+
+    Returns
+    -------
+    KnownTerms
+        The terms, with a full covariance.
+    """
     rng = np.random.default_rng(seed)
     size = 2 + 5 * len(DEVICE.stages) + 2 + 2 * orders
     root = rng.normal(size=(size, size)) * 1e-4
@@ -61,6 +75,24 @@ def known_terms(orders: int, reference: bool = True, seed: int = 1) -> KnownTerm
 def calibration(
     orders: int = 3, reference: bool = True, pendulum: bool = True, chi2_dof: float = 0.93
 ) -> Calibration:
+    """What calibrate finds for DEVICE, made up.
+
+    Parameters
+    ----------
+    orders : int
+        The encoder's orders.
+    reference : bool
+        Whether a reference experiment was used.
+    pendulum : bool
+        Whether it has the pendulum's stiffness.
+    chi2_dof : float
+        The fit's chi^2 per degree of freedom.
+
+    Returns
+    -------
+    Calibration
+        With two inputs' digests.
+    """
     return Calibration(
         device_name=DEVICE.name,
         counts_per_rev=DEVICE.encoder.counts_per_rev,

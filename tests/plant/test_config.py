@@ -122,12 +122,42 @@ speed_observer_bandwidth = 150
 
 
 def write(tmp_path, name, text):
+    """Write a file for a test.
+
+    Parameters
+    ----------
+    tmp_path : Path
+        The test's folder.
+    name : str
+        The file's name in it.
+    text : str
+        Its text.
+
+    Returns
+    -------
+    Path
+        The file.
+    """
     path = tmp_path / name
     path.write_text(text)
     return path
 
 
 def edited(text, old, new):
+    """An example with one change.
+
+    Parameters
+    ----------
+    text : str
+        The example.
+    old, new : str
+        The text to replace (it must be in the example) and its replacement.
+
+    Returns
+    -------
+    str
+        ``text`` with its first ``old`` replaced by ``new``.
+    """
     assert old in text, f"test setup: {old!r} not in the example"
     return text.replace(old, new, 1)
 
