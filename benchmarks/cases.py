@@ -35,7 +35,7 @@ from benchmarks.truth import (
 )
 from rsp_inertia.estimation.identify import pendulum_baseline
 from rsp_inertia.estimation.pendulum import estimate_pendulum
-from rsp_inertia.estimation.reading import known_terms
+from rsp_inertia.estimation.reading import known_terms, read_calibration
 from rsp_inertia.estimation.runs import ExperimentLogs, Sources
 from rsp_inertia.pipeline import create_default_experiment, identify, program, simulate
 from rsp_inertia.plant.config import placed_body
@@ -348,7 +348,8 @@ def _equal_time_pendulum(root: Path, result, row: dict) -> dict:
             device, runs={}, pendulum=cut,
             sources=Sources(device="EXP/device.toml", pendulum=names),
         ),
-        known_terms(exp)[0], result.gravity, result.gravity_cov, warnings=warnings,
+        known_terms(exp, read_calibration(exp))[0], result.gravity, result.gravity_cov,
+        warnings=warnings,
     )
     body = placed_body(exp.device, exp.load_virtual())
     out: dict = {

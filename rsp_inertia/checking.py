@@ -37,18 +37,23 @@ from pathlib import Path
 
 import numpy as np
 
-from rsp_inertia.estimation.balance import NODE_GAP_SAMPLES, check_node_gaps, harmonic_reach
+from rsp_inertia.estimation.balance import (
+    NODE_GAP_SAMPLES,
+    check_node_gaps,
+    harmonic_reach,
+)
+from rsp_inertia.estimation.calibration_file import CalibrationFile
 from rsp_inertia.estimation.identify import (
     checked_design,
     pendulum_settings,
     reduce_pendulum_run,
 )
-from rsp_inertia.estimation.reading import known_terms, read_run
+from rsp_inertia.estimation.reading import known_terms, read_calibration, read_run
 from rsp_inertia.estimation.runs import checked_run
 from rsp_inertia.estimation.smoothing import top_speed
 from rsp_inertia.plant.config import require_protocol
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.experiment import open_experiment
+from rsp_inertia.plant.experiment import CALIBRATION_FILE, open_experiment
 from rsp_inertia.plant.geometry import turns_past_last_node
 from rsp_inertia.plant.log_checks import unterminated_last_line
 from rsp_inertia.plant.logs import (
@@ -136,17 +141,22 @@ def check(root: str | Path, calibration: bool = False) -> CheckReport:
         checked_design(device, str(exp.root / "device.toml"))
     except InputError as error:
         report.add("error", str(error))
-    try:  # the encoder's error that identify takes off every reading
-        encoder = known_terms(exp)[0].encoder
-    except InputError:
-        encoder = ()  # a bad calibration.toml: its own line (_check_constants)
+    # calibration.toml, read once: the encoder's error that identify takes off every reading,
+    # and what _check_constants reports
+    try:
+        calibration = read_calibration(exp)
+        known, known_warnings = known_terms(exp, calibration)
+        encoder, fault = known.encoder, None
+    except InputError as error:
+        calibration, known_warnings = None, []
+        encoder, fault = (), str(error)  # a bad calibration.toml: its own line (_check_constants)
     for stage, st in enumerate(device.stages, 1):
         for direction in st.directions if protocol else ():
             _check_run(exp, stage, direction, encoder, report)
         if exp.pilot_path(stage).is_file():
             _try_read(report, exp.pilot_path(stage), device, "pilot")
     _check_pendulum(exp, encoder, report)
-    _check_constants(exp, report)
+    _check_constants(exp, report, calibration, known_warnings, fault)
     if reference.is_file():
         from rsp_inertia.plant.config import load_reference
 
@@ -413,25 +423,23 @@ def _check_pendulum(exp, encoder, report: CheckReport) -> None:
     )
 
 
-def _check_constants(exp, report: CheckReport) -> None:
+def _check_constants(
+    exp,
+    report: CheckReport,
+    calibration: CalibrationFile | None,
+    warnings: list[str],
+    fault: str | None,
+) -> None:
     """What identify will take as known: calibration.toml, or device.toml's stated stds."""
-    from rsp_inertia.estimation.reading import (
-        CALIBRATION_FILE,
-        calibrated_stiffness,
-        load_calibration,
-    )
-
     device = exp.device
     path = exp.root / CALIBRATION_FILE
-    try:
-        calibrated = load_calibration(exp)
-        stiffness = calibrated_stiffness(exp) if calibrated is not None else None
-    except InputError as error:
-        report.add("error", str(error))
+    if fault is not None:
+        report.add("error", fault)
         return
-    if calibrated is not None:
+    stiffness = None if calibration is None else calibration.pendulum_stiffness()
+    if calibration is not None:
         report.add("ok", f"{path}: made for this device; identify applies it")
-        for warning in calibrated[1]:
+        for warning in warnings:
             report.add("suspicious", warning)
     elif report.calibration:
         report.add(

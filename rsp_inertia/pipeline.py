@@ -474,18 +474,19 @@ def calibrate(
     Nothing is written when an input is bad (stages that differ from EXP's, a missing or
     unphysical reference.toml, bad logs).
     """
-    from rsp_inertia.estimation.reading import CALIBRATION_FILE, calibrate_experiment
+    from rsp_inertia.estimation.calibration_file import write_calibration_file
+    from rsp_inertia.estimation.reading import calibrate_experiment
     from rsp_inertia.plots import encoder_error_figure
 
     exp = open_experiment(root)
-    check_writable(exp.root / CALIBRATION_FILE)
+    check_writable(exp.calibration_path)
     result = calibrate_experiment(
         exp,
         open_experiment(empty),
         None if reference is None else open_experiment(reference),
         progress,
     )
-    write_atomic(exp.root / CALIBRATION_FILE, result.to_toml())
+    write_calibration_file(exp.calibration_path, result.to_file())
     if result.known.orders:
         encoder_error_figure(
             result.known,

@@ -20,7 +20,6 @@ if TYPE_CHECKING:
 
     from rsp_inertia.checking import CheckReport
     from rsp_inertia.estimation.calibration import Calibration
-    from rsp_inertia.estimation.calibration_file import CalibrationFile
     from rsp_inertia.estimation.combine import Combination
     from rsp_inertia.pipeline import PassSummary, ProgramSummary
 
@@ -267,7 +266,7 @@ class CalibrateResult:
     def _from(cls, calibration: Calibration, root: str | Path) -> CalibrateResult:
         import numpy as np
 
-        file = _calibration_file(calibration)
+        file = calibration.to_file()
         head, drive, encoder, pendulum = file.calibration, file.drive, file.encoder, file.pendulum
 
         def interleaved(cos, sin):
@@ -317,19 +316,9 @@ class CalibrateResult:
         """
         from rsp_inertia.plant.toml_writer import document
 
-        doc = document(_calibration_file(self.calibration))
+        doc = document(self.calibration.to_file())
         doc["warnings"] = list(self.calibration.warnings)
         return json_text(doc)
-
-
-def _calibration_file(calibration: Calibration) -> CalibrationFile:
-    """calibration.toml as identify reads it: the text calibrate writes, parsed by its reader
-    (one source: rsp_inertia.estimation.calibration_file)."""
-    import tomllib
-
-    from rsp_inertia.estimation.calibration_file import read_calibration_file
-
-    return read_calibration_file(tomllib.loads(calibration.to_toml()))
 
 
 # --- check ----------------------------------------------------------------------------------

@@ -97,7 +97,7 @@ def demo(
     without calibration (its warnings and error shown); ``calibrate``; the identification,
     printed against the virtual device's true tensor, with figures.
     """
-    from rsp_inertia.estimation.reading import CALIBRATION_FILE
+    from rsp_inertia.plant.experiment import CALIBRATION_FILE
     from rsp_inertia.plant.geometry import relative_errors
 
     say = progress or (lambda _text: None)
