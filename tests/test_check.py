@@ -273,7 +273,7 @@ SAME_CHECKS = [
      ["estimation.runs", "checking"]),
     ("the range a run is balanced over", "estimation.balance", "balance_range",
      ["estimation.balance", "estimation.runs"]),
-    ("a braking whose speed reverses", "estimation.passes", "check_braking_monotone",
+    ("a braking whose speed reverses", "plant.logs", "check_braking_monotone",
      ["estimation.runs", "checking"]),
     ("cond(V) refused", "estimation.identify", "checked_design",
      ["estimation.identify", "checking"]),
