@@ -15,9 +15,12 @@ Functions: :func:`create_experiment`, :func:`simulate`, :func:`program`, :func:`
 raises :class:`InputError`, with the line the command line prints.
 
 The names are loaded on first use (module ``__getattr__``): ``import rsp_inertia`` imports
-nothing heavy, so the command line starts fast. The layers are subpackages:
+nothing heavy (the API's functions import their command's modules when called: rsp_inertia.api
+is the lazy boundary), so the command line starts fast. The layers are subpackages:
 ``rsp_inertia.plant`` (device, geometry, virtual device, files), ``rsp_inertia.estimation``
-(identification) and ``rsp_inertia.ocp`` (torque programs, planning).
+(identification), ``rsp_inertia.ocp`` (torque programs) and ``rsp_inertia.design``
+(experiment design: pilot fit, plan, rehearsal, mountings); the commands' result classes are
+in ``rsp_inertia.results``, their figures in ``rsp_inertia.plots``.
 """
 
 from __future__ import annotations
@@ -26,14 +29,7 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # for type checkers and IDEs; at run time, __getattr__ below
     from rsp_inertia.api import (
-        CalibrateResult,
-        CheckResult,
-        CombineResult,
-        IdentifyResult,
         InputError,
-        PlanResult,
-        ProgramResult,
-        SimulateResult,
         calibrate,
         check,
         combine,
@@ -45,8 +41,20 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time, __getattr__ below
         simulate,
         write_report,
     )
+    from rsp_inertia.results import (
+        CalibrateResult,
+        CheckResult,
+        CombineResult,
+        IdentifyResult,
+        PlanResult,
+        ProgramResult,
+        SimulateResult,
+    )
 
-# The one list of the public names; rsp_inertia.api.__all__ is it without __version__.
+from rsp_inertia import api
+
+# The public names: rsp_inertia.api.__all__ is this list without __version__
+# (tests/test_api.py checks that they agree).
 __all__ = [
     "CalibrateResult",
     "CheckResult",
@@ -72,6 +80,7 @@ __all__ = [
 
 def _version() -> str:
     """The installed distribution's version (pyproject.toml's), "unknown" if not installed."""
+    # importlib.metadata reads the installed distributions: only when the version is asked for
     from importlib.metadata import PackageNotFoundError, version
 
     try:
@@ -81,13 +90,11 @@ def _version() -> str:
 
 
 def __getattr__(name: str):
-    """Load the API's names on first use (PEP 562) and keep them in the module."""
+    """The API's names on first use (PEP 562), kept in the module."""
     if name == "__version__":
         value = _version()
-    elif name in __all__:
-        from rsp_inertia import api
-
-        value = getattr(api, name)
+    elif name in api.__all__:
+        value = getattr(api, name)  # a result class loads its module now (api.__getattr__)
     else:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
     globals()[name] = value

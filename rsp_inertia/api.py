@@ -6,44 +6,96 @@ same checks) and returns a result object instead of printing:
 - ``str(result)`` is the text the command prints as its result;
 - ``result.to_json()`` is a JSON document of it (for :func:`identify`, the text of
   ``EXP/result.json``);
-- ``result.figures(folder)`` draws the command's PNG figures, where it has any;
-- the library's full record stays reachable (``result.identification``, ``result.report``,
-  ...).
+- ``result.figures(folder)`` draws the command's PNG figures, where it has any, and
+  ``result.draw()`` gives them as matplotlib figures, unwritten;
+- the library's full record stays reachable (``result.identification``,
+  ``result.calibration``, ``result.plan``, ...).
 
-The result classes are defined in :mod:`rsp_inertia.results` (simulate, program, calibrate,
-check), :mod:`rsp_inertia.identify_result` and :mod:`rsp_inertia.plan_result`; this module
-re-exports them, so ``rsp_inertia.api.IdentifyResult`` and ``rsp_inertia.IdentifyResult``
-are the same class.
+The result classes, one per command, are defined in :mod:`rsp_inertia.results`; this
+module re-exports them, so ``rsp_inertia.api.IdentifyResult`` and
+``rsp_inertia.IdentifyResult`` are the same class.
 
 Bad input raises :class:`~rsp_inertia.plant.errors.InputError`, whose message is the line
 the command line prints after ``rsp-inertia: error:``. Nothing is printed: what the command
 line shows while it works goes to the optional ``progress`` callable, one line (a ``str``)
 at a time.
 
-The heavy modules (numpy's stack, CasADi, scipy.stats, matplotlib) are imported
-inside the functions, so that ``import rsp_inertia`` stays cheap. User documentation:
-docs/api.md.
+This module is the package's lazy boundary: each function imports its command's module
+when it is called, and the result classes load on first use (module ``__getattr__``), so
+that ``import rsp_inertia`` and ``rsp-inertia --help`` load nothing heavy and each command
+loads only what it needs (``check`` and ``combine`` neither CasADi's simulator nor
+matplotlib). These, and rsp_inertia.__getattr__'s, are the only imports inside functions
+in the package, each with its reason. User documentation: docs/api.md.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import rsp_inertia
-from rsp_inertia.identify_result import IdentifyResult
-from rsp_inertia.plan_result import PlanResult
-from rsp_inertia.plant.errors import InputError  # noqa: F401 (public: raised by every function)
-from rsp_inertia.results import (
-    CalibrateResult,
-    CheckResult,
-    CombineResult,
-    ProgramResult,
-    SimulateResult,
+from rsp_inertia.plant.errors import InputError  # public: raised by every function
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from rsp_inertia.results import (
+        CalibrateResult,
+        CheckResult,
+        CombineResult,
+        DesignResult,
+        IdentifyResult,
+        PlanResult,
+        ProgramResult,
+        SimulateResult,
+    )
+
+__all__ = [
+    "CalibrateResult",
+    "CheckResult",
+    "CombineResult",
+    "IdentifyResult",
+    "InputError",
+    "PlanResult",
+    "ProgramResult",
+    "SimulateResult",
+    "calibrate",
+    "check",
+    "combine",
+    "create_experiment",
+    "demo",
+    "identify",
+    "plan",
+    "program",
+    "simulate",
+    "write_report",
+]
+"""The package's public names without its version: rsp_inertia.__all__'s list (which this
+module cannot read: the package's ``__getattr__`` imports it; tests/test_api.py checks that
+the two agree)."""
+
+RESULT_CLASSES = (
+    "CalibrateResult",
+    "CheckResult",
+    "CombineResult",
+    "IdentifyResult",
+    "PlanResult",
+    "ProgramResult",
+    "SimulateResult",
 )
+"""The result classes of :data:`__all__`, loaded from rsp_inertia.results on first use."""
 
-__all__ = [name for name in rsp_inertia.__all__ if name != "__version__"]
-"""The package's public names (one list, in rsp_inertia/__init__.py), without its version."""
+
+def __getattr__(name: str):
+    """The result classes on first use (PEP 562), kept in the module."""
+    if name not in RESULT_CLASSES:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    # numpy: the results import it to format their numbers; looking a function up must not
+    from rsp_inertia import results
+
+    value = getattr(results, name)
+    globals()[name] = value
+    return value
 
 Progress = Callable[[str], None]
 """A callable that receives each progress line (str) as the command line would print it."""
@@ -52,6 +104,15 @@ Progress = Callable[[str], None]
 def _quiet(progress: Progress | None) -> Progress:
     """The progress callable, or one that drops the lines (a library does not print)."""
     return progress if progress is not None else (lambda _text: None)
+
+
+def _identify_figures(result: IdentifyResult) -> list[tuple[str, Figure]]:
+    """An identify result's figures (rsp_inertia.plots.identify_figures), its drawer."""
+    # matplotlib, the smoother and the virtual device: loaded only when figures are drawn
+    # (identify itself draws none)
+    from rsp_inertia.plots import identify_figures
+
+    return identify_figures(result)
 
 
 # --- identify and demo ----------------------------------------------------------------------
@@ -87,9 +148,12 @@ def identify(path: str | Path, *, progress: Progress | None = None) -> IdentifyR
     >>> result = rsp_inertia.identify("bench-A")    # doctest: +SKIP
     >>> print(result.tensor)                         # doctest: +SKIP
     """
-    from rsp_inertia.pipeline import identify as run
+    # the estimation stack (scipy.stats, CasADi's model): only the commands that read logs
+    from rsp_inertia.identifying import identify as run
+    from rsp_inertia.results import IdentifyResult
 
-    return IdentifyResult._from(run(path, progress=_quiet(progress)), path)
+    identification = run(path, progress=_quiet(progress))
+    return IdentifyResult._from(identification, path, drawer=_identify_figures)
 
 
 def demo(
@@ -125,14 +189,16 @@ def demo(
     --------
     >>> result = rsp_inertia.demo("demo-experiment", progress=print)    # doctest: +SKIP
     """
+    # everything: the demo runs every command and draws
     from rsp_inertia.plant.config import placed_body
     from rsp_inertia.plant.experiment import open_experiment
+    from rsp_inertia.results import IdentifyResult
     from rsp_inertia.rig_demo import demo as run
 
     result = run(path, progress=_quiet(progress))
     exp = open_experiment(path)
     truth = placed_body(exp.device, exp.load_virtual()).inertia
-    return IdentifyResult._from(result, path, truth)
+    return IdentifyResult._from(result, path, truth, drawer=_identify_figures)
 
 
 # --- simulate and program -------------------------------------------------------------------
@@ -185,7 +251,9 @@ def simulate(
     >>> rsp_inertia.simulate("bench-A")                              # doctest: +SKIP
     >>> rsp_inertia.simulate("bench-A", part="reverse", ideal=True)  # doctest: +SKIP
     """
-    from rsp_inertia.pipeline import simulate as run
+    # the virtual device (CasADi, scipy.optimize): only simulate runs it
+    from rsp_inertia.results import SimulateResult
+    from rsp_inertia.simulating import simulate as run
 
     say = _quiet(progress)
     passes = run(
@@ -226,7 +294,9 @@ def program(
     --------
     >>> print(rsp_inertia.program("bench-A"))    # doctest: +SKIP
     """
-    from rsp_inertia.pipeline import program_summaries
+    # the optimal control problem (CasADi, the regulator's design): only program solves it
+    from rsp_inertia.programming import program_summaries
+    from rsp_inertia.results import ProgramResult
 
     runs = program_summaries(path, stage, progress=_quiet(progress))
     return ProgramResult(tuple(runs), Path(path))
@@ -280,10 +350,11 @@ def calibrate(
     --------
     >>> rsp_inertia.calibrate("bench-A", "bench-A-empty", "bench-A-ref")    # doctest: +SKIP
     """
-    from rsp_inertia.pipeline import calibrate as run
+    # the estimation stack and matplotlib (the encoder's error curve)
+    from rsp_inertia.calibrating import calibrate as run
+    from rsp_inertia.calibrating import calibrate_result
 
-    result = run(path, empty, reference, progress=_quiet(progress))
-    return CalibrateResult._from(result, path)
+    return calibrate_result(run(path, empty, reference, progress=_quiet(progress)), path)
 
 
 def plan(
@@ -330,12 +401,12 @@ def plan(
     --------
     >>> rsp_inertia.plan("bench-A", max_duration=100, rehearse=False)    # doctest: +SKIP
     """
+    # experiment design: the prediction, the rehearsal's closed loop, matplotlib
     from rsp_inertia.planning import plan as run
 
     if max_duration is not None:
         max_duration = float(max_duration)  # as the command line parses it
-    report = run(path, max_duration, progress=_quiet(progress), rehearse=rehearse)
-    return PlanResult._from(report)
+    return run(path, max_duration, progress=_quiet(progress), rehearse=rehearse)
 
 
 # --- check, report, create_experiment -------------------------------------------------------
@@ -371,10 +442,10 @@ def check(path: str | Path, *, calibration: bool = False) -> CheckResult:
     --------
     >>> print(rsp_inertia.check("bench-A"))    # doctest: +SKIP
     """
+    # identify's readers and checks (the estimation stack), not the simulator or matplotlib
     from rsp_inertia.checking import check as run
 
-    report = run(path, calibration)
-    return CheckResult(report.ready, tuple(report.lines), report.root, report)
+    return run(path, calibration)
 
 
 def write_report(path: str | Path) -> Path:
@@ -408,6 +479,7 @@ def write_report(path: str | Path) -> Path:
     >>> rsp_inertia.write_report("bench-A")    # doctest: +SKIP
     PosixPath('bench-A/report.html')
     """
+    # the report's figures and the logs' smoother (matplotlib, the estimation stack)
     from rsp_inertia.report import write_report as run
 
     return run(path)
@@ -436,7 +508,8 @@ def create_experiment(path: str | Path) -> Path:
     >>> exp = rsp_inertia.create_experiment("virtual-bench")    # doctest: +SKIP
     >>> rsp_inertia.simulate(exp)                               # doctest: +SKIP
     """
-    from rsp_inertia.pipeline import create_default_experiment
+    # the default files and tomlkit: light, but create_experiment's alone
+    from rsp_inertia.scenarios import create_default_experiment
 
     return create_default_experiment(path)
 
@@ -478,7 +551,52 @@ def combine(paths: list[str | Path], out: str | Path) -> CombineResult:
     >>> body = rsp_inertia.combine(["bench-A", "bench-A-x90"], "body")    # doctest: +SKIP
     >>> print(body)                                                        # doctest: +SKIP
     """
-    from rsp_inertia.pipeline import combine as run
+    # the mountings' least squares (numpy, scipy.linalg): not the simulator or matplotlib
+    from rsp_inertia.combining import combine as run
+    from rsp_inertia.results import CombineResult
 
     combination, path = run(paths, out)
     return CombineResult(combination, path)
+
+
+# --- design (the command line's; not in __all__) --------------------------------------------
+
+
+def axis_designs(
+    paths: list[str | Path] | None = None, plot: str | Path | None = None
+) -> DesignResult:
+    """The conditioning of axis designs and of mountings (``rsp-inertia design [EXP ...]``).
+
+    Reports the icosahedron and the cone + z design at its best opening, and each folder's
+    device.toml design; for several folders (mountings of one body) or one with
+    ``[mounting]``, their conditioning for the centre of mass. Writes the paper's Fig. 1,
+    1/cond(V) of the cone + z design against its opening, as a PNG.
+
+    Parameters
+    ----------
+    paths : list of str or pathlib.Path, optional
+        Experiment folders whose designs are reported too.
+    plot : str or pathlib.Path, optional
+        The PNG to write (default: the first folder's design.png, or ./design.png).
+
+    Returns
+    -------
+    DesignResult
+        ``str`` is the report the command prints.
+
+    Raises
+    ------
+    InputError
+        A folder without a valid device.toml.
+
+    Examples
+    --------
+    >>> print(rsp_inertia.api.axis_designs(["bench-A"]))    # doctest: +SKIP
+    """
+    # scipy.optimize (the best opening) and matplotlib: only design and the drawing commands
+    from rsp_inertia.designing import design
+
+    return design(
+        [Path(p) for p in paths] if paths is not None else None,
+        None if plot is None else Path(plot),
+    )

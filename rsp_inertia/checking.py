@@ -32,7 +32,6 @@ calibrate, and needs no calibration.toml or stated stds (calibrate measures thos
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -51,23 +50,30 @@ from rsp_inertia.estimation.identify import (
 from rsp_inertia.estimation.reading import known_terms, read_calibration, read_run
 from rsp_inertia.estimation.runs import checked_run
 from rsp_inertia.estimation.smoothing import top_speed
-from rsp_inertia.plant.config import require_protocol
+from rsp_inertia.plant.config import Device, load_reference, require_protocol
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.experiment import CALIBRATION_FILE, open_experiment
+from rsp_inertia.plant.experiment import Experiment, open_experiment
 from rsp_inertia.plant.geometry import turns_past_last_node
 from rsp_inertia.plant.log_checks import unterminated_last_line
 from rsp_inertia.plant.logs import (
+    Log,
     check_braking_monotone,
     dropped_samples,
     mirror_log,
     read_device_log,
     read_program,
 )
+from rsp_inertia.results import CheckResult
 
-__all__ = ["LEVELS", "MIN_TURNS_PAST_LAST_NODE", "CheckReport", "check"]
+__all__ = ["MIN_TURNS_PAST_LAST_NODE", "check"]
 
-LEVELS = ("error", "missing", "suspicious", "ok")
-"""Line levels, worst first."""
+Findings = list[tuple[str, str]]
+"""The findings so far, ``(level, message)`` in the order made (rsp_inertia.results.LEVELS)."""
+
+
+def _add(findings: Findings, level: str, message: str) -> None:
+    """One more finding."""
+    findings.append((level, message))
 
 MIN_TURNS_PAST_LAST_NODE = 3.0
 """Turns past the last node below which a braking is flagged: every node then has few
@@ -82,44 +88,23 @@ DURATION_TOLERANCE = 0.05
 (the mirror runs the braking backwards in time)."""
 
 
-@dataclass
-class CheckReport:
-    """The findings, in the order they were made."""
-
-    root: Path
-    lines: list[tuple[str, str]] = field(default_factory=list)
-    """(level, message) pairs."""
-    calibration: bool = False
-    """Whether the folder is a calibration folder, whose runs calibrate reads."""
-
-    def add(self, level: str, message: str) -> None:
-        self.lines.append((level, message))
-
-    @property
-    def ready(self) -> bool:
-        """Whether identify has everything it needs (no error, nothing missing)."""
-        return not any(level in ("error", "missing") for level, _ in self.lines)
-
-    def __str__(self) -> str:
-        out = [f"{level}: {message}" for level, message in self.lines]
-        counts = {level: sum(1 for lv, _ in self.lines if lv == level) for level in LEVELS}
-        verdict = "ready for " + ("calibrate" if self.calibration else "identify")
-        if not self.ready:
-            verdict = "not " + verdict
-        out.append(
-            f"{self.root}: {verdict} ({counts['error']} error(s), {counts['missing']} missing, "
-            f"{counts['suspicious']} suspicious)"
-        )
-        return "\n".join(out)
-
-
-def check(root: str | Path, calibration: bool = False) -> CheckReport:
+def check(root: str | Path, calibration: bool = False) -> CheckResult:
     """Check the experiment folder ``root`` (module docstring).
 
-    ``calibration``: ``root`` is a calibration folder (the empty fixture's or the reference
-    body's runs, which calibrate reads); one with reference.toml is taken as one anyway. Its
-    missing calibration.toml and unstated stds are then not suspicious: calibrate measures
-    what they would give.
+    Parameters
+    ----------
+    root : str or pathlib.Path
+        The experiment folder.
+    calibration : bool, optional
+        ``root`` is a calibration folder (the empty fixture's or the reference body's runs,
+        which calibrate reads); one with reference.toml is taken as one anyway. Its missing
+        calibration.toml and unstated stds are then not suspicious: calibrate measures what
+        they would give.
+
+    Returns
+    -------
+    CheckResult
+        Every finding, in the order made, and whether the folder is ready.
 
     Raises
     ------
@@ -128,64 +113,66 @@ def check(root: str | Path, calibration: bool = False) -> CheckReport:
     """
     exp = open_experiment(root, protocol=False)  # a stage without one: a missing line
     device = exp.device
-    reference = exp.root / "reference.toml"
-    report = CheckReport(exp.root, calibration=calibration or reference.is_file())
-    report.add("ok", f"{exp.root / 'device.toml'}: {len(device.stages)} stage(s)")
+    reference = exp.reference_path
+    calibration_folder = calibration or reference.is_file()
+    findings: Findings = []
+    _add(findings, "ok", f"{exp.device_path}: {len(device.stages)} stage(s)")
     try:
-        require_protocol(device, exp.root / "device.toml")
+        require_protocol(device, exp.device_path)
         protocol = True
     except InputError as error:  # before plan: its pilots are what the folder needs
-        report.add("missing", str(error))
+        _add(findings, "missing", str(error))
         protocol = False
     try:
-        checked_design(device, str(exp.root / "device.toml"))
+        checked_design(device, str(exp.device_path))
     except InputError as error:
-        report.add("error", str(error))
+        _add(findings, "error", str(error))
     # calibration.toml, read once: the encoder's error that identify takes off every reading,
     # and what _check_constants reports
     try:
-        calibration = read_calibration(exp)
-        known, known_warnings = known_terms(exp, calibration)
+        calibrated = read_calibration(exp)
+        known, known_warnings = known_terms(exp, calibrated)
         encoder, fault = known.encoder, None
     except InputError as error:
-        calibration, known_warnings = None, []
+        calibrated, known_warnings = None, []
         encoder, fault = (), str(error)  # a bad calibration.toml: its own line (_check_constants)
     for stage, st in enumerate(device.stages, 1):
         for direction in st.directions if protocol else ():
-            _check_run(exp, stage, direction, encoder, report)
+            _check_run(exp, stage, direction, encoder, findings)
         if exp.pilot_path(stage).is_file():
-            _try_read(report, exp.pilot_path(stage), device, "pilot")
-    _check_pendulum(exp, encoder, report)
-    _check_constants(exp, report, calibration, known_warnings, fault)
+            _try_read(findings, exp.pilot_path(stage), device, "pilot")
+    _check_pendulum(exp, encoder, findings)
+    _check_constants(exp, findings, calibration_folder, calibrated, known_warnings, fault)
     if reference.is_file():
-        from rsp_inertia.plant.config import load_reference
-
         try:
             load_reference(reference)
-            report.add("ok", f"{reference}: the reference body's data")
+            _add(findings, "ok", f"{reference}: the reference body's data")
         except InputError as error:
-            report.add("error", str(error))
-    return report
+            _add(findings, "error", str(error))
+    return CheckResult._from(findings, exp.root, calibration_folder)
 
 
-def _try_read(report: CheckReport, path: Path, device, kind: str, direction: str = "forward"):
+def _try_read(
+    findings: Findings, path: Path, device: Device, kind: str, direction: str = "forward"
+) -> Log | None:
     """The log read as identify reads it (the device's encoder and torque limit), or None
     with an ``error`` line; a ``suspicious`` line when its last line has no line end (the
     reader leaves it out)."""
     try:
         log = read_device_log(path, device, kind, direction)
     except InputError as error:
-        report.add("error", str(error))
+        _add(findings, "error", str(error))
         return None
-    _check_last_line(report, path)
+    _check_last_line(findings, path)
     return log
 
 
-def _check_last_line(report: CheckReport, path: Path) -> None:
+def _check_last_line(findings: Findings, path: Path) -> None:
     """A ``suspicious`` line when the log's last line has no line end (the reader leaves it
     out)."""
     if unterminated_last_line(path):
-        report.add(
+        _add(
+            findings,
             "suspicious",
             f"{path}: its last line has no line end (a logger stopped while writing it?): "
             "identify leaves that row out",
@@ -193,7 +180,7 @@ def _check_last_line(report: CheckReport, path: Path) -> None:
 
 
 def _check_timing(
-    exp, stage: int, direction: str, path: Path, log, report: CheckReport, nodes: bool
+    exp: Experiment, stage: int, direction: str, path: Path, log, findings: Findings, nodes: bool
 ) -> None:
     """A log's sampling: dropped samples and jitter (a line when there are any); with
     ``nodes``, a gap near a node that identify would refuse
@@ -206,7 +193,8 @@ def _check_timing(
     jitter = float(np.max(np.abs(periods - np.rint(periods)))) if periods.size else 0.0
     if missing.any() or jitter > 1e-6:
         gaps = int(np.count_nonzero(missing))
-        report.add(
+        _add(
+            findings,
             "ok",
             f"{path}: {int(missing.sum())} sample(s) dropped in {gaps} gap(s) (longest "
             f"{int(missing.max())}); time steps off whole periods by up to {jitter:.2f} of a "
@@ -219,13 +207,14 @@ def _check_timing(
     try:
         check_node_gaps(exp.device, stage, forward, str(path), direction=sign, dropped=missing)
     except InputError as error:
-        report.add(
+        _add(
+            findings,
             "suspicious",
             f"{error} (identify refuses it if that passage is in the range it balances)",
         )
 
 
-def _check_run(exp, stage: int, direction: str, encoder, report: CheckReport) -> None:
+def _check_run(exp: Experiment, stage: int, direction: str, encoder, findings: Findings) -> None:
     """One stage in one direction: braking, program, reverse. The two logs are read as
     identify reads them (rsp_inertia.estimation.reading.read_run; each alone, to say which
     and why, when that fails) and checked as identify checks them before its fit
@@ -245,50 +234,54 @@ def _check_run(exp, stage: int, direction: str, encoder, report: CheckReport) ->
             pass  # each log read alone below says which and why
     braking, usable = None, False
     if not b_path.is_file():
-        report.add(
+        _add(
+            findings,
             "missing",
             f"{b_path}: the {run} braking log (the rig's braking pass; on the virtual device "
             f"rsp-inertia simulate {exp.root} --stage {stage}{option})",
         )
     elif pair is not None:
         braking = pair[0]
-        _check_last_line(report, b_path)
+        _check_last_line(findings, b_path)
     else:
-        braking = _try_read(report, b_path, device, "braking", direction)
+        braking = _try_read(findings, b_path, device, "braking", direction)
     if braking is not None:
-        usable = _check_braking(exp, stage, direction, b_path, braking, report, pair is None)
+        usable = _check_braking(exp, stage, direction, b_path, braking, findings, pair is None)
     if p_path.is_file():
         if b_path.is_file() and p_path.stat().st_mtime < b_path.stat().st_mtime:
-            report.add(
+            _add(
+                findings,
                 "suspicious",
                 f"{p_path}: older than {b_path.name}: made from another braking? (rerun "
                 f"rsp-inertia program {exp.root} --stage {stage})",
             )
         else:
-            report.add("ok", f"{p_path}: the torque program")
+            _add(findings, "ok", f"{p_path}: the torque program")
             if braking is not None:
-                _check_regulator(exp, p_path, braking, report)
+                _check_regulator(exp, p_path, braking, findings)
     elif not r_path.is_file():
-        report.add(
+        _add(
+            findings,
             "missing",
             f"{p_path}: no torque program for the {run} reverse pass (rsp-inertia program "
             f"{exp.root} --stage {stage})",
         )
     if not r_path.is_file():
-        report.add(
+        _add(
+            findings,
             "missing",
             f"{r_path}: the {run} reverse log (the rig runs the program; on the virtual device "
             f"rsp-inertia simulate {exp.root} --stage {stage} --part reverse{option})",
         )
         return
     if pair is None:
-        reverse = _try_read(report, r_path, device, "reverse", direction)
+        reverse = _try_read(findings, r_path, device, "reverse", direction)
         if reverse is None:
             return
     else:
         reverse = pair[1]
-        _check_last_line(report, r_path)
-    _check_timing(exp, stage, direction, r_path, reverse, report, nodes=pair is None)
+        _check_last_line(findings, r_path)
+    _check_timing(exp, stage, direction, r_path, reverse, findings, nodes=pair is None)
     if pair is not None and usable:
         warnings: list[str] = []
         try:
@@ -296,25 +289,26 @@ def _check_run(exp, stage: int, direction: str, encoder, report: CheckReport) ->
                 device, stage, pair, direction, warnings, (str(b_path), str(r_path)), encoder
             )
         except InputError as error:
-            report.add("error", str(error))
+            _add(findings, "error", str(error))
             return
         for warning in warnings:
-            report.add("suspicious", warning)
+            _add(findings, "suspicious", warning)
     duration = float(reverse.t[-1] - reverse.t[0])
     if braking is not None:
         b_duration = float(braking.t[-1] - braking.t[0])
         if not math.isclose(duration, b_duration, rel_tol=DURATION_TOLERANCE):
-            report.add(
+            _add(
+                findings,
                 "suspicious",
                 f"{r_path}: {duration:.2f} s against the braking's {b_duration:.2f} s: the "
                 "reverse should mirror the braking (the drive stopped early or ran on?)",
             )
             return
-    report.add("ok", f"{r_path}: {duration:.2f} s")
+    _add(findings, "ok", f"{r_path}: {duration:.2f} s")
 
 
 def _check_braking(
-    exp, stage: int, direction: str, path: Path, braking, report: CheckReport, nodes: bool
+    exp: Experiment, stage: int, direction: str, path: Path, braking, findings: Findings, nodes: bool
 ) -> bool:
     """A braking log's own findings: its sampling (:func:`_check_timing`, ``nodes`` as
     there), a speed that reverses (``error``), the turns it covers past its last node and its
@@ -322,13 +316,13 @@ def _check_braking(
     is too short (then it counts as missing: the braking must be run again)."""
     device = exp.device
     st = device.stages[stage - 1]
-    _check_timing(exp, stage, direction, path, braking, report, nodes)
+    _check_timing(exp, stage, direction, path, braking, findings, nodes)
     forward = braking if direction == "forward" else mirror_log(braking, device.encoder.quantum)
     usable = True
     try:
         check_braking_monotone(forward, str(path))
     except InputError as error:
-        report.add("error", str(error))
+        _add(findings, "error", str(error))
         usable = False
     turns = turns_past_last_node(braking.phi, st.nodes)
     torque = float(np.mean(np.abs(braking.torque)))
@@ -352,11 +346,11 @@ def _check_braking(
             f"{expected:.4g} N m"
         )
     summary = f"{path}: {duration:.2f} s, {turns:.2f} turns past the last node"
-    report.add(level, summary + ("; " + "; ".join(notes) if notes else ""))
+    _add(findings, level, summary + ("; " + "; ".join(notes) if notes else ""))
     return usable
 
 
-def _check_regulator(exp, path: Path, braking, report: CheckReport) -> None:
+def _check_regulator(exp: Experiment, path: Path, braking: Log, findings: Findings) -> None:
     """``suspicious`` when the program's regulator is slower than the braking's speed
     harmonics at the balances' slowest speed: its bandwidth w from its gains (the LQR's
     k_omega = sqrt 2 k_phi / w, rsp_inertia.ocp.regulator) against 2 Omega at
@@ -364,7 +358,7 @@ def _check_regulator(exp, path: Path, braking, report: CheckReport) -> None:
     try:
         program = read_program(path, exp.device.encoder)
     except InputError as error:
-        report.add("error", str(error))
+        _add(findings, "error", str(error))
         return
     gains = (program.k_omega > 0) & (program.k_phi > 0)
     if not np.any(gains) or len(braking) < 2:
@@ -373,7 +367,8 @@ def _check_regulator(exp, path: Path, braking, report: CheckReport) -> None:
     reach = harmonic_reach(exp.device, w, top_speed(braking))
     if reach.follows:
         return
-    report.add(
+    _add(
+        findings,
         "suspicious",
         f"{path}: its regulator's bandwidth, {w:.2g} rad/s, is below the braking's speed "
         f"harmonics (2 Omega >= {2 * reach.slowest:.2g} rad/s over the balances; "
@@ -383,7 +378,7 @@ def _check_regulator(exp, path: Path, braking, report: CheckReport) -> None:
     )
 
 
-def _check_pendulum(exp, encoder, report: CheckReport) -> None:
+def _check_pendulum(exp: Experiment, encoder, findings: Findings) -> None:
     """The torsion-pendulum baseline's runs (optional), each read and reduced as identify
     reduces it (rsp_inertia.estimation.identify.reduce_pendulum_run, with the encoder's error
     coefficients ``encoder``)."""
@@ -396,27 +391,28 @@ def _check_pendulum(exp, encoder, report: CheckReport) -> None:
     ]
     if present:
         try:
-            pendulum_settings(device, str(exp.root / "device.toml"))
+            pendulum_settings(device, str(exp.device_path))
         except InputError as error:
-            report.add("error", str(error))
+            _add(findings, "error", str(error))
             return
     elif device.pendulum is None:
         return
     found = 0
     for stage, k in present:
         path = exp.pendulum_path(stage, k)
-        log = _try_read(report, path, device, "pendulum")
+        log = _try_read(findings, path, device, "pendulum")
         if log is None:
             continue
         try:
             reduce_pendulum_run(device, log, stage, k, str(path), encoder)
         except InputError as error:
-            report.add("error", str(error))
+            _add(findings, "error", str(error))
             continue
         found += 1
     total = sum(len(st.nodes) for st in device.stages)
     level = "ok" if found in (0, total) else "suspicious"
-    report.add(
+    _add(
+        findings,
         level,
         f"pendulum baseline: {found} of {total} node runs (stageN/pendulum_kK.csv; optional, "
         "its tensor needs all of them)",
@@ -424,25 +420,29 @@ def _check_pendulum(exp, encoder, report: CheckReport) -> None:
 
 
 def _check_constants(
-    exp,
-    report: CheckReport,
+    exp: Experiment,
+    findings: Findings,
+    calibration_folder: bool,
     calibration: CalibrationFile | None,
     warnings: list[str],
     fault: str | None,
 ) -> None:
-    """What identify will take as known: calibration.toml, or device.toml's stated stds."""
+    """What identify will take as known: calibration.toml (``calibration``, read once by
+    :func:`check`, with identify's ``warnings`` on it, or the ``fault`` that refused it), or
+    device.toml's stated stds; none needed in a calibration folder."""
     device = exp.device
-    path = exp.root / CALIBRATION_FILE
+    path = exp.calibration_path
     if fault is not None:
-        report.add("error", fault)
+        _add(findings, "error", fault)
         return
     stiffness = None if calibration is None else calibration.pendulum_stiffness()
     if calibration is not None:
-        report.add("ok", f"{path}: made for this device; identify applies it")
+        _add(findings, "ok", f"{path}: made for this device; identify applies it")
         for warning in warnings:
-            report.add("suspicious", warning)
-    elif report.calibration:
-        report.add(
+            _add(findings, "suspicious", warning)
+    elif calibration_folder:
+        _add(
+            findings,
             "ok",
             f"{exp.root}: a calibration folder, read by calibrate, which measures what a "
             "calibration.toml would give (none needed)",
@@ -457,15 +457,17 @@ def _check_constants(
         if device.motor.torque_gain_std is None:
             unstated.append("motor.torque_gain_std")
         if unstated:
-            report.add(
+            _add(
+                findings,
                 "suspicious",
                 f"{path}: not found, and device.toml states no {', '.join(unstated)}: identify "
                 "will take the tares, a torque gain of 1 and a lossless drive as exact, and "
                 "warn (rsp-inertia calibrate)",
             )
     if device.pendulum is not None and stiffness is None and device.pendulum.stiffness_std is None:
-        report.add(
+        _add(
+            findings,
             "suspicious",
-            f"{exp.root / 'device.toml'}: pendulum: no stiffness_std and no calibrated stiffness: "
+            f"{exp.device_path}: pendulum: no stiffness_std and no calibrated stiffness: "
             "the best-practice pendulum will take the stiffness as exact, and warn",
         )

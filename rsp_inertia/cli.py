@@ -2,7 +2,7 @@
 
 Each command calls its function of the Python API (:mod:`rsp_inertia.api`, the same
 function a script calls) and prints its progress lines and its result; ``design``, which has
-no API function, calls :func:`rsp_inertia.design.mountings.run_design`.
+no function among the package's names, calls :func:`rsp_inertia.api.axis_designs`.
 
 Bad input (:class:`rsp_inertia.plant.errors.InputError`) becomes one line on stderr and exit
 status 2, and so does running out of memory (a MemoryError anywhere: the line names the
@@ -19,6 +19,7 @@ import sys
 from pathlib import Path
 
 import rsp_inertia
+from rsp_inertia import api
 from rsp_inertia.plant import progress
 from rsp_inertia.plant.errors import InputError
 
@@ -81,9 +82,7 @@ def _cmd_combine(args: argparse.Namespace) -> None:
 
 
 def _cmd_design(args: argparse.Namespace) -> None:
-    from rsp_inertia.design.mountings import run_design
-
-    print(run_design(args.exp, args.plot))
+    print(api.axis_designs(args.exp, args.plot))
 
 
 EXIT_STATUSES = (

@@ -1,27 +1,66 @@
 """Figures (PNG, matplotlib Agg): what people would rather look at than read.
 
-Only drawing here; the numbers come from the library. Every figure is written atomically
-(temporary file in the same folder, then renamed).
+Every figure the package draws is drawn here; the numbers come from the library. The
+functions ending in ``_figure`` return one matplotlib Figure; those ending in ``_figures``
+return (file name, Figure) pairs: a command's figures, which its result's ``draw()`` gives
+(rsp_inertia.results: the command hands the result the function that draws them). Files are
+written by :mod:`rsp_inertia.figure_files` (atomically: a temporary file in the same folder,
+then renamed); ``plot_*`` draw and write in one call.
 """
 
 from __future__ import annotations
 
-import io
 import os
-import tempfile
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from numpy.typing import ArrayLike
+
+from rsp_inertia.design.mountings import DEFAULT_OPENINGS_DEG, best_cone_opening
+from rsp_inertia.estimation.smoothing import smooth_log
+from rsp_inertia.figure_files import figure_png, save_figure
+from rsp_inertia.plant.config import Virtual, placed_body
+from rsp_inertia.plant.experiment import (
+    ENCODER_FIGURE,
+    PLAN_FIGURE,
+    Experiment,
+    open_experiment,
+)
+from rsp_inertia.plant.geometry import design_matrix, icosahedron_design, rcond_curve
+from rsp_inertia.plant.logs import read_device_log, read_program
+from rsp_inertia.plant.transducers import error_basis, error_slope_basis
+from rsp_inertia.plant.virtual import free_motion
+
+if TYPE_CHECKING:
+    from rsp_inertia.design.plan import Plan
+    from rsp_inertia.estimation.calibration import Calibration
+    from rsp_inertia.estimation.results import Identification
+    from rsp_inertia.estimation.tensor import KnownTerms
+    from rsp_inertia.results import CalibrateResult, DesignResult, IdentifyResult, PlanResult
 
 __all__ = [
+    "DESIGN_FIGURE",
+    "ERRORS_FIGURE",
+    "calibrate_figures",
+    "cone_conditioning_figure",
+    "demo_figures",
+    "design_figures",
+    "difference_figure",
     "encoder_error_figure",
+    "encoder_figures",
     "errors_figure",
     "experiment_figures",
     "figure_png",
+    "identify_figures",
     "motion_figure",
     "plan_figure",
+    "plan_figures",
+    "plot_cone_conditioning",
+    "plot_errors",
+    "plot_motion",
     "plot_tracking",
     "save_figure",
     "tracking_figure",
@@ -30,21 +69,11 @@ __all__ = [
 ARCSEC = np.degrees(1.0) * 3600.0
 """Arcseconds per radian."""
 
+DESIGN_FIGURE = "design.png"
+"""The conditioning of the axis design (the paper's Fig. 1), in the experiment folder."""
 
-def save_figure(fig: Figure, path: str | os.PathLike) -> None:
-    """Write ``fig`` as PNG to ``path`` atomically, with the usual file permissions."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".png", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            fig.savefig(f, format="png")
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+ERRORS_FIGURE = "errors.png"
+"""Each method's relative error per axis against the virtual device's truth."""
 
 
 def plot_tracking(
@@ -54,7 +83,19 @@ def plot_tracking(
     output: np.ndarray,
     title: str,
 ) -> None:
-    """The paper's Fig. 4 (:func:`tracking_figure`) written to ``path``."""
+    """The paper's Fig. 4 (:func:`tracking_figure`) written to ``path``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The PNG file; its folder must exist.
+    t : numpy.ndarray
+        s, reverse-pass time.
+    reference, output : numpy.ndarray
+        rad/s, the mirrored speed and the speed the body had (or its estimate).
+    title : str
+        The figure's title.
+    """
     save_figure(tracking_figure(t, reference, output, title), path)
 
 
@@ -69,6 +110,11 @@ def tracking_figure(t: np.ndarray, reference: np.ndarray, output: np.ndarray, ti
         rad/s, the mirrored speed and the speed the body had (or its estimate).
     title : str
         The figure's title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The speeds above, their difference below.
     """
     fig = Figure(figsize=(7.0, 5.0), dpi=120)
     FigureCanvasAgg(fig)
@@ -98,18 +144,39 @@ def plot_motion(
 ) -> None:
     """The paper's Fig. 3: the symmetric semi-program motion (1), free undamped (2), damped (3).
 
-    Each argument is (t, Omega): the braking from the release, the reverse (its time shifted
-    to follow the braking, its speed as a magnitude so that the symmetry shows), and the two
-    free motions from the same release with the motor off.
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The PNG file; its folder must exist.
+    braking, reverse, undamped, damped : tuple of numpy.ndarray
+        Each (t, Omega), s and rad/s: the braking from the release, the reverse (its time
+        shifted to follow the braking, its speed as a magnitude so that the symmetry shows),
+        and the two free motions from the same release with the motor off.
+    title : str
+        The figure's title.
     """
     save_figure(motion_figure(braking, reverse, undamped, damped, title), path)
 
 
 def motion_figure(braking, reverse, undamped, damped, title: str) -> Figure:
     """:func:`plot_motion`'s figure, its legend below the axes (inside, it covered the
-    curves of a long braking). ``undamped`` and ``damped`` may be None (a real rig's logs
-    have no free motions: only the virtual device can release the body with the motor off
-    in a simulation)."""
+    curves of a long braking).
+
+    Parameters
+    ----------
+    braking, reverse : tuple of numpy.ndarray
+        Each (t, Omega), s and rad/s, as :func:`plot_motion` takes them.
+    undamped, damped : tuple of numpy.ndarray, or None
+        The free motions; None for none (a real rig's logs have no free motions: only the
+        virtual device can release the body with the motor off in a simulation).
+    title : str
+        The figure's title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        |speed| against time, the reverse dashed after the braking.
+    """
     fig = Figure(figsize=(7.0, 4.8), dpi=120, layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
@@ -134,7 +201,19 @@ def motion_figure(braking, reverse, undamped, damped, title: str) -> Figure:
 def plot_errors(
     path: str | os.PathLike, labels: list[str], errors: dict[str, np.ndarray], title: str
 ) -> None:
-    """Bar chart of |relative error| per axis for each method (log scale)."""
+    """Bar chart of |relative error| per axis for each method (log scale).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The PNG file; its folder must exist.
+    labels : list of str
+        One per axis.
+    errors : dict of str to numpy.ndarray
+        Per method, the relative error of each axis.
+    title : str
+        The figure's title.
+    """
     save_figure(errors_figure(labels, errors, title), path)
 
 
@@ -145,8 +224,26 @@ def errors_figure(
     ylabel: str = "|relative error| of J_k",
 ) -> Figure:
     """:func:`plot_errors`'s figure, its legend below the axes (inside, it covered the
-    tallest bars). ``ylabel`` names what the bars are (a real rig has no true values: its
-    report shows each method's difference from the least squares)."""
+    tallest bars).
+
+    Parameters
+    ----------
+    labels : list of str
+        One per axis.
+    errors : dict of str to numpy.ndarray
+        Per method, the relative error (or difference) of each axis; the bars show their
+        magnitude on a log scale.
+    title : str
+        The figure's title.
+    ylabel : str, optional
+        What the bars are (a real rig has no true values: its report shows each method's
+        difference from the least squares).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The bar chart.
+    """
     fig = Figure(figsize=(7.5, 4.8), dpi=120, layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
@@ -163,19 +260,14 @@ def errors_figure(
     return fig
 
 
-def figure_png(fig: Figure) -> bytes:
-    """``fig`` as PNG bytes (the report inlines them; nothing is written)."""
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png")
-    return buffer.getvalue()
-
-
 PLOT_POINTS = 20_000
 """At most this many points per curve of :func:`experiment_figures` (a 10 kHz log of ten
 minutes has six million rows; the figure cannot show more than its pixels)."""
 
 
-def experiment_figures(exp, virtual=None) -> list[tuple[str, Figure]]:
+def experiment_figures(
+    exp: Experiment, virtual: Virtual | None = None
+) -> list[tuple[str, Figure]]:
     """The figures an experiment folder's logs allow, as (file name, figure), per stage:
 
     - ``motion_stageN.png`` (paper Fig. 3): the forward run's smoothed braking speed, then
@@ -188,10 +280,6 @@ def experiment_figures(exp, virtual=None) -> list[tuple[str, Figure]]:
 
     A stage without its forward braking and reverse logs is left out.
     """
-    from rsp_inertia.estimation.smoothing import smooth_log
-    from rsp_inertia.plant.logs import read_device_log, read_program
-    from rsp_inertia.plant.virtual import free_motion
-
     device = exp.device
     figures = []
     for st in exp.stages():
@@ -235,8 +323,9 @@ def experiment_figures(exp, virtual=None) -> list[tuple[str, Figure]]:
     return figures
 
 
-def plan_figure(plan, path: str | os.PathLike) -> Path:
-    """``rsp-inertia plan``'s trade-off: predicted worst std against duration and launch speed.
+def plan_figure(plan: Plan) -> Figure:
+    """``rsp-inertia plan``'s trade-off (``plan.png``): predicted worst std against duration
+    and launch speed.
 
     Left: the best predicted worst std of J_k within each total duration (the plan's front),
     the chosen plan and device.toml's protocol before. Right: per stage, the predicted worst
@@ -273,20 +362,18 @@ def plan_figure(plan, path: str | os.PathLike) -> Path:
     right.legend(fontsize=8)
     right.grid(alpha=0.3)
     fig.tight_layout()
-    save_figure(fig, path)
-    return Path(path)
+    return fig
 
 
-def encoder_error_figure(known, path: str | os.PathLike, title: str = "") -> Path:
-    """``rsp-inertia calibrate``'s encoder error curve: what the encoder reads beyond the true
-    angle, e(phi), over a turn, with its 1-std band, and each order's part; below, e'(phi), by
-    which the encoder scales every speed (the kinetic energy by 2 e').
+def encoder_error_figure(known: KnownTerms, title: str = "") -> Figure:
+    """``rsp-inertia calibrate``'s encoder error curve (``encoder_error.png``): what the
+    encoder reads beyond the true angle, e(phi), over a turn, with its 1-std band, and each
+    order's part; below, e'(phi), by which the encoder scales every speed (the kinetic energy
+    by 2 e').
 
     ``known``: the calibrated terms (rsp_inertia.estimation.tensor.KnownTerms) with encoder
     coefficients theta_e and their covariance.
     """
-    from rsp_inertia.plant.transducers import error_basis, error_slope_basis
-
     orders = known.orders
     phi = np.linspace(0.0, 2.0 * np.pi, 721)
     cov = known.cov[known.encoder_slice, known.encoder_slice]
@@ -318,5 +405,184 @@ def encoder_error_figure(known, path: str | os.PathLike, title: str = "") -> Pat
     bottom.set_xticks(np.arange(0, 361, 45))
     top.set_title(title or "encoder reading error from the calibration")
     fig.tight_layout()
-    save_figure(fig, path)
-    return Path(path)
+    return fig
+
+
+# --- the commands' figures ------------------------------------------------------------------
+
+
+def cone_conditioning_figure(
+    openings_deg: ArrayLike | None = None, best: tuple[float, float] | None = None
+) -> Figure:
+    """The paper's Fig. 1: 1/cond(V) of the cone-plus-z design against its opening 2 beta.
+
+    The optimum opening is marked and the icosahedron's 1/cond(V) = sqrt(2/5) is drawn as a
+    horizontal reference (docs/method.md §5 "Axis designs").
+
+    Parameters
+    ----------
+    openings_deg : array_like, optional
+        Opening angles 2 beta (deg) of the curve, each in [0, 180). Default
+        rsp_inertia.design.mountings.DEFAULT_OPENINGS_DEG (10 to 175 deg in 0.25 deg steps).
+    best : (float, float), optional
+        The optimum ``(opening_deg, cond)``; default
+        :func:`rsp_inertia.design.mountings.best_cone_opening`.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The curve, the optimum and the icosahedron's level.
+    """
+    openings = DEFAULT_OPENINGS_DEG if openings_deg is None else np.asarray(openings_deg, float)
+    rcond = rcond_curve(openings)
+    best_deg, best_cond = best_cone_opening() if best is None else best
+    ico_rcond = 1.0 / icosahedron_design().condition
+
+    fig = Figure(figsize=(6.4, 4.2), dpi=120)
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    ax.plot(openings, rcond, color="C0", label="five axes on a cone + z axis")
+    ax.axhline(
+        ico_rcond, color="C2", linestyle="--", label=f"icosahedron (two stages): {ico_rcond:.4f}"
+    )
+    ax.plot(
+        [best_deg],
+        [1.0 / best_cond],
+        "o",
+        color="C3",
+        label=f"optimum 2\u03b2 = {best_deg:.2f}\u00b0, cond(V) = {best_cond:.4f}",
+    )
+    ax.axvline(best_deg, color="C3", linewidth=0.8, alpha=0.5)
+    ax.set_xlabel("cone opening angle 2\u03b2 [deg]")
+    ax.set_ylabel("1 / cond(V)")
+    ax.set_title("Conditioning of the design matrix V (paper Fig. 1)")
+    ax.set_ylim(bottom=0.0)
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="upper left", fontsize="small")
+    fig.tight_layout()
+    return fig
+
+
+def plot_cone_conditioning(
+    path: str | os.PathLike[str], openings_deg: ArrayLike | None = None
+) -> None:
+    """Write the paper's Fig. 1 (:func:`cone_conditioning_figure`) as a PNG, atomically.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output PNG file; its folder must exist.
+    openings_deg : array_like, optional
+        Opening angles 2 beta (deg) of the curve (default: 10 to 175 deg in 0.25 deg steps).
+    """
+    save_figure(cone_conditioning_figure(openings_deg), Path(path))
+
+
+def demo_figures(exp: Experiment, result: Identification) -> list[tuple[str, Figure]]:
+    """The demo's figures of an identified experiment: design.png (Fig. 1), the figures the
+    logs allow (:func:`experiment_figures`: per stage Fig. 3, and Fig. 4 where a program was
+    run) and, on a virtual device with its [body], the error chart errors.png against the
+    truth.
+
+    Parameters
+    ----------
+    exp : rsp_inertia.plant.experiment.Experiment
+        The experiment folder (its logs, and its virtual.toml when there is one).
+    result : rsp_inertia.estimation.results.Identification
+        What identify found there.
+
+    Returns
+    -------
+    list of (str, matplotlib.figure.Figure)
+        The figures with their file names, in that order.
+    """
+    virtual = exp.load_virtual() if exp.virtual_path.is_file() else None
+    figures = [(DESIGN_FIGURE, cone_conditioning_figure())]
+    figures += experiment_figures(exp, virtual)
+    body = None if virtual is None else placed_body(exp.device, virtual)
+    if body is None:  # no truth to compare with
+        return figures
+    # The true moments about the axes (rig axes, as identify's): J_k = V_k . J
+    # (docs/method.md §5).
+    J_true = design_matrix(np.array([a.direction for a in result.axes])) @ body.inertia
+    errors = {
+        "RSP least squares": np.array([a.J for a in result.axes]) / J_true - 1,
+        "RSP node formula": np.array([a.J_node for a in result.axes]) / J_true - 1,
+    }
+    if result.pendulum is not None and len(result.pendulum.runs) == len(result.axes):
+        errors["pendulum classic"] = result.pendulum.J_classic / J_true - 1
+        errors["pendulum damped fit"] = result.pendulum.J_damped / J_true - 1
+        pend = result.pendulum
+        if pend.J_best is not None:
+            # About the axis at each run's equilibrium, where the best practice measures.
+            J_best_true = design_matrix(pend.best_axes(exp.device)) @ body.inertia
+            errors["pendulum best practice"] = pend.J_best / J_best_true - 1
+    labels = [f"s{a.stage} {a.phi_deg:g} deg" for a in result.axes]
+    figures.append((
+        ERRORS_FIGURE,
+        errors_figure(labels, errors, "Relative error of each axial moment, per method"),
+    ))
+    return figures
+
+
+def identify_figures(result: IdentifyResult) -> list[tuple[str, Figure]]:
+    """An identify result's figures: :func:`demo_figures` of its experiment folder."""
+    return demo_figures(open_experiment(result.experiment), result.identification)
+
+
+def encoder_figures(calibration: Calibration) -> list[tuple[str, Figure]]:
+    """The figure ``calibrate`` draws: the encoder's error curve (:func:`encoder_error_figure`),
+    when the calibration has encoder terms (else none)."""
+    if not calibration.known.orders:
+        return []
+    title = f"{calibration.device_name}: encoder reading error from the calibration"
+    return [(ENCODER_FIGURE, encoder_error_figure(calibration.known, title))]
+
+
+def calibrate_figures(result: CalibrateResult) -> list[tuple[str, Figure]]:
+    """A calibrate result's figures: :func:`encoder_figures` of its calibration."""
+    return encoder_figures(result.calibration)
+
+
+def plan_figures(result: PlanResult) -> list[tuple[str, Figure]]:
+    """A plan result's figure: the trade-off ``plan.png`` (:func:`plan_figure`)."""
+    return [(PLAN_FIGURE, plan_figure(result.plan))]
+
+
+def design_figures(result: DesignResult) -> list[tuple[str, Figure]]:
+    """A design result's figure: :func:`cone_conditioning_figure` at its optimum, under the
+    name of the file ``design`` wrote."""
+    best = (result.best_opening_deg, result.best_condition)
+    return [(result.figure.name, cone_conditioning_figure(best=best))]
+
+
+def difference_figure(result: dict) -> Figure:
+    """A real rig's error chart (the report's): each method's axial moments against the
+    least squares' (no true values on a rig), beside the least squares' own relative std.
+
+    Parameters
+    ----------
+    result : dict
+        result.json's document (its ``axes``, and ``pendulum`` when present).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        :func:`errors_figure` of the differences.
+    """
+    axes = result["axes"]
+    J = np.array([a["J"] for a in axes])
+    bars = {
+        "least squares' relative std": np.array([a["J_std"] for a in axes]) / J,
+        "RSP node formula": np.array([a["J_node"] for a in axes]) / J - 1,
+    }
+    pendulum = (result.get("pendulum") or {}).get("axes") or []
+    if len(pendulum) == len(axes):
+        bars["pendulum classic"] = np.array([p["J_classic"] for p in pendulum]) / J - 1
+        bars["pendulum damped fit"] = np.array([p["J_damped"] for p in pendulum]) / J - 1
+    labels = [f"s{a['stage']} {a['phi_deg']:g} deg" for a in axes]
+    return errors_figure(
+        labels, bars,
+        "Each axial moment's difference from the least squares, per method",
+        ylabel="|J_k / J_k(least squares) - 1|",
+    )

@@ -66,7 +66,23 @@ def _name(root: Path, path: Path) -> str:
 
 def make_provenance(command: str, root: str | os.PathLike, inputs: Iterable[Path]) -> dict:
     """result.json's ``provenance``: the command, when it ran, the software's versions and
-    the sha256 of every input file (named relative to the experiment folder ``root``)."""
+    the sha256 of every input file.
+
+    Parameters
+    ----------
+    command : str
+        The command that made the result ("identify").
+    root : str or os.PathLike
+        The experiment folder: the inputs are named relative to it (the folder may move).
+    inputs : iterable of pathlib.Path
+        The files the command read.
+
+    Returns
+    -------
+    dict
+        ``{"command", "created" (:func:`created_now`), "software"
+        (:func:`package_versions`), "inputs": {name: sha256}}``.
+    """
     root = Path(root)
     return {
         "command": command,
@@ -87,10 +103,23 @@ CHANGES = {
 def input_status(
     root: str | os.PathLike, recorded: dict[str, str], inputs: Iterable[Path]
 ) -> dict[str, str]:
-    """Each input's state against what a result recorded (name -> sha256), ``inputs`` being
-    the files the command would read today: ``"as read"``, ``"changed"``, ``"removed"``, or
-    ``"new"`` (read today, not when the result was made); the recorded names first, in their
-    order. Every file is hashed once."""
+    """Each input's state against what a result recorded. Every file is hashed once.
+
+    Parameters
+    ----------
+    root : str or os.PathLike
+        The experiment folder the names are relative to.
+    recorded : dict of str to str
+        The result's inputs, name -> sha256 (result.json's ``provenance.inputs``).
+    inputs : iterable of pathlib.Path
+        The files the command would read today.
+
+    Returns
+    -------
+    dict of str to str
+        Name -> ``"as read"``, ``"changed"``, ``"removed"``, or ``"new"`` (read today, not
+        when the result was made); the recorded names first, in their order.
+    """
     root = Path(root)
     now = {_name(root, Path(p)): Path(p) for p in inputs}
     status = {}

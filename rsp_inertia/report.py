@@ -19,23 +19,30 @@ import json
 import math
 from pathlib import Path
 
-import numpy as np
-
 from rsp_inertia.estimation.runs import runs
 from rsp_inertia.estimation.smoothing import smooth_log
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.experiment import Experiment, open_experiment
+from rsp_inertia.plant.experiment import (
+    ENCODER_FIGURE,
+    PLAN_FIGURE,
+    REPORT_FILE,
+    Experiment,
+    open_experiment,
+)
 from rsp_inertia.plant.files import check_writable, write_atomic
 from rsp_inertia.plant.logs import read_device_log
-from rsp_inertia.plots import errors_figure, experiment_figures, figure_png
+from rsp_inertia.plots import (
+    DESIGN_FIGURE,
+    ERRORS_FIGURE,
+    difference_figure,
+    experiment_figures,
+    figure_png,
+)
 from rsp_inertia.provenance import created_now, input_changes, input_status, package_versions
 
 __all__ = ["FIGURES", "REPORT_FILE", "VALUE", "Z95", "write_report"]
 
-REPORT_FILE = "report.html"
-"""Written into the experiment folder."""
-
-FIGURES = ("plan.png", "design.png", "encoder_error.png", "errors.png")
+FIGURES = (PLAN_FIGURE, DESIGN_FIGURE, ENCODER_FIGURE, ERRORS_FIGURE)
 """Figures of other commands inlined when present (plan, design or demo, calibrate, demo);
 the motion and tracking figures are drawn from the logs (rsp_inertia.plots.experiment_figures)."""
 
@@ -327,29 +334,6 @@ def _protocol_section(exp: Experiment) -> list[str]:
     ]
 
 
-def _difference_figure(result: dict):
-    """A real rig's error chart: each method's axial moments against the least squares'
-    (no true values on a rig), beside the least squares' own relative std."""
-
-
-    axes = result["axes"]
-    J = np.array([a["J"] for a in axes])
-    bars = {
-        "least squares' relative std": np.array([a["J_std"] for a in axes]) / J,
-        "RSP node formula": np.array([a["J_node"] for a in axes]) / J - 1,
-    }
-    pendulum = (result.get("pendulum") or {}).get("axes") or []
-    if len(pendulum) == len(axes):
-        bars["pendulum classic"] = np.array([p["J_classic"] for p in pendulum]) / J - 1
-        bars["pendulum damped fit"] = np.array([p["J_damped"] for p in pendulum]) / J - 1
-    labels = [f"s{a['stage']} {a['phi_deg']:g} deg" for a in axes]
-    return errors_figure(
-        labels, bars,
-        "Each axial moment's difference from the least squares, per method",
-        ylabel="|J_k / J_k(least squares) - 1|",
-    )
-
-
 def _figures(exp: Experiment, result: dict) -> list[str]:
 
     pictures = [(name, (exp.root / name).read_bytes(), f"{name} (from the folder)")
@@ -359,7 +343,7 @@ def _figures(exp: Experiment, result: dict) -> list[str]:
                      for name, fig in experiment_figures(exp)]
     except InputError:  # said under the protocol, and in the verdict
         pass
-    pictures.append(("differences.png", figure_png(_difference_figure(result)),
+    pictures.append(("differences.png", figure_png(difference_figure(result)),
                      "each method against the least squares (drawn from result.json)"))
     parts = ["<h2>Figures</h2>"]
     for name, data, caption in pictures:
@@ -399,7 +383,7 @@ def write_report(root: str | Path) -> Path:
     """
     exp = open_experiment(root)
     result = _read_result(exp)
-    out = exp.root / REPORT_FILE
+    out = exp.report_path
     check_writable(out)
     provenance = result.get("provenance") or {}
     status = (

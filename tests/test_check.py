@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from rsp_inertia.cli import main
-from rsp_inertia.pipeline import create_default_experiment, simulate
+from rsp_inertia.scenarios import create_default_experiment
+from rsp_inertia.simulating import simulate
 from tests.one_home import assert_calls_home, home_cases
 
 
@@ -86,7 +87,7 @@ def test_a_regulator_the_encoder_holds_below_the_speed_harmonics_is_suspicious(t
     the braking's 2 Omega of 1.4 rad/s over the balances: check says so for stage 2 only (stage
     1's regulator, at about 7 rad/s, follows its 4.8 rad/s)."""
     from benchmarks.experiments import vary, with_encoder_bits
-    from rsp_inertia.pipeline import program
+    from rsp_inertia.programming import program
 
     root = create_default_experiment(tmp_path / "exp")
     vary(root, lambda d: with_encoder_bits(d, 12))
@@ -296,7 +297,7 @@ def test_a_calibration_folder_needs_no_calibration_toml(tmp_path, capsys):
     --calibration, the reference body's by its reference.toml. Their missing calibration.toml
     and unstated stds are no finding (calibrate measures what they would give); the body's
     folder keeps its suspicious line."""
-    from rsp_inertia.pipeline import create_rig_experiment
+    from rsp_inertia.scenarios import create_rig_experiment
 
     body, empty, reference = create_rig_experiment(tmp_path / "rig")
     for argv in (["check", str(empty), "--calibration"], ["check", str(reference)]):

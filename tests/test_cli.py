@@ -12,9 +12,9 @@ import pytest
 
 import rsp_inertia
 from rsp_inertia.cli import main
-from rsp_inertia.pipeline import create_default_experiment
 from rsp_inertia.plant.config import load_device
 from rsp_inertia.plant.logs import read_log
+from rsp_inertia.scenarios import create_default_experiment
 
 
 @pytest.fixture
@@ -325,12 +325,12 @@ def test_an_output_path_that_is_a_folder_is_found_before_the_work(
 ):
     # (A read-only folder is the usual case; as root, which writes anyway, a folder in the
     # output's place stands for it.) It was found only after the whole computation.
-    from rsp_inertia.estimation import reading
+    from rsp_inertia import identifying
 
     assert main(["simulate", str(experiment), "--stage", "1"]) == 0
     (experiment / "result.json").mkdir()
     started = []
-    monkeypatch.setattr(reading, "identify_experiment", lambda *a, **k: started.append(1))
+    monkeypatch.setattr(identifying, "identify_experiment", lambda *a, **k: started.append(1))
     capsys.readouterr()
     assert main(["identify", str(experiment)]) == 2
     one_line_error(capsys, "result.json: cannot be written: it is a folder")
@@ -341,11 +341,10 @@ def test_simulate_and_plan_find_an_unwritable_output_before_the_work(
     experiment, capsys, monkeypatch
 ):
     # A folder in an output's place stands for a read-only one (root writes anyway).
-    from rsp_inertia import planning
-    from rsp_inertia.plant import virtual
+    from rsp_inertia import planning, simulating
 
     started = []
-    monkeypatch.setattr(virtual, "simulate_braking", lambda *a, **k: started.append(1))
+    monkeypatch.setattr(simulating, "simulate_braking", lambda *a, **k: started.append(1))
     monkeypatch.setattr(planning, "stage_models", lambda *a, **k: started.append(1))
     (experiment / "stage2").mkdir()
     (experiment / "stage2" / "braking.csv").mkdir()

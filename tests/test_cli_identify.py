@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from rsp_inertia.cli import main
-from rsp_inertia.pipeline import create_default_experiment
 from rsp_inertia.plant.config import load_device
 from rsp_inertia.plant.logs import Log, write_log
+from rsp_inertia.scenarios import create_default_experiment
 
 RELEASE = math.radians(-30.0)
 """rad, where the synthetic braking starts (the default's release)."""

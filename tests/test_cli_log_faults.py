@@ -12,9 +12,10 @@ import pytest
 
 from benchmarks.experiments import vary
 from rsp_inertia.cli import main
-from rsp_inertia.pipeline import create_default_experiment, simulate
 from rsp_inertia.plant.config import LoggerSettings, load_device
 from rsp_inertia.plant.logs import read_device_log, read_log
+from rsp_inertia.scenarios import create_default_experiment
+from rsp_inertia.simulating import simulate
 
 
 def test_an_angle_jump_in_a_log_is_refused_by_check_identify_and_program(tmp_path, capsys):

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from rsp_inertia.cli import main
-from rsp_inertia.pipeline import create_default_experiment
 from rsp_inertia.plant.geometry import place_body
+from rsp_inertia.scenarios import create_default_experiment
 
 INERTIA = np.array([0.025, 0.028, 0.022, 0.0012, -0.0009, 0.0015])
 COM = np.array([0.003, -0.002, 0.004])

@@ -8,8 +8,10 @@ from pathlib import Path
 import pytest
 
 from rsp_inertia.cli import main
-from rsp_inertia.design.mountings import best_cone_opening, design_report, plot_cone_conditioning
+from rsp_inertia.design.mountings import best_cone_opening
 from rsp_inertia.plant.geometry import cone_plus_z_design, icosahedron_design
+from rsp_inertia.plots import plot_cone_conditioning
+from rsp_inertia.results import design_report
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -27,7 +29,7 @@ def test_design_prints_both_designs_and_writes_the_plot(tmp_path, capsys, monkey
 
 
 def test_design_of_an_experiment(tmp_path, capsys):
-    from rsp_inertia.pipeline import create_default_experiment
+    from rsp_inertia.scenarios import create_default_experiment
 
     create_default_experiment(tmp_path)
     plot = tmp_path / "fig.png"
@@ -98,7 +100,7 @@ def test_mounting_conditioning_closed_form():
 
 def test_design_of_two_mountings_reports_the_centre_of_mass(tmp_path, capsys):
     from rsp_inertia.cli import main
-    from rsp_inertia.pipeline import create_default_experiment
+    from rsp_inertia.scenarios import create_default_experiment
 
     folders = []
     for name, rows in (("a", None), ("b", "[[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]]")):

@@ -13,9 +13,11 @@ import shutil
 import pytest
 
 from rsp_inertia.cli import main
-from rsp_inertia.pipeline import create_default_experiment, identify, simulate
+from rsp_inertia.identifying import identify
 from rsp_inertia.provenance import created_now
 from rsp_inertia.report import VALUE, Z95
+from rsp_inertia.scenarios import create_default_experiment
+from rsp_inertia.simulating import simulate
 
 
 @pytest.fixture(scope="module")

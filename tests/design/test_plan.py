@@ -20,12 +20,13 @@ from rsp_inertia.estimation.predict import (
 )
 from rsp_inertia.estimation.reading import identify_experiment
 from rsp_inertia.estimation.tensor import axis_values, fit_tensor
-from rsp_inertia.pipeline import create_default_experiment, simulate
 from rsp_inertia.plant.config import load_device, load_virtual
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.geometry import device_design
 from rsp_inertia.plant.model import acceleration, dissipation, motor_torque, reduced_inertia
 from rsp_inertia.plant.virtual import integrate_to_stop, true_parameters
+from rsp_inertia.scenarios import create_default_experiment
+from rsp_inertia.simulating import simulate
 
 DEFAULTS = Path(__file__).parents[2] / "plant" / "defaults"
 

@@ -1,0 +1,99 @@
+"""``rsp-inertia combine``: several identified mountings of one body in, ``OUT/body.json`` out.
+
+The tensor and the whole centre of mass in body axes, by one generalised least squares over
+the mountings' results (rsp_inertia.estimation.combine.combine_mountings); its result object
+is :class:`rsp_inertia.results.CombineResult`.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from pathlib import Path
+
+from rsp_inertia.estimation.combine import Combination, combine_mountings, read_mounting
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.experiment import BODY_FILE, open_experiment
+from rsp_inertia.plant.files import check_writable, write_atomic
+from rsp_inertia.provenance import input_changes, input_status
+from rsp_inertia.results import body_json
+
+__all__ = ["combine"]
+
+
+def combine(roots: list[str | Path], out: str | Path) -> tuple[Combination, Path]:
+    """``rsp-inertia combine``: several identified mountings of one body -> OUT/body.json
+    (atomically), the tensor and the whole centre of mass in body axes
+    (rsp_inertia.estimation.combine.combine_mountings); returns it with the path written.
+
+    Each folder is an experiment identified as usual, its device.toml's ``[mounting]`` saying
+    how the body sat on the rig. A mounting whose inputs changed since identify (its
+    result.json's provenance against the folder) gives a warning.
+
+    Parameters
+    ----------
+    roots : list of str or pathlib.Path
+        The mountings' experiment folders, each identified.
+    out : str or pathlib.Path
+        The folder to write body.json into (created if needed).
+
+    Returns
+    -------
+    combination : rsp_inertia.estimation.combine.Combination
+        The body's tensor and centre of mass with their covariance, and the consistency test.
+    path : pathlib.Path
+        The body.json written.
+
+    Raises
+    ------
+    InputError
+        No folder, a folder given twice, folders of different devices (``[device] name``)
+        or masses, a folder without result.json or ``[body] mass``, mountings that cannot
+        give z_c (rsp_inertia.estimation.combine), an output that cannot be written (found
+        before anything is read).
+    """
+    if not roots:
+        raise InputError("combine: no experiment folder given: name every mounting's folder")
+    exps = [open_experiment(root, protocol=False) for root in roots]
+    seen: dict[Path, Path] = {}
+    for exp in exps:
+        same = seen.setdefault(exp.root.resolve(), exp.root)
+        if same is not exp.root:
+            raise InputError(f"{exp.root}: given twice (as {same}): each mounting once")
+    first = exps[0]
+    for exp in exps[1:]:
+        if exp.device.name != first.device.name:
+            raise InputError(
+                f"{exp.device_path}: device.name = {exp.device.name!r} differs from "
+                f"{first.device_path}'s {first.device.name!r}: the mountings must be "
+                "measured on one device"
+            )
+    folder = Path(out)
+    target = folder / BODY_FILE
+    if folder.exists() and not folder.is_dir():
+        raise InputError(f"{folder}: --out: is a file, not a folder; nothing was computed")
+    check_writable(target if folder.is_dir() else folder)
+    mountings = [read_mounting(exp) for exp in exps]
+    for exp, mounting in zip(exps[1:], mountings[1:]):
+        if mounting.mass != mountings[0].mass:
+            raise InputError(
+                f"{exp.device_path}: body.mass = {mounting.mass!r} differs from "
+                f"{first.device_path}'s {mountings[0].mass!r}: the mountings must be "
+                "of one body"
+            )
+    warnings = []
+    for exp in exps:
+        recorded = (json.loads(exp.result_path.read_text()).get("provenance") or {}).get("inputs")
+        if recorded is None:
+            warnings.append(f"{exp.result_path}: records no inputs: whether it still "
+                            "describes the folder's logs cannot be checked")
+            continue
+        changes = input_changes(input_status(exp.root, recorded, exp.identify_inputs()))
+        if changes:
+            warnings.append(f"{exp.root}: identify again: {'; '.join(changes)}")
+    combination = combine_mountings(mountings)
+    if warnings:
+        combination = replace(combination, warnings=warnings + list(combination.warnings))
+    folder.mkdir(parents=True, exist_ok=True)
+    write_atomic(target, body_json(combination))
+    return combination, target

@@ -1,0 +1,80 @@
+"""``rsp-inertia design``: the conditioning of axis designs, and of mountings for the centre
+of mass.
+
+Both paper designs (the icosahedron; the cone + z design at the opening that minimises
+cond(V), rsp_inertia.design.mountings.best_cone_opening), each experiment's device.toml
+design, and for several experiments (or one with ``[mounting]``) the mountings'
+conditioning for the centre of mass (rsp_inertia.design.mountings.mounting_conditioning);
+the paper's Fig. 1 written as a PNG. Its result object, with the text it prints, is
+:class:`rsp_inertia.results.DesignResult`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from rsp_inertia.design.mountings import best_cone_opening, mounting_conditioning
+from rsp_inertia.figure_files import save_figure
+from rsp_inertia.plant.config import load_device
+from rsp_inertia.plant.experiment import DEVICE_FILE
+from rsp_inertia.plant.geometry import cone_plus_z_design, device_design, icosahedron_design
+from rsp_inertia.plots import DESIGN_FIGURE, design_figures
+from rsp_inertia.results import DesignResult
+
+__all__ = ["design"]
+
+
+def design(exps: list[Path] | Path | None = None, plot: Path | None = None) -> DesignResult:
+    """``rsp-inertia design``: the designs' report and Fig. 1 (module docstring).
+
+    Parameters
+    ----------
+    exps : list of paths, or a path, optional
+        Experiment folders whose device.toml designs are reported too (mountings of one body).
+    plot : path, optional
+        Where to write Fig. 1 (default: the first EXP/design.png, or ./design.png).
+
+    Returns
+    -------
+    DesignResult
+        The designs, the optimum opening, the mountings' conditioning and the plot's path;
+        ``str`` is the report the command prints.
+
+    Raises
+    ------
+    InputError
+        A folder without a valid device.toml.
+    """
+    if exps is None:
+        exps = []
+    elif isinstance(exps, (str, Path)):
+        exps = [exps]
+    best_deg, best_cond = best_cone_opening()
+    designs = [icosahedron_design(), cone_plus_z_design(best_deg)]
+    devices = [load_device(Path(exp) / DEVICE_FILE) for exp in exps]
+    designs += [device_design(device) for device in devices]
+    names, rotations, condition, gain = (), (), None, None
+    if len(devices) > 1 or any(device.mounting is not None for device in devices):
+        names = tuple(str(exp) for exp in exps)
+        rotations = tuple(
+            np.eye(3) if d.mounting is None else d.mounting.rotation for d in devices
+        )
+        condition, gain = mounting_conditioning(list(rotations))
+    if plot is None:
+        plot = (Path(exps[0]) if exps else Path(".")) / DESIGN_FIGURE
+    result = DesignResult(
+        designs=tuple(designs),
+        best_opening_deg=best_deg,
+        best_condition=best_cond,
+        mountings=names,
+        rotations=rotations,
+        mounting_condition=condition,
+        mounting_gain=gain,
+        figure=Path(plot),
+        drawer=design_figures,
+    )
+    for _name, figure in result.draw():
+        save_figure(figure, plot)
+    return result

@@ -1,0 +1,246 @@
+"""``rsp-inertia simulate``: the virtual device writes the logs a rig would.
+
+Reads device.toml and virtual.toml (the virtual device's truth), runs the simulator
+(rsp_inertia.plant.virtual) and writes each log atomically, as the virtual rig's logger writes
+it; each log written is a :class:`rsp_inertia.results.PassSummary`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from rsp_inertia.plant.config import DIRECTIONS, Virtual
+from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.experiment import Experiment, open_experiment
+from rsp_inertia.plant.files import check_writable
+from rsp_inertia.plant.geometry import turns_past_last_node
+from rsp_inertia.plant.logs import Log, align_counter, read_device_log, read_program, write_log
+from rsp_inertia.plant.virtual import (
+    SimulatedPass,
+    run_program,
+    simulate_braking,
+    simulate_ideal_reverse,
+    simulate_pendulum,
+    simulate_pilot,
+)
+from rsp_inertia.results import PassSummary
+
+__all__ = ["PARTS", "simulate"]
+
+PARTS = ("braking", "reverse", "pendulum", "pilot")
+"""What ``simulate`` can run: ``--part``'s choices."""
+
+
+def _summary(
+    exp: Experiment,
+    stage: int,
+    part: str,
+    path: Path,
+    sim: SimulatedPass,
+    direction: str = "forward",
+) -> PassSummary:
+    log = sim.log
+    past = None
+    if part == "braking":
+        past = turns_past_last_node(log.phi, exp.device.stages[stage - 1].nodes)
+    return PassSummary(
+        stage=stage,
+        part=part,
+        path=path,
+        rows=len(log),
+        duration=sim.truth.end_time,
+        turns=float(abs(log.phi[-1] - log.phi[0]) / (2 * math.pi)),
+        turns_past_last_node=past,
+        direction=direction,
+    )
+
+
+def _check_simulate_outputs(
+    exp: Experiment, stages: list[int], part: str, direction: str | None
+) -> None:
+    """Refuse, before any run is simulated, a log that :func:`simulate` could not write
+    (rsp_inertia.plant.files.check_writable): in a stage folder that exists, each log; else
+    the experiment folder, where the stage folder is to be made."""
+    for st in stages:
+        if part == "pendulum":
+            nodes = len(exp.device.stages[st - 1].nodes)
+            paths = [exp.pendulum_path(st, k + 1) for k in range(nodes)]
+        elif part == "pilot":
+            paths = [exp.pilot_path(st)]
+        else:
+            directions = exp.device.stages[st - 1].directions if direction is None else (direction,)
+            where = exp.braking_path if part == "braking" else exp.reverse_path
+            paths = [where(st, d) for d in directions]
+        folder = exp.stage_dir(st)
+        for path in paths if folder.is_dir() else [folder]:
+            check_writable(path)
+
+
+def _write_log(exp: Experiment, virtual: Virtual, path: Path, log: Log) -> None:
+    """A simulated log as the virtual rig's logger writes it: ``t,counts,torque`` with
+    virtual.toml ``[logger] counts`` (device.toml's ``[encoder] counter_bits`` wide), else
+    ``t,phi,torque``."""
+    if not virtual.logger.counts:
+        write_log(path, log)
+        return
+    if exp.device.encoder.counter_bits is None:
+        raise InputError(
+            f"{exp.virtual_path}: logger.counts: the logger writes a counter's counts, "
+            "but device.toml's [encoder] has no counter_bits (the counter's width)"
+        )
+    write_log(path, log, counter=exp.device.encoder)
+
+
+def _braking_truth(
+    exp: Experiment, stage: int, virtual: Virtual, direction: str = "forward"
+) -> SimulatedPass:
+    """Re-run the (deterministic) braking pass of ``direction`` and check it is the one on disk.
+
+    The reverse pass starts where the braking stopped; the simulator regenerates that state
+    rather than storing truth next to the logs, and refuses a braking log it did not write
+    with these settings.
+    """
+    braking = simulate_braking(exp.device, stage, virtual, direction)
+    path = exp.braking_path(stage, direction)
+    if not path.is_file():
+        raise InputError(f"{path}: not found: simulate the braking first (--part braking)")
+    on_disk = align_counter(  # a counts log is known up to whole ranges of the counter
+        read_device_log(path, exp.device, "braking", direction),
+        float(braking.log.phi[0]),
+        exp.device.encoder,
+    )
+    q = exp.device.encoder.quantum
+    same = (
+        len(on_disk) == len(braking.log)
+        and np.array_equal(on_disk.t, braking.log.t)
+        and np.array_equal(on_disk.torque, braking.log.torque)
+        # in counts: a counts log's angle is rebuilt from the counter, not bit for bit
+        and np.array_equal(np.rint(on_disk.phi / q), np.rint(braking.log.phi / q))
+    )
+    if not same:
+        raise InputError(
+            f"{path}: not the virtual device's braking pass for the current device.toml and "
+            "virtual.toml; simulate it again (--part braking)"
+        )
+    return braking
+
+
+def simulate(
+    root: str | Path,
+    stage: int | None = None,
+    part: str = "braking",
+    *,
+    ideal: bool = False,
+    direction: str | None = None,
+    progress: Callable[[PassSummary], None] | None = None,
+) -> list[PassSummary]:
+    """``rsp-inertia simulate``: the virtual device writes the logs of one part.
+
+    Parameters
+    ----------
+    root : path
+        Experiment folder with device.toml and virtual.toml.
+    stage : int, optional
+        One stage (from 1); all stages by default.
+    part : {'braking', 'reverse', 'pendulum', 'pilot'}
+        The braking pass writes stageN/braking.csv. The reverse pass runs stageN/program.csv
+        in closed loop and writes stageN/reverse.csv; with ``ideal`` it runs the exact mirror
+        of the braking on an ideal drive instead (no program needed). The pendulum part
+        writes stageN/pendulum_kK.csv, one torsion-pendulum run per node K; the pilot part
+        stageN/pilot.csv (spin-up at a known torque, then a coast; for ``plan``). A backward run
+        uses stageN/braking_backward.csv, program_backward.csv and reverse_backward.csv.
+        Braking and reverse need every stage's protocol in device.toml
+        (rsp_inertia.plant.config.require_protocol); pendulum and pilot runs do not.
+    ideal : bool, optional
+        With ``part='reverse'``: the exact mirror of the braking on an ideal drive (no
+        program needed).
+    direction : {'forward', 'backward'}, optional
+        Braking and reverse: only this direction, on the stages whose ``directions`` in
+        device.toml include it; every direction of each stage by default. Pendulum and pilot
+        runs ignore it.
+    progress : callable, optional
+        Called with each pass's summary as soon as it is written.
+
+    Returns
+    -------
+    list of rsp_inertia.results.PassSummary
+        One per log written, in the order written.
+
+    Raises
+    ------
+    InputError
+        Bad ``part`` or ``direction``, ``ideal`` with a part other than 'reverse', or no
+        selected stage runs ``direction``; and whatever the files' readers and the simulator
+        raise.
+    """
+    if part not in PARTS:
+        raise InputError(f"--part: must be one of {', '.join(PARTS)}, got {part!r}")
+    if ideal and part != "reverse":
+        raise InputError("--ideal goes with --part reverse")
+    if direction is not None and direction not in DIRECTIONS:
+        raise InputError(
+            f"--direction: must be one of {', '.join(DIRECTIONS)}, got {direction!r}"
+        )
+    exp = open_experiment(root, protocol=part in ("braking", "reverse"))
+    virtual = exp.load_virtual()
+    stages = exp.stages(stage)
+    if direction is not None and part not in ("pendulum", "pilot"):
+        runs = [st for st in stages if direction in exp.device.stages[st - 1].directions]
+        if not runs:
+            fault = (
+                f"stage: no stage's directions include {direction!r}"
+                if stage is None
+                else f"stage[{stage}].directions: does not include {direction!r}"
+            )
+            raise InputError(f"{exp.device_path}: {fault}")
+        stages = runs
+    _check_simulate_outputs(exp, stages, part, direction)
+    summaries = []
+    for st in stages:
+        exp.stage_dir(st).mkdir(exist_ok=True)
+        if part == "pendulum":
+            for k in range(len(exp.device.stages[st - 1].nodes)):
+                sim = simulate_pendulum(exp.device, st, virtual, k)
+                path = exp.pendulum_path(st, k + 1)
+                _write_log(exp, virtual, path, sim.log)
+                summary = _summary(exp, st, f"pendulum at node {k + 1}", path, sim)
+                if progress is not None:
+                    progress(summary)
+                summaries.append(summary)
+            continue
+        if part == "pilot":
+            sim = simulate_pilot(exp.device, st, virtual)
+            path = exp.pilot_path(st)
+            _write_log(exp, virtual, path, sim.log)
+            summary = _summary(exp, st, "pilot", path, sim)
+            if progress is not None:
+                progress(summary)
+            summaries.append(summary)
+            continue
+        directions = exp.device.stages[st - 1].directions if direction is None else (direction,)
+        for d in directions:
+            if part == "braking":
+                sim = simulate_braking(exp.device, st, virtual, d)
+                path = exp.braking_path(st, d)
+                label = "braking"
+            else:
+                braking = _braking_truth(exp, st, virtual, d)
+                if ideal:
+                    sim = simulate_ideal_reverse(exp.device, st, virtual, braking, d)
+                    label = "ideal reverse"
+                else:
+                    program = read_program(exp.program_path(st, d), exp.device.encoder)
+                    start = (braking.truth.end_phi, 0.0)
+                    sim = run_program(exp.device, st, virtual, program, start, direction=d)
+                    label = "reverse"
+                path = exp.reverse_path(st, d)
+            _write_log(exp, virtual, path, sim.log)
+            summary = _summary(exp, st, label, path, sim, d)
+            if progress is not None:
+                progress(summary)
+            summaries.append(summary)
+    return summaries
