@@ -76,10 +76,11 @@ def guess_model(device: Device, stage: int) -> tuple[ModelParameters, float]:
         )
     st = device.stages[stage - 1]
     J = float(np.mean(moments))
+    harmonics = inertia_harmonics([J, J, J, 0.0, 0.0, 0.0], st.gear_ratio, st.tare_inertia)
     weight = (mass or 0.0) * device.gravity * guess.com_offset
     a1, a2, a3 = guess.friction
     model = ModelParameters(
-        inertia_harmonics=inertia_harmonics([J, J, J, 0.0, 0.0, 0.0], st.gear_ratio, st.tare_inertia),
+        inertia_harmonics=harmonics,
         stiffness=device.spring.stiffness,
         zero_angle=device.spring.zero_angle,
         gravity_sin=weight,

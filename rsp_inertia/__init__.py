@@ -15,7 +15,7 @@ Functions: :func:`create_experiment`, :func:`simulate`, :func:`program`, :func:`
 raises :class:`InputError`, with the line the command line prints.
 
 The names are loaded on first use (module ``__getattr__``): ``import rsp_inertia`` imports
-nothing heavy (the API's functions import their command's modules when called: rsp_inertia.api
+nothing heavy (each API function imports its command's modules when called: rsp_inertia.api
 is the lazy boundary), so the command line starts fast. The layers are subpackages:
 ``rsp_inertia.plant`` (device, geometry, virtual device, files), ``rsp_inertia.estimation``
 (identification), ``rsp_inertia.ocp`` (torque programs) and ``rsp_inertia.design``
@@ -51,10 +51,9 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time, __getattr__ below
         SimulateResult,
     )
 
-from rsp_inertia import api
-
-# The public names: rsp_inertia.api.__all__ is this list without __version__
-# (tests/test_api.py checks that they agree).
+# The public names; rsp_inertia.api.__all__ repeats them without __version__ (the API cannot
+# read this list: this module imports the API, and an import back would close a cycle;
+# tests/test_api.py checks that the two agree).
 __all__ = [
     "CalibrateResult",
     "CheckResult",
@@ -93,8 +92,12 @@ def __getattr__(name: str):
     """The API's names on first use (PEP 562), kept in the module."""
     if name == "__version__":
         value = _version()
-    elif name in api.__all__:
-        value = getattr(api, name)  # a result class loads its module now (api.__getattr__)
+    elif name in __all__:
+        # the API on first use: ``import rsp_inertia`` (and every subpackage's import) loads
+        # none of the command layer; a result class loads rsp_inertia.results (numpy) then
+        from rsp_inertia import api
+
+        value = getattr(api, name)
     else:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
     globals()[name] = value

@@ -70,9 +70,9 @@ __all__ = [
     "simulate",
     "write_report",
 ]
-"""The package's public names without its version: rsp_inertia.__all__'s list (which this
-module cannot read: the package's ``__getattr__`` imports it; tests/test_api.py checks that
-the two agree)."""
+"""The package's public names without its version: rsp_inertia.__all__'s, repeated (the
+package's ``__getattr__`` imports this module, which cannot import it back;
+tests/test_api.py checks that the two agree)."""
 
 RESULT_CLASSES = (
     "CalibrateResult",

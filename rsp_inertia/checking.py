@@ -308,7 +308,13 @@ def _check_run(exp: Experiment, stage: int, direction: str, encoder, findings: F
 
 
 def _check_braking(
-    exp: Experiment, stage: int, direction: str, path: Path, braking, findings: Findings, nodes: bool
+    exp: Experiment,
+    stage: int,
+    direction: str,
+    path: Path,
+    braking: Log,
+    findings: Findings,
+    nodes: bool,
 ) -> bool:
     """A braking log's own findings: its sampling (:func:`_check_timing`, ``nodes`` as
     there), a speed that reverses (``error``), the turns it covers past its last node and its

@@ -709,7 +709,8 @@ def format_identification(result: Identification, truth: np.ndarray | None = Non
         worst = int(np.argmax([a.J_std / a.J for a in result.axes]))
         a = result.axes[worst]
         shares = ", ".join(
-            f"{source} {part['axes'][worst] / a.J:.1e}" for source, part in result.std_budget.items()
+            f"{source} {part['axes'][worst] / a.J:.1e}"
+            for source, part in result.std_budget.items()
         )
         lines.append(
             f"uncertainty budget of the least sure axis (stage {a.stage} node {a.phi_deg:g} deg, "

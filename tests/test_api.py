@@ -191,6 +191,28 @@ def test_import_loads_no_numerical_stack():
     assert out.split() == ["[]", "['numpy']"]
 
 
+def _heavy_after(imports: str) -> list[str]:
+    """The heavy packages loaded by ``imports`` in a fresh interpreter."""
+    code = (
+        f"import sys\nimport {imports}\n"
+        "heavy = ('numpy', 'scipy', 'casadi', 'matplotlib', 'control')\n"
+        "print(' '.join(sorted({m.split('.')[0] for m in sys.modules} & set(heavy))))\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout
+    return out.split()
+
+
+def test_each_command_loads_only_what_it_needs():
+    """The results draw nothing themselves (their commands hand them their drawer): combine
+    loads neither CasADi nor matplotlib, check (identify's readers) no matplotlib."""
+    assert _heavy_after("rsp_inertia.results") == ["numpy"]
+    assert _heavy_after("rsp_inertia.combining") == ["numpy", "scipy"]
+    assert "matplotlib" not in _heavy_after("rsp_inertia.checking")
+    assert "matplotlib" not in _heavy_after("rsp_inertia.simulating, rsp_inertia.programming")
+
+
 # --- identify -------------------------------------------------------------------------------
 
 

@@ -114,3 +114,28 @@ def test_design_of_two_mountings_reports_the_centre_of_mass(tmp_path, capsys):
     assert main(["design", *folders, "--plot", str(tmp_path / "d.png")]) == 0
     out = capsys.readouterr().out
     assert "std of x_c, y_c, z_c over one mounting's std of x_c: 0.707, 1.000, 1.000" in out
+
+
+def test_design_result_is_what_the_command_prints(tmp_path, capsys):
+    """The command's result object (rsp_inertia.api.axis_designs): ``str`` is the printed
+    report, ``to_json`` its numbers, ``figures`` redraws the same PNG; a result made without
+    its drawer says so."""
+    import dataclasses
+    import json
+
+    from rsp_inertia import api
+
+    plot = tmp_path / "a.png"
+    result = api.axis_designs(plot=plot)
+    written = plot.read_bytes()
+    assert main(["design", "--plot", str(plot)]) == 0
+    assert capsys.readouterr().out == f"{result}\n"
+    document = json.loads(result.to_json())
+    assert [d["name"][:6] for d in document["designs"]] == ["icosah", "cone+z"]
+    assert document["mountings"] is None and document["figure"] == str(plot)
+    assert document["best_condition"] == pytest.approx(1.4892, abs=1e-4)
+    assert len(document["designs"][0]["axes"]) == 6
+    again = result.figures(tmp_path / "again")
+    assert again == [tmp_path / "again" / "a.png"] and again[0].read_bytes() == written
+    with pytest.raises(TypeError, match="without its drawer"):
+        dataclasses.replace(result, drawer=None).draw()
