@@ -37,11 +37,14 @@ from rsp_inertia.estimation.identify import pendulum_baseline
 from rsp_inertia.estimation.pendulum import estimate_pendulum
 from rsp_inertia.estimation.reading import known_terms, read_calibration
 from rsp_inertia.estimation.runs import ExperimentLogs, Sources
-from rsp_inertia.pipeline import create_default_experiment, identify, program, simulate
+from rsp_inertia.identifying import identify
 from rsp_inertia.plant.config import placed_body
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.logs import Log, read_log
+from rsp_inertia.programming import program
+from rsp_inertia.scenarios import create_default_experiment
+from rsp_inertia.simulating import simulate
 
 __all__ = [
     "COM_FRICTION_FACTORS",
@@ -84,7 +87,12 @@ EQUAL_TIME_METHODS = ("pendulum_equal", "pendulum_best_equal")
 """Row-key suffixes of the pendulum reduced from logs cut to the RSP experiment's time."""
 
 FINGERPRINT_MODULES = (
-    "rsp_inertia.pipeline",
+    "rsp_inertia.scenarios",
+    "rsp_inertia.simulating",
+    "rsp_inertia.programming",
+    "rsp_inertia.identifying",
+    "rsp_inertia.calibrating",
+    "rsp_inertia.results",
     "rsp_inertia.checking",
     "benchmarks.experiments",
     "benchmarks.protocol",
@@ -92,7 +100,7 @@ FINGERPRINT_MODULES = (
     "benchmarks.cases",
     "benchmarks.sensitivity",
 )
-"""Modules outside plant, ocp and estimation whose source computes a row."""
+"""Modules outside plant, ocp, estimation and design whose source computes a row."""
 
 
 @dataclass(frozen=True, order=True)
@@ -159,12 +167,14 @@ def configure(root: Path, case: Case) -> None:
 
 
 def code_fingerprint() -> str:
-    """A hash of the source that computes a case (plant, ocp, estimation with the default
-    experiment's files, FINGERPRINT_MODULES): a cached row is reused only under the same
+    """A hash of the source that computes a case (plant, ocp, estimation and design with the
+    default experiment's files, FINGERPRINT_MODULES): a cached row is reused only under the same
     code."""
     digest = hashlib.sha256()
     files = []
-    for package in ("rsp_inertia.plant", "rsp_inertia.ocp", "rsp_inertia.estimation"):
+    for package in (
+        "rsp_inertia.plant", "rsp_inertia.ocp", "rsp_inertia.estimation", "rsp_inertia.design"
+    ):
         folder = Path(importlib.import_module(package).__file__).parent
         files += sorted(folder.rglob("*.py")) + sorted(folder.rglob("*.toml"))
     files += [Path(importlib.import_module(m).__file__) for m in FINGERPRINT_MODULES]

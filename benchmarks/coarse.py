@@ -42,7 +42,7 @@ from benchmarks.experiments import default_experiment, seeded, with_encoder_bits
 from benchmarks.program import node_mismatch
 from benchmarks.tables import command_line, fmt, table_lines
 from benchmarks.truth import true_moments
-from rsp_inertia.pipeline import identify, program
+from rsp_inertia.identifying import identify
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.logs import read_program, write_log
@@ -53,6 +53,7 @@ from rsp_inertia.plant.virtual import (
     simulate_braking,
     simulate_ideal_reverse,
 )
+from rsp_inertia.programming import program
 
 BITS = (10, 12, 14, 16)
 NOISES = (1e-4, 1e-3, 3e-3)

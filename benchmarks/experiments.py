@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from rsp_inertia.pipeline import create_default_experiment
 from rsp_inertia.plant.config import Device, Stage, Virtual, load_device, load_virtual
+from rsp_inertia.scenarios import create_default_experiment
 
 __all__ = [
     "default_experiment",

@@ -30,10 +30,10 @@ from benchmarks.truth import tensor_error, true_moments
 from rsp_inertia.estimation.reading import identify_experiment
 from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs
 from rsp_inertia.estimation.tensor import axis_values, fit_tensor
-from rsp_inertia.pipeline import simulate
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.files import write_atomic
 from rsp_inertia.plant.virtual import placed_body, simulate_braking, simulate_ideal_reverse
+from rsp_inertia.simulating import simulate
 
 
 def _std_with_exact_speeds(exp, virtual, directions: np.ndarray) -> np.ndarray:

@@ -64,7 +64,9 @@ independent experiments' do; tests/estimation/test_uncertainty.py does the same)
 def _mounting(folder: Path, seed: int, rotation, misalignment: tuple | None) -> dict:
     """One mounting identified (the virtual device's noise seed ``seed``, its release angle
     drawn from it); its folder and timings."""
-    from rsp_inertia.pipeline import create_default_experiment, identify, simulate
+    from rsp_inertia.identifying import identify
+    from rsp_inertia.scenarios import create_default_experiment
+    from rsp_inertia.simulating import simulate
 
     root = create_default_experiment(folder)
     virtual = root / "virtual.toml"

@@ -20,11 +20,11 @@ from benchmarks.experiments import vary, with_stage
 from rsp_inertia.checking import MIN_TURNS_PAST_LAST_NODE
 from rsp_inertia.ocp.feedforward import required_torque
 from rsp_inertia.ocp.reference import Mirror
-from rsp_inertia.pipeline import simulate
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.model import ModelParameters, acceleration
 from rsp_inertia.plant.virtual import true_parameters
+from rsp_inertia.simulating import simulate
 
 __all__ = ["MAX_PROTOCOL_TRIES", "TORQUE_MARGIN", "fit_protocol", "mirror_torque"]
 

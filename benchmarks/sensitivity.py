@@ -33,10 +33,13 @@ from benchmarks.protocol import fit_protocol
 from benchmarks.scratch import scratch_folder
 from benchmarks.tables import fmt, new_figure, table_lines
 from benchmarks.truth import identification_errors
-from rsp_inertia.pipeline import create_default_experiment, identify, program, simulate
+from rsp_inertia.identifying import identify
 from rsp_inertia.plant.config import Device, placed_body
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
+from rsp_inertia.programming import program
+from rsp_inertia.scenarios import create_default_experiment
+from rsp_inertia.simulating import simulate
 
 __all__ = [
     "SENSITIVITY_METHODS",

@@ -42,7 +42,7 @@ Scenarios and targets:
    (orders 1, 2, 3; ``[rig] encoder_error_amplitude``) and phases drawn per seed
    (:func:`encoder_phases`: uniform in [0, 360) deg per order, the same in the three
    folders; reported with the row). Rows 'encoder' and 'encoder-none'.
-9. everything -- the demo's rig (rsp_inertia.pipeline.create_rig_experiment: torque gain
+9. everything -- the demo's rig (rsp_inertia.scenarios.create_rig_experiment: torque gain
    1.003, tares 1% off, an unbalanced fixture, bearing friction 2% larger backward, every
    stage in both directions) with the drive of 7 and the encoder error of 8, in CLOSED LOOP:
    for EMPTY, REF and EXP braking, ``program``, the closed-loop reverse; then calibrate and
@@ -92,13 +92,8 @@ from benchmarks.experiments import (
 )
 from benchmarks.tables import command_line, markdown_table, table_lines
 from benchmarks.truth import tensor_error, true_moments
-from rsp_inertia.pipeline import (
-    calibrate,
-    create_rig_experiment,
-    identify,
-    program,
-    simulate,
-)
+from rsp_inertia.calibrating import calibrate
+from rsp_inertia.identifying import identify
 from rsp_inertia.plant.config import (
     Device,
     Rig,
@@ -109,6 +104,9 @@ from rsp_inertia.plant.config import (
 )
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.files import write_atomic
+from rsp_inertia.programming import program
+from rsp_inertia.scenarios import create_rig_experiment
+from rsp_inertia.simulating import simulate
 
 BACKWARD_SCALE = 1.02
 TARE_ERROR = 1.02
@@ -241,7 +239,7 @@ def _calibration_folders(tmp: Path, seed: int, rig: dict) -> tuple[Path, Path, P
 
 
 def _demo_rig_folders(root: Path, seed: int, rig: dict) -> tuple[Path, Path, Path]:
-    """The demo's EXP, EMPTY and REF (rsp_inertia.pipeline.create_rig_experiment), seeded
+    """The demo's EXP, EMPTY and REF (rsp_inertia.scenarios.create_rig_experiment), seeded
     (SEED_OFFSETS), ``rig`` set in each virtual.toml's [rig]."""
     folders = create_rig_experiment(root)
     for folder, offset in zip(folders, SEED_OFFSETS):

@@ -21,8 +21,6 @@ from pathlib import Path
 
 import pytest
 
-import rsp_inertia
-
 LAYERS = {
     "plant": {"plant"},
     "estimation": {"plant", "estimation"},

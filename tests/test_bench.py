@@ -128,7 +128,8 @@ def test_a_result_made_by_other_code_is_run_again(swept, tmp_path, monkeypatch):
 
 def test_the_fingerprint_covers_the_benchmark_modules_that_compute_a_case():
     for name in ("benchmarks.cases", "benchmarks.protocol", "benchmarks.experiments",
-                 "benchmarks.truth", "benchmarks.sensitivity", "rsp_inertia.pipeline"):
+                 "benchmarks.truth", "benchmarks.sensitivity", "rsp_inertia.simulating",
+                 "rsp_inertia.programming", "rsp_inertia.identifying"):
         assert name in cases.FINGERPRINT_MODULES
     for name in cases.FINGERPRINT_MODULES:
         importlib.import_module(name)

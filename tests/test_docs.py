@@ -426,7 +426,8 @@ def result(tmp_path_factory) -> dict:
     times slower when the machine's cores are shared with other work."""
     from threadpoolctl import threadpool_limits
 
-    from rsp_inertia.pipeline import create_default_experiment, simulate
+    from rsp_inertia.scenarios import create_default_experiment
+    from rsp_inertia.simulating import simulate
 
     root = create_default_experiment(tmp_path_factory.mktemp("docs") / "exp")
     text = (root / "device.toml").read_text()

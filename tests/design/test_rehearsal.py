@@ -16,12 +16,13 @@ from rsp_inertia.design.rehearsal import consistent_models
 from rsp_inertia.estimation.reading import read_run
 from rsp_inertia.estimation.runs import estimate_run
 from rsp_inertia.ocp.program import make_program
-from rsp_inertia.pipeline import create_default_experiment, simulate
 from rsp_inertia.plant.config import ControllerSettings, Friction, RunSettings, Virtual
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.geometry import axis_direction, design_matrix, entries_from_tensor
 from rsp_inertia.plant.model import inertia_harmonics
 from rsp_inertia.plant.virtual import integrate_to_stop, simulate_braking, true_parameters
+from rsp_inertia.scenarios import create_default_experiment
+from rsp_inertia.simulating import simulate
 
 
 def _square(a: float, b: float) -> float:

@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from rsp_inertia.pipeline import create_default_experiment, identify, simulate
+from rsp_inertia.identifying import identify
 from rsp_inertia.plant.config import load_device
 from rsp_inertia.plant.logs import read_log
+from rsp_inertia.scenarios import create_default_experiment
+from rsp_inertia.simulating import simulate
 
 
 def test_wrapped_counts_identify_like_the_angles(tmp_path):

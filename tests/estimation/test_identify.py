@@ -20,12 +20,14 @@ from rsp_inertia.design.mountings import best_cone_opening
 from rsp_inertia.estimation.calibration import device_known_terms
 from rsp_inertia.estimation.identify import identify_logs
 from rsp_inertia.estimation.runs import ExperimentLogs
-from rsp_inertia.pipeline import create_default_experiment, identify, simulate
+from rsp_inertia.identifying import identify
 from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.config import load_device, write_device
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.geometry import device_design, relative_errors, tensor_from_entries
 from rsp_inertia.plant.logs import read_log, write_log
+from rsp_inertia.scenarios import create_default_experiment
+from rsp_inertia.simulating import simulate
 
 ENTRY_NAMES = ("Jx", "Jy", "Jz", "Jxy", "Jyz", "Jxz")
 

@@ -12,12 +12,12 @@ from scipy.optimize import brentq
 from rsp_inertia.cli import main
 from rsp_inertia.estimation.best_practice import best_practice_inertia, half_cycle_fit
 from rsp_inertia.estimation.pendulum import crossing_period
-from rsp_inertia.pipeline import create_default_experiment
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.geometry import axis_direction, design_matrix, entries_from_tensor
 from rsp_inertia.plant.logs import Log
 from rsp_inertia.plant.model import reduced_inertia, static_torque
 from rsp_inertia.plant.virtual import encoder_reading, pendulum_parameters, simulate_pendulum
+from rsp_inertia.scenarios import create_default_experiment
 
 Q = 2 * math.pi / 65536
 

@@ -19,10 +19,12 @@ from scipy.stats import chi2
 from rsp_inertia.estimation.balance import NODE_GAP_SAMPLES, check_node_gaps
 from rsp_inertia.estimation.passes import gap_work
 from rsp_inertia.estimation.smoothing import Smoothed
-from rsp_inertia.pipeline import create_default_experiment, identify, simulate
+from rsp_inertia.identifying import identify
 from rsp_inertia.plant.config import load_virtual
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.logs import Log, dropped_samples, motor_work, read_log, write_log
+from rsp_inertia.scenarios import create_default_experiment
+from rsp_inertia.simulating import simulate
 
 
 def _smoothed(t, phi, omega) -> Smoothed:

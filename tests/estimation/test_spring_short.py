@@ -29,10 +29,12 @@ import pytest
 
 from rsp_inertia.estimation import smoothing
 from rsp_inertia.estimation.smoothing import block_length, block_speed_bias, smooth_log
-from rsp_inertia.pipeline import create_default_experiment, identify, simulate
+from rsp_inertia.identifying import identify
 from rsp_inertia.plant.experiment import DEVICE_FILE, VIRTUAL_FILE, open_experiment
 from rsp_inertia.plant.logs import Log
 from rsp_inertia.plant.virtual import simulate_braking
+from rsp_inertia.scenarios import create_default_experiment
+from rsp_inertia.simulating import simulate
 from tests.estimation.conftest import STAGES
 
 STIFFNESS = 0.02

@@ -10,11 +10,12 @@ import pytest
 
 from rsp_inertia.estimation.runs import ExperimentLogs
 from rsp_inertia.estimation.stiffness import _two_period, calibrate_stiffness
-from rsp_inertia.pipeline import create_rig_experiment, simulate
 from rsp_inertia.plant.config import load_reference
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.logs import read_log
 from rsp_inertia.plant.virtual import true_parameters
+from rsp_inertia.scenarios import create_rig_experiment
+from rsp_inertia.simulating import simulate
 
 
 def test_two_period_formula_is_the_textbook_one_without_gravity():
@@ -100,7 +101,7 @@ def test_calibrate_writes_the_stiffness_and_identify_uses_it(rig, capsys):
     import tomllib
 
     from rsp_inertia.cli import main
-    from rsp_inertia.pipeline import identify
+    from rsp_inertia.identifying import identify
     from rsp_inertia.plant.geometry import tensor_from_entries
 
     empty, reference = rig

@@ -13,6 +13,7 @@ import shutil
 import numpy as np
 import pytest
 
+from rsp_inertia.calibrating import calibrate
 from rsp_inertia.cli import main
 from rsp_inertia.estimation import identify as identify_module
 from rsp_inertia.estimation.balance import stage_balance
@@ -20,13 +21,15 @@ from rsp_inertia.estimation.passes import estimate_pass
 from rsp_inertia.estimation.reading import known_terms, read_calibration
 from rsp_inertia.estimation.runs import ExperimentLogs
 from rsp_inertia.estimation.tensor import KnownTerms, axis_values, fit_tensor
-from rsp_inertia.pipeline import calibrate, create_default_experiment, identify, simulate
+from rsp_inertia.identifying import identify
 from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.config import Pendulum, load_device, write_device
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.geometry import axis_direction, tensor_from_entries
 from rsp_inertia.plant.logs import mirror_log
 from rsp_inertia.plant.transducers import true_angle
+from rsp_inertia.scenarios import create_default_experiment
+from rsp_inertia.simulating import simulate
 from tests.estimation.test_uncertainty import honest_band
 
 ASYMMETRY = 1.02

@@ -12,9 +12,11 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from rsp_inertia.pipeline import create_default_experiment, identify, simulate
+from rsp_inertia.identifying import identify
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.geometry import tensor_from_entries
+from rsp_inertia.scenarios import create_default_experiment
+from rsp_inertia.simulating import simulate
 
 RELEASE_JITTER_DEG = 0.5
 """Release angles are drawn uniformly within this of the default (up to ~90 counts away)."""

@@ -22,7 +22,6 @@ from rsp_inertia.ocp.feedforward import (
 from rsp_inertia.ocp.nominal import fit_nominal_with_covariance
 from rsp_inertia.ocp.program import START_FADE_BANDWIDTHS, make_program
 from rsp_inertia.ocp.regulator import bandwidth
-from rsp_inertia.pipeline import create_default_experiment
 from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.logs import read_program, write_program
@@ -33,6 +32,7 @@ from rsp_inertia.plant.model import (
     reduced_inertia,
     static_torque,
 )
+from rsp_inertia.scenarios import create_default_experiment
 from tests.ocp.conftest import STAGES, TARGET, true_accelerations
 
 IPOPT_TOLERANCE = 1e-6

@@ -1,5 +1,5 @@
 """The experiment folder: where each direction's files live, and the virtual device writing
-both directions of a stage through ``rsp_inertia.pipeline.simulate``."""
+both directions of a stage through ``rsp_inertia.simulating.simulate``."""
 
 import math
 import re
@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from rsp_inertia import pipeline
+from rsp_inertia import scenarios, simulating
 from rsp_inertia.plant import experiment
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
@@ -20,7 +20,7 @@ from rsp_inertia.plant.logs import read_log
 def short_experiment(root: Path, directions: str) -> Path:
     """The default experiment with short braking passes (~2 turns, a few seconds each) and
     stage 1 run in ``directions`` (a TOML array)."""
-    pipeline.create_default_experiment(root)
+    scenarios.create_default_experiment(root)
     path = root / "device.toml"
     text = path.read_text()
     text = re.sub(r"launch_speed = [0-9.]+", "launch_speed = 5.0", text)
@@ -34,7 +34,7 @@ def short_experiment(root: Path, directions: str) -> Path:
 
 
 def test_backward_files_sit_beside_the_forward_ones(tmp_path):
-    exp = open_experiment(pipeline.create_default_experiment(tmp_path))
+    exp = open_experiment(scenarios.create_default_experiment(tmp_path))
     stage1 = tmp_path / "stage1"
     assert exp.braking_path(1) == exp.braking_path(1, "forward") == stage1 / "braking.csv"
     assert exp.program_path(1, "forward") == stage1 / "program.csv"
@@ -50,7 +50,7 @@ def test_backward_files_sit_beside_the_forward_ones(tmp_path):
 
 def test_the_experiments_files_are_named_in_one_place(tmp_path):
     """Each file of the folder has its name in plant.experiment, and its path on Experiment."""
-    exp = open_experiment(pipeline.create_default_experiment(tmp_path))
+    exp = open_experiment(scenarios.create_default_experiment(tmp_path))
     assert exp.device_path == tmp_path / experiment.DEVICE_FILE == tmp_path / "device.toml"
     assert exp.virtual_path == tmp_path / experiment.VIRTUAL_FILE == tmp_path / "virtual.toml"
     paths = {
@@ -73,7 +73,7 @@ def test_the_experiments_files_are_named_in_one_place(tmp_path):
 
 def test_simulate_writes_every_direction_of_each_stage(tmp_path):
     root = short_experiment(tmp_path, '["forward", "backward"]')
-    summaries = pipeline.simulate(root, part="braking")
+    summaries = simulating.simulate(root, part="braking")
     exp = open_experiment(root)
     assert [(s.stage, s.direction) for s in summaries] == [
         (1, "forward"),
@@ -96,7 +96,7 @@ def test_simulate_writes_every_direction_of_each_stage(tmp_path):
         # turns) of the true angle the node passages are counted from.
         assert summary.turns_past_last_node == pytest.approx(span - last / 360.0, abs=1e-4)
 
-    reverses = pipeline.simulate(root, stage=1, part="reverse", ideal=True, direction="backward")
+    reverses = simulating.simulate(root, stage=1, part="reverse", ideal=True, direction="backward")
     assert [(s.stage, s.part, s.direction) for s in reverses] == [(1, "ideal reverse", "backward")]
     reverse = read_log(exp.reverse_path(1, "backward"), exp.device.encoder, "reverse", "backward")
     assert reverse.phi[-1] > reverse.phi[0]
@@ -106,28 +106,28 @@ def test_simulate_writes_every_direction_of_each_stage(tmp_path):
 def test_simulate_refuses_a_direction_no_stage_runs(tmp_path):
     root = short_experiment(tmp_path, '["forward"]')
     with pytest.raises(InputError, match=r"stage\[2\]\.directions: does not include 'backward'"):
-        pipeline.simulate(root, stage=2, direction="backward")
+        simulating.simulate(root, stage=2, direction="backward")
     with pytest.raises(InputError, match="no stage's directions include 'backward'"):
-        pipeline.simulate(root, direction="backward")
+        simulating.simulate(root, direction="backward")
     with pytest.raises(InputError, match="--direction: must be one of forward, backward"):
-        pipeline.simulate(root, direction="up")
+        simulating.simulate(root, direction="up")
 
 
 def test_the_reverse_needs_the_backward_braking_of_the_same_settings(tmp_path):
     root = short_experiment(tmp_path, '["backward"]')
     with pytest.raises(InputError, match="braking_backward.csv: not found"):
-        pipeline.simulate(root, stage=1, part="reverse", ideal=True)
-    pipeline.simulate(root, stage=1, part="braking")
+        simulating.simulate(root, stage=1, part="reverse", ideal=True)
+    simulating.simulate(root, stage=1, part="braking")
     exp = open_experiment(root)
     assert exp.braking_path(1, "backward").is_file() and not exp.braking_path(1).exists()
     path = root / "virtual.toml"
     path.write_text(path.read_text().replace("seed = 0", "seed = 1"))
     with pytest.raises(InputError, match="not the virtual device's braking pass"):
-        pipeline.simulate(root, stage=1, part="reverse", ideal=True)
+        simulating.simulate(root, stage=1, part="reverse", ideal=True)
 
 
 def test_load_virtual_checks_the_rigs_tare_against_the_stages(tmp_path):
-    root = pipeline.create_default_experiment(tmp_path)
+    root = scenarios.create_default_experiment(tmp_path)
     path = root / "virtual.toml"
     path.write_text(path.read_text() + "\n[rig]\ntare_inertia = [0.004]\n")
     with pytest.raises(InputError) as error:
@@ -143,12 +143,12 @@ def test_simulate_without_virtual_toml_says_where_to_get_one(tmp_path):
     device = (root / "device.toml").read_text()
     (root / "virtual.toml").unlink()
     with pytest.raises(InputError) as error:
-        pipeline.simulate(root, stage=1)
+        simulating.simulate(root, stage=1)
     message = str(error.value)
     assert "\n" not in message and message.startswith(f"{root / 'virtual.toml'}: not found: ")
     assert "docs/files.md" in message
     command = re.search(r'python -c "[^"]+"', message).group(0)
     subprocess.run([sys.executable, *shlex.split(command)[1:]], check=True)
     assert (root / "device.toml").read_text() == device
-    (summary,) = pipeline.simulate(root, stage=1)
+    (summary,) = simulating.simulate(root, stage=1)
     assert summary.rows > 0

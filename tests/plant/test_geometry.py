@@ -264,8 +264,8 @@ def test_relative_errors_are_over_the_largest_principal_moment() -> None:
 
 
 def test_the_demo_prints_the_errors_relative_errors_gives(monkeypatch) -> None:
-    """rsp_inertia.identify_result.format_identification's error columns are relative_errors'."""
-    from rsp_inertia.identify_result import format_identification
+    """rsp_inertia.results.format_identification's error columns are relative_errors'."""
+    from rsp_inertia.results import format_identification
 
     truth = np.array([0.025, 0.028, 0.022, 0.0012, -0.0009, 0.0015])
     result = SimpleNamespace(
@@ -274,7 +274,7 @@ def test_the_demo_prints_the_errors_relative_errors_gives(monkeypatch) -> None:
         friction_asymmetry=None, calibration=None, pendulum=None, com=None, warnings=[],
     )
     monkeypatch.setattr(
-        "rsp_inertia.plant.geometry.relative_errors", lambda j6, true_j6: np.full(6, 0.125)
+        "rsp_inertia.results.relative_errors", lambda j6, true_j6: np.full(6, 0.125)
     )
     rows = format_identification(result, truth).splitlines()[1:7]
     assert all(row.split()[-2:] == ["+1.2e-01", "+1.2e-01"] for row in rows)

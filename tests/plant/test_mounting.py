@@ -12,7 +12,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from rsp_inertia.pipeline import create_default_experiment, identify, simulate
+from rsp_inertia.identifying import identify
 from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.config import (
     Mounting,
@@ -25,6 +25,8 @@ from rsp_inertia.plant.config import (
 )
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.geometry import entries_from_tensor, place_body, small_rotation
+from rsp_inertia.scenarios import create_default_experiment
+from rsp_inertia.simulating import simulate
 from tests.one_home import assert_calls_home, home_cases
 
 QUARTER_TURN_X = ((1.0, 0.0, 0.0), (0.0, 0.0, -1.0), (0.0, 1.0, 0.0))
