@@ -1,13 +1,13 @@
 """Gimbal model, geometry, device description, the experiment's files and the virtual device.
 
 The names below are its public API, each from the module that is its home; they load on
-first use (module ``__getattr__``, as ``rsp_inertia`` does), so importing one module of the
+first use (rsp_inertia.plant.lazy, as ``rsp_inertia`` does), so importing one module of the
 package does not import the others.
 """
 
 from __future__ import annotations
 
-import importlib
+from rsp_inertia.plant.lazy import lazy_names
 
 _HOMES = {
     "InputError": "errors",
@@ -94,15 +94,4 @@ __all__ = [
     "write_program",
 ]
 
-
-def __getattr__(name: str):
-    """Load a public name from its home on first use (PEP 562) and keep it here."""
-    if name not in _HOMES:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"{__name__}.{_HOMES[name]}"), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_names(__name__, _HOMES)
