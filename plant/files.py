@@ -18,8 +18,9 @@ from rsp_inertia.plant.errors import InputError
 __all__ = ["check_writable", "file_sha256", "write_atomic"]
 
 
-def write_atomic(path: str | os.PathLike, text: str) -> None:
-    """Replace ``path`` by a file holding ``text`` (UTF-8, newlines as given), all or nothing.
+def write_atomic(path: str | os.PathLike, text: str | bytes) -> None:
+    """Replace ``path`` by a file holding ``text`` (UTF-8, newlines as given; bytes as they
+    are), all or nothing.
 
     The text goes to a temporary file in the same folder, is flushed to disk and renamed over
     ``path`` with ``os.replace``; a reader sees the old file or the new one, never a part. If
@@ -29,8 +30,8 @@ def write_atomic(path: str | os.PathLike, text: str) -> None:
     ----------
     path : str or path-like
         Target file; its folder must exist.
-    text : str
-        The whole content.
+    text : str or bytes
+        The whole content: text (a TOML, CSV or JSON file) or bytes (a PNG).
     """
     target = Path(path)
     _remove_stale_temporaries(target)
@@ -38,7 +39,11 @@ def write_atomic(path: str | os.PathLike, text: str) -> None:
     # os.open with mode 0o666 lets the umask decide the permissions, as for a plain open().
     fd = os.open(temp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
     try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as file:
+        if isinstance(text, bytes):
+            file = os.fdopen(fd, "wb")
+        else:
+            file = os.fdopen(fd, "w", encoding="utf-8", newline="")
+        with file:
             file.write(text)
             file.flush()
             os.fsync(file.fileno())

@@ -9,10 +9,11 @@ from __future__ import annotations
 
 import io
 import os
-import tempfile
 from collections.abc import Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING
+
+from rsp_inertia.plant.files import write_atomic
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -21,28 +22,17 @@ __all__ = ["figure_png", "save_figure", "save_figures"]
 
 
 def save_figure(fig: Figure, path: str | os.PathLike) -> None:
-    """Write ``fig`` as PNG to ``path`` atomically, with the usual file permissions.
+    """Write ``fig`` as PNG to ``path`` atomically (rsp_inertia.plant.files.write_atomic: a
+    reader sees the old file or the new one), with the usual file permissions.
 
     Parameters
     ----------
     fig : matplotlib.figure.Figure
         The figure.
     path : str or os.PathLike
-        The PNG file; its folder must exist. A temporary file in the same folder is renamed
-        over it, so a reader sees the old file or the new one.
+        The PNG file; its folder must exist.
     """
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".png", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            fig.savefig(f, format="png")
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    write_atomic(path, figure_png(fig))
 
 
 def save_figures(figures: Iterable[tuple[str, Figure]], folder: str | os.PathLike) -> list[Path]:

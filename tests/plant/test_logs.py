@@ -206,6 +206,9 @@ def test_write_atomic_leaves_only_the_target(tmp_path):
     write_atomic(str(target), "two\r\n")
     assert os.listdir(tmp_path) == ["out.csv"]
     assert target.read_bytes() == b"two\r\n"  # written as given, no newline translation
+    write_atomic(target, b"\x89PNG\r\n\x1a\n")  # bytes (a figure) as they are
+    assert os.listdir(tmp_path) == ["out.csv"]
+    assert target.read_bytes() == b"\x89PNG\r\n\x1a\n"
 
 
 @pytest.mark.parametrize("step", ["replace", "fsync"])
