@@ -10,7 +10,7 @@ public module and, for a method, a public class) with three or more parameters (
 - a ``Returns`` (or ``Yields``) section, unless the function is annotated ``-> None``.
 
 The sources are read with ast from the installed package's modules (tests/test_architecture.py
-finds them), so nothing is imported.
+finds them), so no module is imported but the packages' light ``__init__``.
 """
 
 from __future__ import annotations
