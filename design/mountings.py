@@ -4,8 +4,8 @@ The geometry itself (directions, V, cond(V)) lives in :mod:`rsp_inertia.plant.ge
 (docs/method.md §5 "Axis designs"). Here: the cone opening that minimises cond(V)
 (:func:`best_cone_opening`, the paper's Fig. 1) and how well a set of mountings determines the
 centre of mass (:func:`mounting_conditioning`). ``rsp-inertia design`` reports them
-(:mod:`rsp_inertia.designing`), its text is :class:`rsp_inertia.results.DesignResult`'s and its
-figure :func:`rsp_inertia.plots.cone_conditioning_figure`.
+(:mod:`rsp_inertia.axis_designs`), its text is :class:`rsp_inertia.results.AxisDesignResult`'s
+and its figure :func:`rsp_inertia.plots.cone_conditioning_figure`.
 """
 
 from __future__ import annotations

@@ -186,7 +186,8 @@ class MountedResult:
 
 @dataclass(frozen=True)
 class Combination:
-    """The body in its own axes from several mountings; :meth:`to_json` is body.json.
+    """The body in its own axes from several mountings; :meth:`to_json` is body.json's text,
+    :meth:`to_dict` its document.
 
     The tensor is about the body frame's origin, in body axes (products as tensor entries,
     Jxy = -integral of x y dm), the centre of mass in body axes; ``cov`` their joint
@@ -247,7 +248,11 @@ class Combination:
         """(3,) rad, each principal axis's rms tilt (infinite for two equal moments)."""
         return principal_uncertainty(self.entries, self.cov[:6, :6])[1]
 
-    def to_json(self) -> dict:
+    def to_json(self) -> str:
+        """The text of body.json: :meth:`to_dict` indented, with a final newline."""
+        return json.dumps(self.to_dict(), indent=2) + "\n"
+
+    def to_dict(self) -> dict:
         """body.json's document (docs/files.md): ``tensor``, ``tensor_std`` (keys Jx ... Jxz,
         kg m^2), ``com``, ``com_std`` (keys x, y, z, m), ``covariance`` (9 x 9, order
         Jx, Jy, Jz, Jxy, Jyz, Jxz, x, y, z), the principal moments and axes with their stds,

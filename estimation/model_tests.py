@@ -89,7 +89,7 @@ class ModelTest:
     """What the fitted terms mean, in words and numbers, for the warning (set by the code
     that knows the physics of the probe, rsp_inertia.estimation.tensor)."""
 
-    def to_json(self) -> dict:
+    def to_dict(self) -> dict:
         """The result.json entry."""
         return {
             "kind": self.kind,

@@ -5,12 +5,14 @@ The estimators that fill them: rsp_inertia.estimation.identify.
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from rsp_inertia.estimation.best_practice import BestPractice
+from rsp_inertia.estimation.calibration_summary import CalibrationSummary
 from rsp_inertia.estimation.model_tests import ModelTest
 from rsp_inertia.estimation.pendulum import PendulumEstimate
 from rsp_inertia.estimation.tensor import format_run
@@ -86,7 +88,7 @@ class PendulumResult:
     """(c, std, source) the best practice used, N m/rad: calibration.toml's [pendulum] (the
     calibration folders' pendulum runs) when it has one, else device.toml's."""
 
-    def to_json(self) -> dict:
+    def to_dict(self) -> dict:
         """The result.json section ``pendulum``."""
         axes = [
             {
@@ -148,7 +150,8 @@ class PendulumResult:
 
 @dataclass(frozen=True)
 class Identification:
-    """Everything ``identify`` finds; :meth:`to_json` gives result.json (docs/files.md)."""
+    """Everything ``identify`` finds; :meth:`to_json` gives result.json's text, :meth:`to_dict`
+    its document (docs/files.md)."""
 
     entries: np.ndarray
     """[Jx, Jy, Jz, Jxy, Jyz, Jxz], kg m^2, least squares (headline)."""
@@ -204,8 +207,10 @@ class Identification:
     model_tests: list[ModelTest] = field(default_factory=list)
     """The balance model's chi^2 tests (rsp_inertia.estimation.gls): runs against each other, early
     against late turns."""
-    calibration: dict | None = None
-    """What the identification took from calibration.toml (None: device.toml's tares)."""
+    calibration: CalibrationSummary | None = None
+    """What the identification took from calibration.toml, each term with its std, and the
+    drive's gains and the encoder's error as the runs refined them (None: device.toml's
+    tares)."""
     provenance: dict | None = None
     """When and by what the result was made, and the sha256 of every input file read
     (rsp_inertia.provenance.make_provenance; set by the ``identify`` command)."""
@@ -226,7 +231,11 @@ class Identification:
         """Standard deviations of ``entries``."""
         return np.sqrt(np.diag(self.entries_cov))
 
-    def to_json(self) -> dict:
+    def to_json(self) -> str:
+        """The text of result.json: :meth:`to_dict` indented, with a final newline."""
+        return json.dumps(self.to_dict(), indent=2) + "\n"
+
+    def to_dict(self) -> dict:
         """The result.json document (docs/files.md), with extensions."""
         moments, vectors = principal(self.entries)
         moments_std, tilt_std = principal_uncertainty(self.entries, self.entries_cov)
@@ -306,7 +315,7 @@ class Identification:
                 ]
                 if self.friction_asymmetry is not None
                 else [],
-                "model_tests": [test.to_json() for test in self.model_tests],
+                "model_tests": [test.to_dict() for test in self.model_tests],
                 "std_budget": {
                     source: {
                         "axes_J_std": [float(v) for v in part["axes"]],
@@ -315,9 +324,9 @@ class Identification:
                     for source, part in self.std_budget.items()
                 },
             },
-            "calibration": self.calibration,
+            "calibration": None if self.calibration is None else self.calibration.to_dict(),
             "warnings": list(self.warnings),
-            "pendulum": None if self.pendulum is None else self.pendulum.to_json(),
+            "pendulum": None if self.pendulum is None else self.pendulum.to_dict(),
             "provenance": self.provenance,
         }
 

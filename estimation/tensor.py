@@ -35,6 +35,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from rsp_inertia.estimation.balance import StageBalance
+from rsp_inertia.estimation.calibration_summary import CalibrationSummary
 from rsp_inertia.estimation.gls import NOISE_SOURCES, Block, Prior, solve_blocks
 from rsp_inertia.estimation.model_tests import ModelTest
 from rsp_inertia.plant.geometry import ENTRY_KEYS, design_matrix
@@ -314,7 +315,7 @@ class KnownTerms:
         g[self.harmonics_slice(stage)] = inertia_basis(np.atleast_1d(phi))[0]
         return float(g @ self.cov @ g)
 
-    def summary(self, after: KnownTerms | None = None) -> dict | None:
+    def summary(self, after: KnownTerms | None = None) -> CalibrationSummary | None:
         """result.json's ``calibration``: what was applied (None when nothing was), and with
         ``after`` (the terms after the runs refined them) the drive's gains and the encoder's
         error as the runs left them (``refined``)."""
@@ -322,34 +323,27 @@ class KnownTerms:
             return None
         out = self._summary()
         if after is not None:
-            refined = after._summary()
-            out["refined"] = {
-                name: refined[name]
-                for name in (
-                    "drive_gains", "drive_gains_std", "round_trip_efficiency",
-                    "round_trip_efficiency_std", "encoder_error", "encoder_error_std",
-                )
-            }
+            out = replace(out, refined=after._summary().refinable())
         return out
 
-    def _summary(self) -> dict:
+    def _summary(self) -> CalibrationSummary:
         std = self.std
         n = len(self.inertia)
         encoder = self.encoder_slice
-        return {
-            "drive_gains": [float(v) for v in self.gains],
-            "drive_gains_std": [float(v) for v in std[:2]],
-            "round_trip_efficiency": float(self.gains[0] / self.gains[1]),
-            "round_trip_efficiency_std": float(self.round_trip_std()),
-            "empty_inertia": [[float(v) for v in row] for row in self.inertia],
-            "empty_inertia_std": [
-                [float(v) for v in std[self.harmonics_slice(s)]] for s in range(1, n + 1)
-            ],
-            "fixture_gravity": [float(v) for v in self.gravity],
-            "fixture_gravity_std": [float(v) for v in std[self.gravity_slice]],
-            "encoder_error": [float(v) for v in self.encoder],
-            "encoder_error_std": [float(v) for v in std[encoder]],
-        }
+        return CalibrationSummary(
+            drive_gains=tuple(float(v) for v in self.gains),
+            drive_gains_std=tuple(float(v) for v in std[:2]),
+            round_trip_efficiency=float(self.gains[0] / self.gains[1]),
+            round_trip_efficiency_std=float(self.round_trip_std()),
+            empty_inertia=tuple(tuple(float(v) for v in row) for row in self.inertia),
+            empty_inertia_std=tuple(
+                tuple(float(v) for v in std[self.harmonics_slice(s)]) for s in range(1, n + 1)
+            ),
+            fixture_gravity=tuple(float(v) for v in self.gravity),
+            fixture_gravity_std=tuple(float(v) for v in std[self.gravity_slice]),
+            encoder_error=tuple(float(v) for v in self.encoder),
+            encoder_error_std=tuple(float(v) for v in std[encoder]),
+        )
 
     def budget_groups(self) -> dict[str, list[int]]:
         """Budget lines of theta (rsp_inertia.estimation.gls), in the order they are added:

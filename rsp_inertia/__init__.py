@@ -27,6 +27,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from rsp_inertia.public import API_NAMES
+
 if TYPE_CHECKING:  # for type checkers and IDEs; at run time, __getattr__ below
     from rsp_inertia.api import (
         InputError,
@@ -51,30 +53,8 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time, __getattr__ below
         SimulateResult,
     )
 
-# The public names; rsp_inertia.api.__all__ repeats them without __version__ (the API cannot
-# read this list: this module imports the API, and an import back would close a cycle;
-# tests/test_api.py checks that the two agree).
-__all__ = [
-    "CalibrateResult",
-    "CheckResult",
-    "CombineResult",
-    "IdentifyResult",
-    "InputError",
-    "PlanResult",
-    "ProgramResult",
-    "SimulateResult",
-    "__version__",
-    "calibrate",
-    "check",
-    "combine",
-    "create_experiment",
-    "demo",
-    "identify",
-    "plan",
-    "program",
-    "simulate",
-    "write_report",
-]
+__all__ = sorted([*API_NAMES, "__version__"])
+"""The public names: the API's (rsp_inertia.public, written once for both) and the version."""
 
 
 def _version() -> str:

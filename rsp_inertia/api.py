@@ -35,55 +35,25 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from rsp_inertia.plant.errors import InputError  # public: raised by every function
+from rsp_inertia.public import API_NAMES, RESULT_CLASSES
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
     from rsp_inertia.results import (
+        AxisDesignResult,
         CalibrateResult,
         CheckResult,
         CombineResult,
-        DesignResult,
         IdentifyResult,
         PlanResult,
         ProgramResult,
         SimulateResult,
     )
 
-__all__ = [
-    "CalibrateResult",
-    "CheckResult",
-    "CombineResult",
-    "IdentifyResult",
-    "InputError",
-    "PlanResult",
-    "ProgramResult",
-    "SimulateResult",
-    "calibrate",
-    "check",
-    "combine",
-    "create_experiment",
-    "demo",
-    "identify",
-    "plan",
-    "program",
-    "simulate",
-    "write_report",
-]
-"""The package's public names without its version: rsp_inertia.__all__'s, repeated (the
-package's ``__getattr__`` imports this module, which cannot import it back;
-tests/test_api.py checks that the two agree)."""
-
-RESULT_CLASSES = (
-    "CalibrateResult",
-    "CheckResult",
-    "CombineResult",
-    "IdentifyResult",
-    "PlanResult",
-    "ProgramResult",
-    "SimulateResult",
-)
-"""The result classes of :data:`__all__`, loaded from rsp_inertia.results on first use."""
+__all__ = sorted(API_NAMES)
+"""The package's public names without its version (rsp_inertia.public, which
+rsp_inertia.__all__ is made from too)."""
 
 
 def __getattr__(name: str):
@@ -153,7 +123,7 @@ def identify(path: str | Path, *, progress: Progress | None = None) -> IdentifyR
     from rsp_inertia.results import IdentifyResult
 
     identification = run(path, progress=_quiet(progress))
-    return IdentifyResult._from(identification, path, drawer=_identify_figures)
+    return IdentifyResult(identification, Path(path), drawer=_identify_figures)
 
 
 def demo(
@@ -190,6 +160,8 @@ def demo(
     >>> result = rsp_inertia.demo("demo-experiment", progress=print)    # doctest: +SKIP
     """
     # everything: the demo runs every command and draws
+    import numpy as np
+
     from rsp_inertia.plant.config import placed_body
     from rsp_inertia.plant.experiment import open_experiment
     from rsp_inertia.results import IdentifyResult
@@ -197,8 +169,8 @@ def demo(
 
     result = run(path, progress=_quiet(progress))
     exp = open_experiment(path)
-    truth = placed_body(exp.device, exp.load_virtual()).inertia
-    return IdentifyResult._from(result, path, truth, drawer=_identify_figures)
+    truth = np.array(placed_body(exp.device, exp.load_virtual()).inertia, dtype=float)
+    return IdentifyResult(result, Path(path), truth, drawer=_identify_figures)
 
 
 # --- simulate and program -------------------------------------------------------------------
@@ -564,7 +536,7 @@ def combine(paths: list[str | Path], out: str | Path) -> CombineResult:
 
 def axis_designs(
     paths: list[str | Path] | None = None, plot: str | Path | None = None
-) -> DesignResult:
+) -> AxisDesignResult:
     """The conditioning of axis designs and of mountings (``rsp-inertia design [EXP ...]``).
 
     Reports the icosahedron and the cone + z design at its best opening, and each folder's
@@ -581,7 +553,7 @@ def axis_designs(
 
     Returns
     -------
-    DesignResult
+    AxisDesignResult
         ``str`` is the report the command prints.
 
     Raises
@@ -594,9 +566,9 @@ def axis_designs(
     >>> print(rsp_inertia.api.axis_designs(["bench-A"]))    # doctest: +SKIP
     """
     # scipy.optimize (the best opening) and matplotlib: only design and the drawing commands
-    from rsp_inertia.designing import design
+    from rsp_inertia.axis_designs import axis_designs as run
 
-    return design(
+    return run(
         [Path(p) for p in paths] if paths is not None else None,
         None if plot is None else Path(plot),
     )

@@ -15,10 +15,10 @@ from rsp_inertia.estimation.calibration import Calibration
 from rsp_inertia.estimation.calibration_file import write_calibration_file
 from rsp_inertia.estimation.reading import calibrate_experiment
 from rsp_inertia.figure_files import save_figures
-from rsp_inertia.plant.experiment import open_experiment
+from rsp_inertia.plant.experiment import CALIBRATION_FILE, open_experiment
 from rsp_inertia.plant.files import check_writable
 from rsp_inertia.plots import calibrate_figures, encoder_figures
-from rsp_inertia.results import CalibrateResult
+from rsp_inertia.results.calibrate import CalibrateResult
 
 __all__ = ["calibrate", "calibrate_result"]
 
@@ -67,4 +67,4 @@ def calibrate(
 def calibrate_result(calibration: Calibration, root: str | Path) -> CalibrateResult:
     """The result object of a calibration written into the experiment folder ``root``, with
     the drawing of its figure (rsp_inertia.plots.calibrate_figures)."""
-    return CalibrateResult._from(calibration, root, drawer=calibrate_figures)
+    return CalibrateResult(calibration, Path(root) / CALIBRATION_FILE, drawer=calibrate_figures)

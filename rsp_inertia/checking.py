@@ -63,7 +63,7 @@ from rsp_inertia.plant.logs import (
     read_device_log,
     read_program,
 )
-from rsp_inertia.results import CheckResult
+from rsp_inertia.results.check import CheckResult
 
 __all__ = ["MIN_TURNS_PAST_LAST_NODE", "check"]
 
@@ -149,7 +149,7 @@ def check(root: str | Path, calibration: bool = False) -> CheckResult:
             _add(findings, "ok", f"{reference}: the reference body's data")
         except InputError as error:
             _add(findings, "error", str(error))
-    return CheckResult._from(findings, exp.root, calibration_folder)
+    return CheckResult(tuple(findings), exp.root, calibration_folder)
 
 
 def _try_read(

@@ -16,7 +16,6 @@ from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import BODY_FILE, open_experiment
 from rsp_inertia.plant.files import check_writable, write_atomic
 from rsp_inertia.provenance import input_changes, input_status
-from rsp_inertia.results import body_json
 
 __all__ = ["combine"]
 
@@ -95,5 +94,5 @@ def combine(roots: list[str | Path], out: str | Path) -> tuple[Combination, Path
     if warnings:
         combination = replace(combination, warnings=warnings + list(combination.warnings))
     folder.mkdir(parents=True, exist_ok=True)
-    write_atomic(target, body_json(combination))
+    write_atomic(target, combination.to_json())
     return combination, target

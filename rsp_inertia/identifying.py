@@ -19,7 +19,6 @@ from rsp_inertia.estimation.results import Identification
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.files import check_writable, write_atomic
 from rsp_inertia.provenance import make_provenance
-from rsp_inertia.results import result_json
 
 __all__ = ["identify"]
 
@@ -35,5 +34,5 @@ def identify(
     provenance = make_provenance("identify", exp.root, exp.identify_inputs())
     result = identify_experiment(exp, progress)
     result = replace(result, provenance=provenance)
-    write_atomic(exp.result_path, result_json(result))
+    write_atomic(exp.result_path, result.to_json())
     return result

@@ -36,7 +36,7 @@ from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.files import check_writable
 from rsp_inertia.plots import plan_figure, plan_figures
-from rsp_inertia.results import PlanResult
+from rsp_inertia.results.plan import PlanResult
 
 __all__ = ["CLOSED_LOOP_COST", "DEFAULT_MAX_DURATION", "plan"]
 
@@ -171,27 +171,19 @@ def plan(
     predicted = rehearsal.axis_std if rehearsal is not None else made.axis_std
     save_figure(plan_figure(made), exp.plan_figure_path)
     return PlanResult(
-        launch_speed=tuple(float(c.launch_speed) for c in made.chosen),
-        braking_torque=tuple(float(c.braking_torque) for c in made.chosen),
+        plan=made,
+        models=tuple(models),
+        rehearsal=rehearsal,
+        rehearsal_error=rehearsal_error,
         release_angle_deg=tuple(
             float(planned_release(device.stages[c.stage - 1])) for c in made.chosen
         ),
         previous=tuple(old),
-        predicted_std=np.array(predicted, dtype=float),
-        predicted_std_ideal=np.array(made.axis_std, dtype=float),
-        axis_stage=np.array(made.axis_stage),
-        duration=float(made.duration),
-        max_duration=float(made.max_duration),
-        rehearsed=rehearsal is not None,
-        rehearsal_error=rehearsal_error,
-        path=exp.device_path,
-        figure=exp.plan_figure_path,
-        plan=made,
-        models=tuple(models),
-        rehearsal=rehearsal,
         nominal_moment=tuple(_axial_guess(sm, device) for sm in models),
         limit_fraction=1 - TORQUE_MARGIN,
         closed_loop_notes=_closed_loop_notes(device, models, made, predicted, rehearsal),
+        path=exp.device_path,
+        figure=exp.plan_figure_path,
         seconds=time.perf_counter() - start,
         drawer=plan_figures,
     )

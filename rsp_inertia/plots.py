@@ -39,15 +39,20 @@ if TYPE_CHECKING:
     from rsp_inertia.estimation.calibration import Calibration
     from rsp_inertia.estimation.results import Identification
     from rsp_inertia.estimation.tensor import KnownTerms
-    from rsp_inertia.results import CalibrateResult, DesignResult, IdentifyResult, PlanResult
+    from rsp_inertia.results import (
+        AxisDesignResult,
+        CalibrateResult,
+        IdentifyResult,
+        PlanResult,
+    )
 
 __all__ = [
-    "DESIGN_FIGURE",
+    "AXIS_DESIGN_FIGURE",
     "ERRORS_FIGURE",
+    "axis_design_figures",
     "calibrate_figures",
     "cone_conditioning_figure",
     "demo_figures",
-    "design_figures",
     "difference_figure",
     "encoder_error_figure",
     "encoder_figures",
@@ -69,7 +74,7 @@ __all__ = [
 ARCSEC = np.degrees(1.0) * 3600.0
 """Arcseconds per radian."""
 
-DESIGN_FIGURE = "design.png"
+AXIS_DESIGN_FIGURE = "design.png"
 """The conditioning of the axis design (the paper's Fig. 1), in the experiment folder."""
 
 ERRORS_FIGURE = "errors.png"
@@ -497,7 +502,7 @@ def demo_figures(exp: Experiment, result: Identification) -> list[tuple[str, Fig
         The figures with their file names, in that order.
     """
     virtual = exp.load_virtual() if exp.virtual_path.is_file() else None
-    figures = [(DESIGN_FIGURE, cone_conditioning_figure())]
+    figures = [(AXIS_DESIGN_FIGURE, cone_conditioning_figure())]
     figures += experiment_figures(exp, virtual)
     body = None if virtual is None else placed_body(exp.device, virtual)
     if body is None:  # no truth to compare with
@@ -549,9 +554,9 @@ def plan_figures(result: PlanResult) -> list[tuple[str, Figure]]:
     return [(PLAN_FIGURE, plan_figure(result.plan))]
 
 
-def design_figures(result: DesignResult) -> list[tuple[str, Figure]]:
-    """A design result's figure: :func:`cone_conditioning_figure` at its optimum, under the
-    name of the file ``design`` wrote."""
+def axis_design_figures(result: AxisDesignResult) -> list[tuple[str, Figure]]:
+    """An axis-design result's figure: :func:`cone_conditioning_figure` at its optimum, under
+    the name of the file ``design`` wrote."""
     best = (result.best_opening_deg, result.best_condition)
     return [(result.figure.name, cone_conditioning_figure(best=best))]
 

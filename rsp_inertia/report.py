@@ -32,7 +32,7 @@ from rsp_inertia.plant.experiment import (
 from rsp_inertia.plant.files import check_writable, write_atomic
 from rsp_inertia.plant.logs import read_device_log
 from rsp_inertia.plots import (
-    DESIGN_FIGURE,
+    AXIS_DESIGN_FIGURE,
     ERRORS_FIGURE,
     difference_figure,
     experiment_figures,
@@ -42,7 +42,7 @@ from rsp_inertia.provenance import created_now, input_changes, input_status, pac
 
 __all__ = ["FIGURES", "REPORT_FILE", "VALUE", "Z95", "write_report"]
 
-FIGURES = (PLAN_FIGURE, DESIGN_FIGURE, ENCODER_FIGURE, ERRORS_FIGURE)
+FIGURES = (PLAN_FIGURE, AXIS_DESIGN_FIGURE, ENCODER_FIGURE, ERRORS_FIGURE)
 """Figures of other commands inlined when present (plan, design or demo, calibrate, demo);
 the motion and tracking figures are drawn from the logs (rsp_inertia.plots.experiment_figures)."""
 

@@ -25,7 +25,7 @@ from rsp_inertia.plant.files import write_atomic
 from rsp_inertia.plant.geometry import relative_errors
 from rsp_inertia.plots import demo_figures
 from rsp_inertia.programming import program
-from rsp_inertia.results import format_identification
+from rsp_inertia.results.identify import format_identification
 from rsp_inertia.scenarios import create_rig_experiment, create_second_mounting
 from rsp_inertia.simulating import simulate
 

@@ -27,7 +27,7 @@ from rsp_inertia.plant.virtual import (
     simulate_pendulum,
     simulate_pilot,
 )
-from rsp_inertia.results import PassSummary
+from rsp_inertia.results.simulate import PassSummary
 
 __all__ = ["PARTS", "simulate"]
 

@@ -11,7 +11,7 @@ from rsp_inertia.cli import main
 from rsp_inertia.design.mountings import best_cone_opening
 from rsp_inertia.plant.geometry import cone_plus_z_design, icosahedron_design
 from rsp_inertia.plots import plot_cone_conditioning
-from rsp_inertia.results import design_report
+from rsp_inertia.results import axis_design_report
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -47,7 +47,7 @@ def test_design_of_a_missing_experiment_is_one_line(tmp_path, capsys):
 
 def test_report_states_the_icosahedron_and_the_cone_optimum() -> None:
     opening, _ = best_cone_opening()
-    report = design_report([icosahedron_design(), cone_plus_z_design(opening)])
+    report = axis_design_report([icosahedron_design(), cone_plus_z_design(opening)])
     assert "icosahedron" in report
     # arccos(1/sqrt 5) = 63.4349 deg between every pair of axes; cond(V) = sqrt(5/2).
     assert "63.43" in report
@@ -58,7 +58,7 @@ def test_report_states_the_icosahedron_and_the_cone_optimum() -> None:
 
 
 def test_report_lists_every_axis() -> None:
-    report = design_report([icosahedron_design()])
+    report = axis_design_report([icosahedron_design()])
     # One table row per axis: index, stage, lambda, 2beta, node, ex, ey, ez.
     axis_row = re.compile(r"\s+\d+\s+[12]" + r"\s+-?\d+\.\d+" * 6 + r"\s*$")
     rows = [line for line in report.splitlines() if axis_row.match(line)]

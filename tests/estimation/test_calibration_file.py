@@ -156,7 +156,7 @@ def test_calibrate_results_json_is_the_files_content(tmp_path):
     """The API's result and its JSON come from the file's reader: the same numbers as the
     parsed text, NaN as null."""
     cal = calibration(chi2_dof=math.nan)
-    result = CalibrateResult._from(cal, tmp_path)
+    result = CalibrateResult(cal, tmp_path / "calibration.toml")
     doc = tomllib.loads(cal.to_toml())
     document = json.loads(result.to_json())
     assert document.pop("warnings") == []

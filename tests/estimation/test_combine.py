@@ -341,7 +341,7 @@ def test_body_json_holds_the_estimates_and_the_tests():
         for n, R, o, C in layouts
     ]
     result = combine_mountings(ms)
-    doc = json.loads(json.dumps(result.to_json(), allow_nan=False))
+    doc = json.loads(json.dumps(result.to_dict(), allow_nan=False))
     keys = PARAMETER_KEYS
     assert list(doc["tensor"]) == list(keys[:6]) and list(doc["com"]) == ["x", "y", "z"]
     std = [*doc["tensor_std"].values(), *doc["com_std"].values()]

@@ -82,7 +82,7 @@ def test_identify_logs_takes_the_logs_in_memory(ideal, monkeypatch):
     in_memory = identify_logs(ExperimentLogs(device, runs), known, warnings=warnings)
     monkeypatch.undo()
     assert in_memory.provenance is None  # no files: nothing to record
-    assert in_memory.to_json() == {**result.to_json(), "provenance": None}
+    assert in_memory.to_dict() == {**result.to_dict(), "provenance": None}
 
 
 def test_a_locked_stage_gives_the_designs_one_z_axis(tmp_path):

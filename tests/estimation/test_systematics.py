@@ -345,7 +345,7 @@ def test_an_encoder_certificate_in_device_toml_is_applied_with_its_std(rig, tmp_
     tests = {test.kind: test for test in result.model_tests}
     assert not tests["encoder error"].significant
     assert tests["drive loss"].significant  # the drive is still uncalibrated
-    np.testing.assert_array_equal(result.calibration["encoder_error"], theta)
+    np.testing.assert_array_equal(result.calibration.encoder_error, theta)
     assert "calibration: encoder error" in result.std_budget
 
 

@@ -274,7 +274,7 @@ def test_the_demo_prints_the_errors_relative_errors_gives(monkeypatch) -> None:
         friction_asymmetry=None, calibration=None, pendulum=None, com=None, warnings=[],
     )
     monkeypatch.setattr(
-        "rsp_inertia.results.relative_errors", lambda j6, true_j6: np.full(6, 0.125)
+        "rsp_inertia.results.identify.relative_errors", lambda j6, true_j6: np.full(6, 0.125)
     )
     rows = format_identification(result, truth).splitlines()[1:7]
     assert all(row.split()[-2:] == ["+1.2e-01", "+1.2e-01"] for row in rows)

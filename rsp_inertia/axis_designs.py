@@ -6,7 +6,7 @@ cond(V), rsp_inertia.design.mountings.best_cone_opening), each experiment's devi
 design, and for several experiments (or one with ``[mounting]``) the mountings'
 conditioning for the centre of mass (rsp_inertia.design.mountings.mounting_conditioning);
 the paper's Fig. 1 written as a PNG. Its result object, with the text it prints, is
-:class:`rsp_inertia.results.DesignResult`.
+:class:`rsp_inertia.results.AxisDesignResult`.
 """
 
 from __future__ import annotations
@@ -20,13 +20,15 @@ from rsp_inertia.figure_files import save_figure
 from rsp_inertia.plant.config import load_device
 from rsp_inertia.plant.experiment import DEVICE_FILE
 from rsp_inertia.plant.geometry import cone_plus_z_design, device_design, icosahedron_design
-from rsp_inertia.plots import DESIGN_FIGURE, design_figures
-from rsp_inertia.results import DesignResult
+from rsp_inertia.plots import AXIS_DESIGN_FIGURE, axis_design_figures
+from rsp_inertia.results.axis_designs import AxisDesignResult
 
-__all__ = ["design"]
+__all__ = ["axis_designs"]
 
 
-def design(exps: list[Path] | Path | None = None, plot: Path | None = None) -> DesignResult:
+def axis_designs(
+    exps: list[Path] | Path | None = None, plot: Path | None = None
+) -> AxisDesignResult:
     """``rsp-inertia design``: the designs' report and Fig. 1 (module docstring).
 
     Parameters
@@ -38,7 +40,7 @@ def design(exps: list[Path] | Path | None = None, plot: Path | None = None) -> D
 
     Returns
     -------
-    DesignResult
+    AxisDesignResult
         The designs, the optimum opening, the mountings' conditioning and the plot's path;
         ``str`` is the report the command prints.
 
@@ -63,8 +65,8 @@ def design(exps: list[Path] | Path | None = None, plot: Path | None = None) -> D
         )
         condition, gain = mounting_conditioning(list(rotations))
     if plot is None:
-        plot = (Path(exps[0]) if exps else Path(".")) / DESIGN_FIGURE
-    result = DesignResult(
+        plot = (Path(exps[0]) if exps else Path(".")) / AXIS_DESIGN_FIGURE
+    result = AxisDesignResult(
         designs=tuple(designs),
         best_opening_deg=best_deg,
         best_condition=best_cond,
@@ -73,7 +75,7 @@ def design(exps: list[Path] | Path | None = None, plot: Path | None = None) -> D
         mounting_condition=condition,
         mounting_gain=gain,
         figure=Path(plot),
-        drawer=design_figures,
+        drawer=axis_design_figures,
     )
     for _name, figure in result.draw():
         save_figure(figure, plot)
