@@ -27,45 +27,27 @@ __all__ = ["axis_designs"]
 
 
 def axis_designs(
-    exps: list[Path] | Path | None = None, plot: Path | None = None
+    paths: list[Path] | Path | None = None, plot: Path | None = None
 ) -> AxisDesignResult:
-    """``rsp-inertia design``: the designs' report and Fig. 1 (module docstring).
-
-    Parameters
-    ----------
-    exps : list of paths, or a path, optional
-        Experiment folders whose device.toml designs are reported too (mountings of one body).
-    plot : path, optional
-        Where to write Fig. 1 (default: the first EXP/design.png, or ./design.png).
-
-    Returns
-    -------
-    AxisDesignResult
-        The designs, the optimum opening, the mountings' conditioning and the plot's path;
-        ``str`` is the report the command prints.
-
-    Raises
-    ------
-    InputError
-        A folder without a valid device.toml.
-    """
-    if exps is None:
-        exps = []
-    elif isinstance(exps, (str, Path)):
-        exps = [exps]
+    """The command behind :func:`rsp_inertia.api.axis_designs`, documented there (and in
+    this module's docstring); ``paths`` may be one folder."""
+    if paths is None:
+        paths = []
+    elif isinstance(paths, (str, Path)):
+        paths = [paths]
     best_deg, best_cond = best_cone_opening()
     designs = [icosahedron_design(), cone_plus_z_design(best_deg)]
-    devices = [load_device(Path(exp) / DEVICE_FILE) for exp in exps]
+    devices = [load_device(Path(exp) / DEVICE_FILE) for exp in paths]
     designs += [device_design(device) for device in devices]
     names, rotations, condition, gain = (), (), None, None
     if len(devices) > 1 or any(device.mounting is not None for device in devices):
-        names = tuple(str(exp) for exp in exps)
+        names = tuple(str(exp) for exp in paths)
         rotations = tuple(
             np.eye(3) if d.mounting is None else d.mounting.rotation for d in devices
         )
         condition, gain = mounting_conditioning(list(rotations))
     if plot is None:
-        plot = (Path(exps[0]) if exps else Path(".")) / AXIS_DESIGN_FIGURE
+        plot = (Path(paths[0]) if paths else Path(".")) / AXIS_DESIGN_FIGURE
     result = AxisDesignResult(
         designs=tuple(designs),
         best_opening_deg=best_deg,

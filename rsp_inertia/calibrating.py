@@ -24,34 +24,15 @@ __all__ = ["calibrate", "calibrate_result"]
 
 
 def calibrate(
-    root: str | Path,
+    path: str | Path,
     empty: str | Path,
     reference: str | Path | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> Calibration:
-    """``rsp-inertia calibrate``: EMPTY's and REF's logs -> EXP/calibration.toml (atomically),
-    and the encoder's error curve EXP/encoder_error.png when the calibration has one.
-
-    Nothing is written when an input is bad (stages that differ from EXP's, a missing or
-    unphysical reference.toml, bad logs).
-
-    Parameters
-    ----------
-    root : str or pathlib.Path
-        The experiment folder to calibrate (EXP).
-    empty : str or pathlib.Path
-        The empty fixture's experiment folder.
-    reference : str or pathlib.Path, optional
-        The reference body's experiment folder, with reference.toml.
-    progress : callable, optional
-        Called with each progress line (str).
-
-    Returns
-    -------
-    rsp_inertia.estimation.calibration.Calibration
-        The calibrated terms with their covariance, the input files' sha256, the model tests.
-    """
-    exp = open_experiment(root)
+    """The command behind :func:`rsp_inertia.api.calibrate`, documented there; returns the
+    library's record (rsp_inertia.estimation.calibration.Calibration), which
+    :func:`calibrate_result` views as the API's CalibrateResult."""
+    exp = open_experiment(path)
     check_writable(exp.calibration_path)
     result = calibrate_experiment(
         exp,
@@ -64,7 +45,7 @@ def calibrate(
     return result
 
 
-def calibrate_result(calibration: Calibration, root: str | Path) -> CalibrateResult:
-    """The result object of a calibration written into the experiment folder ``root``, with
+def calibrate_result(calibration: Calibration, path: str | Path) -> CalibrateResult:
+    """The result object of a calibration written into the experiment folder ``path``, with
     the drawing of its figure (rsp_inertia.plots.calibrate_figures)."""
-    return CalibrateResult(calibration, Path(root) / CALIBRATION_FILE, drawer=calibrate_figures)
+    return CalibrateResult(calibration, Path(path) / CALIBRATION_FILE, drawer=calibrate_figures)

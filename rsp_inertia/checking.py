@@ -88,30 +88,10 @@ DURATION_TOLERANCE = 0.05
 (the mirror runs the braking backwards in time)."""
 
 
-def check(root: str | Path, calibration: bool = False) -> CheckResult:
-    """Check the experiment folder ``root`` (module docstring).
-
-    Parameters
-    ----------
-    root : str or pathlib.Path
-        The experiment folder.
-    calibration : bool, optional
-        ``root`` is a calibration folder (the empty fixture's or the reference body's runs,
-        which calibrate reads); one with reference.toml is taken as one anyway. Its missing
-        calibration.toml and unstated stds are then not suspicious: calibrate measures what
-        they would give.
-
-    Returns
-    -------
-    CheckResult
-        Every finding, in the order made, and whether the folder is ready.
-
-    Raises
-    ------
-    InputError
-        The folder or its device.toml is missing or malformed (nothing else can be checked).
-    """
-    exp = open_experiment(root, protocol=False)  # a stage without one: a missing line
+def check(path: str | Path, calibration: bool = False) -> CheckResult:
+    """The command behind :func:`rsp_inertia.api.check`, documented there (the findings:
+    this module's docstring)."""
+    exp = open_experiment(path, protocol=False)  # a stage without one: a missing line
     device = exp.device
     reference = exp.reference_path
     calibration_folder = calibration or reference.is_file()

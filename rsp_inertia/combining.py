@@ -20,40 +20,15 @@ from rsp_inertia.provenance import input_changes, input_status
 __all__ = ["combine"]
 
 
-def combine(roots: list[str | Path], out: str | Path) -> tuple[Combination, Path]:
-    """``rsp-inertia combine``: several identified mountings of one body -> OUT/body.json
-    (atomically), the tensor and the whole centre of mass in body axes
-    (rsp_inertia.estimation.combine.combine_mountings); returns it with the path written.
-
-    Each folder is an experiment identified as usual, its device.toml's ``[mounting]`` saying
-    how the body sat on the rig. A mounting whose inputs changed since identify (its
-    result.json's provenance against the folder) gives a warning.
-
-    Parameters
-    ----------
-    roots : list of str or pathlib.Path
-        The mountings' experiment folders, each identified.
-    out : str or pathlib.Path
-        The folder to write body.json into (created if needed).
-
-    Returns
-    -------
-    combination : rsp_inertia.estimation.combine.Combination
-        The body's tensor and centre of mass with their covariance, and the consistency test.
-    path : pathlib.Path
-        The body.json written.
-
-    Raises
-    ------
-    InputError
-        No folder, a folder given twice, folders of different devices (``[device] name``)
-        or masses, a folder without result.json or ``[body] mass``, mountings that cannot
-        give z_c (rsp_inertia.estimation.combine), an output that cannot be written (found
-        before anything is read).
-    """
-    if not roots:
+def combine(paths: list[str | Path], out: str | Path) -> tuple[Combination, Path]:
+    """The command behind :func:`rsp_inertia.api.combine`, documented there; returns the
+    library's record (rsp_inertia.estimation.combine.Combination) and the body.json written,
+    which the API holds in its CombineResult. A mounting whose inputs changed since
+    identify (its result.json's provenance against the folder) gives a warning; an output
+    that cannot be written is found before anything is read."""
+    if not paths:
         raise InputError("combine: no experiment folder given: name every mounting's folder")
-    exps = [open_experiment(root, protocol=False) for root in roots]
+    exps = [open_experiment(root, protocol=False) for root in paths]
     seen: dict[Path, Path] = {}
     for exp in exps:
         same = seen.setdefault(exp.root.resolve(), exp.root)

@@ -24,12 +24,12 @@ __all__ = ["identify"]
 
 
 def identify(
-    root: str | Path, progress: Callable[[str], None] | None = None
+    path: str | Path, progress: Callable[[str], None] | None = None
 ) -> Identification:
-    """``rsp-inertia identify``: all stages' logs -> EXP/result.json (written atomically),
-    with its provenance: the time, the software and every input's sha256 as identify read
-    them (rsp_inertia.provenance)."""
-    exp = open_experiment(root)
+    """The command behind :func:`rsp_inertia.api.identify`, documented there; returns the
+    library's record (rsp_inertia.estimation.results.Identification), which the API views as
+    its IdentifyResult."""
+    exp = open_experiment(path)
     check_writable(exp.result_path)
     provenance = make_provenance("identify", exp.root, exp.identify_inputs())
     result = identify_experiment(exp, progress)

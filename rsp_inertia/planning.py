@@ -106,41 +106,17 @@ def _axial_guess(sm: StageModel, device: Device) -> float:
 
 
 def plan(
-    root: str | Path,
+    path: str | Path,
     max_duration: float | None = None,
     progress: Callable[[str], None] | None = None,
     rehearse: bool = True,
 ) -> PlanResult:
-    """``rsp-inertia plan``: choose, write device.toml and plan.png (module docstring).
-
-    Parameters
-    ----------
-    root : str or pathlib.Path
-        The experiment folder.
-    max_duration : float, optional
-        s of motion for the whole experiment (default: device.toml ``[plan] max_duration``,
-        else DEFAULT_MAX_DURATION).
-    progress : callable, optional
-        Called with each progress line (str): each stage's model, the rehearsal's runs.
-    rehearse : bool, optional
-        Run the chosen plan in closed loop on the nominal model and predict with identify's
-        stds there (rsp_inertia.design.rehearsal; default); False: the ideal reverse's
-        prediction only.
-
-    Returns
-    -------
-    PlanResult
-        The protocols chosen, what they predict, and the whole record.
-
-    Raises
-    ------
-    InputError
-        ``max_duration`` not > 0, an unwritable device.toml or plan.png (found first), no
-        pilot run and no ``[plan]`` guess, a bad pilot log, or a stage that no protocol
-        admits; nothing is written then.
-    """
+    """The command behind :func:`rsp_inertia.api.plan`, documented there (and in this
+    module's docstring); ``max_duration`` None falls back to device.toml's, then to
+    DEFAULT_MAX_DURATION. Its progress lines are each stage's model and the rehearsal's
+    runs."""
     start = time.perf_counter()
-    exp = open_experiment(root, protocol=False)
+    exp = open_experiment(path, protocol=False)
     for output in (exp.device_path, exp.plan_figure_path):
         check_writable(output)
     device = exp.device
@@ -149,7 +125,7 @@ def plan(
         max_duration = given if given is not None else DEFAULT_MAX_DURATION
     if not max_duration > 0:
         raise InputError(f"--max-duration: must be > 0, got {max_duration!r}")
-    models = stage_models(root)
+    models = stage_models(path)
     if progress is not None:
         for sm in models:
             m = sm.model

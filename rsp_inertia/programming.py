@@ -21,36 +21,14 @@ __all__ = ["program", "program_summaries"]
 
 
 def program_summaries(
-    root: str | Path,
+    path: str | Path,
     stage: int | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> list[ProgramSummary]:
-    """``rsp-inertia program``: stageN/braking.csv -> stageN/program.csv (written atomically).
-
-    Reads only device.toml and the braking log. Nothing is written for a stage whose mirror
-    the motor cannot drive (the error says what torque it needs).
-
-    Parameters
-    ----------
-    root : str or pathlib.Path
-        The experiment folder.
-    stage : int, optional
-        One stage (from 1); every stage (and each of its directions) by default.
-    progress : callable, optional
-        Called with each run's summary line (str) as soon as its program is written.
-
-    Returns
-    -------
-    list of rsp_inertia.results.ProgramSummary
-        One per program.csv written, in order.
-
-    Raises
-    ------
-    InputError
-        A missing or malformed braking log, an unwritable program.csv (found before any
-        program is made), or a mirror the motor cannot drive.
-    """
-    exp = open_experiment(root)
+    """The command behind :func:`rsp_inertia.api.program`, documented there; returns the
+    runs' records (rsp_inertia.results.ProgramSummary), which the API holds in its
+    ProgramResult. Every program.csv is found writable before any program is made."""
+    exp = open_experiment(path)
     # Every program's file found writable before any is made (a run without its braking log
     # is refused, in order, by the reader below).
     for st in exp.stages(stage):
@@ -60,9 +38,9 @@ def program_summaries(
     summaries = []
     for st in exp.stages(stage):
         for direction in exp.device.stages[st - 1].directions:
-            path = exp.braking_path(st, direction)
-            braking = read_device_log(path, exp.device, "braking", direction)
-            result = make_program(exp.device, st, braking, str(path), direction=direction)
+            braking_path = exp.braking_path(st, direction)
+            braking = read_device_log(braking_path, exp.device, "braking", direction)
+            result = make_program(exp.device, st, braking, str(braking_path), direction=direction)
             out = exp.program_path(st, direction)
             write_program(out, result.program)
             summary = ProgramSummary(st, direction, out, result)
@@ -73,24 +51,10 @@ def program_summaries(
 
 
 def program(
-    root: str | Path,
+    path: str | Path,
     stage: int | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> list[TorqueProgram]:
-    """``rsp-inertia program``: :func:`program_summaries`, each run's TorqueProgram only.
-
-    Parameters
-    ----------
-    root : str or pathlib.Path
-        The experiment folder.
-    stage : int, optional
-        One stage (from 1); every stage by default.
-    progress : callable, optional
-        Called with each run's summary line (str) as soon as its program is written.
-
-    Returns
-    -------
-    list of rsp_inertia.ocp.program.TorqueProgram
-        One per program.csv written, in order.
-    """
-    return [summary.details for summary in program_summaries(root, stage, progress)]
+    """:func:`program_summaries`, each run's library record only (the command behind
+    :func:`rsp_inertia.api.program`, documented there)."""
+    return [summary.details for summary in program_summaries(path, stage, progress)]

@@ -36,9 +36,10 @@ DEFAULT_EXPERIMENT = Path("demo-experiment")
 
 
 def demo(
-    root: str | Path = DEFAULT_EXPERIMENT, progress: Callable[[str], None] | None = None
+    path: str | Path = DEFAULT_EXPERIMENT, progress: Callable[[str], None] | None = None
 ) -> Identification:
-    """``rsp-inertia demo``: the whole real-rig workflow on the virtual device.
+    """The command behind :func:`rsp_inertia.api.demo`, documented there; returns the
+    calibrated identification's library record (the API adds the truth).
 
     The rig of :func:`rsp_inertia.scenarios.create_rig_experiment`: for the body and for
     both calibration experiments, every stage's braking passes in both directions, their
@@ -50,7 +51,7 @@ def demo(
     combined.
     """
     say = progress or (lambda _text: None)
-    root, empty, reference = create_rig_experiment(root)
+    root, empty, reference = create_rig_experiment(path)
     say(f"experiment folder: {root}; calibration runs: {empty}, {reference}")
     for folder in (empty, reference, root):
         simulate(folder, part="braking", progress=lambda s: say(str(s)))
@@ -86,14 +87,14 @@ def demo(
     program(second, progress=say)
     simulate(second, part="reverse", progress=lambda s: say(str(s)))
     identify(second)
-    combination, path = combine([root, second], root / "body")
+    combination, body = combine([root, second], root / "body")
     say(str(combination))
-    body = exp.load_virtual().body  # body axes, about the body frame's origin
+    true_body = exp.load_virtual().body  # body axes, about the body frame's origin
     say(
         "against the true body: worst tensor error / largest moment "
-        f"{np.abs(relative_errors(combination.entries, body.inertia)).max():.1e}; centre of "
+        f"{np.abs(relative_errors(combination.entries, true_body.inertia)).max():.1e}; centre of "
         "mass error x, y, z "
-        + ", ".join(f"{e * 1e3:+.4f}" for e in combination.com - body.com) + " mm"
+        + ", ".join(f"{e * 1e3:+.4f}" for e in combination.com - true_body.com) + " mm"
     )
-    say(f"body -> {path}")
+    say(f"body -> {body}")
     return result

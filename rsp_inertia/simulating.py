@@ -130,7 +130,7 @@ def _braking_truth(
 
 
 def simulate(
-    root: str | Path,
+    path: str | Path,
     stage: int | None = None,
     part: str = "braking",
     *,
@@ -138,45 +138,11 @@ def simulate(
     direction: str | None = None,
     progress: Callable[[PassSummary], None] | None = None,
 ) -> list[PassSummary]:
-    """``rsp-inertia simulate``: the virtual device writes the logs of one part.
-
-    Parameters
-    ----------
-    root : path
-        Experiment folder with device.toml and virtual.toml.
-    stage : int, optional
-        One stage (from 1); all stages by default.
-    part : {'braking', 'reverse', 'pendulum', 'pilot'}
-        The braking pass writes stageN/braking.csv. The reverse pass runs stageN/program.csv
-        in closed loop and writes stageN/reverse.csv; with ``ideal`` it runs the exact mirror
-        of the braking on an ideal drive instead (no program needed). The pendulum part
-        writes stageN/pendulum_kK.csv, one torsion-pendulum run per node K; the pilot part
-        stageN/pilot.csv (spin-up at a known torque, then a coast; for ``plan``). A backward run
-        uses stageN/braking_backward.csv, program_backward.csv and reverse_backward.csv.
-        Braking and reverse need every stage's protocol in device.toml
-        (rsp_inertia.plant.config.require_protocol); pendulum and pilot runs do not.
-    ideal : bool, optional
-        With ``part='reverse'``: the exact mirror of the braking on an ideal drive (no
-        program needed).
-    direction : {'forward', 'backward'}, optional
-        Braking and reverse: only this direction, on the stages whose ``directions`` in
-        device.toml include it; every direction of each stage by default. Pendulum and pilot
-        runs ignore it.
-    progress : callable, optional
-        Called with each pass's summary as soon as it is written.
-
-    Returns
-    -------
-    list of rsp_inertia.results.PassSummary
-        One per log written, in the order written.
-
-    Raises
-    ------
-    InputError
-        Bad ``part`` or ``direction``, ``ideal`` with a part other than 'reverse', or no
-        selected stage runs ``direction``; and whatever the files' readers and the simulator
-        raise.
-    """
+    """The command behind :func:`rsp_inertia.api.simulate`, documented there; returns the
+    passes' records (rsp_inertia.results.PassSummary), which the API holds in its
+    SimulateResult, and hands ``progress`` each of them (not its line). Braking and reverse
+    need every stage's protocol in device.toml (rsp_inertia.plant.config.require_protocol);
+    pendulum and pilot runs do not, and ignore ``direction``."""
     if part not in PARTS:
         raise InputError(f"--part: must be one of {', '.join(PARTS)}, got {part!r}")
     if ideal and part != "reverse":
@@ -185,7 +151,7 @@ def simulate(
         raise InputError(
             f"--direction: must be one of {', '.join(DIRECTIONS)}, got {direction!r}"
         )
-    exp = open_experiment(root, protocol=part in ("braking", "reverse"))
+    exp = open_experiment(path, protocol=part in ("braking", "reverse"))
     virtual = exp.load_virtual()
     stages = exp.stages(stage)
     if direction is not None and part not in ("pendulum", "pilot"):
@@ -205,18 +171,18 @@ def simulate(
         if part == "pendulum":
             for k in range(len(exp.device.stages[st - 1].nodes)):
                 sim = simulate_pendulum(exp.device, st, virtual, k)
-                path = exp.pendulum_path(st, k + 1)
-                _write_log(exp, virtual, path, sim.log)
-                summary = _summary(exp, st, f"pendulum at node {k + 1}", path, sim)
+                log_path = exp.pendulum_path(st, k + 1)
+                _write_log(exp, virtual, log_path, sim.log)
+                summary = _summary(exp, st, f"pendulum at node {k + 1}", log_path, sim)
                 if progress is not None:
                     progress(summary)
                 summaries.append(summary)
             continue
         if part == "pilot":
             sim = simulate_pilot(exp.device, st, virtual)
-            path = exp.pilot_path(st)
-            _write_log(exp, virtual, path, sim.log)
-            summary = _summary(exp, st, "pilot", path, sim)
+            log_path = exp.pilot_path(st)
+            _write_log(exp, virtual, log_path, sim.log)
+            summary = _summary(exp, st, "pilot", log_path, sim)
             if progress is not None:
                 progress(summary)
             summaries.append(summary)
@@ -225,7 +191,7 @@ def simulate(
         for d in directions:
             if part == "braking":
                 sim = simulate_braking(exp.device, st, virtual, d)
-                path = exp.braking_path(st, d)
+                log_path = exp.braking_path(st, d)
                 label = "braking"
             else:
                 braking = _braking_truth(exp, st, virtual, d)
@@ -237,9 +203,9 @@ def simulate(
                     start = (braking.truth.end_phi, 0.0)
                     sim = run_program(exp.device, st, virtual, program, start, direction=d)
                     label = "reverse"
-                path = exp.reverse_path(st, d)
-            _write_log(exp, virtual, path, sim.log)
-            summary = _summary(exp, st, label, path, sim, d)
+                log_path = exp.reverse_path(st, d)
+            _write_log(exp, virtual, log_path, sim.log)
+            summary = _summary(exp, st, label, log_path, sim, d)
             if progress is not None:
                 progress(summary)
             summaries.append(summary)

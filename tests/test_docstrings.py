@@ -9,6 +9,10 @@ public module and, for a method, a public class) with three or more parameters (
   ``*args``, ``**kwargs``);
 - a ``Returns`` (or ``Yields``) section, unless the function is annotated ``-> None``.
 
+A command's function documented in the API (its docstring says it is "the command behind
+:func:`rsp_inertia.api.NAME`, documented there": one home per public docstring) instead has
+every parameter documented by that API function's Parameters section, whatever their number.
+
 The sources are read with ast from the installed package's modules (tests/test_architecture.py
 finds them), so no module is imported but the packages' light ``__init__``.
 """
@@ -16,12 +20,16 @@ finds them), so no module is imported but the packages' light ``__init__``.
 from __future__ import annotations
 
 import ast
+import re
 
 import pytest
 
 from tests.test_architecture import MODULES
 
 MIN_PARAMETERS = 3
+
+HOME = re.compile(r"command behind :func:`rsp_inertia\.api\.(\w+)`, documented there")
+"""How a command's function names the API function that documents it."""
 
 
 def _sections(doc: str) -> dict[str, list[str]]:
@@ -69,11 +77,34 @@ def _returns_none(node: ast.FunctionDef | ast.AsyncFunctionDef) -> bool:
     )
 
 
+def _api_parameters() -> dict[str, set[str]]:
+    """The parameters each public function of rsp_inertia.api documents."""
+    tree = ast.parse(MODULES["rsp_inertia.api"].read_text())
+    return {
+        node.name: _documented(_sections(ast.get_docstring(node) or "").get("Parameters", []))
+        for node in tree.body
+        if isinstance(node, ast.FunctionDef) and _public(node.name)
+    }
+
+
+def _home_faults(names: list[str], home: str, qualname: str) -> list[str]:
+    """The faults of a function documented at rsp_inertia.api.``home``: its parameters that
+    the home does not document."""
+    documented = _api_parameters().get(home)
+    if documented is None:
+        return [f"{qualname}: its home rsp_inertia.api.{home} is no public API function"]
+    missing = [n for n in names if n.lstrip("*") not in documented]
+    return [f"{qualname}: rsp_inertia.api.{home} does not document {missing}"] if missing else []
+
+
 def _faults(node, qualname: str) -> list[str]:
     names = _parameters(node)
+    doc = ast.get_docstring(node) or ""
+    home = HOME.search(" ".join(doc.split()))
+    if home:
+        return _home_faults(names, home.group(1), qualname)
     if len(names) < MIN_PARAMETERS:
         return []
-    doc = ast.get_docstring(node) or ""
     sections = _sections(doc)
     faults = []
     if "Parameters" not in sections:
@@ -137,3 +168,21 @@ def test_the_standard_can_fail() -> None:
     )
     assert _faults(full, "f") == []
     assert _faults(_function("def f(a, b):\n    pass\n"), "f") == []
+
+
+def test_a_command_documented_in_the_api_is_checked_there() -> None:
+    """A command's function whose docstring points to its API function passes when that
+    function documents each of its parameters, and fails on one it does not."""
+    pointer = '"""The command behind :func:`rsp_inertia.api.{}`, documented there."""'
+    calibrate = _function(
+        f"def calibrate(path, empty, reference, progress):\n    {pointer.format('calibrate')}\n"
+    )
+    assert _faults(calibrate, "calibrate") == []
+    wrong = _function(f"def identify(path, stage):\n    {pointer.format('identify')}\n")
+    assert _faults(wrong, "identify") == [
+        "identify: rsp_inertia.api.identify does not document ['stage']"
+    ]
+    nowhere = _function(f"def f(path):\n    {pointer.format('nowhere')}\n")
+    assert _faults(nowhere, "f") == [
+        "f: its home rsp_inertia.api.nowhere is no public API function"
+    ]
