@@ -8,7 +8,9 @@ On that graph:
 - no import cycle, of any length;
 - each layer imports only the layers below it (``LAYERS``);
 - imports inside functions only at the lazy boundary (``rsp_inertia.api``, and the packages'
-  ``__init__``, which load their names on first use), each with its reason in a comment.
+  ``__init__``, which load their names on first use), each with its reason in a comment;
+- each command's result that holds a library record is a view of it (no field copied from
+  it, no array field), and the results import nothing heavy.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import ast
 import importlib
 import importlib.util
 import pkgutil
+import sys
 from pathlib import Path
 
 import pytest
@@ -270,7 +273,7 @@ def _has_reason(lines: list[str], lineno: int) -> bool:
 SUBPACKAGES = ("plant", "estimation", "ocp", "design")
 
 
-@pytest.mark.parametrize("sub", SUBPACKAGES)
+@pytest.mark.parametrize("sub", (*SUBPACKAGES, "results"))
 def test_each_subpackage_exports_its_public_api_from_the_homes(sub: str) -> None:
     """Every name of a subpackage's ``__all__`` comes from the module its ``__init__`` names,
     whose own ``__all__`` holds it (plant.config is the public home of device_config's and
@@ -281,3 +284,133 @@ def test_each_subpackage_exports_its_public_api_from_the_homes(sub: str) -> None
         home = importlib.import_module(f"rsp_inertia.{sub}.{package._HOMES[name]}")
         assert name in home.__all__, f"{name} is not in {home.__name__}.__all__"
         assert getattr(package, name) is getattr(home, name)
+
+
+# --- the commands' results: views of the library's records, light --------------------------
+
+RESULT_RECORDS = {
+    "rsp_inertia.results.identify.IdentifyResult": (
+        "identification", "rsp_inertia.estimation.results.Identification"
+    ),  # and truth, demo's array of the virtual body's entries, which no record holds
+    "rsp_inertia.results.calibrate.CalibrateResult": (
+        "calibration", "rsp_inertia.estimation.calibration.Calibration"
+    ),
+    "rsp_inertia.results.plan.PlanResult": ("plan", "rsp_inertia.design.plan.Plan"),
+    "rsp_inertia.results.combine.CombineResult": (
+        "combination", "rsp_inertia.estimation.combine.Combination"
+    ),
+    "rsp_inertia.results.program.ProgramSummary": (
+        "details", "rsp_inertia.ocp.program.TorqueProgram"
+    ),
+}
+"""Each command's result that holds a library record: (its field, the record's class)."""
+
+OWN_ARRAYS = {"rsp_inertia.results.identify.IdentifyResult": {"truth"}}
+"""Array fields of a result that are the command's own (no record holds them)."""
+
+LIGHT_PACKAGES = {"numpy"}
+"""What the results may import beyond the standard library and the package (check and combine
+load every result's module; neither may pay for scipy, CasADi or matplotlib)."""
+
+
+def _class_fields(qualname: str) -> dict[str, str]:
+    """The dataclass fields of class ``module.Class``, read from its source: name ->
+    annotation (ClassVar aside)."""
+    module, _, name = qualname.rpartition(".")
+    tree = ast.parse(MODULES[module].read_text())
+    cls = next(n for n in tree.body if isinstance(n, ast.ClassDef) and n.name == name)
+    return {
+        item.target.id: ast.unparse(item.annotation)
+        for item in cls.body
+        if isinstance(item, ast.AnnAssign) and isinstance(item.target, ast.Name)
+        and not ast.unparse(item.annotation).startswith("ClassVar")
+    }
+
+
+def _copies(
+    view: dict[str, str], record: dict[str, str], holder: str, kind: str, own: set[str]
+) -> list[str]:
+    """What keeps a result from being a view of its record: no field ``holder`` of the record's
+    class ``kind``, a field of the record's name (a copy), an array field but the command's
+    ``own`` (a copy, or a value computed from the record: a property's)."""
+    faults = [] if view.get(holder) == kind else [f"no field {holder}: {kind}"]
+    faults += [f"{name} copies the record's field" for name in sorted(view.keys() & record)]
+    faults += [
+        f"{name} is an array field"
+        for name, annotation in view.items()
+        if "ndarray" in annotation and name not in own
+    ]
+    return faults
+
+
+@pytest.mark.parametrize("view", sorted(RESULT_RECORDS))
+def test_each_result_is_a_view_of_its_record(view: str) -> None:
+    holder, record = RESULT_RECORDS[view]
+    own = OWN_ARRAYS.get(view, set())
+    faults = _copies(
+        _class_fields(view), _class_fields(record), holder, record.rpartition(".")[2], own
+    )
+    assert faults == [], f"{view}: {faults}"
+
+
+def test_a_result_that_copies_its_record_is_found() -> None:
+    """The identify result of before (a copy of Identification's arrays) fails."""
+    before = {
+        "entries": "np.ndarray", "tensor": "np.ndarray", "warnings": "tuple[str, ...]",
+        "identification": "Identification", "path": "Path",
+    }
+    record = _class_fields("rsp_inertia.estimation.results.Identification")
+    assert _copies(before, record, "identification", "Identification", set()) == [
+        "entries copies the record's field", "warnings copies the record's field",
+        "entries is an array field", "tensor is an array field",
+    ]
+    assert _copies({"path": "Path"}, record, "identification", "Identification", set()) == [
+        "no field identification: Identification"
+    ]
+
+
+def _third_party(source: str) -> set[str]:
+    """The packages outside the standard library and rsp_inertia that ``source`` imports when
+    it runs (not under ``if TYPE_CHECKING:``)."""
+    found: set[str] = set()
+
+    def visit(node: ast.AST) -> None:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.If) and _is_type_checking(child):
+                for sub in child.orelse:
+                    visit(sub)
+                continue
+            if isinstance(child, ast.Import):
+                found.update(alias.name.split(".")[0] for alias in child.names)
+            elif isinstance(child, ast.ImportFrom) and not child.level and child.module:
+                found.add(child.module.split(".")[0])
+            visit(child)
+
+    visit(ast.parse(source))
+    return found - set(sys.stdlib_module_names) - {"rsp_inertia"}
+
+
+RESULT_MODULES = sorted(name for name in MODULES if name.startswith("rsp_inertia.results"))
+"""The package of results and its modules, one per command and the shared one."""
+
+
+@pytest.mark.parametrize("name", RESULT_MODULES)
+def test_the_results_import_nothing_heavy(name: str) -> None:
+    """Of the package, a result imports only the light modules the results share (the
+    device's files and geometry, the figure writer, other results), never a layer's
+    computation; of the rest, numpy."""
+    light = ("rsp_inertia.results", "rsp_inertia.figure_files", "rsp_inertia.plant.experiment",
+             "rsp_inertia.plant.geometry", "rsp_inertia.plant.toml_writer",
+             "rsp_inertia.plant.lazy")
+    heavy = [target for target, _, _ in IMPORTS[name] if not target.startswith(light)]
+    assert heavy == [], f"{name} imports {heavy}"
+    assert _third_party(MODULES[name].read_text()) <= LIGHT_PACKAGES
+
+
+def test_a_heavy_import_in_a_result_is_found() -> None:
+    source = (
+        "from typing import TYPE_CHECKING\nimport json\nimport numpy as np\n"
+        "import matplotlib.pyplot as plt\nif TYPE_CHECKING:\n    import casadi\n"
+    )
+    assert _third_party(source) - LIGHT_PACKAGES == {"matplotlib"}
+    assert len(RESULT_MODULES) == 10  # the package, the shared module, eight commands
