@@ -8,10 +8,10 @@ same checks) and returns a result object instead of printing:
   ``EXP/result.json``);
 - ``result.figures(folder)`` draws the command's PNG figures, where it has any, and
   ``result.draw()`` gives them as matplotlib figures, unwritten;
-- the library's full record stays reachable (``result.identification``,
-  ``result.calibration``, ``result.plan``, ...).
+- the result is a view of the library's record, which it holds (``result.identification``,
+  ``result.calibration``, ``result.plan``, ...) and reads its other fields from.
 
-The result classes, one per command, are defined in :mod:`rsp_inertia.results`; this
+The result classes, one module per command, are in :mod:`rsp_inertia.results`; this
 module re-exports them, so ``rsp_inertia.api.IdentifyResult`` and
 ``rsp_inertia.IdentifyResult`` are the same class.
 
