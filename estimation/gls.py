@@ -2,7 +2,7 @@
 
 Every run (one stage in one direction) contributes one equation per balance angle
 (rsp_inertia.estimation.balance, docs/method.md §5). Which unknowns those equations share
-depends on the question: the body's tensor (rsp_inertia.estimation.tensor) or the empty
+depends on the question: the body's tensor (rsp_inertia.estimation.tensor_fit) or the empty
 fixture's harmonics, the drive's gains and the encoder's error
 (rsp_inertia.estimation.calibration). Both build :class:`Block` s, named columns and a
 right-hand side, and this module solves them the same way:

@@ -2,11 +2,11 @@
 
 Takes what a rig produces (the device and the logs,
 :class:`rsp_inertia.estimation.runs.ExperimentLogs`) and what its calibration knows
-(:class:`rsp_inertia.estimation.tensor.KnownTerms`), never the virtual device's truth; opens
+(:class:`rsp_inertia.estimation.known_terms.KnownTerms`), never the virtual device's truth; opens
 no file (rsp_inertia.estimation.reading reads a folder). Steps,
 each in its own function elsewhere: smoothing and motor work (rsp_inertia.estimation.passes),
-balances (rsp_inertia.estimation.balance), the node formula (rsp_inertia.estimation.nodes), least squares and the tensor
-(rsp_inertia.estimation.tensor).
+balances (rsp_inertia.estimation.balance), the node formula (rsp_inertia.estimation.nodes), least squares
+(rsp_inertia.estimation.tensor_fit) and the axes' tensor (rsp_inertia.estimation.axes).
 
 Two estimates of the tensor are reported:
 
@@ -25,19 +25,16 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from rsp_inertia.estimation.axes import axis_values, tensor_from_axes
 from rsp_inertia.estimation.best_practice import best_practice_inertia, half_cycle_fit
+from rsp_inertia.estimation.columns import format_run
+from rsp_inertia.estimation.known_terms import KnownTerms
 from rsp_inertia.estimation.model_tests import coarse_encoder_warnings, model_warnings
 from rsp_inertia.estimation.nodes import NodeEstimate, node_estimates, node_passages
 from rsp_inertia.estimation.pendulum import PendulumEstimate, estimate_pendulum
 from rsp_inertia.estimation.results import AxisResult, Identification, PendulumResult
 from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs, corrected_log
-from rsp_inertia.estimation.tensor import (
-    KnownTerms,
-    axis_values,
-    fit_tensor,
-    format_run,
-    tensor_from_axes,
-)
+from rsp_inertia.estimation.tensor_fit import fit_tensor
 from rsp_inertia.plant.config import Device, Pendulum
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.geometry import (

@@ -19,7 +19,8 @@ from rsp_inertia.estimation.predict import (
     run_information,
 )
 from rsp_inertia.estimation.reading import identify_experiment
-from rsp_inertia.estimation.tensor import axis_values, fit_tensor
+from rsp_inertia.estimation.axes import axis_values
+from rsp_inertia.estimation.tensor_fit import fit_tensor
 from rsp_inertia.plant.config import load_device, load_virtual
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.geometry import device_design
