@@ -66,7 +66,14 @@ from rsp_inertia.estimation.columns import (
     run_label,
     run_priors,
 )
-from rsp_inertia.estimation.gls import BalanceFit, Block, solve_blocks
+from rsp_inertia.estimation.gls import (
+    BalanceFit,
+    Block,
+    assemble_blocks,
+    block_model_tests,
+    solve_blocks,
+    speed_noise_scales,
+)
 from rsp_inertia.estimation.known_terms import KnownTerms
 from rsp_inertia.estimation.layout import HARMONIC_NAMES, theta_layout
 from rsp_inertia.estimation.model_tests import ModelTest, described, model_warnings
@@ -295,10 +302,10 @@ def fit_calibration(
         taken off the logs of the balances; the fit measures what is left and adds it.
         Without a reference the encoder is device.toml's (:func:`device_known_terms`).
     scales : list of float, optional
-        The runs' speed-noise scales when an earlier fit found them
-        (rsp_inertia.estimation.gls.solve_blocks).
+        The runs' speed-noise scales when an earlier fit found them (else
+        rsp_inertia.estimation.gls.speed_noise_scales finds them).
     tests : bool
-        Whether to make the model tests (rsp_inertia.estimation.gls.solve_blocks).
+        Whether to make the model tests (rsp_inertia.estimation.gls.block_model_tests).
 
     Returns
     -------
@@ -310,7 +317,10 @@ def fit_calibration(
     blocks = _blocks(device, empty, "empty", None, has_gain, orders)
     if has_gain:
         blocks += _blocks(device, reference, "reference", reference_body, has_gain, orders)
-    fit = solve_blocks(blocks, scales=scales, tests=tests)
+    equations = assemble_blocks(blocks)
+    fit = solve_blocks(equations, speed_noise_scales(equations) if scales is None else scales)
+    if tests:
+        fit = dataclasses.replace(fit, tests=block_model_tests(equations, fit))
     # What the fit does not measure stays as it was: without a reference, gains 1 and the
     # encoder error device.toml states (with its std); with one, the encoder error already
     # taken off the logs, to which the fit adds what it finds left.

@@ -11,7 +11,7 @@ its exact time mirror. From it this module builds the balance equations exactly 
   the smoother's own rule (``smoother_bandwidth``) and r = (q^2/12) dt.
 
 The generalised least squares then gives the covariance the noise model alone implies
-(``fit_tensor(..., predict=True)``: speed-noise scale 1, no inflation by residuals). That
+(``predict_tensor``: speed-noise scale 1, no inflation by residuals). That
 is an ideal reverse's std, a closed loop's best case: it cannot foresee the closed-loop
 reverse's tracking mismatch (its friction slopes cost information; an exact mirror has
 none) nor the regulator's speed noise, which together put identify's std above it. The planner uses it to rank protocols; the closed-loop
@@ -184,7 +184,7 @@ def run_information(device: Device, balance: StageBalance, inertia: np.ndarray) 
     (rsp_inertia.estimation.tensor_fit.tensor_block) with C its work covariance plus the speed noise's
     1/4 M_i M_j cov(S_i, S_j) (rsp_inertia.estimation.gls), and its own unknowns (the run's constant,
     its friction slopes) taken out by the Schur complement. Equal to the least squares' own
-    covariance of the planned balances (``fit_tensor(..., predict=True)``,
+    covariance of the planned balances (rsp_inertia.estimation.tensor_fit.predict_tensor,
     tests/design/test_plan.py), at a fraction of its cost, so that a planner can try each
     stage's protocols once and combine them freely.
 

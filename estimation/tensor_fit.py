@@ -45,7 +45,16 @@ from rsp_inertia.estimation.columns import (
     run_label,
     run_priors,
 )
-from rsp_inertia.estimation.gls import Block, solve_blocks
+from rsp_inertia.estimation.gls import (
+    BalanceFit,
+    Block,
+    Equations,
+    assemble_blocks,
+    block_model_tests,
+    predict_blocks,
+    solve_blocks,
+    speed_noise_scales,
+)
 from rsp_inertia.estimation.known_terms import KnownTerms
 from rsp_inertia.estimation.layout import GRAVITY_NAMES, SHARED_LAYOUT
 from rsp_inertia.estimation.model_tests import ModelTest, described
@@ -56,6 +65,7 @@ __all__ = [
     "TensorFit",
     "balance_rhs",
     "fit_tensor",
+    "predict_tensor",
     "tensor_block",
 ]
 
@@ -156,7 +166,7 @@ def tensor_block(bal: StageBalance, run: str, known: KnownTerms, asymmetry: bool
     Returns
     -------
     Block
-        The run's equations for rsp_inertia.estimation.gls.solve_blocks.
+        The run's equations for rsp_inertia.estimation.gls.assemble_blocks.
     """
     v = tensor_basis(bal.phi, bal.gear_ratio)
     probes = cause_probes(bal)
@@ -183,17 +193,14 @@ def tensor_block(bal: StageBalance, run: str, known: KnownTerms, asymmetry: bool
 
 
 def fit_tensor(
-    balances: list[StageBalance],
-    known: KnownTerms | None = None,
-    predict: bool = False,
-    tests: bool = True,
+    balances: list[StageBalance], known: KnownTerms | None = None, tests: bool = True
 ) -> TensorFit:
     """Generalised least squares for the tensor and the gravity terms (module docstring).
 
     Unknowns: the six entries and the gravity terms (shared by every run), one constant and
     the tracking mismatch's two friction slopes per run, and the friction asymmetry
-    e = [e1, e2, e3] per stage run in both directions. Solved, weighted and checked by
-    :func:`rsp_inertia.estimation.gls.solve_blocks`.
+    e = [e1, e2, e3] per stage run in both directions. Weighted, solved and checked by
+    rsp_inertia.estimation.gls (speed_noise_scales, solve_blocks, block_model_tests).
 
     Parameters
     ----------
@@ -201,9 +208,6 @@ def fit_tensor(
         Every run's balance.
     known : KnownTerms, optional
         The rig's known terms; device.toml's tares as exact by default.
-    predict : bool, optional
-        Noise-free balances of a planned run, whose covariance is then the noise model's
-        alone (rsp_inertia.estimation.predict).
     tests : bool, optional
         False: no model tests (a rehearsal of a plan, rsp_inertia.design.rehearsal).
 
@@ -213,20 +217,59 @@ def fit_tensor(
         The entries and gravity terms with their covariance and budget, the runs' speed-noise
         scales and friction terms, and the model tests.
     """
+    known = _known_or_tares(balances, known)
+    equations = _equations(balances, known)
+    fit = solve_blocks(equations, speed_noise_scales(equations))
+    return _tensor_fit(
+        balances, known, fit, block_model_tests(equations, fit) if tests else []
+    )
+
+
+def predict_tensor(balances: list[StageBalance], known: KnownTerms | None = None) -> TensorFit:
+    """The least squares of :func:`fit_tensor` on noise-free balances of a planned run: the
+    covariance the noise model alone implies (rsp_inertia.estimation.gls.predict_blocks,
+    rsp_inertia.estimation.predict), no model tests.
+
+    Parameters
+    ----------
+    balances : list of StageBalance
+        Every planned run's balance.
+    known : KnownTerms, optional
+        The rig's known terms; device.toml's tares as exact by default.
+
+    Returns
+    -------
+    TensorFit
+        The entries and gravity terms with their predicted covariance and budget.
+    """
+    known = _known_or_tares(balances, known)
+    return _tensor_fit(balances, known, predict_blocks(_equations(balances, known)), [])
+
+
+def _known_or_tares(balances: list[StageBalance], known: KnownTerms | None) -> KnownTerms:
+    """``known``, or device.toml's tares (the balances') as exact."""
     if known is None:
         tares = {bal.stage: bal.tare_inertia for bal in balances}
         known = KnownTerms.from_tares([tares.get(s, 0.0) for s in range(1, max(tares) + 1)])
+    return known
+
+
+def _equations(balances: list[StageBalance], known: KnownTerms) -> Equations:
+    """Every run's block (:func:`tensor_block`), assembled for the least squares."""
     both = both_directions(balances)
     blocks = [tensor_block(bal, str(k), known, bal.stage in both) for k, bal in enumerate(balances)]
-    fit = solve_blocks(
-        blocks,
-        known.cov if known.calibrated else None,
-        predict=predict,
-        tests=tests,
-        known_groups=known.budget_groups(),
+    return assemble_blocks(
+        blocks, known.cov if known.calibrated else None, known.budget_groups()
     )
+
+
+def _tensor_fit(
+    balances: list[StageBalance], known: KnownTerms, fit: BalanceFit, tests: list[ModelTest]
+) -> TensorFit:
+    """The TensorFit of the least squares' solution ``fit`` and its model tests ``tests``."""
+    both = both_directions(balances)
     one_direction = len(both) < len({bal.stage for bal in balances})
-    model_tests = described(fit.tests, known, one_direction)
+    model_tests = described(tests, known, one_direction)
     shared = [fit.index(name) for name in SHARED_LAYOUT.names()]
     n_runs, stages = len(balances), sorted({bal.stage for bal in balances})
     slope = np.full((n_runs, 2), np.nan)
