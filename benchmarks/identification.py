@@ -29,7 +29,8 @@ from benchmarks.tables import command_line, markdown_table
 from benchmarks.truth import tensor_error, true_moments
 from rsp_inertia.estimation.reading import identify_experiment
 from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs
-from rsp_inertia.estimation.tensor import axis_values, fit_tensor
+from rsp_inertia.estimation.axes import axis_values
+from rsp_inertia.estimation.tensor_fit import fit_tensor
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.files import write_atomic
 from rsp_inertia.plant.virtual import placed_body, simulate_braking, simulate_ideal_reverse

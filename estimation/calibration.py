@@ -29,7 +29,7 @@ fixture's harmonics (which do not). Without a reference, h_d = h_b = 1 and the e
 error is device.toml's, exact unless stated with a std.
 
 The encoder's error enters through the readings, so its column (the kinetic energy's share,
-rsp_inertia.estimation.tensor.encoder_columns) is its first-order effect: the fit is
+rsp_inertia.estimation.columns.encoder_columns) is its first-order effect: the fit is
 repeated on the logs corrected with the estimate so far (:data:`ENCODER_ITERATIONS`), until
 the correction moves by less than :data:`ENCODER_TOLERANCE` of its std.
 
@@ -57,23 +57,28 @@ from rsp_inertia.estimation.calibration_file import (
     calibration_file,
     calibration_text,
 )
-from rsp_inertia.estimation.gls import BalanceFit, Block, solve_blocks
-from rsp_inertia.estimation.model_tests import ModelTest, model_warnings
-from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs, corrected_log
-from rsp_inertia.estimation.stiffness import StiffnessCalibration, calibrate_stiffness
-from rsp_inertia.estimation.tensor import (
-    HARMONIC_NAMES,
-    KnownTerms,
+from rsp_inertia.estimation.columns import (
     both_directions,
     cause_probes,
-    described,
-    encoder_names,
     encoder_unknowns,
     gravity_rows,
     run_columns,
     run_label,
     run_priors,
 )
+from rsp_inertia.estimation.gls import (
+    BalanceFit,
+    Block,
+    assemble_blocks,
+    block_model_tests,
+    solve_blocks,
+    speed_noise_scales,
+)
+from rsp_inertia.estimation.known_terms import KnownTerms
+from rsp_inertia.estimation.layout import HARMONIC_NAMES, theta_layout
+from rsp_inertia.estimation.model_tests import ModelTest, described, model_warnings
+from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs, corrected_log
+from rsp_inertia.estimation.stiffness import StiffnessCalibration, calibrate_stiffness
 from rsp_inertia.plant.config import Device, TrueBody
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import CALIBRATION_FILE
@@ -216,18 +221,21 @@ def _blocks(
     encoder_orders: int,
 ):
     """The calibration equations of one experiment's runs (module docstring)."""
+    # The unknowns are theta's, by theta's names (rsp_inertia.estimation.layout).
+    theta = theta_layout(len(device.stages), encoder_orders)
+    gains = theta.names("gains")
     both = both_directions(balances)
     blocks = []
     for k, bal in enumerate(balances):
         s = bal.stage
+        harmonics = theta.names("harmonics", s)
         basis = inertia_basis(bal.phi)
         half_s = 0.5 * bal.speed_sq
-        cols = {f"{h}[{s}]": half_s * basis[:, j] for j, h in enumerate(HARMONIC_NAMES)}
-        cols["Gs"], cols["Gc"] = gravity_rows(bal.phi).T
+        cols = {name: half_s * basis[:, j] for j, name in enumerate(harmonics)}
+        cols.update(zip(theta.names("gravity"), gravity_rows(bal.phi).T))
         cols.update(run_columns(bal, f"{role}{k}", s in both, group=f"{role} {s}"))
         if has_gain:
-            parts = bal.motor_work_parts
-            cols["h_d"], cols["h_b"] = -parts[:, 0], -parts[:, 1]
+            cols.update(zip(gains, -bal.motor_work_parts.T))
             rhs = -bal.spring
         else:
             rhs = bal.work.copy()
@@ -248,7 +256,7 @@ def _blocks(
                 label=f"{role} {run_label(bal)}",
                 columns=cols,
                 rhs=rhs,
-                inertia_columns={f"{h}[{s}]": basis[:, j] for j, h in enumerate(HARMONIC_NAMES)},
+                inertia_columns={name: basis[:, j] for j, name in enumerate(harmonics)},
                 inertia_known=known_M,
                 # The gains scale the logged work, a smooth function as the kinetic energy is:
                 # alone in one run they would stand in for the noisy speeds
@@ -257,10 +265,10 @@ def _blocks(
                 joint_only=frozenset(
                     name
                     for name in (*cols, *scaled)
-                    if name.startswith("e") or name in ("h_d", "h_b") or name in scaled
+                    if name.startswith("e") or name in gains or name in scaled
                 ),
-                groups={f"{h}[{s}]": f"{role} {run_label(bal)}" for h in HARMONIC_NAMES},
-                fixed_in_tests=frozenset({"h_d", "h_b"}),
+                groups={name: f"{role} {run_label(bal)}" for name in harmonics},
+                fixed_in_tests=frozenset(gains),
                 inertia_scaled_columns=scaled,
                 probes=probes,
                 probes_per_inertia=probes_per_inertia,
@@ -294,10 +302,10 @@ def fit_calibration(
         taken off the logs of the balances; the fit measures what is left and adds it.
         Without a reference the encoder is device.toml's (:func:`device_known_terms`).
     scales : list of float, optional
-        The runs' speed-noise scales when an earlier fit found them
-        (rsp_inertia.estimation.gls.solve_blocks).
+        The runs' speed-noise scales when an earlier fit found them (else
+        rsp_inertia.estimation.gls.speed_noise_scales finds them).
     tests : bool
-        Whether to make the model tests (rsp_inertia.estimation.gls.solve_blocks).
+        Whether to make the model tests (rsp_inertia.estimation.gls.block_model_tests).
 
     Returns
     -------
@@ -309,7 +317,10 @@ def fit_calibration(
     blocks = _blocks(device, empty, "empty", None, has_gain, orders)
     if has_gain:
         blocks += _blocks(device, reference, "reference", reference_body, has_gain, orders)
-    fit = solve_blocks(blocks, scales=scales, tests=tests)
+    equations = assemble_blocks(blocks)
+    fit = solve_blocks(equations, speed_noise_scales(equations) if scales is None else scales)
+    if tests:
+        fit = dataclasses.replace(fit, tests=block_model_tests(equations, fit))
     # What the fit does not measure stays as it was: without a reference, gains 1 and the
     # encoder error device.toml states (with its std); with one, the encoder error already
     # taken off the logs, to which the fit adds what it finds left.
@@ -325,7 +336,7 @@ def fit_calibration(
             stated.encoder_slice, stated.encoder_slice
         ]
         start = start.with_theta(start.theta, cov)
-        measured = start.names()[2 : start.gravity_slice.stop]  # the empty system, fixture
+        measured = start.layout.names("harmonics") + start.layout.names("gravity")
     missing = [n for n in measured if n not in fit.names]
     if missing:
         raise InputError(f"the calibration runs leave {', '.join(missing)} undetermined")
@@ -333,7 +344,7 @@ def fit_calibration(
     theta, cov = start.theta, start.cov.copy()
     which = [names.index(n) for n in measured]
     where = [fit.index(n) for n in measured]
-    added = set(encoder_names(orders))  # the encoder's: what is left, added to the applied
+    added = set(start.layout.names("encoder"))  # the encoder's: what is left, added to the applied
     for i, j, name in zip(which, where, measured):
         theta[i] = theta[i] + fit.x[j] if name in added else fit.x[j]
     cov[np.ix_(which, which)] = fit.cov[np.ix_(where, where)]
@@ -527,7 +538,8 @@ def device_known_terms(
     """
     known = KnownTerms.from_tares([st.tare_inertia for st in device.stages])
     encoder = device.encoder.error
-    cov = np.zeros((known.cov.shape[0] + encoder.size,) * 2)
+    size = theta_layout(len(device.stages), encoder.size // 2).size
+    cov = np.zeros((size, size))
     known = KnownTerms(known.gains, known.inertia, known.gravity, cov, encoder=encoder)
     warnings = []
     stated = False
@@ -545,7 +557,8 @@ def device_known_terms(
     gain_std = device.motor.torque_gain_std
     if all(v is not None for v in tare_std) and gain_std is not None:
         # h_d = h_b = 1/gain ~ 1 - (gain - 1): the same std to first order, for both gains.
-        cov[:2, :2] = gain_std**2
+        gains = known.gains_slice
+        cov[gains, gains] = gain_std**2
         for s, v in enumerate(tare_std, 1):
             i = known.harmonics_slice(s).start
             cov[i, i] = v**2

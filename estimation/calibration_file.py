@@ -7,7 +7,7 @@ each field's name is its key, with its unit, bounds and doc. The rules that join
 (array lengths, the covariance's parameters) are :func:`_calibration`'s.
 
 The calibrated parameters are theta = [h_d, h_b, the empty system's harmonics of stage
-1..n, Gs, Gc, c1, s1, c2, s2, ...] (rsp_inertia.estimation.tensor.KnownTerms.names); the
+1..n, Gs, Gc, c1, s1, c2, s2, ...] (rsp_inertia.estimation.layout.theta_layout); the
 file holds each one with its std, and their covariance. A file of an older rsp-inertia has
 no ``[drive]`` and no ``[encoder]``: one ``calibration.torque_gain`` and a covariance over
 theta = [h = 1 / torque_gain, harmonics, Gs, Gc]; it is read as a lossless drive and an
@@ -22,7 +22,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from rsp_inertia.estimation.tensor import HARMONIC_NAMES, KnownTerms
+from rsp_inertia.estimation.known_terms import KnownTerms
+from rsp_inertia.estimation.layout import HARMONIC_NAMES, theta_layout
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import CALIBRATION_FILE
 from rsp_inertia.plant.toml_schema import (
@@ -165,7 +166,7 @@ class Covariance:
     """The covariance of theta (``[covariance]``); identify propagates it."""
 
     parameters: tuple[str, ...] = key(
-        doc="The names of theta in order (rsp_inertia.estimation.tensor.KnownTerms.names): "
+        doc="The names of theta in order (rsp_inertia.estimation.layout.theta_layout): "
         "h_d, h_b, M0[s], Mc2[s], Ms2[s], Ms1[s], Mc1[s] per stage s, Gs, Gc, c1, s1, ... "
         "(older files: h, the harmonics, Gs, Gc)."
     )
@@ -206,16 +207,7 @@ class CalibrationFile:
 
     def parameters(self) -> list[str]:
         """The names of theta that the file's tables imply (:class:`Covariance`)."""
-        stages, orders = len(self.stages), self.orders
-        size = 2 + 5 * stages + 2 + 2 * orders
-        zeros = KnownTerms(
-            (1.0, 1.0),
-            np.zeros((stages, 5)),
-            np.zeros(2),
-            np.zeros((size, size)),
-            encoder=np.zeros(2 * orders),
-        )
-        names = zeros.names()
+        names = theta_layout(len(self.stages), self.orders).names()
         return ["h", *names[2:]] if self.legacy else names
 
     def pendulum_stiffness(self) -> tuple[float, float] | None:
@@ -264,6 +256,7 @@ def calibration_file(calibration: Calibration) -> CalibrationFile:
     """
     k = calibration.known
     std = k.std
+    gains_std = std[k.gains_slice]
     encoder_std = std[k.encoder_slice]
     c = calibration.stiffness
     return CalibrationFile(
@@ -275,9 +268,9 @@ def calibration_file(calibration: Calibration) -> CalibrationFile:
         ),
         drive=Drive(
             gain_driving=k.gains[0],
-            gain_driving_std=float(std[0]),
+            gain_driving_std=float(gains_std[0]),
             gain_backdriven=k.gains[1],
-            gain_backdriven_std=float(std[1]),
+            gain_backdriven_std=float(gains_std[1]),
         ),
         encoder=EncoderError(
             error_cos=_floats(k.encoder[0::2]),

@@ -1,7 +1,7 @@
 """What identify took from calibration.toml: result.json's ``calibration`` (docs/files.md).
 
 :class:`CalibrationSummary` is ``Identification.calibration``; the known terms make it
-(rsp_inertia.estimation.tensor.KnownTerms.summary). Plain floats in tuples, so that
+(rsp_inertia.estimation.known_terms.KnownTerms.summary). Plain floats in tuples, so that
 :meth:`CalibrationSummary.to_dict` is result.json's section as it is written.
 """
 

@@ -2,7 +2,7 @@
 
 Every run (one stage in one direction) contributes one equation per balance angle
 (rsp_inertia.estimation.balance, docs/method.md §5). Which unknowns those equations share
-depends on the question: the body's tensor (rsp_inertia.estimation.tensor) or the empty
+depends on the question: the body's tensor (rsp_inertia.estimation.tensor_fit) or the empty
 fixture's harmonics, the drive's gains and the encoder's error
 (rsp_inertia.estimation.calibration). Both build :class:`Block` s, named columns and a
 right-hand side, and this module solves them the same way:
@@ -40,6 +40,12 @@ right-hand side, and this module solves them the same way:
 - **probes**: a block may declare the columns a suspected cause would add (a drive's loss,
   an encoder's error); the model tests say whether the runs call for them
   (rsp_inertia.estimation.model_tests).
+
+Each step is a function: :func:`assemble_blocks` stacks the blocks' equations with their noise
+model and the known terms (:class:`Equations`, shared by every fit of the same blocks),
+:func:`speed_noise_scales` finds the runs' scales, :func:`solve_blocks` makes the joint fit
+with given scales (its priors tested, its budget), :func:`block_model_tests` tests it;
+:func:`predict_blocks` gives the covariance of a planned run's noise-free blocks.
 """
 
 from __future__ import annotations
@@ -71,8 +77,13 @@ __all__ = [
     "PRIOR_SOURCE",
     "BalanceFit",
     "Block",
+    "Equations",
     "Prior",
+    "assemble_blocks",
+    "block_model_tests",
+    "predict_blocks",
     "solve_blocks",
+    "speed_noise_scales",
 ]
 
 NOISE_SOURCES = ("braking torque log", "reverse torque log", "encoder (speed)", "encoder (work)")
@@ -150,7 +161,7 @@ class Block:
 
 @dataclass(frozen=True)
 class BalanceFit:
-    """The solution of :func:`solve_blocks`."""
+    """The solution of :func:`solve_blocks` (or :func:`predict_blocks`)."""
 
     names: list[str]
     """The unknowns, in the order of ``x``."""
@@ -166,8 +177,8 @@ class BalanceFit:
     """Per block, the speed-noise scale."""
     n_equations: int
     """Equations, all blocks."""
-    tests: list[ModelTest]
-    """The consistency tests, when blocks declare groups."""
+    tests: list[ModelTest] = field(default_factory=list)
+    """The model tests (:func:`block_model_tests`), when they were made."""
     labels: list[str] = field(default_factory=list)
     """Per block, its label."""
     known_shift: np.ndarray | None = None
@@ -177,6 +188,12 @@ class BalanceFit:
     """Covariance of theta after the runs (the calibration's and theirs together)."""
     prior_warnings: list[str] = field(default_factory=list)
     """One line per prior the balances rejected (module docstring, priors)."""
+    z: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """The calibrated terms' standardised shift (module docstring, known terms:
+    theta = theta_cal + S z); empty without known terms."""
+    factors: list = field(default_factory=list, repr=False)
+    """The equations' whiteners at ``scales`` (rsp_inertia.estimation.whitening), for the
+    model tests (:func:`block_model_tests`)."""
 
     def index(self, name: str) -> int:
         """Position of unknown ``name``."""
@@ -303,18 +320,87 @@ def _prior_root(cov: np.ndarray, groups: dict[str, list[int]]) -> tuple[np.ndarr
     return S, [name for name, _ in order]
 
 
-def solve_blocks(
+@dataclass(frozen=True)
+class Equations:
+    """The blocks' equations stacked, with their noise model and the calibrated terms as
+    unknowns: what every fit of the same blocks shares (:func:`assemble_blocks`).
+
+    Each run's constant is profiled out with its last equation (the whitening takes the
+    equations' differences, rsp_inertia.estimation.whitening), so its column is left out of
+    ``A``: a column constant within every block carries nothing there.
+    """
+
+    blocks: list[Block]
+    """One per run."""
+    names: list[str]
+    """The unknowns, in the order of ``A``'s columns."""
+    y: np.ndarray
+    """The stacked right-hand sides."""
+    rows: np.ndarray
+    """Each block's first row in ``y``, and the total at the end."""
+    A: np.ndarray
+    """The stacked design matrix over ``names``."""
+    N: np.ndarray
+    """(len(y), q) the calibrated terms' columns -B S (module docstring, known terms)."""
+    A_all: np.ndarray
+    """[A, N]: the joint fit's design matrix."""
+    S: np.ndarray | None
+    """(p, q) the square root of theta's covariance (None without known terms)."""
+    prior_groups: list[str]
+    """The budget line of each column of ``S``."""
+    inertia: list[np.ndarray]
+    """Per block, M(phi) from a first unweighted pass (the speed noise's weights)."""
+    work_parts: list[tuple[Noise, Noise, Noise]]
+    """Per block, the braking log's, the reverse log's and the encoder's work noise."""
+    work_cov: list[Noise]
+    """Per block, the work's noise: the sum of ``work_parts``."""
+    speed_var: list[Noise]
+    """Per block, the speed noise at scale 1."""
+    priors: list[tuple[int, Prior]]
+    """(block, prior) of the blocks' priors whose unknowns are all fitted."""
+
+    @property
+    def q(self) -> int:
+        """The calibrated terms' standardised unknowns z."""
+        return self.N.shape[1]
+
+    @property
+    def n_x(self) -> int:
+        """The unknowns of ``names``."""
+        return self.A.shape[1]
+
+    @property
+    def joint(self) -> list[int]:
+        """Columns of ``A`` of the unknowns some block fits only jointly (Block.joint_only)."""
+        return [
+            j for j, name in enumerate(self.names) if any(name in b.joint_only for b in self.blocks)
+        ]
+
+
+@dataclass(frozen=True)
+class _Solution:
+    """One weighted joint fit (:func:`_joint_fit`)."""
+
+    factors: list
+    """The equations' whiteners."""
+    Aw: np.ndarray
+    """The whitened equations, then the pseudo-equations of the calibrated terms' prior and
+    of the blocks' priors."""
+    yw: np.ndarray
+    """Their right-hand side."""
+    x: np.ndarray
+    """The unknowns of ``names``, then z."""
+    cov_x: np.ndarray
+    """Covariance of ``x`` ((Aw^T Aw)^-1)."""
+
+
+def assemble_blocks(
     blocks: list[Block],
     known_cov: np.ndarray | None = None,
-    predict: bool = False,
-    tests: bool = True,
     known_groups: dict[str, list[int]] | None = None,
-    scales: list[float] | None = None,
-) -> BalanceFit:
-    """Generalised least squares over the blocks, with the model tests (module docstring).
-
-    Raises nothing on a misfit: whatever the noise model leaves in the joint fit's chi^2/dof
-    above 1 inflates the covariance, and the tests say whether the runs agree.
+) -> Equations:
+    """The blocks' equations for the fits (module docstring): stacked, with the noise model's
+    parts from a first unweighted pass and the calibrated terms as unknowns.
 
     Parameters
     ----------
@@ -323,26 +409,14 @@ def solve_blocks(
     known_cov : array, shape (p, p), optional
         Covariance of the calibrated parameters theta that the blocks' ``known_jacobian``
         refers to (module docstring: they join the unknowns with this prior).
-    predict : bool
-        The blocks hold noise-free balances of a planned run (rsp_inertia.estimation.predict): the
-        covariance is the noise model's as it stands (every speed-noise scale 1, no
-        inflation by the residuals, which are zero) and no model test is made.
-    tests : bool
-        Make the model tests (False: the estimate and its covariance only, as a rehearsal of
-        a plan needs).
     known_groups : dict of str to list of int, optional
         Budget lines of theta: name -> its indices, in the order the budget adds them
         (default: one line, CALIBRATION_SOURCE, for all of theta).
-    scales : list of float, optional
-        The runs' speed-noise scales, when an earlier fit of the same runs found them (a
-        calibration's repeated fit on the corrected logs, whose scales were already taken
-        with the correction's terms off the runs' own fits): not searched again.
 
     Returns
     -------
-    BalanceFit
-        The unknowns' estimate and covariance, the runs' speed-noise scales and the model
-        tests' results.
+    Equations
+        The equations every fit of these blocks shares.
     """
     names = list(dict.fromkeys(name for block in blocks for name in block.columns))
     y = np.concatenate([block.rhs for block in blocks])
@@ -384,10 +458,7 @@ def solve_blocks(
         N = -B @ S  # rhs(theta_cal + S z) = rhs + B S z: on the unknowns' side, -B S z
     else:
         S = None
-    q = N.shape[1]
-    # Each run's constant is profiled out with its last equation (the whitening takes the
-    # equations' differences, rsp_inertia.estimation.whitening): a column constant within
-    # every block carries nothing there.
+    # Each run's constant is profiled out with its last equation (class Equations).
     constant = [
         j
         for j in range(A.shape[1])
@@ -397,123 +468,253 @@ def solve_blocks(
     if constant:
         names = [name for j, name in enumerate(names) if j not in constant]
         A = np.delete(A, constant, axis=1)
-    A_all = np.hstack([A, N])
-    n_x = A.shape[1]
-
-    def run_scales(y_own: np.ndarray, extra: np.ndarray | None = None) -> list[float]:
-        """Each run's own fit (its own unknowns, joint-only ones left out, and the used
-        columns of ``extra``) sets its scale."""
-        scales = []
-        for k, block in enumerate(blocks):
-            report("least squares: each run's speed-noise scale", k, len(blocks))
-            mine = slice(rows[k], rows[k + 1])
-            own = [j for j in _used(A[mine]) if names[j] not in block.joint_only]
-            A_own = A[mine][:, own]
-            if extra is not None:
-                A_own = np.hstack([A_own, extra[mine][:, _used(extra[mine])]])
-            scales.append(_calibrated_scale(A_own, y_own[mine], work_cov[k], speed_var[k]))
-        return scales
-
     priors = [(k, prior) for k, block in enumerate(blocks) for prior in block.priors]
     priors = [(k, prior) for k, prior in priors if all(n in names for n in prior.names)]
+    return Equations(
+        blocks=blocks,
+        names=names,
+        y=y,
+        rows=rows,
+        A=A,
+        N=N,
+        A_all=np.hstack([A, N]),
+        S=S,
+        prior_groups=prior_groups,
+        inertia=inertia,
+        work_parts=work_parts,
+        work_cov=work_cov,
+        speed_var=speed_var,
+        priors=priors,
+    )
 
-    def joint_fit(scales: list[float]):
-        factors = whiteners([w + v.times(s) for w, v, s in zip(work_cov, speed_var, scales)])
-        Aw, yw = whiten(A_all, factors), whiten(y, factors)
-        if q:  # the prior's pseudo-equations z = 0, unit weight
-            Aw = np.vstack([Aw, np.hstack([np.zeros((q, n_x)), np.eye(q)])])
-            yw = np.concatenate([yw, np.zeros(q)])
-        if priors:  # the blocks' priors' pseudo-equations (module docstring, priors)
-            P, m = _prior_rows([prior for _, prior in priors], names, n_x + q)
-            Aw, yw = np.vstack([Aw, P]), np.concatenate([yw, m])
-        return factors, Aw, yw, *_weighted_solution(Aw, yw)
 
-    given = scales is not None
-    if not given:
-        scales = [1.0] * len(blocks) if predict else run_scales(y)
-    factors, Aw, yw, x, cov_x = joint_fit(scales)
-    joint = [j for j, name in enumerate(names) if any(name in b.joint_only for b in blocks)]
-    if (joint or q) and not predict and not given:
-        # The joint-only terms and the calibrated ones, now known, are taken off each run's
-        # own fit, whose speed-noise scale they would otherwise inflate; then the joint fit
-        # again with those scales.
-        scales = run_scales(y - A[:, joint] @ x[joint] - N @ x[n_x:])
-        factors, Aw, yw, x, cov_x = joint_fit(scales)
-    n_data = whitened_rows(factors)  # a run's last equation went with its constant
+def _own_scales(
+    eq: Equations, y_own: np.ndarray, extra: np.ndarray | None = None
+) -> list[float]:
+    """Each run's own fit (its own unknowns, joint-only ones left out, and the used columns
+    of ``extra``) sets its scale."""
+    scales = []
+    for k, block in enumerate(eq.blocks):
+        report("least squares: each run's speed-noise scale", k, len(eq.blocks))
+        mine = slice(eq.rows[k], eq.rows[k + 1])
+        own = [j for j in _used(eq.A[mine]) if eq.names[j] not in block.joint_only]
+        A_own = eq.A[mine][:, own]
+        if extra is not None:
+            A_own = np.hstack([A_own, extra[mine][:, _used(extra[mine])]])
+        scales.append(_calibrated_scale(A_own, y_own[mine], eq.work_cov[k], eq.speed_var[k]))
+    return scales
+
+
+def _whiteners(eq: Equations, scales: list[float]) -> list:
+    """The equations' whiteners with the speed noise scaled per run by ``scales``."""
+    return whiteners([w + v.times(s) for w, v, s in zip(eq.work_cov, eq.speed_var, scales)])
+
+
+def _joint_fit(eq: Equations, scales: list[float], priors: list[tuple[int, Prior]]) -> _Solution:
+    """The weighted joint fit of every block with the speed-noise scales ``scales``, the
+    calibrated terms' prior and the blocks' ``priors``."""
+    factors = _whiteners(eq, scales)
+    Aw, yw = whiten(eq.A_all, factors), whiten(eq.y, factors)
+    q, n_x = eq.q, eq.n_x
+    if q:  # the prior's pseudo-equations z = 0, unit weight
+        Aw = np.vstack([Aw, np.hstack([np.zeros((q, n_x)), np.eye(q)])])
+        yw = np.concatenate([yw, np.zeros(q)])
+    if priors:  # the blocks' priors' pseudo-equations (module docstring, priors)
+        P, m = _prior_rows([prior for _, prior in priors], eq.names, n_x + q)
+        Aw, yw = np.vstack([Aw, P]), np.concatenate([yw, m])
+    return _Solution(factors, Aw, yw, *_weighted_solution(Aw, yw))
+
+
+def _off_joint(eq: Equations, x: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """The right-hand side with the joint-only terms and the calibrated ones at the joint
+    estimate (``x`` of the unknowns, ``z`` of the calibrated terms) taken off: what each
+    run's own fit is left with."""
+    joint = eq.joint
+    return eq.y - eq.A[:, joint] @ x[joint] - eq.N @ z
+
+
+def speed_noise_scales(eq: Equations) -> list[float]:
+    """Each run's speed-noise scale: the factor on its derived speed-error covariance that
+    makes its own fit reach chi^2/dof = 1 (module docstring).
+
+    The joint-only terms and the calibrated ones, which a run's own fit cannot take, are
+    taken off its equations at a joint fit's estimate (else they would inflate its scale).
+
+    Parameters
+    ----------
+    eq : Equations
+        The blocks' equations (:func:`assemble_blocks`).
+
+    Returns
+    -------
+    list of float
+        Per block, the scale, within [1/SCALE_CAP, SCALE_CAP].
+    """
+    scales = _own_scales(eq, eq.y)
+    if eq.joint or eq.q:
+        x = _joint_fit(eq, scales, eq.priors).x
+        scales = _own_scales(eq, _off_joint(eq, x[: eq.n_x], x[eq.n_x :]))
+    return scales
+
+
+def solve_blocks(eq: Equations, scales: list[float]) -> BalanceFit:
+    """Generalised least squares over the blocks (module docstring), without the model tests
+    (:func:`block_model_tests`).
+
+    Raises nothing on a misfit: whatever the noise model leaves in the joint fit's chi^2/dof
+    above 1 inflates the covariance, and the model tests say whether the runs agree. A
+    block's prior that the balances reject is dropped (module docstring, priors).
+
+    Parameters
+    ----------
+    eq : Equations
+        The blocks' equations (:func:`assemble_blocks`).
+    scales : list of float
+        The runs' speed-noise scales (:func:`speed_noise_scales`; or an earlier fit's of the
+        same runs: a calibration's repeated fit on the corrected logs, whose scales were
+        already taken with the correction's terms off the runs' own fits).
+
+    Returns
+    -------
+    BalanceFit
+        The unknowns' estimate and covariance with its budget, and the rejected priors.
+    """
+    priors = eq.priors
+    solution = _joint_fit(eq, scales, priors)
+    n_data = whitened_rows(solution.factors)  # a run's last equation went with its constant
     prior_warnings = []
-    while priors and not predict:
+    while priors:
         # The worst rejected prior is dropped and the others tested again without it (a prior
         # far off pulls the fit, and with it the residuals of the others).
-        rejected = _rejected_priors(priors, Aw, yw, x, cov_x, n_data + q, blocks)
+        rejected = _rejected_priors(
+            priors, solution.Aw, solution.yw, solution.x, solution.cov_x, n_data + eq.q,
+            eq.blocks,
+        )
         if not rejected:
             break
         worst, line = min(rejected, key=lambda found: found[2])[:2]
         prior_warnings.append(line)
         priors = [(k, prior) for k, prior in priors if prior is not worst]
-        factors, Aw, yw, x, cov_x = joint_fit(scales)
+        solution = _joint_fit(eq, scales, priors)
+    return _balance_fit(eq, scales, solution, bool(priors), prior_warnings, predicted=False)
+
+
+def predict_blocks(eq: Equations) -> BalanceFit:
+    """The covariance the noise model alone implies for noise-free balances of a planned run
+    (rsp_inertia.estimation.predict): every speed-noise scale 1, no inflation by the
+    residuals (which are zero), every prior kept.
+
+    Parameters
+    ----------
+    eq : Equations
+        The planned blocks' equations (:func:`assemble_blocks`).
+
+    Returns
+    -------
+    BalanceFit
+        The unknowns' estimate and their predicted covariance with its budget.
+    """
+    scales = [1.0] * len(eq.blocks)
+    solution = _joint_fit(eq, scales, eq.priors)
+    return _balance_fit(eq, scales, solution, bool(eq.priors), [], predicted=True)
+
+
+def _balance_fit(
+    eq: Equations,
+    scales: list[float],
+    solution: _Solution,
+    with_priors: bool,
+    prior_warnings: list[str],
+    predicted: bool,
+) -> BalanceFit:
+    """The fit's chi^2/dof, covariance and budget (module docstring) from a joint fit: the
+    runs' share inflated by chi^2/dof above 1 unless ``predicted``; ``with_priors``: the
+    blocks' priors' pseudo-equations follow the calibration's."""
+    factors, Aw, yw, x, cov_x = (
+        solution.factors, solution.Aw, solution.yw, solution.x, solution.cov_x
+    )
+    q, n_x = eq.q, eq.n_x
+    n_data = whitened_rows(factors)  # a run's last equation went with its constant
     r = (yw - Aw @ x)[: n_data + q]  # the balances and the calibration's prior
     dof = max(n_data - n_x, 1)
     chi2_dof = float(r @ r / dof)
+    work_parts = eq.work_parts
     sources = {
         NOISE_SOURCES[0]: [parts[0] for parts in work_parts],
         NOISE_SOURCES[1]: [parts[1] for parts in work_parts],
-        NOISE_SOURCES[2]: [v.times(s) for s, v in zip(scales, speed_var)],
+        NOISE_SOURCES[2]: [v.times(s) for s, v in zip(scales, eq.speed_var)],
         NOISE_SOURCES[3]: [parts[2] for parts in work_parts],
     }
     # Whatever the noise model leaves unexplained in the joint fit inflates the covariance
     # (of the runs' noise: the calibration's prior is what it is).
-    inflation = 1.0 if predict else max(chi2_dof, 1.0)
+    inflation = 1.0 if predicted else max(chi2_dof, 1.0)
     Aw_data = Aw[:n_data]
     cov_parts = {
         name: _budget(Aw_data, factors, parts, cov_x)[:n_x, :n_x] * inflation
         for name, parts in sources.items()
     }
-    for name in dict.fromkeys(prior_groups):  # each group's pseudo-equations
-        rows_g = n_data + np.array([j for j, g in enumerate(prior_groups) if g == name])
+    for name in dict.fromkeys(eq.prior_groups):  # each group's pseudo-equations
+        rows_g = n_data + np.array([j for j, g in enumerate(eq.prior_groups) if g == name])
         P = Aw[rows_g]
         cov_parts[name] = (cov_x @ P.T @ P @ cov_x)[:n_x, :n_x]
-    if priors:  # the blocks' priors' pseudo-equations, after the calibration's
+    if with_priors:  # the blocks' priors' pseudo-equations, after the calibration's
         P = Aw[n_data + q :]
         cov_parts[PRIOR_SOURCE] = (cov_x @ P.T @ P @ cov_x)[:n_x, :n_x]
     cov = sum(cov_parts.values())
-    nuisance = (N, q) if q else None
     known_shift = known_shift_cov = None
-    if S is not None:
-        known_shift = S @ x[n_x:]
-        known_shift_cov = S @ cov_x[n_x:, n_x:] @ S.T
-    x_all, x = x, x[:n_x]
-    probes = _probe_matrices(blocks, inertia)
-    model_tests = []
-    if tests and not predict:
-        report("least squares: model tests", 0.0)
-        model_tests = run_model_tests(blocks, names, A, y, x, factors, nuisance, probes)
-        if any(t.significant for t in model_tests if t.kind in probes):
-            # A named cause's misfit inflates every run's speed-noise scale, which then hides
-            # another cause: the probe tests again with the scales of runs whose own fits
-            # have every probe's columns.
-            y_own = y - A[:, joint] @ x_all[joint] - N @ x_all[n_x:]
-            probe_scales = run_scales(y_own, np.hstack(list(probes.values())))
-            probe_factors = whiteners(
-                [w + v.times(s) for w, v, s in zip(work_cov, speed_var, probe_scales)]
-            )
-            model_tests = run_model_tests(
-                blocks, names, A, y, x, factors, nuisance, probes, probe_factors
-            )
-
+    if eq.S is not None:
+        known_shift = eq.S @ x[n_x:]
+        known_shift_cov = eq.S @ cov_x[n_x:, n_x:] @ eq.S.T
     return BalanceFit(
-        names=names,
-        x=x,
+        names=eq.names,
+        x=x[:n_x],
         cov=cov,
         cov_parts=cov_parts,
         chi2_dof=chi2_dof,
         scales=scales,
-        n_equations=len(y),
-        tests=model_tests,
-        labels=[block.label for block in blocks],
+        n_equations=len(eq.y),
+        labels=[block.label for block in eq.blocks],
         known_shift=known_shift,
         known_shift_cov=known_shift_cov,
         prior_warnings=prior_warnings,
+        z=x[n_x:],
+        factors=factors,
     )
+
+
+def block_model_tests(eq: Equations, fit: BalanceFit) -> list[ModelTest]:
+    """The model tests of a fit of the blocks (rsp_inertia.estimation.model_tests): the runs
+    against each other, early against late turns, per turn, and the blocks' probes.
+
+    Parameters
+    ----------
+    eq : Equations
+        The blocks' equations (:func:`assemble_blocks`).
+    fit : BalanceFit
+        Their fit (:func:`solve_blocks`).
+
+    Returns
+    -------
+    list of ModelTest
+        One per test made.
+    """
+    report("least squares: model tests", 0.0)
+    nuisance = (eq.N, eq.q) if eq.q else None
+    probes = _probe_matrices(eq.blocks, eq.inertia)
+    model_tests = run_model_tests(
+        eq.blocks, eq.names, eq.A, eq.y, fit.x, fit.factors, nuisance, probes
+    )
+    if any(t.significant for t in model_tests if t.kind in probes):
+        # A named cause's misfit inflates every run's speed-noise scale, which then hides
+        # another cause: the probe tests again with the scales of runs whose own fits
+        # have every probe's columns.
+        y_own = _off_joint(eq, fit.x, fit.z)
+        probe_scales = _own_scales(eq, y_own, np.hstack(list(probes.values())))
+        model_tests = run_model_tests(
+            eq.blocks, eq.names, eq.A, eq.y, fit.x, fit.factors, nuisance, probes,
+            _whiteners(eq, probe_scales),
+        )
+    return model_tests
 
 
 def _prior_rows(priors: list[Prior], names: list[str], width: int):

@@ -2,11 +2,13 @@
 
 Takes what a rig produces (the device and the logs,
 :class:`rsp_inertia.estimation.runs.ExperimentLogs`) and what its calibration knows
-(:class:`rsp_inertia.estimation.tensor.KnownTerms`), never the virtual device's truth; opens
-no file (rsp_inertia.estimation.reading reads a folder). Steps,
-each in its own function elsewhere: smoothing and motor work (rsp_inertia.estimation.passes),
-balances (rsp_inertia.estimation.balance), the node formula (rsp_inertia.estimation.nodes), least squares and the tensor
-(rsp_inertia.estimation.tensor).
+(:class:`rsp_inertia.estimation.known_terms.KnownTerms`), never the virtual device's truth;
+opens no file (rsp_inertia.estimation.reading reads a folder). Steps, each in its own
+function: smoothing and motor work (rsp_inertia.estimation.passes), balances
+(rsp_inertia.estimation.balance), least squares (rsp_inertia.estimation.tensor_fit), the
+node formula (rsp_inertia.estimation.nodes; here :func:`axis_nodes`, :func:`node_moments`),
+the axes' tensor (rsp_inertia.estimation.axes), the centre of mass (:func:`centre_of_mass`),
+the warnings (:func:`fit_warnings`) and the pendulum baseline (:func:`pendulum_baseline`).
 
 Two estimates of the tensor are reported:
 
@@ -25,19 +27,17 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from rsp_inertia.estimation.axes import axis_values, tensor_from_axes
 from rsp_inertia.estimation.best_practice import best_practice_inertia, half_cycle_fit
+from rsp_inertia.estimation.columns import format_run
+from rsp_inertia.estimation.known_terms import KnownTerms
+from rsp_inertia.estimation.layout import SHARED_LAYOUT
 from rsp_inertia.estimation.model_tests import coarse_encoder_warnings, model_warnings
 from rsp_inertia.estimation.nodes import NodeEstimate, node_estimates, node_passages
 from rsp_inertia.estimation.pendulum import PendulumEstimate, estimate_pendulum
 from rsp_inertia.estimation.results import AxisResult, Identification, PendulumResult
 from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs, corrected_log
-from rsp_inertia.estimation.tensor import (
-    KnownTerms,
-    axis_values,
-    fit_tensor,
-    format_run,
-    tensor_from_axes,
-)
+from rsp_inertia.estimation.tensor_fit import TensorFit, fit_tensor
 from rsp_inertia.plant.config import Device, Pendulum
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.geometry import (
@@ -54,11 +54,16 @@ __all__ = [
     "WARN_CONDITION",
     "axial_moment",
     "axial_std",
+    "axis_nodes",
+    "centre_of_mass",
     "checked_design",
+    "fit_warnings",
     "identify_logs",
+    "node_moments",
     "pendulum_baseline",
     "pendulum_settings",
     "reduce_pendulum_run",
+    "std_budget",
 ]
 
 MAX_CONDITION = 1e3
@@ -66,6 +71,9 @@ MAX_CONDITION = 1e3
 
 WARN_CONDITION = 10.0
 """cond(V) above which the design is accepted with a warning."""
+
+ENTRIES = SHARED_LAYOUT.slice("entries")
+"""The tensor's entries among the least squares' shared unknowns (TensorFit.cov)."""
 
 
 def axial_moment(M, stage, empty=None) -> np.ndarray | float:
@@ -154,6 +162,12 @@ def identify_logs(
 ) -> Identification:
     """Identify the tensor (and centre of mass) from every run's braking and reverse logs.
 
+    The steps, each a function: the balances and the least squares
+    (rsp_inertia.estimation.runs.balance_runs, rsp_inertia.estimation.tensor_fit.fit_tensor),
+    the node formula at each axis (:func:`axis_nodes`, :func:`node_moments`), the centre of
+    mass (:func:`centre_of_mass`), the warnings (:func:`fit_warnings`) and the pendulum
+    baseline (:func:`pendulum_baseline`).
+
     Parameters
     ----------
     logs : ExperimentLogs
@@ -190,64 +204,16 @@ def identify_logs(
     # Refused before any log is read: device.toml alone says so. The axes are the device's
     # design (a lambda = 0 stage gives one, whatever its nodes), in its order.
     design = checked_design(device, logs.sources.device)
-
-    def at_nodes(stage, sign, braking, reverse):
-        # The node formula's samples of the passes, taken before they are let go; the fit's
-        # speed-noise scales and friction slopes are applied after it (node_estimates).
-        nodes_deg = axis_nodes_deg(device.stages[stage - 1])
-        return node_passages(device, stage, braking, reverse, nodes_deg, sign, known.gains)
-
-    balances, passages = balance_runs(logs, warnings, say, known.encoder, at_nodes)
+    balances, passages = balance_runs(logs, warnings, say, known.encoder, _at_nodes(device, known))
     fit = fit_tensor(balances, known)
-    # The node formula estimates M at each axis's node, in every run.
-    by_node = {
-        (stage, node_deg): []
-        for stage, st in enumerate(device.stages, 1)
-        for node_deg in axis_nodes_deg(st)
-    }
-    for k, run_passages in enumerate(passages):
-        for n in node_estimates(
-            run_passages, fit.speed_noise_scale[k], fit.friction_slope[k],
-            fit.friction_slope_cov[k],
-        ):
-            by_node[n.stage, n.node_deg].append(n)
-    nodes = [_combine_directions(found) for found in by_node.values()]
-    labels = [format_run(key) for key in fit.runs]
-    warnings += model_warnings(fit.tests, fit.speed_noise_scale, labels)
-    warnings += fit.prior_warnings
-    warnings += coarse_encoder_warnings(
-        balances, device.encoder.quantum, device.encoder.dt, labels
-    )
-
+    nodes = axis_nodes(device, passages, fit)
+    warnings += fit_warnings(fit, balances, device)
     directions = design.directions
     cond = design.condition
     if cond > WARN_CONDITION:
         warnings.append(f"the axis design is poorly conditioned: cond(V) = {cond:.3g}")
     J_ls, J_ls_std = axis_values(fit.entries, fit.entries_cov, directions)
-    std_budget = {
-        source: {
-            "axes": axis_values(fit.entries, part[:6, :6], directions)[1],
-            "tensor": np.sqrt(np.diag(part[:6, :6])),
-        }
-        for source, part in fit.cov_parts.items()
-    }
-    J_node, J_node_std, J_plain, J_plain_std = [], [], [], []
-    for n in nodes:
-        st = device.stages[n.stage - 1]
-        phi = math.radians(n.node_deg)
-        empty = known.empty_inertia(n.stage, phi)
-        # The known terms' uncertainty (calibration, or device.toml's stated stds) adds to
-        # the node formula's own, as it does to the least squares'.
-        known_var = known.node_variance(n.stage, phi, n.M_parts, n.M) if known.calibrated else 0.0
-        J_node.append(axial_moment(n.M, st, empty))
-        J_node_std.append(axial_std(math.sqrt(n.M_std**2 + known_var), st))
-        J_plain.append(axial_moment(n.M_plain, st, empty))
-        # The plain formula's shares as the full one's, scaled to its M.
-        plain_parts = [part * n.M_plain / n.M for part in n.M_parts] if n.M else n.M_parts
-        plain_var = (
-            known.node_variance(n.stage, phi, plain_parts, n.M_plain) if known.calibrated else 0.0
-        )
-        J_plain_std.append(axial_std(math.sqrt(n.M_plain_std**2 + plain_var), st))
+    J_node, J_node_std, J_plain, J_plain_std = node_moments(device, known, nodes)
     node_entries, node_cov = tensor_from_axes(
         np.array(J_node), np.array(J_node_std), directions
     )
@@ -267,11 +233,7 @@ def identify_logs(
         for i, (n, d) in enumerate(zip(nodes, directions))
     ]
     gravity_std = np.sqrt(np.diag(fit.gravity_cov))
-    com = com_std = None
-    if device.body is not None:
-        weight = device.body.mass * device.gravity
-        com = fit.gravity / weight
-        com_std = gravity_std / weight
+    com, com_std = centre_of_mass(device, fit.gravity, gravity_std)
     warnings += physical_warnings(fit.entries, fit.entries_cov)
     pendulum = pendulum_baseline(
         logs, known, fit.gravity, fit.gravity_cov, pendulum_stiffness, warnings, say
@@ -292,7 +254,7 @@ def identify_logs(
         speed_noise_scale=fit.speed_noise_scale,
         friction_slope=fit.friction_slope,
         friction_slope_std=fit.friction_slope_std,
-        std_budget=std_budget,
+        std_budget=std_budget(fit, directions),
         warnings=warnings,
         pendulum=pendulum,
         runs=fit.runs,
@@ -301,6 +263,172 @@ def identify_logs(
         model_tests=fit.tests,
         calibration=known.summary(fit.known_after),
     )
+
+
+def _at_nodes(device: Device, known: KnownTerms) -> Callable:
+    """The node formula's sampler of a run's passes for balance_runs (rsp_inertia.estimation
+    .runs): (stage, sign, braking, reverse) -> the passages at the stage's axis nodes."""
+
+    def at_nodes(stage, sign, braking, reverse):
+        # The node formula's samples of the passes, taken before they are let go; the fit's
+        # speed-noise scales and friction slopes are applied after it (node_estimates).
+        nodes_deg = axis_nodes_deg(device.stages[stage - 1])
+        return node_passages(device, stage, braking, reverse, nodes_deg, sign, known.gains)
+
+    return at_nodes
+
+
+def axis_nodes(device: Device, passages: list, fit: TensorFit) -> list[NodeEstimate]:
+    """The node formula's M at each axis's node (docs/method.md §4), in the design's order:
+    every run's estimate with the least squares' speed-noise scale and friction slopes of its
+    run (rsp_inertia.estimation.nodes.node_estimates), a node's runs combined.
+
+    Parameters
+    ----------
+    device : Device
+        The gimbal (its stages' axis nodes).
+    passages : list
+        Per run, the passages sampled at its stage's nodes (rsp_inertia.estimation.runs
+        .balance_runs).
+    fit : TensorFit
+        The least squares of the same runs, in the same order.
+
+    Returns
+    -------
+    list of NodeEstimate
+        One per axis.
+    """
+    by_node = {
+        (stage, node_deg): []
+        for stage, st in enumerate(device.stages, 1)
+        for node_deg in axis_nodes_deg(st)
+    }
+    for k, run_passages in enumerate(passages):
+        for n in node_estimates(
+            run_passages, fit.speed_noise_scale[k], fit.friction_slope[k],
+            fit.friction_slope_cov[k],
+        ):
+            by_node[n.stage, n.node_deg].append(n)
+    return [_combine_directions(found) for found in by_node.values()]
+
+
+def node_moments(device: Device, known: KnownTerms, nodes: list[NodeEstimate]) -> tuple[list, ...]:
+    """J_k = (M - M_empty) / (1 + lam^2) of each node's M (:func:`axial_moment`), the full
+    and the plain node formula's, with stds that hold the known terms' uncertainty
+    (KnownTerms.node_variance: a calibration's, or device.toml's stated stds) besides the
+    node formula's own.
+
+    Parameters
+    ----------
+    device : Device
+        The gimbal (its stages' gear ratios).
+    known : KnownTerms
+        The rig's known terms (the empty system's M and its variance).
+    nodes : list of NodeEstimate
+        The node formula's M per axis (:func:`axis_nodes`).
+
+    Returns
+    -------
+    J_node, J_node_std, J_plain, J_plain_std : list
+        kg m^2, per axis.
+    """
+    J_node, J_node_std, J_plain, J_plain_std = [], [], [], []
+    for n in nodes:
+        st = device.stages[n.stage - 1]
+        phi = math.radians(n.node_deg)
+        empty = known.empty_inertia(n.stage, phi)
+        # The known terms' uncertainty (calibration, or device.toml's stated stds) adds to
+        # the node formula's own, as it does to the least squares'.
+        known_var = known.node_variance(n.stage, phi, n.M_parts, n.M) if known.calibrated else 0.0
+        J_node.append(axial_moment(n.M, st, empty))
+        J_node_std.append(axial_std(math.sqrt(n.M_std**2 + known_var), st))
+        J_plain.append(axial_moment(n.M_plain, st, empty))
+        # The plain formula's shares as the full one's, scaled to its M.
+        plain_parts = [part * n.M_plain / n.M for part in n.M_parts] if n.M else n.M_parts
+        plain_var = (
+            known.node_variance(n.stage, phi, plain_parts, n.M_plain) if known.calibrated else 0.0
+        )
+        J_plain_std.append(axial_std(math.sqrt(n.M_plain_std**2 + plain_var), st))
+    return J_node, J_node_std, J_plain, J_plain_std
+
+
+def centre_of_mass(
+    device: Device, gravity: np.ndarray, gravity_std: np.ndarray
+) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """[x_c, y_c] = [Gs, Gc] / (m g), m, with stds; (None, None) without device.toml's
+    ``[body] mass`` (docs/method.md §5).
+
+    Parameters
+    ----------
+    device : Device
+        The gimbal (its body's mass and gravity).
+    gravity : numpy.ndarray, shape (2,)
+        N m, the body's gravity terms [Gs, Gc].
+    gravity_std : numpy.ndarray, shape (2,)
+        N m, their stds.
+
+    Returns
+    -------
+    com, com_std : numpy.ndarray or None
+        m.
+    """
+    if device.body is None:
+        return None, None
+    weight = device.body.mass * device.gravity
+    return gravity / weight, gravity_std / weight
+
+
+def fit_warnings(fit: TensorFit, balances: list, device: Device) -> list[str]:
+    """What the least squares' checks found, one line each: the model tests and the runs'
+    speed-noise scales (rsp_inertia.estimation.model_tests.model_warnings), the friction
+    slopes' priors the balances rejected, and a coarse encoder.
+
+    Parameters
+    ----------
+    fit : TensorFit
+        The least squares.
+    balances : list of StageBalance
+        Its runs' balances.
+    device : Device
+        The gimbal (its encoder's quantum and sampling interval).
+
+    Returns
+    -------
+    list of str
+        The warnings, in that order.
+    """
+    labels = [format_run(key) for key in fit.runs]
+    warnings = model_warnings(fit.tests, fit.speed_noise_scale, labels)
+    warnings += fit.prior_warnings
+    warnings += coarse_encoder_warnings(
+        balances, device.encoder.quantum, device.encoder.dt, labels
+    )
+    return warnings
+
+
+def std_budget(fit: TensorFit, directions: np.ndarray) -> dict[str, dict[str, np.ndarray]]:
+    """The least squares' uncertainty budget: per noise source, the stds of the axes' J_k and
+    of the tensor's entries that its share of the covariance gives (Identification.std_budget).
+
+    Parameters
+    ----------
+    fit : TensorFit
+        The least squares (its ``cov_parts``).
+    directions : numpy.ndarray, shape (k, 3)
+        The axes' unit directions.
+
+    Returns
+    -------
+    dict
+        Source -> {"axes": stds of J_k, "tensor": stds of the entries}, kg m^2.
+    """
+    return {
+        source: {
+            "axes": axis_values(fit.entries, part[ENTRIES, ENTRIES], directions)[1],
+            "tensor": np.sqrt(np.diag(part[ENTRIES, ENTRIES])),
+        }
+        for source, part in fit.cov_parts.items()
+    }
 
 
 def pendulum_baseline(

@@ -24,6 +24,10 @@ wrong model takes up any column it is offered, so each probe is tested given the
 columns added to a model that has theirs): with an encoder's error alone, the drive's probe
 explains nothing the encoder's does not, and the other way round.
 
+What a probe's fitted terms say, in words and numbers, is its warning's text
+(:func:`probe_detail`, filled in by :func:`described` with the rig's known terms the fit
+applied); the probes' columns are rsp_inertia.estimation.columns.cause_probes.
+
 A smooth regressor per run (a drift in the angle, the shape of friction work) is no test
 here: the kinetic energy along the braking is itself such a smooth function, so it would
 stand in for the noisy measured speeds and reject every run. Nor is a per-node term (M let
@@ -34,7 +38,7 @@ locked to the angle there, so it would raise false alarms (benchmarks/results/de
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -45,15 +49,21 @@ from rsp_inertia.plant.progress import report
 
 if TYPE_CHECKING:
     from rsp_inertia.estimation.gls import Block
+    from rsp_inertia.estimation.known_terms import KnownTerms
 
 __all__ = [
     "COARSE_COUNTS",
+    "DRIVE_PROBE",
+    "ENCODER_PROBE",
+    "PROBE_ORDERS",
     "SCALE_CAP",
     "TEST_ALPHA",
     "TURN_PARTS",
     "ModelTest",
     "coarse_encoder_warnings",
+    "described",
     "model_warnings",
+    "probe_detail",
     "run_model_tests",
 ]
 
@@ -63,6 +73,14 @@ SCALE_CAP = 1e4
 TEST_ALPHA = 0.01
 """Family-wise false-alarm probability of the model tests of one fit (Bonferroni over the
 tests): a clean rig's identification warns in about 1 run in 100."""
+
+DRIVE_PROBE = "drive loss"
+"""The model test of a drive that loses power by its direction of flow (probe kind)."""
+ENCODER_PROBE = "encoder error"
+"""The model test of a periodic error of the encoder's reading (probe kind)."""
+PROBE_ORDERS = 3
+"""Orders of the encoder's error the probe looks for (rsp_inertia.estimation.calibration
+ENCODER_ORDERS: orders 1 and 2 bias the tensor, order 3 is still measurable)."""
 
 
 @dataclass(frozen=True)
@@ -86,8 +104,8 @@ class ModelTest:
     estimate_cov: np.ndarray | None = None
     """Their covariance."""
     detail: str = ""
-    """What the fitted terms mean, in words and numbers, for the warning (set by the code
-    that knows the physics of the probe, rsp_inertia.estimation.tensor)."""
+    """What the fitted terms mean, in words and numbers, for the warning (a probe's:
+    :func:`probe_detail`)."""
 
     def to_dict(self) -> dict:
         """The result.json entry."""
@@ -398,3 +416,112 @@ def model_warnings(tests: list[ModelTest], scales: list[float], labels: list[str
             "than its std"
         )
     return warnings
+
+
+def described(
+    tests: list[ModelTest], known: KnownTerms, one_direction: bool = False
+) -> list[ModelTest]:
+    """The model tests with their probes' :func:`probe_detail` filled in (their warnings').
+
+    Parameters
+    ----------
+    tests : list of ModelTest
+        The fit's model tests.
+    known : KnownTerms
+        The rig's known terms the fit applied.
+    one_direction : bool, optional
+        Some stage was run in one direction only.
+
+    Returns
+    -------
+    list of ModelTest
+        The tests, the probes' with their ``detail``.
+    """
+    return [
+        replace(test, detail=probe_detail(test, known, one_direction))
+        if test.kind in (DRIVE_PROBE, ENCODER_PROBE)
+        else test
+        for test in tests
+    ]
+
+
+def probe_detail(test: ModelTest, known: KnownTerms, one_direction: bool = False) -> str:
+    """What a probe test's fitted terms say, in words and numbers (its warning's text).
+
+    drive loss: the driving work's gain came out h_d + dh_d against h_b's, so the runs call
+    for the round-trip efficiency (h_d + dh_d) / h_b (the common scale of both gains the
+    tensor takes up). encoder error: each order's amplitude sqrt(c_n^2 + s_n^2), first-order
+    std, in arcseconds. What to do depends on what is known: a calibration of the drive or of
+    the encoder that the runs contradict (the rig changed since), or none (calibrate). In a
+    stage run one way only, friction that differs between the directions of rotation leaves
+    the same shape as a drive's loss (the braking turns one way, the reverse the other),
+    so the drive's warning names it too.
+
+    Parameters
+    ----------
+    test : ModelTest
+        A model test, its ``estimate`` and ``estimate_cov`` the probe's fitted terms.
+    known : KnownTerms
+        The rig's known terms the fit applied (a calibration or none).
+    one_direction : bool, optional
+        Some stage was run in one direction only.
+
+    Returns
+    -------
+    str
+        The warning's text; empty for a test that is no probe.
+    """
+    x, cov = test.estimate, test.estimate_cov
+    gains = known.gains
+    std = known.std if known.calibrated else np.zeros(known.cov.shape[0])
+    if test.kind == DRIVE_PROBE:
+        ratio = (gains[0] + x[0]) / gains[1]
+        ratio_std = math.sqrt(max(cov[0, 0], 0.0)) / gains[1]
+        if np.any(std[known.gains_slice] > 0):
+            cause = (
+                "the calibrated gains do not fit these runs: a drive whose losses changed "
+                "since the calibration (calibrate again)"
+            )
+        else:
+            cause = (
+                "a transmission that loses power by its direction of flow; rsp-inertia "
+                "calibrate with a reference run measures h_d and h_b"
+            )
+        if one_direction:
+            cause += (
+                ", or friction that differs between the directions of rotation, which in a "
+                "stage run one way looks the same (run the stages both ways: directions = "
+                '["forward", "backward"])'
+            )
+        return (
+            "the work the drive delivers while it drives the body and while the body drives "
+            "it back do not share one scale: the balances call for a round-trip efficiency "
+            f"h_d / h_b = {ratio:.4f} +- {ratio_std:.1g} where {gains[0] / gains[1]:.4f} is "
+            f"applied ({cause})"
+        )
+    if test.kind == ENCODER_PROBE:
+        parts = []
+        for n in range(len(x) // 2):
+            c, s_ = x[2 * n : 2 * n + 2]
+            a = math.hypot(c, s_)
+            g = np.array([c, s_]) / a if a > 0 else np.zeros(2)
+            a_std = math.sqrt(max(g @ cov[2 * n : 2 * n + 2, 2 * n : 2 * n + 2] @ g, 0.0))
+            arcsec = math.degrees(1.0) * 3600
+            parts.append(f"order {n + 1} {a * arcsec:.2g} +- {a_std * arcsec:.1g}")
+        if np.any(std[known.encoder_slice] > 0):
+            cause = (
+                "left after the calibrated correction: an encoder that moved or was remounted "
+                "since the calibration (calibrate again)"
+            )
+        else:
+            cause = (
+                "an eccentric or running-out encoder; rsp-inertia calibrate with a reference "
+                "run measures it, or state the maker's certificate in device.toml [encoder] "
+                "error_cos, error_sin, error_std"
+            )
+        return (
+            "the balances carry a periodic error of the encoder's reading: "
+            + ", ".join(parts)
+            + f" arcsec ({cause})"
+        )
+    return ""

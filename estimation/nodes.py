@@ -123,7 +123,7 @@ def node_formula(
         deg, the nodes.
     speed_noise_scale : float
         The calibration of the smoothers' speed-error variance that the least squares finds
-        on its residuals (rsp_inertia.estimation.tensor).
+        on its residuals (rsp_inertia.estimation.tensor_fit).
     direction : int
         -1: a backward run's passes, mirrored by :func:`rsp_inertia.plant.logs.mirror_log`;
         its node phi sits at -phi in the mirrored coordinate.

@@ -2,7 +2,7 @@
 
 A planned run is a braking pass computed from a nominal model of the stage (no noise) and
 its exact time mirror. From it this module builds the balance equations exactly as
-``identify`` does (rsp_inertia.estimation.balance, rsp_inertia.estimation.tensor), with the same noise model:
+``identify`` does (rsp_inertia.estimation.balance, rsp_inertia.estimation.tensor_fit), with the same noise model:
 
 - the torque log's white noise of std sigma: the braking's constant torque estimated as the
   mean of the log (rsp_inertia.estimation.passes), the reverse's work as the sample-by-sample sum;
@@ -11,7 +11,7 @@ its exact time mirror. From it this module builds the balance equations exactly 
   the smoother's own rule (``smoother_bandwidth``) and r = (q^2/12) dt.
 
 The generalised least squares then gives the covariance the noise model alone implies
-(``fit_tensor(..., predict=True)``: speed-noise scale 1, no inflation by residuals). That
+(``predict_tensor``: speed-noise scale 1, no inflation by residuals). That
 is an ideal reverse's std, a closed loop's best case: it cannot foresee the closed-loop
 reverse's tracking mismatch (its friction slopes cost information; an exact mirror has
 none) nor the regulator's speed noise, which together put identify's std above it. The planner uses it to rank protocols; the closed-loop
@@ -29,11 +29,9 @@ import numpy as np
 from rsp_inertia.estimation.balance import StageBalance, stage_balance
 from rsp_inertia.estimation.passes import PassEstimate
 from rsp_inertia.estimation.smoothing import Smoothed, noise_density, smoother_bandwidth
-from rsp_inertia.estimation.tensor import (
-    ENTRY_KEYS,
-    KnownTerms,
-    tensor_block,
-)
+from rsp_inertia.estimation.known_terms import KnownTerms
+from rsp_inertia.estimation.layout import SHARED_LAYOUT
+from rsp_inertia.estimation.tensor_fit import tensor_block
 from rsp_inertia.estimation.whitening import Noise, information, scaled_band
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.geometry import design_matrix, device_design
@@ -49,8 +47,10 @@ __all__ = [
     "run_information",
 ]
 
-SHARED = (*ENTRY_KEYS, "Gs", "Gc")
+SHARED = tuple(SHARED_LAYOUT.names())
 """Unknowns shared by every run: the tensor's entries and the gravity terms."""
+ENTRIES = SHARED_LAYOUT.slice("entries")
+"""The tensor's entries among :data:`SHARED`."""
 
 
 @dataclass(frozen=True)
@@ -181,10 +181,10 @@ def run_information(device: Device, balance: StageBalance, inertia: np.ndarray) 
 
     The runs' noises are independent, so the joint least squares' information is the sum of
     the runs' (:func:`combine_information`); each run's is A^T C^-1 A of its equations
-    (rsp_inertia.estimation.tensor.tensor_block) with C its work covariance plus the speed noise's
+    (rsp_inertia.estimation.tensor_fit.tensor_block) with C its work covariance plus the speed noise's
     1/4 M_i M_j cov(S_i, S_j) (rsp_inertia.estimation.gls), and its own unknowns (the run's constant,
     its friction slopes) taken out by the Schur complement. Equal to the least squares' own
-    covariance of the planned balances (``fit_tensor(..., predict=True)``,
+    covariance of the planned balances (rsp_inertia.estimation.tensor_fit.predict_tensor,
     tests/design/test_plan.py), at a fraction of its cost, so that a planner can try each
     stage's protocols once and combine them freely.
 
@@ -235,7 +235,7 @@ def axis_stds(device: Device, informations: np.ndarray) -> np.ndarray:
     outer = scale[:, :, None] * scale[:, None, :]
     cov = np.linalg.pinv(informations / outer, hermitian=True) / outer
     V = design_matrix(device_design(device).directions)
-    return np.sqrt(np.abs(np.einsum("ij,kjl,il->ki", V, cov[:, :6, :6], V)))
+    return np.sqrt(np.abs(np.einsum("ij,kjl,il->ki", V, cov[:, ENTRIES, ENTRIES], V)))
 
 
 def _information(A: np.ndarray, balance: StageBalance, inertia: np.ndarray) -> np.ndarray:

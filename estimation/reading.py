@@ -30,7 +30,7 @@ from rsp_inertia.estimation.calibration_file import CalibrationFile, read_calibr
 from rsp_inertia.estimation.identify import identify_logs
 from rsp_inertia.estimation.results import Identification
 from rsp_inertia.estimation.runs import ExperimentLogs, Sources, runs
-from rsp_inertia.estimation.tensor import KnownTerms
+from rsp_inertia.estimation.known_terms import KnownTerms
 from rsp_inertia.plant.config import load_reference
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import Experiment

@@ -15,7 +15,7 @@ from rsp_inertia.estimation.best_practice import BestPractice
 from rsp_inertia.estimation.calibration_summary import CalibrationSummary
 from rsp_inertia.estimation.model_tests import ModelTest
 from rsp_inertia.estimation.pendulum import PendulumEstimate
-from rsp_inertia.estimation.tensor import format_run
+from rsp_inertia.estimation.columns import format_run
 from rsp_inertia.plant.geometry import (
     ENTRY_KEYS,
     axis_direction,
@@ -158,7 +158,7 @@ class Identification:
     covariance: np.ndarray
     """(8, 8) joint covariance of [entries, gravity], order Jx, Jy, Jz, Jxy, Jyz, Jxz,
     m_g_xc, m_g_yc (kg^2 m^4, kg m^2 N m, N^2 m^2): the least squares fits them together
-    (rsp_inertia.estimation.tensor.TensorFit.cov); result.json's ``covariance``, which a
+    (rsp_inertia.estimation.tensor_fit.TensorFit.cov); result.json's ``covariance``, which a
     combination of mountings needs (rsp_inertia.estimation.combine)."""
     node_entries: np.ndarray
     """Same entries from the node formula's J_k through V."""
@@ -190,7 +190,7 @@ class Identification:
     friction_slope_std: np.ndarray | None = None
     """(stages, 2)."""
     std_budget: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
-    """Uncertainty budget of the least squares: for each noise source (rsp_inertia.estimation.tensor
+    """Uncertainty budget of the least squares: for each noise source (rsp_inertia.estimation.tensor_fit
     NOISE_SOURCES), the standard deviations it alone gives to ``axes`` J ("axes") and to the
     entries ("tensor"); the variances of the sources add up to the totals."""
     warnings: list[str] = field(default_factory=list)

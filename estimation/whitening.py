@@ -18,7 +18,7 @@ balance angles, carry noise of three kinds (:class:`Noise`):
   (rsp_inertia.estimation.smoothing, zero beyond w_c |tau| = KERNEL_SPAN).
 
 Dense, C costs n^2 memory and n^3 time. Every run's equations share its free constant C_run
-(rsp_inertia.estimation.tensor run_columns), so nothing but that constant changes when the
+(rsp_inertia.estimation.columns run_columns), so nothing but that constant changes when the
 equations are replaced by their differences y_i - y_{i+1}, i < n - 1, and the last one, which
 alone holds C_run, is left out with it (profiling a free unknown that only one equation
 holds out of a Gaussian likelihood leaves the marginal of the others: the estimates of every

@@ -38,7 +38,7 @@ if TYPE_CHECKING:
     from rsp_inertia.design.plan import Plan
     from rsp_inertia.estimation.calibration import Calibration
     from rsp_inertia.estimation.results import Identification
-    from rsp_inertia.estimation.tensor import KnownTerms
+    from rsp_inertia.estimation.known_terms import KnownTerms
     from rsp_inertia.results import (
         AxisDesignResult,
         CalibrateResult,
@@ -376,7 +376,7 @@ def encoder_error_figure(known: KnownTerms, title: str = "") -> Figure:
     order's part; below, e'(phi), by which the encoder scales every speed (the kinetic energy
     by 2 e').
 
-    ``known``: the calibrated terms (rsp_inertia.estimation.tensor.KnownTerms) with encoder
+    ``known``: the calibrated terms (rsp_inertia.estimation.known_terms.KnownTerms) with encoder
     coefficients theta_e and their covariance.
     """
     orders = known.orders

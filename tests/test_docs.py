@@ -527,7 +527,7 @@ def test_calibration_toml_keys_are_documented_and_exist():
     and whether they are required; calibrate writes every one but the older files' keys."""
     from rsp_inertia.estimation.calibration import Calibration
     from rsp_inertia.estimation.stiffness import StiffnessCalibration
-    from rsp_inertia.estimation.tensor import KnownTerms
+    from rsp_inertia.estimation.known_terms import KnownTerms
 
     fields = _calibration_keys()
     documented = _documented("calibration.toml")

@@ -19,7 +19,8 @@ from rsp_inertia.estimation.predict import (
     run_information,
 )
 from rsp_inertia.estimation.reading import identify_experiment
-from rsp_inertia.estimation.tensor import axis_values, fit_tensor
+from rsp_inertia.estimation.axes import axis_values
+from rsp_inertia.estimation.tensor_fit import predict_tensor
 from rsp_inertia.plant.config import load_device, load_virtual
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.geometry import device_design
@@ -60,7 +61,7 @@ def _planned(device, stage, model, speed, torque):
 
 
 def test_structured_information_equals_the_least_squares_covariance(paper):
-    """Two computations of the predicted J_k stds: the dense GLS (fit_tensor, predict mode)
+    """Two computations of the predicted J_k stds: the dense GLS (predict_tensor)
     and the per-run information with the banded factor and its Schur complements.
 
     They differ only in the reduced inertia weighting the speed noise: the GLS takes it from
@@ -75,7 +76,7 @@ def test_structured_information_equals_the_least_squares_covariance(paper):
         bal = predicted_balance(device, stage, b, r, 1e-4)
         balances.append(bal)
         infos.append(run_information(device, bal, np.ravel(reduced_inertia(bal.phi, model))))
-    fit = fit_tensor(balances, predict=True)
+    fit = predict_tensor(balances)
     _, dense = axis_values(fit.entries, fit.entries_cov, device_design(device).directions)
     fast = combine_information(device, infos)
     np.testing.assert_allclose(fast, dense, rtol=1e-4)

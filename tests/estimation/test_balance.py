@@ -1,4 +1,4 @@
-"""The node formula and the least squares on exact data (estimation/balance.py, tensor.py).
+"""The node formula and the least squares on exact data (estimation/balance.py, tensor_fit.py).
 
 The smoother is left out: each pass is handed to the balances with the virtual device's true
 angle, speed and acceleration and its true (noise-free) torque, so whatever error is left is
@@ -12,14 +12,15 @@ import math
 import numpy as np
 import pytest
 
-from rsp_inertia.estimation import tensor
+from rsp_inertia.estimation import columns, tensor_fit
 from rsp_inertia.estimation.balance import stage_balance
 from rsp_inertia.estimation.nodes import node_formula
 from rsp_inertia.estimation.passes import PassEstimate
+from rsp_inertia.estimation.known_terms import KnownTerms
 from rsp_inertia.estimation.smoothing import Smoothed
-from rsp_inertia.estimation.tensor import ENTRY_KEYS, KnownTerms, fit_tensor, tensor_block
+from rsp_inertia.estimation.tensor_fit import fit_tensor, tensor_block
 from rsp_inertia.plant import virtual as vd
-from rsp_inertia.plant.geometry import relative_errors
+from rsp_inertia.plant.geometry import ENTRY_KEYS, relative_errors
 from rsp_inertia.plant.logs import Log, dropped_samples, motor_work
 from rsp_inertia.plant.model import acceleration, gravity_basis, reduced_inertia, tensor_basis
 from tests.estimation.conftest import STAGES
@@ -142,8 +143,8 @@ def test_the_least_squares_rows_are_the_models_bases(default_device, exact_passe
     np.testing.assert_array_equal(
         np.column_stack([block.columns["Gs"], block.columns["Gc"]]), 2 * gravity_basis(bal.phi)
     )
-    monkeypatch.setattr(tensor, "tensor_basis", lambda phi, lam: np.ones((len(phi), 6)))
-    monkeypatch.setattr(tensor, "gravity_basis", lambda phi: np.ones((len(phi), 2)))
+    monkeypatch.setattr(tensor_fit, "tensor_basis", lambda phi, lam: np.ones((len(phi), 6)))
+    monkeypatch.setattr(columns, "gravity_basis", lambda phi: np.ones((len(phi), 2)))
     block = tensor_block(bal, "0", known, False)
     assert all(np.all(block.inertia_columns[name] == 1.0) for name in ENTRY_KEYS)
     assert np.all(block.columns["Gs"] == 2.0) and np.all(block.columns["Gc"] == 2.0)

@@ -234,7 +234,7 @@ def test_a_drifting_braking_torque_is_named_in_a_warning(ideal, tmp_path):
 
 
 def test_uncertainty_budget_adds_up_to_the_reported_std(ideal):
-    # The sources are independent, so their variances add up to the total (rsp_inertia.estimation.tensor).
+    # The sources are independent, so their variances add up to the total (rsp_inertia.estimation.tensor_fit).
     _, result, _ = ideal
     assert set(result.std_budget) == {
         "braking torque log", "reverse torque log", "encoder (speed)", "encoder (work)",

@@ -15,7 +15,7 @@ import math
 import numpy as np
 import pytest
 
-from rsp_inertia.estimation import best_practice, pendulum, predict, smoothing, tensor
+from rsp_inertia.estimation import axes, best_practice, known_terms, pendulum, predict, smoothing
 from rsp_inertia.estimation.best_practice import HalfCycleFit
 from rsp_inertia.plant import geometry
 from rsp_inertia.plant.logs import Log
@@ -35,13 +35,14 @@ HOMES = [
      ["estimation.identify", "estimation.stiffness"]),
     ("M = (c + k_g) / w_n^2", "estimation.best_practice", "best_practice_inertia",
      ["estimation.identify", "estimation.stiffness"]),
-    ("V (design matrix)", "plant.geometry", "design_matrix", ["estimation.tensor", "estimation.predict"]),
+    ("V (design matrix)", "plant.geometry", "design_matrix", ["estimation.axes", "estimation.predict"]),
     ("J from its entries", "plant.geometry", "tensor_from_entries", ["plant.virtual_config"]),
     ("e(phi)", "plant.geometry", "axis_direction", ["estimation.identify", "estimation.results"]),
     ("identify's axes and cond(V)", "plant.geometry", "device_design",
      ["estimation.identify", "estimation.predict"]),
     ("M's basis functions", "plant.model", "inertia_basis",
-     ["estimation.tensor", "estimation.calibration", "estimation.stiffness"]),
+     ["estimation.known_terms", "estimation.tensor_fit", "estimation.calibration",
+      "estimation.stiffness"]),
     ("M's harmonics", "plant.model", "inertia_harmonics",
      ["estimation.calibration", "estimation.stiffness"]),
     ("Pi (spring part)", "plant.model", "potential", ["estimation.balance"]),
@@ -69,15 +70,15 @@ HOMES = [
      ["estimation.balance", "estimation.nodes"]),
     ("the stage balance", "estimation.balance", "stage_balance",
      ["estimation.runs", "estimation.predict"]),
-    ("J_k = V_k . J with its std", "estimation.tensor", "axis_values", ["estimation.identify"]),
-    ("tensor through V", "estimation.tensor", "tensor_from_axes", ["estimation.identify"]),
-    ("one run's least-squares rows", "estimation.tensor", "tensor_block",
-     ["estimation.tensor", "estimation.predict"]),
-    ("2 dPi/d[Gs, Gc]", "estimation.tensor", "gravity_rows",
-     ["estimation.tensor", "estimation.calibration"]),
-    ("a run's own columns", "estimation.tensor", "run_columns",
-     ["estimation.tensor", "estimation.calibration"]),
-    ("the GLS", "estimation.gls", "solve_blocks", ["estimation.tensor", "estimation.calibration"]),
+    ("J_k = V_k . J with its std", "estimation.axes", "axis_values", ["estimation.identify"]),
+    ("tensor through V", "estimation.axes", "tensor_from_axes", ["estimation.identify"]),
+    ("one run's least-squares rows", "estimation.tensor_fit", "tensor_block",
+     ["estimation.tensor_fit", "estimation.predict"]),
+    ("2 dPi/d[Gs, Gc]", "estimation.columns", "gravity_rows",
+     ["estimation.tensor_fit", "estimation.known_terms", "estimation.calibration"]),
+    ("a run's own columns", "estimation.columns", "run_columns",
+     ["estimation.tensor_fit", "estimation.calibration"]),
+    ("the GLS", "estimation.gls", "solve_blocks", ["estimation.tensor_fit", "estimation.calibration"]),
     ("Cholesky whitening", "estimation.whitening", "whiten",
      ["estimation.gls", "estimation.whitening"]),
     ("weighted chi^2", "estimation.whitening", "weighted_chi2",
@@ -130,14 +131,14 @@ def test_design_matrix_is_the_home_of_v(monkeypatch, default_device):
     directions = geometry.device_design(default_device).directions
     entries, cov = np.arange(1.0, 7.0), np.eye(6)
     info = np.eye(8)[None] * 1e6
-    before = (tensor.axis_values(entries, cov, directions)[0],
-              tensor.tensor_from_axes(np.ones(6), np.ones(6), directions)[0],
+    before = (axes.axis_values(entries, cov, directions)[0],
+              axes.tensor_from_axes(np.ones(6), np.ones(6), directions)[0],
               predict.axis_stds(default_device, info))
-    for module in (tensor, predict):
+    for module in (axes, predict):
         monkeypatch.setattr(module, "design_matrix", lambda d: 2 * geometry.design_matrix(d))
-    np.testing.assert_allclose(tensor.axis_values(entries, cov, directions)[0], 2 * before[0])
+    np.testing.assert_allclose(axes.axis_values(entries, cov, directions)[0], 2 * before[0])
     np.testing.assert_allclose(
-        tensor.tensor_from_axes(np.ones(6), np.ones(6), directions)[0], before[1] / 2
+        axes.tensor_from_axes(np.ones(6), np.ones(6), directions)[0], before[1] / 2
     )
     np.testing.assert_allclose(predict.axis_stds(default_device, info), 2 * before[2])
 
@@ -151,9 +152,9 @@ def test_tensor_from_entries_is_the_home_of_j(monkeypatch):
 
 
 def test_inertia_basis_is_the_home_of_m_empty(monkeypatch):
-    known = tensor.KnownTerms.from_tares([0.5, 1.5])
+    known = known_terms.KnownTerms.from_tares([0.5, 1.5])
     assert known.empty_inertia(2, 0.3) == 1.5
-    monkeypatch.setattr(tensor, "inertia_basis", lambda phi: 2 * np.ones((len(phi), 5)))
+    monkeypatch.setattr(known_terms, "inertia_basis", lambda phi: 2 * np.ones((len(phi), 5)))
     assert known.empty_inertia(2, 0.3) == 3.0
 
 

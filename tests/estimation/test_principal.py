@@ -1,4 +1,4 @@
-"""The principal moments' and axes' uncertainty (rsp_inertia.estimation.tensor
+"""The principal moments' and axes' uncertainty (rsp_inertia.plant.geometry
 .principal_uncertainty) against a closed form and against sampling."""
 
 import numpy as np

@@ -175,7 +175,7 @@ def test_speed_error_autocovariance_matches_the_virtual_device(
     # counts per sample (the block filter's Hermite interpolation smooths a little more when
     # w_c T_block approaches 1, and the quantization is not exactly white), 1.2-1.7 below
     # 4 counts per sample. The least squares calibrates the level on its residuals
-    # (rsp_inertia.estimation.tensor), so the derived value need only be right within a factor 2.
+    # (rsp_inertia.estimation.tensor_fit), so the derived value need only be right within a factor 2.
     assert 0.5 * derived < np.var(err) < 2 * derived
 
 

@@ -14,9 +14,10 @@ import numpy as np
 import pytest
 
 from rsp_inertia.estimation.balance import stage_balance
-from rsp_inertia.estimation.gls import NOISE_SOURCES, solve_blocks
+from rsp_inertia.estimation.gls import NOISE_SOURCES, assemble_blocks, solve_blocks
 from rsp_inertia.estimation.passes import estimate_pass
-from rsp_inertia.estimation.tensor import KnownTerms, tensor_block
+from rsp_inertia.estimation.known_terms import KnownTerms
+from rsp_inertia.estimation.tensor_fit import tensor_block
 from rsp_inertia.estimation.whitening import (
     JITTER,
     Noise,
@@ -133,7 +134,7 @@ def test_solve_blocks_equals_the_dense_reference(default_balances):
         columns = {n: c for n, c in block.columns.items() if not n.startswith("d")}
         blocks.append(dataclasses.replace(block, columns=columns))
     scales = [1.3, 0.7]
-    fit = solve_blocks(blocks, scales=scales, tests=False)
+    fit = solve_blocks(assemble_blocks(blocks), scales)
 
     # Dense reference: every named column and the constants, the first unweighted pass's M.
     names = list(dict.fromkeys(n for b in blocks for n in b.columns))

@@ -14,7 +14,8 @@ import pytest
 
 from rsp_inertia.estimation.balance import FRICTION_PRIOR_ALLOWANCE, stage_balance
 from rsp_inertia.estimation.passes import estimate_pass
-from rsp_inertia.estimation.tensor import axis_values, fit_tensor
+from rsp_inertia.estimation.axes import axis_values
+from rsp_inertia.estimation.tensor_fit import fit_tensor
 from rsp_inertia.ocp.program import make_program
 from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.geometry import axis_direction
@@ -107,7 +108,7 @@ def test_identification_corrects_the_tracking_mismatch(
     # The closed loop tracks to a few 1e-4, and friction then does different work on the two
     # passes: ~1e-4 of stage 1's kinetic energy, several times the noise floor. The least
     # squares fits the friction slope D'(Omega) = d1 + d2 Omega where the data ask for it
-    # (rsp_inertia.estimation.balance, rsp_inertia.estimation.tensor): stage 1 here. Its axes must then be within
+    # (rsp_inertia.estimation.balance, rsp_inertia.estimation.tensor_fit): stage 1 here. Its axes must then be within
     # 4 reported stds of the truth, and the slope must be the virtual bearing's own
     # (d1 = a2, d2 = 2 a3 for the paper's D), also within 4 stds.
     balances = closed_balances

@@ -49,7 +49,7 @@ HOMES = [
     ("predicted information of a run", "estimation.predict", "run_information",
      ["design.candidates"]),
     ("predicted J_k stds", "estimation.predict", "axis_stds", ["design.plan"]),
-    ("identify's least squares", "estimation.tensor", "fit_tensor", ["design.rehearsal"]),
+    ("identify's least squares", "estimation.tensor_fit", "fit_tensor", ["design.rehearsal"]),
 ]
 
 

@@ -1,0 +1,157 @@
+"""The columns of a run's balance equations that every least squares over the runs shares.
+
+The body's tensor (rsp_inertia.estimation.tensor_fit) and the rig's calibration
+(rsp_inertia.estimation.calibration) ask different questions of the same balances
+(rsp_inertia.estimation.balance, docs/method.md §5): both give each run its constant, the
+tracking mismatch's friction slopes and, for a stage run in both directions, its friction
+asymmetry (:func:`run_columns`, :func:`run_priors`); both write the gravity potential's
+share (:func:`gravity_rows`) and an encoder error's (:func:`encoder_columns`) alike; and
+both offer the model tests the probes of a drive's loss and an encoder's error
+(:func:`cause_probes`, rsp_inertia.estimation.model_tests). The runs' names in messages:
+:func:`run_label`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rsp_inertia.estimation.balance import StageBalance
+from rsp_inertia.estimation.gls import Prior
+from rsp_inertia.estimation.layout import encoder_names
+from rsp_inertia.estimation.model_tests import DRIVE_PROBE, ENCODER_PROBE, PROBE_ORDERS
+from rsp_inertia.plant.model import gravity_basis
+from rsp_inertia.plant.transducers import error_slope_basis
+
+__all__ = [
+    "both_directions",
+    "cause_probes",
+    "encoder_columns",
+    "encoder_unknowns",
+    "format_run",
+    "gravity_rows",
+    "run_columns",
+    "run_key",
+    "run_label",
+    "run_priors",
+]
+
+
+def encoder_unknowns(bal: StageBalance, orders: int) -> dict[str, np.ndarray]:
+    """The encoder coefficients' columns on the unknowns' side, per unit of M(phi), by name
+    (:func:`encoder_columns` negated: an error left in the readings raises the kinetic
+    energy's share)."""
+    return dict(zip(encoder_names(orders), -encoder_columns(bal, orders).T))
+
+
+def cause_probes(bal: StageBalance) -> tuple[dict, dict]:
+    """(probes, probes_per_inertia) of one run's block (rsp_inertia.estimation.gls Block):
+    the drive loss's column (the driving work's gain freed) and the encoder error's (orders
+    1 to PROBE_ORDERS, per unit of M)."""
+    return (
+        {DRIVE_PROBE: {"dh_d": -bal.motor_work_parts[:, 0]}},
+        {ENCODER_PROBE: encoder_unknowns(bal, PROBE_ORDERS)},
+    )
+
+
+def encoder_columns(bal: StageBalance, orders: int) -> np.ndarray:
+    """(n, 2 orders) how an error of the encoder's coefficients moves one run's balance, per
+    unit of M(phi) (docs/method.md §5 Calibration).
+
+    A reading error e left in the logs scales both passes' speeds at an angle by 1 + e'(phi),
+    so 1/2 M S reads 1/2 M S (1 + 2 e'): the balance gains M S e'_theta(phi) per unit of each
+    coefficient (rsp_inertia.plant.transducers.error_slope_basis, at the body's angle). The
+    error's smaller effects (the angle's own shift in M, the potential and the work: a few
+    percent of this at order 1) are left out: calibrate iterates on the corrected logs.
+    """
+    return bal.speed_sq[:, None] * error_slope_basis(bal.phi, orders)
+
+
+def gravity_rows(phi: np.ndarray) -> np.ndarray:
+    """(n, 2) 2 dPi/d[Gs, Gc]: the gravity potential's share of the balance, twice for the
+    two passes (docs/method.md §3, rsp_inertia.plant.model.gravity_basis)."""
+    return 2 * gravity_basis(phi)
+
+
+def run_key(bal: StageBalance) -> tuple[int, str]:
+    """(stage, "forward" or "backward") of a run."""
+    return bal.stage, "forward" if bal.direction > 0 else "backward"
+
+
+def format_run(key: tuple[int, str]) -> str:
+    """"stage N forward" or "stage N backward" from (stage, direction)."""
+    stage, direction = key
+    return f"stage {stage} {direction}"
+
+
+def run_label(bal: StageBalance) -> str:
+    """"stage N forward" or "stage N backward"."""
+    return format_run(run_key(bal))
+
+
+def run_columns(
+    bal: StageBalance, key: str, both_directions: bool, group: str | None = None
+) -> dict[str, np.ndarray]:
+    """The columns every run has whatever the question: its constant, the tracking mismatch's
+    friction slopes (rsp_inertia.estimation.balance; left out when the mismatch is exactly zero, exact
+    data), and the friction asymmetry of a stage run in both directions.
+
+    Parameters
+    ----------
+    bal : StageBalance
+        The run's balance.
+    key : str
+        Names the run's own unknowns (``C[key]``, ``d1[key]``, ``d2[key]``).
+    both_directions : bool
+        The run's stage is run in both directions: the friction asymmetry's columns join.
+    group : str, optional
+        Names the friction asymmetry's unknowns, shared by the runs of ``group``; by default
+        the stage.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        Name -> column, one entry per balance angle.
+    """
+    group = str(bal.stage) if group is None else group
+    n = len(bal.phi)
+    cols = {f"C[{key}]": -np.ones(n)}
+    if np.any(bal.mismatch != 0.0):
+        cols[f"d1[{key}]"] = -bal.mismatch[:, 0]
+        cols[f"d2[{key}]"] = -bal.mismatch[:, 1]
+    if both_directions:
+        for k in range(3):
+            cols[f"e{k + 1}[{group}]"] = -bal.direction * bal.friction_shape[:, k]
+    return cols
+
+
+def run_priors(bal: StageBalance, columns: dict[str, np.ndarray], key: str) -> tuple[Prior, ...]:
+    """The run's priors on its own unknowns: its friction slopes' from its passes' dynamics
+    (rsp_inertia.estimation.balance.friction_slope_prior), when it has slope columns and the
+    prior was made.
+
+    Parameters
+    ----------
+    bal : StageBalance
+        The run's balance (its ``slope_prior``).
+    columns : dict of str to numpy.ndarray
+        The run's columns (:func:`run_columns`).
+    key : str
+        Names the run's own unknowns.
+
+    Returns
+    -------
+    tuple of Prior
+        The friction slopes' prior, or none.
+    """
+    names = (f"d1[{key}]", f"d2[{key}]")
+    if bal.slope_prior is None or not all(name in columns for name in names):
+        return ()
+    return (Prior(names, *bal.slope_prior),)
+
+
+def both_directions(balances: list[StageBalance]) -> set[int]:
+    """Stages with runs in both directions."""
+    seen: dict[int, set[int]] = {}
+    for bal in balances:
+        seen.setdefault(bal.stage, set()).add(bal.direction)
+    return {stage for stage, dirs in seen.items() if len(dirs) == 2}

@@ -1,0 +1,316 @@
+"""The tensor from the runs' balances: one least squares over every run's balance angles.
+
+Least squares over many turns (docs/method.md §5). With w(phi) = (lam sin phi, lam cos phi, 1),
+(1 + lam^2) J_e(phi) = w^T J w = v(phi) . [Jx Jy Jz Jxy Jyz Jxz], v the design-matrix row of
+the unnormalised w (docs/method.md §2: the harmonic form of M per stage written in the tensor's
+entries, so that all stages share one set of unknowns; rsp_inertia.plant.model.tensor_basis
+gives these rows from the model's M, rsp_inertia.plant.model.gravity_basis the gravity
+columns from its Pi). Each balance angle of a run (one
+stage, one direction of rotation) gives
+
+    1/2 S v(phi) . J + 2 Gs sin phi + 2 Gc cos phi - C_run - d . R - dir e_s . Q
+        = h_d W_d(phi) + h_b W_b(phi) - 2 Pi_spring - 1/2 S M_empty(phi) - 2 Pi_fixture(phi)
+
+(rsp_inertia.estimation.balance), linear in the six entries, the gravity terms Gs = m g x_c,
+Gc = m g y_c shared by all runs, one constant per run, per run the two slopes d of the
+friction torque that the closed loop's tracking mismatch leaves in the balance (regressors R),
+and, for a stage run in both directions, its friction asymmetry e_s (regressors Q, sign
+dir = +1 forward, -1 backward: the first-order effect of a friction that differs between the
+directions of rotation cancels between the runs; the columns every run has:
+rsp_inertia.estimation.columns). The right-hand side holds what the rig's calibration knows
+(rsp_inertia.estimation.known_terms.KnownTerms): the drive's gains h_d, h_b on the logged
+motor work's driving and back-driven parts W_d, W_b (docs/method.md §3, encoder and drive),
+the empty system's reduced inertia M_empty (tare and fixture), the fixture's gravity and the
+encoder's error (taken off the readings before the balances); without a calibration,
+device.toml's tare as exact. The calibrated terms also join the unknowns with their
+calibration as prior, and the model tests' probes look for a drive's loss and an encoder's
+error left in the runs (rsp_inertia.estimation.model_tests.probe_detail). Weights, the
+speed-noise scale, the model tests and the uncertainty budget: rsp_inertia.estimation.gls.
+The tensor's axes and the axes' tensor: rsp_inertia.estimation.axes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from rsp_inertia.estimation.balance import StageBalance
+from rsp_inertia.estimation.columns import (
+    both_directions,
+    cause_probes,
+    gravity_rows,
+    run_columns,
+    run_key,
+    run_label,
+    run_priors,
+)
+from rsp_inertia.estimation.gls import (
+    BalanceFit,
+    Block,
+    Equations,
+    assemble_blocks,
+    block_model_tests,
+    predict_blocks,
+    solve_blocks,
+    speed_noise_scales,
+)
+from rsp_inertia.estimation.known_terms import KnownTerms
+from rsp_inertia.estimation.layout import GRAVITY_NAMES, SHARED_LAYOUT
+from rsp_inertia.estimation.model_tests import ModelTest, described
+from rsp_inertia.plant.geometry import ENTRY_KEYS
+from rsp_inertia.plant.model import inertia_basis, tensor_basis
+
+__all__ = [
+    "TensorFit",
+    "balance_rhs",
+    "fit_tensor",
+    "predict_tensor",
+    "tensor_block",
+]
+
+ENTRIES = SHARED_LAYOUT.slice("entries")
+"""The tensor's entries among the shared unknowns [entries, gravity] (TensorFit.cov)."""
+GRAVITY = SHARED_LAYOUT.slice("gravity")
+"""The gravity terms among the shared unknowns."""
+
+
+@dataclass(frozen=True)
+class TensorFit:
+    """Result of the least squares over every stage's balance angles."""
+
+    entries: np.ndarray
+    """[Jx, Jy, Jz, Jxy, Jyz, Jxz], kg m^2 (products as tensor entries)."""
+    gravity: np.ndarray
+    """[Gs, Gc] = m g [x_c, y_c], N m."""
+    cov: np.ndarray
+    """(8, 8) joint covariance of [entries, gravity] (kg^2 m^4, kg m^2 N m, N^2 m^2): the
+    least squares solves them together, so their errors correlate (a combination of
+    mountings needs the whole matrix, rsp_inertia.estimation.combine)."""
+    chi2_dof: float
+    """Residual chi^2 per degree of freedom of the weighted fit (1 when the noise model fits)."""
+    speed_noise_scale: list[float]
+    """Per run, the factor on the derived speed-error covariance that makes the run's own
+    fit reach chi^2/dof = 1 (rsp_inertia.estimation.gls)."""
+    n_equations: int
+    """Balance angles used, all runs."""
+    friction_slope: np.ndarray
+    """(runs, 2) [d1, d2] of D'(Omega) = d1 + d2 Omega per run (N m s, N m s^2), from the
+    tracking mismatch; NaN for a run with exactly no mismatch (exact data)."""
+    friction_slope_std: np.ndarray
+    """(runs, 2)."""
+    friction_slope_cov: np.ndarray
+    """(runs, 2, 2) covariance of each run's [d1, d2] (NaN where not fitted)."""
+    mismatch_terms: list[bool]
+    """Per run: whether the tracking-mismatch friction terms were fitted (NaN slopes if not:
+    only when the mismatch is exactly zero)."""
+    cov_parts: dict[str, np.ndarray]
+    """Covariance of [entries, gravity] split by noise source (rsp_inertia.estimation.gls NOISE_SOURCES
+    and CALIBRATION_SOURCE); the parts sum to the whole: the uncertainty budget."""
+    friction_asymmetry: np.ndarray | None = None
+    """(stages, 3) e = [e1, e2, e3] of D_backward - D_forward = e1 + e2 |Omega| + e3 Omega^2
+    (N m, N m s, N m s^2) for stages run in both directions; NaN rows for the others."""
+    friction_asymmetry_std: np.ndarray | None = None
+    """(stages, 3)."""
+    tests: list[ModelTest] | None = None
+    """The balance model's tests (rsp_inertia.estimation.gls): runs against each other, early against
+    late turns."""
+    runs: list[tuple[int, str]] | None = None
+    """(stage, direction) of each run, in the order of the balances."""
+    known_after: KnownTerms | None = None
+    """The calibrated terms after the runs refined them (rsp_inertia.estimation.gls: the
+    calibration as prior, the runs' information added); None without calibrated terms."""
+    prior_warnings: list[str] = field(default_factory=list)
+    """A line per run whose friction slopes' prior its balances rejected
+    (rsp_inertia.estimation.gls, priors)."""
+
+    @property
+    def entries_cov(self) -> np.ndarray:
+        """(6, 6) covariance of ``entries``, kg^2 m^4: the upper-left block of ``cov``."""
+        return self.cov[ENTRIES, ENTRIES]
+
+    @property
+    def gravity_cov(self) -> np.ndarray:
+        """(2, 2) covariance of ``gravity``, N^2 m^2: the lower-right block of ``cov``."""
+        return self.cov[GRAVITY, GRAVITY]
+
+
+def balance_rhs(bal: StageBalance, known: KnownTerms) -> np.ndarray:
+    """The known side of one run's equations: h_d W_d + h_b W_b - 2 Pi_spring - 1/2 S M_empty
+    - 2 Pi_f.
+
+    W_d, W_b the driving and back-driven parts of the logged motor work of both passes,
+    M_empty(phi) the empty system's reduced inertia and Pi_f the fixture's gravity potential
+    (docs/method.md §5, with the rig's terms of :class:`KnownTerms`).
+    """
+    M_empty = inertia_basis(bal.phi) @ known.inertia[bal.stage - 1]
+    spring = 0.0 if bal.spring is None else bal.spring
+    received = bal.work if known.gains == (1.0, 1.0) else bal.received_work(known.gains) - spring
+    return received - 0.5 * bal.speed_sq * M_empty - gravity_rows(bal.phi) @ known.gravity
+
+
+def tensor_block(bal: StageBalance, run: str, known: KnownTerms, asymmetry: bool) -> Block:
+    """One run's equations in the tensor's unknowns (module docstring).
+
+    Parameters
+    ----------
+    bal : StageBalance
+        The run's balance.
+    run : str
+        Names the run's own unknowns (its constant and friction slopes).
+    known : KnownTerms
+        The rig's known terms: the right-hand side and, when calibrated, their Jacobians.
+    asymmetry : bool
+        The run's stage is run in both directions, so its friction asymmetry is an unknown.
+
+    Returns
+    -------
+    Block
+        The run's equations for rsp_inertia.estimation.gls.assemble_blocks.
+    """
+    v = tensor_basis(bal.phi, bal.gear_ratio)
+    probes = cause_probes(bal)
+    half_s = 0.5 * bal.speed_sq
+    cols = {name: half_s * v[:, i] for i, name in enumerate(ENTRY_KEYS)}
+    cols.update(zip(GRAVITY_NAMES, gravity_rows(bal.phi).T))
+    cols.update(run_columns(bal, run, asymmetry))
+    return Block(
+        balance=bal,
+        label=run_label(bal),
+        columns=cols,
+        rhs=balance_rhs(bal, known),
+        inertia_columns={name: v[:, i] for i, name in enumerate(ENTRY_KEYS)},
+        inertia_known=inertia_basis(bal.phi) @ known.inertia[bal.stage - 1],
+        work_scales=bal.work_scales(known.gains),
+        known_jacobian=known.jacobian(bal) if known.calibrated else None,
+        known_jacobian_inertia=known.jacobian_inertia(bal) if known.calibrated else None,
+        probes=probes[0],
+        probes_per_inertia=probes[1],
+        groups={name: run_label(bal) for name in ENTRY_KEYS},
+        joint_only=frozenset(name for name in cols if name.startswith("e")),
+        priors=run_priors(bal, cols, run),
+    )
+
+
+def fit_tensor(
+    balances: list[StageBalance], known: KnownTerms | None = None, tests: bool = True
+) -> TensorFit:
+    """Generalised least squares for the tensor and the gravity terms (module docstring).
+
+    Unknowns: the six entries and the gravity terms (shared by every run), one constant and
+    the tracking mismatch's two friction slopes per run, and the friction asymmetry
+    e = [e1, e2, e3] per stage run in both directions. Weighted, solved and checked by
+    rsp_inertia.estimation.gls (speed_noise_scales, solve_blocks, block_model_tests).
+
+    Parameters
+    ----------
+    balances : list of StageBalance
+        Every run's balance.
+    known : KnownTerms, optional
+        The rig's known terms; device.toml's tares as exact by default.
+    tests : bool, optional
+        False: no model tests (a rehearsal of a plan, rsp_inertia.design.rehearsal).
+
+    Returns
+    -------
+    TensorFit
+        The entries and gravity terms with their covariance and budget, the runs' speed-noise
+        scales and friction terms, and the model tests.
+    """
+    known = _known_or_tares(balances, known)
+    equations = _equations(balances, known)
+    fit = solve_blocks(equations, speed_noise_scales(equations))
+    return _tensor_fit(
+        balances, known, fit, block_model_tests(equations, fit) if tests else []
+    )
+
+
+def predict_tensor(balances: list[StageBalance], known: KnownTerms | None = None) -> TensorFit:
+    """The least squares of :func:`fit_tensor` on noise-free balances of a planned run: the
+    covariance the noise model alone implies (rsp_inertia.estimation.gls.predict_blocks,
+    rsp_inertia.estimation.predict), no model tests.
+
+    Parameters
+    ----------
+    balances : list of StageBalance
+        Every planned run's balance.
+    known : KnownTerms, optional
+        The rig's known terms; device.toml's tares as exact by default.
+
+    Returns
+    -------
+    TensorFit
+        The entries and gravity terms with their predicted covariance and budget.
+    """
+    known = _known_or_tares(balances, known)
+    return _tensor_fit(balances, known, predict_blocks(_equations(balances, known)), [])
+
+
+def _known_or_tares(balances: list[StageBalance], known: KnownTerms | None) -> KnownTerms:
+    """``known``, or device.toml's tares (the balances') as exact."""
+    if known is None:
+        tares = {bal.stage: bal.tare_inertia for bal in balances}
+        known = KnownTerms.from_tares([tares.get(s, 0.0) for s in range(1, max(tares) + 1)])
+    return known
+
+
+def _equations(balances: list[StageBalance], known: KnownTerms) -> Equations:
+    """Every run's block (:func:`tensor_block`), assembled for the least squares."""
+    both = both_directions(balances)
+    blocks = [tensor_block(bal, str(k), known, bal.stage in both) for k, bal in enumerate(balances)]
+    return assemble_blocks(
+        blocks, known.cov if known.calibrated else None, known.budget_groups()
+    )
+
+
+def _tensor_fit(
+    balances: list[StageBalance], known: KnownTerms, fit: BalanceFit, tests: list[ModelTest]
+) -> TensorFit:
+    """The TensorFit of the least squares' solution ``fit`` and its model tests ``tests``."""
+    both = both_directions(balances)
+    one_direction = len(both) < len({bal.stage for bal in balances})
+    model_tests = described(tests, known, one_direction)
+    shared = [fit.index(name) for name in SHARED_LAYOUT.names()]
+    n_runs, stages = len(balances), sorted({bal.stage for bal in balances})
+    slope = np.full((n_runs, 2), np.nan)
+    slope_std = np.full((n_runs, 2), np.nan)
+    slope_cov = np.full((n_runs, 2, 2), np.nan)
+    for k in range(n_runs):
+        for j in range(2):
+            slope[k, j], slope_std[k, j] = fit.value(f"d{j + 1}[{k}]")
+        names = [f"d1[{k}]", f"d2[{k}]"]
+        if all(name in fit.names for name in names):
+            i = [fit.index(name) for name in names]
+            slope_cov[k] = fit.cov[np.ix_(i, i)]
+    asym = np.full((max(stages), 3), np.nan)
+    asym_std = np.full((max(stages), 3), np.nan)
+    for s in both:
+        for j in range(3):
+            asym[s - 1, j], asym_std[s - 1, j] = fit.value(f"e{j + 1}[{s}]")
+    sub = np.ix_(shared, shared)
+    # The sum of the sources' parts is symmetric up to rounding (4e-10 of the smallest
+    # products); result.json and a combination of mountings take it exactly symmetric.
+    cov = (fit.cov[sub] + fit.cov[sub].T) / 2
+    return TensorFit(
+        entries=fit.x[shared][ENTRIES],
+        gravity=fit.x[shared][GRAVITY],
+        cov=cov,
+        chi2_dof=fit.chi2_dof,
+        speed_noise_scale=fit.scales,
+        n_equations=fit.n_equations,
+        friction_slope=slope,
+        friction_slope_std=slope_std,
+        friction_slope_cov=slope_cov,
+        mismatch_terms=[bool(np.any(bal.mismatch != 0.0)) for bal in balances],
+        cov_parts={name: part[sub] for name, part in fit.cov_parts.items()},
+        friction_asymmetry=asym,
+        friction_asymmetry_std=asym_std,
+        tests=model_tests,
+        runs=[run_key(bal) for bal in balances],
+        known_after=(
+            None
+            if fit.known_shift is None
+            else known.with_theta(known.theta + fit.known_shift, fit.known_shift_cov)
+        ),
+        prior_warnings=list(fit.prior_warnings),
+    )
