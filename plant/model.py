@@ -35,6 +35,8 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from rsp_inertia.plant.friction import FRICTION
+
 __all__ = [
     "MODEL",
     "PARAMETER_NAMES",
@@ -62,7 +64,9 @@ __all__ = [
     "tensor_basis",
 ]
 
-PARAMETER_NAMES = ("M0", "Mc2", "Ms2", "Ms1", "Mc1", "c", "phi0", "Gs", "Gc", "a1", "a2", "a3")
+
+
+PARAMETER_NAMES = ("M0", "Mc2", "Ms2", "Ms1", "Mc1", "c", "phi0", "Gs", "Gc", *FRICTION.names)
 
 
 def inertia_harmonics(inertia: np.ndarray, gear_ratio: float, tare_inertia: float) -> np.ndarray:
@@ -144,9 +148,7 @@ class ModelParameters:
                     self.zero_angle,
                     self.gravity_sin,
                     self.gravity_cos,
-                    self.coulomb,
-                    self.viscous,
-                    self.quadratic,
+                    *FRICTION.coefficients(self),
                 ],
             ]
         ).astype(float)
@@ -178,7 +180,8 @@ class GimbalModel:
     S : casadi.SX
         Static torque dPi/dphi = c (phi-phi0) + m g (x_c cos phi - y_c sin phi).
     D : casadi.SX
-        Dissipative torque (a1 + a3 Omega^2) direction + a2 Omega.
+        Dissipative torque (rsp_inertia.plant.friction.FRICTION): (a1 + a3 Omega^2) direction
+        + a2 Omega.
     acc : casadi.SX
         Scalar symbol for an acceleration eps (rad/s^2), input of the inverse dynamics.
     tau : casadi.SX
@@ -199,7 +202,7 @@ class GimbalModel:
         self.u = ca.SX.sym("u")
         self.direction = ca.SX.sym("direction")
         self.p = ca.SX.sym("p", len(PARAMETER_NAMES))
-        m0, mc2, ms2, ms1, mc1, c, phi0, gs, gc, a1, a2, a3 = ca.vertsplit(self.p)
+        m0, mc2, ms2, ms1, mc1, c, phi0, gs, gc, *friction = ca.vertsplit(self.p)
         phi, Omega = self.phi, self.Omega
 
         # docs/method.md §2, harmonic form of M(phi).
@@ -212,7 +215,7 @@ class GimbalModel:
         self.S = ca.jacobian(self.Pi, phi)
         # docs/method.md §3, the paper's dissipation model with sign(Omega) made an explicit input
         # so that an integrator can hold it fixed between stops (no chattering at Omega = 0).
-        self.D = (a1 + a3 * Omega**2) * self.direction + a2 * Omega
+        self.D = FRICTION.torque(Omega, self.direction, friction)
         # docs/method.md §3, Lagrange's equation, written once as the torque a motor must apply for
         # a given acceleration (inverse dynamics); the forward dynamics solve the same line.
         self.acc = ca.SX.sym("eps")
