@@ -183,9 +183,9 @@ def modulated_rows(
     for start in range(0, grid.size, _REGRESSOR_ROWS):
         k = slice(start, start + _REGRESSOR_ROWS)
         momentum[k] = momentum_regressor(phi[k], omega[k], spring)  # linear in Omega: no noise
-        # F is quadratic in Omega: the speed noise's mean, var / 2 F'', taken off.
+        # The speed noise's mean, var / 2 F'' (F is quadratic in Omega), taken off.
         force[k] = force_regressor(phi[k], omega[k], spring, direction=direction[k])
-        curvature = force_curvature_regressor(phi[k], spring, direction=direction[k])
+        curvature = force_curvature_regressor(phi[k], omega[k], spring, direction=direction[k])
         force[k] -= curvature * (var[k] / 2)[:, None]
     spring_torque = static_torque(phi, spring)
     torque = np.asarray(log.torque, dtype=float)[rows]

@@ -153,12 +153,17 @@ class FrictionLaw:
         return out
 
     def coefficients(self, params: ModelParameters) -> list[float]:
-        """The law's coefficients of a model, in the order of :attr:`names`."""
+        """The law's coefficients of a model (its :attr:`fields`), in the order of :attr:`names`."""
         return [getattr(params, name) for name in self.fields]
 
     def model_fields(self, values: Mapping[str, float]) -> dict[str, float]:
         """:class:`ModelParameters` keyword arguments from coefficients by name."""
         return {f: values[name] for name, f in zip(self.names, self.fields)}
+
+    def fields_of(self, holder: object) -> dict[str, float]:
+        """:class:`ModelParameters` keyword arguments from an object that holds the
+        coefficients under the same fields (a model, the virtual device's ``[friction]``)."""
+        return {f: getattr(holder, f) for f in self.fields}
 
     def speed_at(self, coefficients: Sequence[float], torque: float, factor: float = 1.0) -> float:
         """The speed w >= 0 at which ``factor`` D(w) = ``torque``, forward motion.

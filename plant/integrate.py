@@ -228,9 +228,7 @@ def true_parameters(
         zero_angle=device.spring.zero_angle,
         gravity_sin=sum(part.mass * g * part.com[0] for part in parts),
         gravity_cos=sum(part.mass * g * part.com[1] for part in parts),
-        coulomb=friction.coulomb,
-        viscous=friction.viscous,
-        quadratic=friction.quadratic,
+        **FRICTION.fields_of(friction),
     )
 
 

@@ -272,10 +272,11 @@ class GimbalModel:
                 [ca.jacobian(self.F, self.p)],
             ),
             # d^2 F / d Omega^2 per parameter: the mean a speed error of variance var adds to
-            # F is var / 2 times it (F is quadratic in Omega).
+            # F is var / 2 times it (to second order; exactly for the paper's friction, with
+            # which F is quadratic in Omega and this does not depend on Omega).
             "force_curvature_regressor": ca.Function(
                 "force_curvature_regressor",
-                [phi, self.direction, self.p],
+                [phi, Omega, self.direction, self.p],
                 [ca.jacobian(ca.hessian(self.F, Omega)[0], self.p)],
             ),
         }
@@ -564,15 +565,17 @@ def force_regressor(phi, Omega, params: ModelParameters | np.ndarray, direction=
     return _regressor("force_regressor", (phi, Omega, direction), _p(params))
 
 
-def force_curvature_regressor(phi, params: ModelParameters | np.ndarray, direction=1.0):
-    """d^3 F / dOmega^2 dp at each sample, rows of shape (12,): F is quadratic in Omega, so a
-    speed error e of variance var moves its mean by var / 2 times regressor . p
-    (E[F(Omega + e)] = F(Omega) + F'' var / 2).
+def force_curvature_regressor(phi, Omega, params: ModelParameters | np.ndarray, direction=1.0):
+    """d^3 F / dOmega^2 dp at each sample, rows of shape (12,): a speed error e of variance var
+    moves F's mean by var / 2 times regressor . p (E[F(Omega + e)] = F(Omega) + F'' var / 2,
+    exact while F is quadratic in Omega, as with the paper's friction).
 
     Parameters
     ----------
     phi : array_like
         rad, the angles.
+    Omega : array_like
+        rad/s, the speeds (F'' depends on them unless the friction law is quadratic).
     params : ModelParameters or numpy.ndarray
         The model's parameters (or the vector p).
     direction : array_like, optional
@@ -583,7 +586,7 @@ def force_curvature_regressor(phi, params: ModelParameters | np.ndarray, directi
     numpy.ndarray
         Shape of the broadcast inputs + (12,).
     """
-    return _regressor("force_curvature_regressor", (phi, direction), _p(params))
+    return _regressor("force_curvature_regressor", (phi, Omega, direction), _p(params))
 
 
 def mechanical_energy(phi, Omega, params: ModelParameters | np.ndarray):
