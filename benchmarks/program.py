@@ -30,6 +30,7 @@ from rsp_inertia.ocp.nominal import fit_nominal
 from rsp_inertia.ocp.program import make_program
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.files import write_atomic
+from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.logs import write_log, write_program
 from rsp_inertia.plant.virtual import placed_body, run_program, simulate_braking
 from rsp_inertia.plots import plot_tracking
@@ -72,8 +73,8 @@ def run_case(inertia: float, friction: float, figures: bool) -> dict:
             nominal = dataclasses.replace(
                 fitted,
                 inertia_harmonics=fitted.inertia_harmonics * inertia,
-                viscous=fitted.viscous * friction,
-                quadratic=fitted.quadratic * friction,
+                # Every friction term (the nominal model's Coulomb term is 0).
+                **{k: v * friction for k, v in FRICTION.fields_of(fitted).items()},
             )
             made = make_program(device, stage, braking.log, nominal=nominal)
             write_program(exp.program_path(stage), made.program)

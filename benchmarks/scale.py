@@ -55,6 +55,7 @@ from benchmarks.experiments import default_experiment, load, with_stage
 from benchmarks.tables import command_line, fmt, table_lines
 from rsp_inertia.plant.config import Device, Virtual
 from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.friction import FRICTION
 
 BRAKINGS = (
     (10.0, 0.1, 0.04323),
@@ -111,13 +112,8 @@ experiment at 10 kHz (issue 22)."""
 def scaled_friction(virtual: Virtual, factor: float) -> Virtual:
     """Every friction coefficient (Coulomb a1, viscous a2, quadratic a3) times ``factor``."""
     f = virtual.friction
-    return replace(
-        virtual,
-        friction=replace(
-            f, coulomb=f.coulomb * factor, viscous=f.viscous * factor,
-            quadratic=f.quadratic * factor,
-        ),
-    )
+    scaled = {k: v * factor for k, v in FRICTION.fields_of(f).items()}
+    return replace(virtual, friction=replace(f, **scaled))
 
 
 def at_rate(device: Device, rate: float) -> Device:

@@ -53,6 +53,7 @@ from rsp_inertia.estimation.smoothing import hermite
 from rsp_inertia.plant.config import Device, Stage
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.geometry import turns_past_last_node
+from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.model import (
     ModelParameters,
     acceleration,
@@ -197,16 +198,7 @@ def _top_speed(device: Device, model: ModelParameters) -> float:
     Root of 2 D(Omega) = (1 - TORQUE_MARGIN) torque_limit (module docstring), capped.
     """
     usable = (1 - TORQUE_MARGIN) * device.motor.torque_limit
-    a1, a2, a3 = model.coulomb, model.viscous, model.quadratic
-    c = 2 * a1 - usable
-    if c >= 0:
-        return 0.0
-    if a3 > 0:
-        root = (-2 * a2 + math.sqrt(4 * a2 * a2 - 8 * a3 * c)) / (4 * a3)
-    elif a2 > 0:
-        root = -c / (2 * a2)
-    else:
-        root = math.inf
+    root = FRICTION.speed_at(FRICTION.coefficients(model), usable, factor=2)
     return min(root, SPEED_CAP)
 
 

@@ -20,6 +20,7 @@ from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.logs import Log, read_device_log
+from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.model import ModelParameters, inertia_harmonics
 
 __all__ = ["guess_model", "stage_models"]
@@ -78,16 +79,13 @@ def guess_model(device: Device, stage: int) -> tuple[ModelParameters, float]:
     J = float(np.mean(moments))
     harmonics = inertia_harmonics([J, J, J, 0.0, 0.0, 0.0], st.gear_ratio, st.tare_inertia)
     weight = (mass or 0.0) * device.gravity * guess.com_offset
-    a1, a2, a3 = guess.friction
     model = ModelParameters(
         inertia_harmonics=harmonics,
         stiffness=device.spring.stiffness,
         zero_angle=device.spring.zero_angle,
         gravity_sin=weight,
         gravity_cos=0.0,
-        coulomb=a1,
-        viscous=a2,
-        quadratic=a3,
+        **FRICTION.model_fields(dict(zip(FRICTION.names, guess.friction))),
     )
     return model, guess.torque_noise
 

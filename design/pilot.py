@@ -29,16 +29,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rsp_inertia.estimation.modulated import fit_modulated
+from rsp_inertia.estimation.modulated import MODEL_UNKNOWNS, fit_modulated
 from rsp_inertia.estimation.smoothing import smooth_log
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.logs import Log, torque_noise
+from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.model import ModelParameters
 
 __all__ = ["PILOT_UNKNOWNS", "PilotFit", "fit_pilot"]
 
-PILOT_UNKNOWNS = ("M0", "a1", "a2", "a3", "Mc2", "Ms2", "Gs", "Gc", "Ms1", "Mc1")
+PILOT_UNKNOWNS = MODEL_UNKNOWNS
 """Parameters fitted (names of rsp_inertia.plant.model.PARAMETER_NAMES), most important first:
 a pilot too short for all of them fits only the first ones
 (rsp_inertia.estimation.modulated.fit_modulated). The spring (c, phi0) comes from
@@ -113,9 +114,7 @@ class PilotFit:
             zero_angle=self.zero_angle,
             gravity_sin=self.gravity_sin,
             gravity_cos=self.gravity_cos,
-            coulomb=self.a1,
-            viscous=self.a2,
-            quadratic=self.a3,
+            **FRICTION.model_fields({name: getattr(self, name) for name in FRICTION.names}),
         )
 
 
@@ -193,12 +192,8 @@ def fit_pilot(device: Device, stage: int, log: Log, source: str | None = None) -
     return PilotFit(
         M0=float(values["M0"]),
         M0_std=float(std["M0"]),
-        a1=float(values["a1"]),
-        a1_std=float(std["a1"]),
-        a2=float(values["a2"]),
-        a2_std=float(std["a2"]),
-        a3=float(values["a3"]),
-        a3_std=float(std["a3"]),
+        **{name: float(values[name]) for name in FRICTION.names},
+        **{f"{name}_std": float(std[name]) for name in FRICTION.names},
         torque_noise=sigma,
         top_speed=float(sm.omega.max()),
         coast_turns=turns,

@@ -24,7 +24,8 @@ about |Omega| with D'(Omega) = d1 + d2 Omega, hence D'' = d2:
 
     D(|Omega| + delta) - D(|Omega|) = d1 delta + d2 (|Omega| delta + delta^2 / 2),
 
-exact for the paper's D = a1 + a2 Omega + a3 Omega^2 (d1 = a2, d2 = 2 a3). d1, d2 join the
+exact for the paper's D = a1 + a2 Omega + a3 Omega^2 (d1 = a2, d2 = 2 a3; the law, its slopes
+and these integrands: rsp_inertia.plant.model.FRICTION). d1, d2 join the
 unknowns of each run with the regressors R1 = int_lo^phi delta dphi and
 R2 = int_lo^phi (|Omega| delta + delta^2 / 2) dphi from the measured speeds. The second-order
 part matters where the loop tracks loosely (a large delta); on an ideal reverse delta is only
@@ -52,13 +53,14 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import cumulative_trapezoid
 
-from rsp_inertia.estimation.modulated import fit_modulated
+from rsp_inertia.estimation.modulated import MODEL_UNKNOWNS, fit_modulated
 from rsp_inertia.estimation.passes import PassEstimate, angle_work_noise
 from rsp_inertia.estimation.smoothing import median_step
 from rsp_inertia.estimation.whitening import Noise, add_bands, scaled_band
 from rsp_inertia.plant.config import Device, Stage
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.logs import Log, dropped_samples, mirrored_device
+from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.model import potential, spring_parameters
 
 __all__ = [
@@ -107,9 +109,9 @@ Omega_max, 240 rad/s on the default stages, sampled at up to 785 rad/s), Simpson
 ~(2 Omega h)^4 / 180 ~ 5e-7 at the default top speed, far below the prior's allowance; a
 quarter of the cost of every sample at 1 kHz."""
 
-PRIOR_UNKNOWNS = ("M0", "a1", "a2", "a3", "Mc2", "Ms2", "Gs", "Gc", "Ms1", "Mc1")
+PRIOR_UNKNOWNS = MODEL_UNKNOWNS
 """What the passes' joint fit estimates (:func:`friction_slope_prior`): all of the model but
-the spring, which device.toml gives."""
+the spring, which device.toml gives (rsp_inertia.estimation.modulated.MODEL_UNKNOWNS)."""
 
 POSITION_SPACING_BANDWIDTHS = 1.0
 """Balance angles are spaced by one smoother time constant (1 / w_c) at the top speed.
@@ -449,21 +451,20 @@ class StageBalance:
 
 
 def friction_shape(phi: np.ndarray, omega: np.ndarray) -> np.ndarray:
-    """Work of a dissipative torque e1 + e2 |Omega| + e3 Omega^2 from phi[0], per coefficient.
+    """Work of a dissipative torque e . basis(|Omega|) from phi[0], per coefficient.
 
-    Columns int dphi, int |Omega| dphi, int Omega^2 dphi (trapezoid rule along ``phi``,
-    ascending). With docs/method.md §3's dissipation D = a1 + a2 |Omega| + a3 Omega^2, a friction
-    that differs between the directions of rotation, D_backward - D_forward =
-    e1 + e2 |Omega| + e3 Omega^2, leaves exactly this shape in a run's balance (the reverse
-    pass runs in the other direction): + e . shape in a forward run, - e . shape in a
-    backward one.
+    The friction law's basis (rsp_inertia.plant.model.FRICTION.basis; for the paper's
+    D = a1 + a2 |Omega| + a3 Omega^2 the columns int dphi, int |Omega| dphi, int Omega^2 dphi),
+    integrated by the trapezoid rule along ``phi`` (ascending; the constant exactly). A
+    friction that differs between the directions of rotation, D_backward - D_forward =
+    e . basis(|Omega|), leaves exactly this shape in a run's balance (the reverse pass runs in
+    the other direction): + e . shape in a forward run, - e . shape in a backward one.
     """
     w = np.abs(omega)
     return np.column_stack(
         [
-            phi - phi[0],
-            cumulative_trapezoid(w, phi, initial=0.0),
-            cumulative_trapezoid(w * w, phi, initial=0.0),
+            phi - phi[0] if n == 0 else cumulative_trapezoid(f, phi, initial=0.0)
+            for n, f in zip(FRICTION.powers, FRICTION.basis(w))
         ]
     )
 
@@ -582,9 +583,9 @@ def friction_slope_prior(
         )
     except InputError:
         return None
-    index = [PRIOR_UNKNOWNS.index(name) for name in ("a2", "a3")]
-    jacobian = np.diag([1.0, 2.0])  # d1 = a2, d2 = 2 a3 (module docstring)
-    mean = jacobian @ np.array([values["a2"], values["a3"]])
+    index = [PRIOR_UNKNOWNS.index(name) for name in FRICTION.sloped]
+    jacobian = FRICTION.slope_jacobian  # d1 = a2, d2 = 2 a3 (module docstring)
+    mean = jacobian @ np.array([values[name] for name in FRICTION.sloped])
     covariance = jacobian @ cov[np.ix_(index, index)] @ jacobian
     covariance = covariance + np.diag((FRICTION_PRIOR_ALLOWANCE * mean) ** 2)
     if not np.all(np.isfinite(covariance)) or np.linalg.eigvalsh(covariance)[0] <= 0.0:
@@ -649,7 +650,8 @@ def harmonic_reach(device: Device, bandwidth: float, top_speed: float) -> Harmon
 
 def mismatch_regressors(phi: np.ndarray, omega: np.ndarray, omega_rev: np.ndarray) -> np.ndarray:
     """[R1, R2] of the module docstring from ``phi[0]``: int delta dphi and
-    int (|Omega| delta + delta^2 / 2) dphi, delta = |Omega'| - |Omega| (trapezoid).
+    int (|Omega| delta + delta^2 / 2) dphi, delta = |Omega'| - |Omega| (trapezoid); one
+    column per slope of the friction law (rsp_inertia.plant.model.FrictionLaw.mismatch_integrands).
 
     Parameters
     ----------
@@ -661,12 +663,12 @@ def mismatch_regressors(phi: np.ndarray, omega: np.ndarray, omega_rev: np.ndarra
     Returns
     -------
     np.ndarray, shape (n, 2)
-        R1 (rad^2/s) and R2 (rad^3/s^2) at each angle.
+        R1 (rad^2/s) and R2 (rad^3/s^2) at each angle (n, len(FRICTION.slope_names)).
     """
     delta = np.abs(omega_rev) - np.abs(omega)
     return np.column_stack(
         [
-            cumulative_trapezoid(delta, phi, initial=0.0),
-            cumulative_trapezoid(np.abs(omega) * delta + delta**2 / 2, phi, initial=0.0),
+            cumulative_trapezoid(f, phi, initial=0.0)
+            for f in FRICTION.mismatch_integrands(np.abs(omega), delta)
         ]
     )

@@ -52,6 +52,7 @@ from rsp_inertia.estimation.smoothing import Smoothed, median_step
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.logs import Log
+from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.model import (
     PARAMETER_NAMES,
     force_curvature_regressor,
@@ -61,7 +62,7 @@ from rsp_inertia.plant.model import (
     static_torque,
 )
 
-__all__ = ["MIN_SPEED_FRACTION", "WINDOW", "fit_modulated", "modulated_rows"]
+__all__ = ["MIN_SPEED_FRACTION", "MODEL_UNKNOWNS", "WINDOW", "fit_modulated", "modulated_rows"]
 
 MIN_SPEED_FRACTION = 0.05
 """Samples slower than this fraction of a pass's top speed are left out (static friction,
@@ -83,8 +84,14 @@ which still gives OVERLAP (MIN_SPANS - 1) + 1 = 29 windows."""
 SHORTEST_WINDOW = 0.02
 """s: below this a window spans too few samples for the smoother's bandwidth (~1/w_c)."""
 
-NON_NEGATIVE = ("M0", "a1", "a2", "a3")
-"""Parameters bounded below by 0 in the fits: the mean inertia and the friction."""
+NON_NEGATIVE = ("M0", *FRICTION.non_negative)
+"""Parameters bounded below by 0 in the fits: the mean inertia and the friction
+(rsp_inertia.plant.model.FrictionLaw.non_negative)."""
+
+MODEL_UNKNOWNS = ("M0", *FRICTION.names, "Mc2", "Ms2", "Gs", "Gc", "Ms1", "Mc1")
+"""All of the model's parameters but the spring's, which device.toml gives, most important
+first: what a fit of whole passes estimates (a run's friction slopes' prior,
+rsp_inertia.estimation.balance.PRIOR_UNKNOWNS; a pilot, rsp_inertia.design.pilot)."""
 
 WINDOWS_PER_UNKNOWN = 2
 """Unknowns fitted: at most one per this many windows, in the order given (only a pass
@@ -176,9 +183,9 @@ def modulated_rows(
     for start in range(0, grid.size, _REGRESSOR_ROWS):
         k = slice(start, start + _REGRESSOR_ROWS)
         momentum[k] = momentum_regressor(phi[k], omega[k], spring)  # linear in Omega: no noise
-        # F is quadratic in Omega: the speed noise's mean, var / 2 F'', taken off.
+        # The speed noise's mean, var / 2 F'' (F is quadratic in Omega), taken off.
         force[k] = force_regressor(phi[k], omega[k], spring, direction=direction[k])
-        curvature = force_curvature_regressor(phi[k], spring, direction=direction[k])
+        curvature = force_curvature_regressor(phi[k], omega[k], spring, direction=direction[k])
         force[k] -= curvature * (var[k] / 2)[:, None]
     spring_torque = static_torque(phi, spring)
     torque = np.asarray(log.torque, dtype=float)[rows]

@@ -48,6 +48,7 @@ from scipy.ndimage import uniform_filter1d
 from rsp_inertia.ocp.reference import Mirror
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.model import (
     MODEL,
     PARAMETER_NAMES,
@@ -171,7 +172,7 @@ def mirror_torque(
     need = braking_torque + 2 * dissipation(omega, nominal)
     var = np.full(omega.size, float(braking_torque_var))
     if friction_cov is not None:
-        slopes = [PARAMETER_NAMES.index(name) for name in ("a2", "a3")]
+        slopes = [PARAMETER_NAMES.index(name) for name in FRICTION.sloped]
         g = 2 * dissipation_regressor(omega, nominal)[:, slopes]
         var = var + np.einsum("ij,jk,ik->i", g, friction_cov, g)
     return need, np.sqrt(np.maximum(var, 0.0))

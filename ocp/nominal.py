@@ -20,16 +20,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from rsp_inertia.estimation.modulated import fit_modulated
+from rsp_inertia.estimation.modulated import MODEL_UNKNOWNS, fit_modulated
 from rsp_inertia.estimation.smoothing import Smoothed
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.logs import Log, torque_noise
+from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.model import ModelParameters
 
 __all__ = ["UNKNOWN", "fit_nominal", "fit_nominal_with_covariance"]
 
-UNKNOWN = ("M0", "a2", "a3", "Mc2", "Ms2", "Gs", "Gc", "Ms1", "Mc1")
+UNKNOWN = tuple(name for name in MODEL_UNKNOWNS if name != FRICTION.static)
 """Parameters fitted, most important first: a short pass fits only the first ones (the others
 stay 0: the regulator absorbs what the feedforward lacks). The spring's (c, phi0) come from
 device.toml, a1 is put to 0 (module docstring)."""
@@ -98,8 +99,8 @@ def fit_nominal_with_covariance(
         device, [(log, sm)], UNKNOWN, f"stage {stage}: braking.csv",
         torque_noise=[torque_noise(log)],
     )
-    friction = {k: values[k] for k in ("a2", "a3")}
-    slopes = [UNKNOWN.index(k) for k in ("a2", "a3")]
+    friction = {k: values[k] for k in FRICTION.sloped}
+    slopes = [UNKNOWN.index(k) for k in FRICTION.sloped]
     friction_cov = np.nan_to_num(cov[np.ix_(slopes, slopes)])
     if values["M0"] <= 0:
         raise InputError(
@@ -112,8 +113,6 @@ def fit_nominal_with_covariance(
         zero_angle=device.spring.zero_angle,
         gravity_sin=values["Gs"],
         gravity_cos=values["Gc"],
-        coulomb=0.0,
-        viscous=friction["a2"],
-        quadratic=friction["a3"],
+        **FRICTION.model_fields({FRICTION.static: 0.0, **friction}),
     )
     return model, friction_cov

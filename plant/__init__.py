@@ -29,6 +29,8 @@ _HOMES = {
     "write_program": "logs",
     "check_writable": "files",
     "write_atomic": "files",
+    "FRICTION": "friction",
+    "FrictionLaw": "friction",
     "GimbalModel": "model",
     "MODEL": "model",
     "ModelParameters": "model",

@@ -15,6 +15,7 @@ import os
 import numpy as np
 
 from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.toml_schema import (
     Bound,
     ContentError,
@@ -333,7 +334,7 @@ class PlanGuess:
         (0.0, 0.0, 0.0),
         unit="[N m, N m s, N m s^2]",
         bound=">= 0",
-        names=("a1", "a2", "a3"),
+        names=FRICTION.names,
         doc="Guessed dissipation [a1, a2, a3] (docs/method.md §3).",
     )
     com_offset: float = key(

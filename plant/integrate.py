@@ -26,6 +26,7 @@ from scipy.optimize import brentq
 
 from rsp_inertia.plant.config import Device, Virtual, placed_body
 from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.model import (
     MODEL,
     PARAMETER_NAMES,
@@ -54,7 +55,7 @@ SUBSTEPS = 8
 BLOCK = 1000
 """Samples integrated per call while the torque and the direction of motion are constant."""
 
-_COULOMB = PARAMETER_NAMES.index("a1")
+_COULOMB = PARAMETER_NAMES.index(FRICTION.static)
 """Index of a1 in the parameter vector: the static friction at rest."""
 
 Pair = tuple[np.ndarray, np.ndarray]
@@ -227,9 +228,7 @@ def true_parameters(
         zero_angle=device.spring.zero_angle,
         gravity_sin=sum(part.mass * g * part.com[0] for part in parts),
         gravity_cos=sum(part.mass * g * part.com[1] for part in parts),
-        coulomb=friction.coulomb,
-        viscous=friction.viscous,
-        quadratic=friction.quadratic,
+        **FRICTION.fields_of(friction),
     )
 
 

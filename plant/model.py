@@ -35,6 +35,8 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from rsp_inertia.plant.friction import FRICTION
+
 __all__ = [
     "MODEL",
     "PARAMETER_NAMES",
@@ -62,7 +64,9 @@ __all__ = [
     "tensor_basis",
 ]
 
-PARAMETER_NAMES = ("M0", "Mc2", "Ms2", "Ms1", "Mc1", "c", "phi0", "Gs", "Gc", "a1", "a2", "a3")
+
+
+PARAMETER_NAMES = ("M0", "Mc2", "Ms2", "Ms1", "Mc1", "c", "phi0", "Gs", "Gc", *FRICTION.names)
 
 
 def inertia_harmonics(inertia: np.ndarray, gear_ratio: float, tare_inertia: float) -> np.ndarray:
@@ -144,9 +148,7 @@ class ModelParameters:
                     self.zero_angle,
                     self.gravity_sin,
                     self.gravity_cos,
-                    self.coulomb,
-                    self.viscous,
-                    self.quadratic,
+                    *FRICTION.coefficients(self),
                 ],
             ]
         ).astype(float)
@@ -178,7 +180,8 @@ class GimbalModel:
     S : casadi.SX
         Static torque dPi/dphi = c (phi-phi0) + m g (x_c cos phi - y_c sin phi).
     D : casadi.SX
-        Dissipative torque (a1 + a3 Omega^2) direction + a2 Omega.
+        Dissipative torque (rsp_inertia.plant.friction.FRICTION): (a1 + a3 Omega^2) direction
+        + a2 Omega.
     acc : casadi.SX
         Scalar symbol for an acceleration eps (rad/s^2), input of the inverse dynamics.
     tau : casadi.SX
@@ -199,7 +202,7 @@ class GimbalModel:
         self.u = ca.SX.sym("u")
         self.direction = ca.SX.sym("direction")
         self.p = ca.SX.sym("p", len(PARAMETER_NAMES))
-        m0, mc2, ms2, ms1, mc1, c, phi0, gs, gc, a1, a2, a3 = ca.vertsplit(self.p)
+        m0, mc2, ms2, ms1, mc1, c, phi0, gs, gc, *friction = ca.vertsplit(self.p)
         phi, Omega = self.phi, self.Omega
 
         # docs/method.md §2, harmonic form of M(phi).
@@ -212,7 +215,7 @@ class GimbalModel:
         self.S = ca.jacobian(self.Pi, phi)
         # docs/method.md §3, the paper's dissipation model with sign(Omega) made an explicit input
         # so that an integrator can hold it fixed between stops (no chattering at Omega = 0).
-        self.D = (a1 + a3 * Omega**2) * self.direction + a2 * Omega
+        self.D = FRICTION.torque(Omega, self.direction, friction)
         # docs/method.md §3, Lagrange's equation, written once as the torque a motor must apply for
         # a given acceleration (inverse dynamics); the forward dynamics solve the same line.
         self.acc = ca.SX.sym("eps")
@@ -269,10 +272,11 @@ class GimbalModel:
                 [ca.jacobian(self.F, self.p)],
             ),
             # d^2 F / d Omega^2 per parameter: the mean a speed error of variance var adds to
-            # F is var / 2 times it (F is quadratic in Omega).
+            # F is var / 2 times it (to second order; exactly for the paper's friction, with
+            # which F is quadratic in Omega and this does not depend on Omega).
             "force_curvature_regressor": ca.Function(
                 "force_curvature_regressor",
-                [phi, self.direction, self.p],
+                [phi, Omega, self.direction, self.p],
                 [ca.jacobian(ca.hessian(self.F, Omega)[0], self.p)],
             ),
         }
@@ -561,15 +565,17 @@ def force_regressor(phi, Omega, params: ModelParameters | np.ndarray, direction=
     return _regressor("force_regressor", (phi, Omega, direction), _p(params))
 
 
-def force_curvature_regressor(phi, params: ModelParameters | np.ndarray, direction=1.0):
-    """d^3 F / dOmega^2 dp at each sample, rows of shape (12,): F is quadratic in Omega, so a
-    speed error e of variance var moves its mean by var / 2 times regressor . p
-    (E[F(Omega + e)] = F(Omega) + F'' var / 2).
+def force_curvature_regressor(phi, Omega, params: ModelParameters | np.ndarray, direction=1.0):
+    """d^3 F / dOmega^2 dp at each sample, rows of shape (12,): a speed error e of variance var
+    moves F's mean by var / 2 times regressor . p (E[F(Omega + e)] = F(Omega) + F'' var / 2,
+    exact while F is quadratic in Omega, as with the paper's friction).
 
     Parameters
     ----------
     phi : array_like
         rad, the angles.
+    Omega : array_like
+        rad/s, the speeds (F'' depends on them unless the friction law is quadratic).
     params : ModelParameters or numpy.ndarray
         The model's parameters (or the vector p).
     direction : array_like, optional
@@ -580,7 +586,7 @@ def force_curvature_regressor(phi, params: ModelParameters | np.ndarray, directi
     numpy.ndarray
         Shape of the broadcast inputs + (12,).
     """
-    return _regressor("force_curvature_regressor", (phi, direction), _p(params))
+    return _regressor("force_curvature_regressor", (phi, Omega, direction), _p(params))
 
 
 def mechanical_energy(phi, Omega, params: ModelParameters | np.ndarray):

@@ -29,6 +29,7 @@ from rsp_inertia.plant.drive import (
 )
 from rsp_inertia.plant.integrate import BLOCK, advance, step_block, true_pair, true_parameters
 from rsp_inertia.plant.logs import Program
+from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.model import (
     PARAMETER_NAMES,
     acceleration,
@@ -40,7 +41,7 @@ from rsp_inertia.plant.transducers import delivered_torque, logged_torque
 
 __all__ = ["IDEAL_BANDWIDTH", "ideal_program", "run_program", "simulate_ideal_reverse"]
 
-_COULOMB = PARAMETER_NAMES.index("a1")
+_COULOMB = PARAMETER_NAMES.index(FRICTION.static)
 """Index of a1 in the parameter vector: the static friction at rest."""
 
 IDEAL_BANDWIDTH = 5.0

@@ -54,6 +54,7 @@ from rsp_inertia.plant.drive import (
     sampling_instants,
 )
 from rsp_inertia.plant.errors import InputError
+from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.integrate import (
     BLOCK,
     SUBSTEPS,
@@ -274,7 +275,8 @@ def free_motion(
     pair = true_pair(device, stage, virtual)
     if not damped:
         params = dataclasses.replace(
-            true_parameters(device, stage, virtual), coulomb=0.0, viscous=0.0, quadratic=0.0
+            true_parameters(device, stage, virtual),
+            **FRICTION.model_fields(dict.fromkeys(FRICTION.names, 0.0)),
         )
         pair = (params.vector, params.vector)
     dt = device.encoder.dt

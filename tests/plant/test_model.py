@@ -324,7 +324,7 @@ def test_momentum_form_is_lagranges_equation(params, phi, Omega, u):
         + force_regressor(phi, Omega - h, params, direction)
         - 2 * force_regressor(phi, Omega, params, direction)
     ) @ p / h**2
-    curvature = force_curvature_regressor(phi, params, direction) @ p
+    curvature = force_curvature_regressor(phi, Omega, params, direction) @ p
     scale = torque_scale(params, Omega, u) * (1 + Omega**2)
     assert second == pytest.approx(curvature, rel=0, abs=1e-9 * scale)
 
