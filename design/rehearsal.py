@@ -197,7 +197,6 @@ def _rehearse_stage(dev: Device, stage: int, torque_noise: float, truth: tuple, 
             dev, braking.log, reverse.log, direction, warnings,
             f"rehearsed {label} braking", f"rehearsed {label} reverse", made.smoothed,
         )
-        sign = 1 if direction == "forward" else -1
-        balances.append(stage_balance(dev, stage, b_est, r_est, sign))
+        balances.append(stage_balance(dev, stage, b_est, r_est, direction.sign))
         labels.append(label)
     return balances, labels, saturated

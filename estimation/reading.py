@@ -32,6 +32,7 @@ from rsp_inertia.estimation.results import Identification
 from rsp_inertia.estimation.runs import ExperimentLogs, Sources, runs
 from rsp_inertia.estimation.tensor import KnownTerms
 from rsp_inertia.plant.config import load_reference
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import Experiment
 from rsp_inertia.plant.files import file_sha256
@@ -50,7 +51,7 @@ __all__ = [
 ]
 
 
-def read_run(exp: Experiment, stage: int, direction: str) -> tuple[Log, Log]:
+def read_run(exp: Experiment, stage: int, direction: Direction) -> tuple[Log, Log]:
     """One run's braking and reverse logs as logged.
 
     Parameters
@@ -59,8 +60,8 @@ def read_run(exp: Experiment, stage: int, direction: str) -> tuple[Log, Log]:
         The experiment folder.
     stage : int
         The stage, 1-based.
-    direction : str
-        ``"forward"`` or ``"backward"``.
+    direction : Direction
+        The run's direction.
 
     Returns
     -------

@@ -37,6 +37,7 @@ import numpy as np
 from rsp_inertia.estimation.balance import StageBalance
 from rsp_inertia.estimation.gls import NOISE_SOURCES, Block, Prior, solve_blocks
 from rsp_inertia.estimation.model_tests import ModelTest
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.geometry import ENTRY_KEYS, design_matrix
 from rsp_inertia.plant.model import gravity_basis, inertia_basis, tensor_basis
 from rsp_inertia.plant.transducers import error_slope_basis
@@ -554,9 +555,9 @@ def balance_rhs(bal: StageBalance, known: KnownTerms) -> np.ndarray:
     return received - 0.5 * bal.speed_sq * M_empty - gravity_rows(bal.phi) @ known.gravity
 
 
-def run_key(bal: StageBalance) -> tuple[int, str]:
-    """(stage, "forward" or "backward") of a run."""
-    return bal.stage, "forward" if bal.direction > 0 else "backward"
+def run_key(bal: StageBalance) -> tuple[int, Direction]:
+    """(stage, direction) of a run."""
+    return bal.stage, Direction.of_sign(bal.direction)
 
 
 def format_run(key: tuple[int, str]) -> str:

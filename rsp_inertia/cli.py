@@ -21,6 +21,7 @@ from pathlib import Path
 import rsp_inertia
 from rsp_inertia import api
 from rsp_inertia.plant import progress
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.errors import InputError
 
 
@@ -127,7 +128,7 @@ def _parser() -> argparse.ArgumentParser:
         help="with --part reverse: the exact mirror on an ideal drive (no program needed)",
     )
     p.add_argument(
-        "--direction", choices=("forward", "backward"), default=None,
+        "--direction", choices=tuple(Direction), default=None,
         help="only the runs in this direction (default: every direction of each stage)",
     )
     p.set_defaults(run=_cmd_simulate)

@@ -39,6 +39,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 
 from rsp_inertia.figure_files import save_figures
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.experiment import CALIBRATION_FILE, ENCODER_FIGURE, RESULT_FILE
 from rsp_inertia.plant.geometry import (
     ENTRY_KEYS,
@@ -186,11 +187,11 @@ class PassSummary:
     """Turns covered by the pass (encoder angle span / 2 pi)."""
     turns_past_last_node: float | None
     """Braking only: turns after the first passage of the stage's last node."""
-    direction: str = "forward"
-    """Direction of the stage's run, 'forward' or 'backward' (pendulum runs: 'forward')."""
+    direction: Direction = Direction.FORWARD
+    """Direction of the stage's run (pendulum and pilot runs: forward)."""
 
     def __str__(self) -> str:
-        part = self.part if self.direction == "forward" else f"{self.part} {self.direction}"
+        part = self.part if self.direction is Direction.FORWARD else f"{self.part} {self.direction}"
         text = (
             f"stage {self.stage}: {part}: {self.duration:.2f} s, {self.rows} rows, "
             f"{self.turns:.2f} turns"
@@ -259,8 +260,8 @@ class ProgramSummary:
 
     stage: int
     """Stage number, from 1."""
-    direction: str
-    """'forward' or 'backward'."""
+    direction: Direction
+    """The run's direction."""
     path: Path
     """The program.csv written."""
     details: TorqueProgram
@@ -269,7 +270,7 @@ class ProgramSummary:
 
     def __str__(self) -> str:
         prog = self.details.program
-        label = "" if self.direction == "forward" else f" {self.direction}"
+        label = "" if self.direction is Direction.FORWARD else f" {self.direction}"
         return (
             f"stage {self.stage}{label}: program: {len(prog.t)} rows over {prog.t[-1]:.2f} s, "
             f"peak torque {abs(prog.torque_ff).max():.3f} N m, k_phi "

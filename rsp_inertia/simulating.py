@@ -13,7 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from rsp_inertia.plant.config import DIRECTIONS, Virtual
+from rsp_inertia.plant.config import Virtual
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import Experiment, open_experiment
 from rsp_inertia.plant.files import check_writable
@@ -41,7 +42,7 @@ def _summary(
     part: str,
     path: Path,
     sim: SimulatedPass,
-    direction: str = "forward",
+    direction: Direction = Direction.FORWARD,
 ) -> PassSummary:
     log = sim.log
     past = None
@@ -60,7 +61,7 @@ def _summary(
 
 
 def _check_simulate_outputs(
-    exp: Experiment, stages: list[int], part: str, direction: str | None
+    exp: Experiment, stages: list[int], part: str, direction: Direction | None
 ) -> None:
     """Refuse, before any run is simulated, a log that :func:`simulate` could not write
     (rsp_inertia.plant.files.check_writable): in a stage folder that exists, each log; else
@@ -96,7 +97,7 @@ def _write_log(exp: Experiment, virtual: Virtual, path: Path, log: Log) -> None:
 
 
 def _braking_truth(
-    exp: Experiment, stage: int, virtual: Virtual, direction: str = "forward"
+    exp: Experiment, stage: int, virtual: Virtual, direction: Direction = Direction.FORWARD
 ) -> SimulatedPass:
     """Re-run the (deterministic) braking pass of ``direction`` and check it is the one on disk.
 
@@ -181,10 +182,8 @@ def simulate(
         raise InputError(f"--part: must be one of {', '.join(PARTS)}, got {part!r}")
     if ideal and part != "reverse":
         raise InputError("--ideal goes with --part reverse")
-    if direction is not None and direction not in DIRECTIONS:
-        raise InputError(
-            f"--direction: must be one of {', '.join(DIRECTIONS)}, got {direction!r}"
-        )
+    if direction is not None:
+        direction = Direction.parse(direction, "--direction")
     exp = open_experiment(root, protocol=part in ("braking", "reverse"))
     virtual = exp.load_virtual()
     stages = exp.stages(stage)

@@ -37,6 +37,7 @@ from rsp_inertia.plant.config import (
     write_reference,
     write_virtual,
 )
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.errors import InputError
 
 # The example of docs/files.md: the paper's icosahedron design, two stages of three nodes.
@@ -1034,7 +1035,9 @@ def stages(draw, torque_limit: float):
                 launch_speed=draw(maybe(positive)),
                 braking_torque=draw(maybe(st.floats(0.0, torque_limit))),
                 directions=draw(
-                    st.sampled_from([("forward",), ("backward",), ("backward", "forward")])
+                    st.sampled_from(
+                        [(Direction.FORWARD,), (Direction.BACKWARD,), tuple(reversed(Direction))]
+                    )
                 ),
                 tare_inertia_std=draw(maybe(non_negative)),
                 release_angle_deg=draw(maybe(finite)),
