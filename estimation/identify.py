@@ -21,7 +21,7 @@ The torsion-pendulum baseline (:func:`pendulum_baseline`) reduces the pendulum l
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -48,6 +48,7 @@ from rsp_inertia.plant.geometry import (
     physical_warnings,
 )
 from rsp_inertia.plant.logs import Log
+from rsp_inertia.plant.progress import say
 
 __all__ = [
     "MAX_CONDITION",
@@ -150,7 +151,6 @@ def identify_logs(
     *,
     pendulum_stiffness: tuple[float, float] | None = None,
     warnings: Sequence[str] = (),
-    progress: Callable[[str], None] | None = None,
 ) -> Identification:
     """Identify the tensor (and centre of mass) from every run's braking and reverse logs.
 
@@ -167,8 +167,6 @@ def identify_logs(
         best-practice pendulum; device.toml's ``[pendulum]`` one without it.
     warnings : sequence of str
         Warnings found before (by the reader of the inputs): the result's list starts with them.
-    progress : callable, optional
-        Called with a line as each run is balanced and when the pendulum runs are reduced.
 
     Returns
     -------
@@ -184,7 +182,6 @@ def identify_logs(
     ValueError
         ``logs.runs`` are not the device's runs (rsp_inertia.estimation.runs.balance_runs).
     """
-    say = progress or (lambda _text: None)
     device = logs.device
     warnings = list(warnings)
     # Refused before any log is read: device.toml alone says so. The axes are the device's
@@ -197,7 +194,7 @@ def identify_logs(
         nodes_deg = axis_nodes_deg(device.stages[stage - 1])
         return node_passages(device, stage, braking, reverse, nodes_deg, sign, known.gains)
 
-    balances, passages = balance_runs(logs, warnings, say, known.encoder, at_nodes)
+    balances, passages = balance_runs(logs, warnings, known.encoder, at_nodes)
     fit = fit_tensor(balances, known)
     # The node formula estimates M at each axis's node, in every run.
     by_node = {
@@ -274,7 +271,7 @@ def identify_logs(
         com_std = gravity_std / weight
     warnings += physical_warnings(fit.entries, fit.entries_cov)
     pendulum = pendulum_baseline(
-        logs, known, fit.gravity, fit.gravity_cov, pendulum_stiffness, warnings, say
+        logs, known, fit.gravity, fit.gravity_cov, pendulum_stiffness, warnings
     )
     return Identification(
         entries=fit.entries,
@@ -310,7 +307,6 @@ def pendulum_baseline(
     gravity_cov: np.ndarray | None = None,
     stiffness: tuple[float, float] | None = None,
     warnings: list[str] | None = None,
-    progress: Callable[[str], None] | None = None,
 ) -> PendulumResult | None:
     """The torsion-pendulum baseline from the pendulum logs of ``logs`` (one per node run).
 
@@ -336,8 +332,6 @@ def pendulum_baseline(
     warnings : list of str, optional
         A run the best-practice reduction cannot take (too few half cycles) gets None there
         and a line here.
-    progress : callable, optional
-        Called with a line when the pendulum runs are reduced.
 
     Returns
     -------
@@ -392,8 +386,7 @@ def pendulum_baseline(
             logs, pendulum_logs, found, runs, known, gravity, gravity_cov, stiffness, warnings,
             complete,
         )
-    if progress is not None:
-        progress(f"pendulum: {len(runs)} run(s) reduced")
+    say(f"pendulum: {len(runs)} run(s) reduced")
     return PendulumResult(
         runs=runs,
         J_classic=J_classic,

@@ -23,7 +23,7 @@ from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.experiment import DEVICE_FILE
 from rsp_inertia.plant.logs import Log, check_braking_monotone, mirror_log
-from rsp_inertia.plant.progress import report
+from rsp_inertia.plant.progress import report, say
 from rsp_inertia.plant.transducers import true_angle
 
 __all__ = [
@@ -286,7 +286,6 @@ def checked_run(
 def balance_runs(
     logs: ExperimentLogs,
     warnings: list[str],
-    progress: Callable[[str], None] | None = None,
     encoder=(),
     keep: Callable[[int, int, PassEstimate, PassEstimate], T] | None = None,
 ) -> tuple[list[StageBalance], list[T]]:
@@ -295,7 +294,8 @@ def balance_runs(
 
     One run at a time: its logs are looked up, its passes estimated, balanced and handed to
     ``keep(stage, sign, braking, reverse)`` (sign +1 forward, -1 backward), then let go, so
-    that an experiment's memory is one run's passes whatever its number of runs.
+    that an experiment's memory is one run's passes whatever its number of runs. Each run
+    done is a line and a step of the fraction done (rsp_inertia.plant.progress).
 
     Parameters
     ----------
@@ -303,8 +303,6 @@ def balance_runs(
         The experiment's logs in memory.
     warnings : list of str
         Gets what identify warns about the passes.
-    progress : callable, optional
-        Called with a line when a run is done.
     encoder : sequence of float
         The encoder's error coefficients, taken off every log's readings
         (:func:`corrected_log`).
@@ -341,10 +339,9 @@ def balance_runs(
             kept.append(keep(stage, direction.sign, b_est, r_est))
         rows = (len(b_est.log), len(r_est.log))
         del b_est, r_est  # before the next run's logs are read
-        if progress is not None:
-            progress(
-                f"{prefix}stage {stage} {direction}: {rows[0]} + {rows[1]} "
-                "rows smoothed and balanced"
-            )
+        say(
+            f"{prefix}stage {stage} {direction}: {rows[0]} + {rows[1]} "
+            "rows smoothed and balanced"
+        )
         report("runs smoothed and balanced", k, len(expected))
     return balances, kept

@@ -8,7 +8,6 @@ object made (:class:`rsp_inertia.results.CalibrateResult`).
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from pathlib import Path
 
 from rsp_inertia.estimation.calibration import Calibration
@@ -27,7 +26,6 @@ def calibrate(
     root: str | Path,
     empty: str | Path,
     reference: str | Path | None = None,
-    progress: Callable[[str], None] | None = None,
 ) -> Calibration:
     """``rsp-inertia calibrate``: EMPTY's and REF's logs -> EXP/calibration.toml (atomically),
     and the encoder's error curve EXP/encoder_error.png when the calibration has one.
@@ -43,8 +41,6 @@ def calibrate(
         The empty fixture's experiment folder.
     reference : str or pathlib.Path, optional
         The reference body's experiment folder, with reference.toml.
-    progress : callable, optional
-        Called with each progress line (str).
 
     Returns
     -------
@@ -57,7 +53,6 @@ def calibrate(
         exp,
         open_experiment(empty),
         None if reference is None else open_experiment(reference),
-        progress,
     )
     write_calibration_file(exp.calibration_path, result.to_file())
     save_figures(encoder_figures(result), exp.root)

@@ -10,7 +10,6 @@ sha256 as identify read them (rsp_inertia.provenance). Its result object is
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
@@ -24,16 +23,14 @@ from rsp_inertia.results import result_json
 __all__ = ["identify"]
 
 
-def identify(
-    root: str | Path, progress: Callable[[str], None] | None = None
-) -> Identification:
+def identify(root: str | Path) -> Identification:
     """``rsp-inertia identify``: all stages' logs -> EXP/result.json (written atomically),
     with its provenance: the time, the software and every input's sha256 as identify read
     them (rsp_inertia.provenance)."""
     exp = open_experiment(root)
     check_writable(exp.result_path)
     provenance = make_provenance("identify", exp.root, exp.identify_inputs())
-    result = identify_experiment(exp, progress)
+    result = identify_experiment(exp)
     result = replace(result, provenance=provenance)
     write_atomic(exp.result_path, result_json(result))
     return result

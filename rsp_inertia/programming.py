@@ -8,27 +8,24 @@ feedforward torque and regulator gains at the encoder's rate); each program writ
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from pathlib import Path
 
 from rsp_inertia.ocp.program import TorqueProgram, make_program
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.files import check_writable
 from rsp_inertia.plant.logs import read_device_log, write_program
+from rsp_inertia.plant.progress import say
 from rsp_inertia.results import ProgramSummary
 
 __all__ = ["program", "program_summaries"]
 
 
-def program_summaries(
-    root: str | Path,
-    stage: int | None = None,
-    progress: Callable[[str], None] | None = None,
-) -> list[ProgramSummary]:
+def program_summaries(root: str | Path, stage: int | None = None) -> list[ProgramSummary]:
     """``rsp-inertia program``: stageN/braking.csv -> stageN/program.csv (written atomically).
 
     Reads only device.toml and the braking log. Nothing is written for a stage whose mirror
-    the motor cannot drive (the error says what torque it needs).
+    the motor cannot drive (the error says what torque it needs). Each run's summary line
+    goes to the progress (rsp_inertia.plant.progress.say) as soon as its program is written.
 
     Parameters
     ----------
@@ -36,8 +33,6 @@ def program_summaries(
         The experiment folder.
     stage : int, optional
         One stage (from 1); every stage (and each of its directions) by default.
-    progress : callable, optional
-        Called with each run's summary line (str) as soon as its program is written.
 
     Returns
     -------
@@ -66,17 +61,12 @@ def program_summaries(
             out = exp.program_path(st, direction)
             write_program(out, result.program)
             summary = ProgramSummary(st, direction, out, result)
-            if progress is not None:
-                progress(str(summary))
+            say(str(summary))
             summaries.append(summary)
     return summaries
 
 
-def program(
-    root: str | Path,
-    stage: int | None = None,
-    progress: Callable[[str], None] | None = None,
-) -> list[TorqueProgram]:
+def program(root: str | Path, stage: int | None = None) -> list[TorqueProgram]:
     """``rsp-inertia program``: :func:`program_summaries`, each run's TorqueProgram only.
 
     Parameters
@@ -85,12 +75,10 @@ def program(
         The experiment folder.
     stage : int, optional
         One stage (from 1); every stage by default.
-    progress : callable, optional
-        Called with each run's summary line (str) as soon as its program is written.
 
     Returns
     -------
     list of rsp_inertia.ocp.program.TorqueProgram
         One per program.csv written, in order.
     """
-    return [summary.details for summary in program_summaries(root, stage, progress)]
+    return [summary.details for summary in program_summaries(root, stage)]

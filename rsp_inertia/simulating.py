@@ -8,7 +8,6 @@ it; each log written is a :class:`rsp_inertia.results.PassSummary`.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +19,7 @@ from rsp_inertia.plant.experiment import Experiment, open_experiment
 from rsp_inertia.plant.files import check_writable
 from rsp_inertia.plant.geometry import turns_past_last_node
 from rsp_inertia.plant.logs import Log, align_counter, read_device_log, read_program, write_log
+from rsp_inertia.plant.progress import say
 from rsp_inertia.plant.virtual import (
     SimulatedPass,
     run_program,
@@ -137,9 +137,10 @@ def simulate(
     *,
     ideal: bool = False,
     direction: str | None = None,
-    progress: Callable[[PassSummary], None] | None = None,
 ) -> list[PassSummary]:
-    """``rsp-inertia simulate``: the virtual device writes the logs of one part.
+    """``rsp-inertia simulate``: the virtual device writes the logs of one part; each pass's
+    summary line goes to the progress (rsp_inertia.plant.progress.say) as soon as its log is
+    written.
 
     Parameters
     ----------
@@ -163,8 +164,6 @@ def simulate(
         Braking and reverse: only this direction, on the stages whose ``directions`` in
         device.toml include it; every direction of each stage by default. Pendulum and pilot
         runs ignore it.
-    progress : callable, optional
-        Called with each pass's summary as soon as it is written.
 
     Returns
     -------
@@ -207,8 +206,7 @@ def simulate(
                 path = exp.pendulum_path(st, k + 1)
                 _write_log(exp, virtual, path, sim.log)
                 summary = _summary(exp, st, f"pendulum at node {k + 1}", path, sim)
-                if progress is not None:
-                    progress(summary)
+                say(str(summary))
                 summaries.append(summary)
             continue
         if part == "pilot":
@@ -216,8 +214,7 @@ def simulate(
             path = exp.pilot_path(st)
             _write_log(exp, virtual, path, sim.log)
             summary = _summary(exp, st, "pilot", path, sim)
-            if progress is not None:
-                progress(summary)
+            say(str(summary))
             summaries.append(summary)
             continue
         directions = exp.device.stages[st - 1].directions if direction is None else (direction,)
@@ -239,7 +236,6 @@ def simulate(
                 path = exp.reverse_path(st, d)
             _write_log(exp, virtual, path, sim.log)
             summary = _summary(exp, st, label, path, sim, d)
-            if progress is not None:
-                progress(summary)
+            say(str(summary))
             summaries.append(summary)
     return summaries
