@@ -94,15 +94,15 @@ def report(task: str, done: float, total: float = 1.0) -> None:
 
 
 @contextmanager
-def reporting(progress: Progress | None) -> Iterator[None]:
-    """Install ``progress`` for the work done inside the block (None: silence); a
-    :class:`TerminalProgress`'s line is erased on leaving it."""
-    token = _channel.set(progress)
+def reporting(channel: Progress | None) -> Iterator[None]:
+    """Install ``channel`` as the progress of the work done inside the block (None:
+    silence); a :class:`TerminalProgress`'s line is erased on leaving it."""
+    token = _channel.set(channel)
     try:
         yield
     finally:
-        if isinstance(progress, TerminalProgress):
-            progress.clear()
+        if isinstance(channel, TerminalProgress):
+            channel.clear()
         _channel.reset(token)
 
 

@@ -513,7 +513,8 @@ def test_stage_directions_default_to_forward_and_may_list_both(tmp_path):
     assert [st.directions for st in device.stages] == [("forward",), ("forward",)]
     both = edited(DEVICE_TOML, STAGE_1_END, STAGE_1_END + 'directions = ["forward", "backward"]\n')
     device = load_device(write(tmp_path, "device.toml", both))
-    assert device.stages[0].directions == ("forward", "backward")
+    assert device.stages[0].directions == (Direction.FORWARD, Direction.BACKWARD)
+    assert all(type(direction) is Direction for direction in device.stages[0].directions)
     back = edited(DEVICE_TOML, STAGE_1_END, STAGE_1_END + 'directions = ["backward"]\n')
     assert load_device(write(tmp_path, "device.toml", back)).stages[0].directions == ("backward",)
 
