@@ -36,6 +36,7 @@ PROTOCOL = ("launch_speed", "braking_torque")
 """A stage's keys that ``rsp-inertia plan`` chooses: device.toml may leave them out until
 plan has written them (:func:`require_protocol`)."""
 
+
 def _distinct(values: tuple, key: str, noun: str, at_least: str) -> None:
     """Refuse an empty list (``at_least``: what it must have) or a repeated ``noun``."""
     if not values:

@@ -171,8 +171,10 @@ def config_class(cls: type) -> type:
         if "doc" not in meta:
             continue
         facts = [f"unit {meta['unit']}"] if meta["unit"] else []
+        bounds = [bound.text for bound in meta["bounds"]]
         choices = _choices(_kind(hints[field.name])[0])
-        bounds = [choices] * bool(choices) + [bound.text for bound in meta["bounds"]]
+        if choices:  # a StrEnum's values, checked first (_convert)
+            bounds.insert(0, choices)
         if bounds:
             facts.append("must be " + " and ".join(bounds))
         if meta["nan"]:
