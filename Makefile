@@ -1,5 +1,7 @@
 # Entry points: `make demo` (the main job), `make test` and `make bench` (the benchmarks). All
-# build .venv from scratch with nothing but python3, so they work on a clean clone and in CI.
+# build .venv from scratch with nothing but python3, so they work on a clean clone and in CI:
+# the package editable with its test and benchmarks extras (tests/test_bench.py runs the
+# benchmarks).
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
@@ -10,7 +12,7 @@ STAMP  := $(VENV)/.installed
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test]'
+	$(BIN)/python -m pip install --quiet -e '.[test,benchmarks]'
 	touch $(STAMP)
 
 demo: $(STAMP)

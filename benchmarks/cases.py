@@ -42,6 +42,7 @@ from rsp_inertia.plant.config import placed_body
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.logs import Log, read_log
+from rsp_inertia.plant.progress import lines_to
 from rsp_inertia.programming import program
 from rsp_inertia.scenarios import create_default_experiment
 from rsp_inertia.simulating import simulate
@@ -264,7 +265,8 @@ def _run_experiment(root: Path, case: Case) -> dict:
     # time between reports is that stage's smoothing (the rest is the fits).
     marks: list[float] = []
     t0 = time.perf_counter()
-    result = identify(root, progress=lambda _text: marks.append(time.perf_counter()))
+    with lines_to(lambda _text: marks.append(time.perf_counter())):
+        result = identify(root)
     row["time_identify"] = time.perf_counter() - t0
     previous = t0
     for stage, mark in zip(stages, marks, strict=False):  # then comes the pendulum's report

@@ -43,6 +43,7 @@ from benchmarks.program import node_mismatch
 from benchmarks.tables import command_line, fmt, table_lines
 from benchmarks.truth import true_moments
 from rsp_inertia.identifying import identify
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.logs import read_program, write_log
@@ -94,9 +95,9 @@ def _run(tmp: Path, base: dict) -> list[dict]:
     brakings = {}
     need_torque = need_rate = 0.0
     for st in range(1, len(device.stages) + 1):
-        brakings[st] = simulate_braking(device, st, virtual, "forward")
-        exp.braking_path(st, "forward").parent.mkdir(parents=True, exist_ok=True)
-        write_log(exp.braking_path(st, "forward"), brakings[st].log)
+        brakings[st] = simulate_braking(device, st, virtual, Direction.FORWARD)
+        exp.braking_path(st, Direction.FORWARD).parent.mkdir(parents=True, exist_ok=True)
+        write_log(exp.braking_path(st, Direction.FORWARD), brakings[st].log)
         ideal = ideal_program(device, st, virtual, brakings[st])
         need_torque = max(need_torque, float(np.max(np.abs(ideal.torque_ff)))
                           / device.motor.torque_limit)
@@ -108,7 +109,7 @@ def _run(tmp: Path, base: dict) -> list[dict]:
     t0 = time.perf_counter()
     for st, braking in brakings.items():
         sim = simulate_ideal_reverse(device, st, virtual, braking)
-        write_log(exp.reverse_path(st, "forward"), sim.log)
+        write_log(exp.reverse_path(st, Direction.FORWARD), sim.log)
     rows.append(base | {"loop": "ideal"} | _score(exp, virtual, time.perf_counter() - t0))
 
     # Closed loop: program from the braking logs, the drive runs it.
@@ -121,9 +122,9 @@ def _run(tmp: Path, base: dict) -> list[dict]:
     t_program = time.perf_counter() - t0
     mismatch = []
     for st, braking in brakings.items():
-        prog = read_program(exp.program_path(st, "forward"), device.encoder)
+        prog = read_program(exp.program_path(st, Direction.FORWARD), device.encoder)
         sim = run_program(device, st, virtual, prog, (braking.truth.end_phi, 0.0))
-        write_log(exp.reverse_path(st, "forward"), sim.log)
+        write_log(exp.reverse_path(st, Direction.FORWARD), sim.log)
         m = node_mismatch(device, st, braking, sim)
         mismatch.append([float(np.median(m)), float(np.max(m))])
     score = _score(exp, virtual, 0.0)

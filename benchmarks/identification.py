@@ -31,6 +31,7 @@ from rsp_inertia.estimation.reading import identify_experiment
 from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs
 from rsp_inertia.estimation.axes import axis_values
 from rsp_inertia.estimation.tensor_fit import fit_tensor
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.files import write_atomic
 from rsp_inertia.plant.virtual import placed_body, simulate_braking, simulate_ideal_reverse
@@ -51,7 +52,8 @@ def _std_with_exact_speeds(exp, virtual, directions: np.ndarray) -> np.ndarray:
         braking = simulate_braking(exp.device, stage, virtual)
         simulated[stage] = (braking, simulate_ideal_reverse(exp.device, stage, virtual, braking))
     logs = ExperimentLogs(
-        exp.device, {(stage, "forward"): (b.log, r.log) for stage, (b, r) in simulated.items()}
+        exp.device,
+        {(stage, Direction.FORWARD): (b.log, r.log) for stage, (b, r) in simulated.items()},
     )
     balances = []
     for bal, passes in zip(balance_runs(logs, warnings=[])[0], simulated.values(), strict=True):

@@ -110,7 +110,7 @@ def run_demo(real: bool) -> dict:
             for folder in (root, empty, reference):
                 _make_real(folder)
         start = time.perf_counter()
-        result = demo(root, progress=None)
+        result = demo(root)
         row = _score(result, root)
         row["dropped"], row["rows"] = _dropped(root)
         row["seconds"] = time.perf_counter() - start

@@ -54,6 +54,7 @@ from benchmarks import RESULTS
 from benchmarks.experiments import default_experiment, load, with_stage
 from benchmarks.tables import command_line, fmt, table_lines
 from rsp_inertia.plant.config import Device, Virtual
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.friction import FRICTION
 
@@ -240,7 +241,7 @@ def log_sizes(root: Path) -> dict:
             sizes["duration"] += duration
             sizes["turns"] += turns
             sizes["rows"] += len(log.t)
-            if (stage, direction, kind) == (1, "forward", "braking"):
+            if (stage, direction, kind) == (1, Direction.FORWARD, "braking"):
                 sizes["braking1"], sizes["turns1"] = duration, turns
     return sizes
 

@@ -102,6 +102,7 @@ from rsp_inertia.plant.config import (
     placed_body,
     write_reference,
 )
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.files import write_atomic
 from rsp_inertia.programming import program
@@ -189,7 +190,7 @@ def _default_folder(root: Path, seed: int, backward_scale: float = 1.0, both: bo
     def device(d: Device) -> Device:
         if not both:
             return d
-        return with_stages(d, lambda st: replace(st, directions=("forward", "backward")))
+        return with_stages(d, lambda st: replace(st, directions=tuple(Direction)))
 
     def virtual(v: Virtual) -> Virtual:
         v = seeded(v, seed)

@@ -353,9 +353,7 @@ def evaluate(
     )
 
 
-def stage_candidates(
-    device: Device, sm: StageModel, max_duration: float, progress=None
-) -> list[Candidate]:
+def stage_candidates(device: Device, sm: StageModel, max_duration: float) -> list[Candidate]:
     """The grid of protocols of one stage (module docstring), each evaluated.
 
     Parameters
@@ -366,8 +364,6 @@ def stage_candidates(
         What the planner knows of the stage.
     max_duration : float
         s, the experiment's longest duration: bounds each braking (half of it per direction).
-    progress : callable, optional
-        Called with each :class:`Candidate` as it is evaluated.
 
     Returns
     -------
@@ -402,8 +398,6 @@ def stage_candidates(
         for torque in dict.fromkeys(_rounded(torques, down=True)):
             c = evaluate(device, sm, speed, torque, max_time)
             out.append(c)
-            if progress is not None:
-                progress(c)
     return out
 
 

@@ -108,7 +108,6 @@ def make_plan(
     device: Device,
     models: list[StageModel],
     max_duration: float,
-    progress=None,
 ) -> Plan:
     """Choose every stage's protocol (module docstring).
 
@@ -119,10 +118,8 @@ def make_plan(
     models : list of StageModel
         What the planner knows of each stage.
     max_duration : float
-        s, the budget: the whole experiment's motion time.
-    progress : callable, optional
-        Called with each :class:`Candidate` as it is evaluated; the stages then run one
-        after the other (without it, in parallel processes, :func:`map_stages`).
+        s, the budget: the whole experiment's motion time. The stages' candidates are
+        evaluated in parallel processes (:func:`map_stages`).
 
     Returns
     -------
@@ -136,10 +133,7 @@ def make_plan(
         no combination fits ``max_duration``.
     """
     per_stage = []
-    if progress is None:
-        found = map_stages(stage_candidates, [(device, sm, max_duration) for sm in models])
-    else:
-        found = [stage_candidates(device, sm, max_duration, progress) for sm in models]
+    found = map_stages(stage_candidates, [(device, sm, max_duration) for sm in models])
     for sm, cands in zip(models, found):
         feasible = [c for c in cands if c.feasible]
         if not feasible:

@@ -30,7 +30,7 @@ a1 a pilot pins only loosely (benchmarks/results/plan.md).
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,6 +47,7 @@ from rsp_inertia.ocp.regulator import OBSERVER_BANDWIDTH
 from rsp_inertia.plant.config import ControllerSettings, Device, Friction, RunSettings, Virtual
 from rsp_inertia.plant.geometry import device_design
 from rsp_inertia.plant.model import ModelParameters, harmonics_matrix, inertia_harmonics
+from rsp_inertia.plant.progress import say
 from rsp_inertia.plant.virtual import run_program, simulate_braking
 
 __all__ = ["Rehearsal", "consistent_models", "rehearse"]
@@ -107,7 +108,6 @@ def rehearse(
     models: Sequence[StageModel],
     chosen: Sequence[Candidate],
     seed: int = 0,
-    progress: Callable[[str], None] | None = None,
 ) -> Rehearsal:
     """Simulate the chosen protocols in closed loop on the models and identify them.
 
@@ -125,8 +125,6 @@ def rehearse(
         The protocol chosen for each stage.
     seed : int, optional
         The noise's random seed.
-    progress : callable, optional
-        Called with a line (str) when the rehearsal starts.
 
     Returns
     -------
@@ -153,8 +151,7 @@ def rehearse(
     for sm, model in zip(models, consistent_models(dev, models)):
         truth[sm.stage - 1] = model
     jobs = [(dev, sm.stage, sm.torque_noise, tuple(truth), seed) for sm in models]
-    if progress is not None:
-        progress(f"rehearsing the plan in closed loop on the nominal model ({len(jobs)} stages)")
+    say(f"rehearsing the plan in closed loop on the nominal model ({len(jobs)} stages)")
     done = map_stages(_rehearse_stage, jobs)
     balances = [b for stage_balances, _, _ in done for b in stage_balances]
     fit = fit_tensor(balances, tests=False)
@@ -199,7 +196,6 @@ def _rehearse_stage(dev: Device, stage: int, torque_noise: float, truth: tuple, 
             dev, braking.log, reverse.log, direction, warnings,
             f"rehearsed {label} braking", f"rehearsed {label} reverse", made.smoothed,
         )
-        sign = 1 if direction == "forward" else -1
-        balances.append(stage_balance(dev, stage, b_est, r_est, sign))
+        balances.append(stage_balance(dev, stage, b_est, r_est, direction.sign))
         labels.append(label)
     return balances, labels, saturated

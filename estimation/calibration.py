@@ -47,7 +47,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -83,6 +82,7 @@ from rsp_inertia.plant.config import Device, TrueBody
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import CALIBRATION_FILE
 from rsp_inertia.plant.model import inertia_basis, inertia_harmonics
+from rsp_inertia.plant.progress import drop, lines_to, say
 
 __all__ = [
     "Calibration",
@@ -356,13 +356,13 @@ def calibrate_logs(
     empty: ExperimentLogs,
     reference: ExperimentLogs | None = None,
     reference_body: TrueBody | None = None,
-    progress: Callable[[str], None] | None = None,
 ) -> Calibration:
     """Calibrate the rig of ``device`` from the empty-fixture and reference experiments' logs.
 
     With a reference the fit repeats on the logs corrected with the encoder's error found so
     far (module docstring). The torsion stiffness comes from the nodes with a pendulum log in
-    both.
+    both. Its lines (rsp_inertia.plant.progress.say): each run balanced, in the first fit
+    only, and each repetition of the fit.
 
     Parameters
     ----------
@@ -374,8 +374,6 @@ def calibrate_logs(
         The reference experiment's logs.
     reference_body : TrueBody, optional
         The reference experiment's known body (reference.toml), with ``reference``.
-    progress : callable, optional
-        Called with a line of text as the calibration goes.
 
     Returns
     -------
@@ -392,11 +390,12 @@ def calibrate_logs(
     for iteration in range(ENCODER_ITERATIONS if reference is not None else 1):
         warnings: list[str] = []
         applied = () if encoder is None else encoder
-        say = progress if iteration == 0 else None
-        empty_bal, _ = balance_runs(empty, warnings, say, applied)
-        ref_bal = None
-        if reference is not None:
-            ref_bal, _ = balance_runs(reference, warnings, say, applied)
+        # The runs' lines from the first balancing only: the repetitions would repeat them.
+        with lines_to(None if iteration == 0 else drop):
+            empty_bal, _ = balance_runs(empty, warnings, applied)
+            ref_bal = None
+            if reference is not None:
+                ref_bal, _ = balance_runs(reference, warnings, applied)
         # The runs' speed-noise scales come from the first fit (taken with the encoder's
         # terms off each run's own fit); the model tests from the fit that is kept.
         known, fit = fit_calibration(
@@ -410,12 +409,11 @@ def calibrate_logs(
         encoder = known.encoder
         if np.all(np.abs(step) <= ENCODER_TOLERANCE * step_std):
             break
-        if progress is not None:
-            largest = float(np.max(np.abs(step) / np.where(step_std > 0, step_std, 1.0)))
-            progress(
-                f"encoder error: correction moved by up to {largest:.2g} std; the logs corrected "
-                f"with it are balanced again (fit {iteration + 2})"
-            )
+        largest = float(np.max(np.abs(step) / np.where(step_std > 0, step_std, 1.0)))
+        say(
+            f"encoder error: correction moved by up to {largest:.2g} std; the logs corrected "
+            f"with it are balanced again (fit {iteration + 2})"
+        )
     known, fit = fit_calibration(
         device, empty_bal, ref_bal, reference_body, applied if len(applied) else None, scales
     )

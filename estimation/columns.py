@@ -21,6 +21,7 @@ from rsp_inertia.estimation.layout import encoder_names
 from rsp_inertia.estimation.model_tests import DRIVE_PROBE, ENCODER_PROBE, PROBE_ORDERS
 from rsp_inertia.plant.model import gravity_basis
 from rsp_inertia.plant.transducers import error_slope_basis
+from rsp_inertia.plant.direction import Direction
 
 __all__ = [
     "both_directions",
@@ -72,9 +73,9 @@ def gravity_rows(phi: np.ndarray) -> np.ndarray:
     return 2 * gravity_basis(phi)
 
 
-def run_key(bal: StageBalance) -> tuple[int, str]:
-    """(stage, "forward" or "backward") of a run."""
-    return bal.stage, "forward" if bal.direction > 0 else "backward"
+def run_key(bal: StageBalance) -> tuple[int, Direction]:
+    """(stage, direction) of a run."""
+    return bal.stage, Direction.of_sign(bal.direction)
 
 
 def format_run(key: tuple[int, str]) -> str:

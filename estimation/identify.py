@@ -23,7 +23,7 @@ The torsion-pendulum baseline (:func:`pendulum_baseline`) reduces the pendulum l
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -48,6 +48,7 @@ from rsp_inertia.plant.geometry import (
     physical_warnings,
 )
 from rsp_inertia.plant.logs import Log
+from rsp_inertia.plant.progress import say
 
 __all__ = [
     "MAX_CONDITION",
@@ -158,7 +159,6 @@ def identify_logs(
     *,
     pendulum_stiffness: tuple[float, float] | None = None,
     warnings: Sequence[str] = (),
-    progress: Callable[[str], None] | None = None,
 ) -> Identification:
     """Identify the tensor (and centre of mass) from every run's braking and reverse logs.
 
@@ -181,8 +181,6 @@ def identify_logs(
         best-practice pendulum; device.toml's ``[pendulum]`` one without it.
     warnings : sequence of str
         Warnings found before (by the reader of the inputs): the result's list starts with them.
-    progress : callable, optional
-        Called with a line as each run is balanced and when the pendulum runs are reduced.
 
     Returns
     -------
@@ -198,13 +196,12 @@ def identify_logs(
     ValueError
         ``logs.runs`` are not the device's runs (rsp_inertia.estimation.runs.balance_runs).
     """
-    say = progress or (lambda _text: None)
     device = logs.device
     warnings = list(warnings)
     # Refused before any log is read: device.toml alone says so. The axes are the device's
     # design (a lambda = 0 stage gives one, whatever its nodes), in its order.
     design = checked_design(device, logs.sources.device)
-    balances, passages = balance_runs(logs, warnings, say, known.encoder, _at_nodes(device, known))
+    balances, passages = balance_runs(logs, warnings, known.encoder, _at_nodes(device, known))
     fit = fit_tensor(balances, known)
     nodes = axis_nodes(device, passages, fit)
     warnings += fit_warnings(fit, balances, device)
@@ -236,7 +233,7 @@ def identify_logs(
     com, com_std = centre_of_mass(device, fit.gravity, gravity_std)
     warnings += physical_warnings(fit.entries, fit.entries_cov)
     pendulum = pendulum_baseline(
-        logs, known, fit.gravity, fit.gravity_cov, pendulum_stiffness, warnings, say
+        logs, known, fit.gravity, fit.gravity_cov, pendulum_stiffness, warnings
     )
     return Identification(
         entries=fit.entries,
@@ -438,7 +435,6 @@ def pendulum_baseline(
     gravity_cov: np.ndarray | None = None,
     stiffness: tuple[float, float] | None = None,
     warnings: list[str] | None = None,
-    progress: Callable[[str], None] | None = None,
 ) -> PendulumResult | None:
     """The torsion-pendulum baseline from the pendulum logs of ``logs`` (one per node run).
 
@@ -464,8 +460,6 @@ def pendulum_baseline(
     warnings : list of str, optional
         A run the best-practice reduction cannot take (too few half cycles) gets None there
         and a line here.
-    progress : callable, optional
-        Called with a line when the pendulum runs are reduced.
 
     Returns
     -------
@@ -520,8 +514,7 @@ def pendulum_baseline(
             logs, pendulum_logs, found, runs, known, gravity, gravity_cov, stiffness, warnings,
             complete,
         )
-    if progress is not None:
-        progress(f"pendulum: {len(runs)} run(s) reduced")
+    say(f"pendulum: {len(runs)} run(s) reduced")
     return PendulumResult(
         runs=runs,
         J_classic=J_classic,

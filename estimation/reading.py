@@ -32,6 +32,7 @@ from rsp_inertia.estimation.results import Identification
 from rsp_inertia.estimation.runs import ExperimentLogs, Sources, runs
 from rsp_inertia.estimation.known_terms import KnownTerms
 from rsp_inertia.plant.config import load_reference
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import Experiment
 from rsp_inertia.plant.files import file_sha256
@@ -50,7 +51,7 @@ __all__ = [
 ]
 
 
-def read_run(exp: Experiment, stage: int, direction: str) -> tuple[Log, Log]:
+def read_run(exp: Experiment, stage: int, direction: Direction) -> tuple[Log, Log]:
     """One run's braking and reverse logs as logged.
 
     Parameters
@@ -59,8 +60,8 @@ def read_run(exp: Experiment, stage: int, direction: str) -> tuple[Log, Log]:
         The experiment folder.
     stage : int
         The stage, 1-based.
-    direction : str
-        ``"forward"`` or ``"backward"``.
+    direction : Direction
+        The run's direction.
 
     Returns
     -------
@@ -198,9 +199,7 @@ def known_terms(
     return device_known_terms(exp.device, source)
 
 
-def identify_experiment(
-    exp: Experiment, progress: Callable[[str], None] | None = None
-) -> Identification:
+def identify_experiment(exp: Experiment) -> Identification:
     """Identify an experiment folder: its logs, calibration and pendulum runs read, then
     rsp_inertia.estimation.identify.identify_logs (its errors and warnings name the files).
     calibration.toml is read once (:func:`read_calibration`)."""
@@ -211,9 +210,7 @@ def identify_experiment(
     stiffness = None
     if calibration is not None and logs.pendulum:
         stiffness = calibration.pendulum_stiffness()
-    return identify_logs(
-        logs, known, pendulum_stiffness=stiffness, warnings=warnings, progress=progress
-    )
+    return identify_logs(logs, known, pendulum_stiffness=stiffness, warnings=warnings)
 
 
 def unterminated_warnings(logs: ExperimentLogs) -> list[str]:
@@ -283,7 +280,6 @@ def calibrate_experiment(
     exp: Experiment,
     empty: Experiment,
     reference: Experiment | None = None,
-    progress: Callable[[str], None] | None = None,
 ) -> Calibration:
     """Calibrate ``exp``'s rig from the empty-fixture and reference experiment folders
     (rsp_inertia.estimation.calibration.calibrate_logs), recording every input file's sha256.
@@ -296,8 +292,6 @@ def calibrate_experiment(
         The empty-fixture calibration folder.
     reference : Experiment, optional
         The reference-body calibration folder (its reference.toml holds the body).
-    progress : callable, optional
-        Called with a line of text as the calibration goes.
 
     Returns
     -------
@@ -318,7 +312,7 @@ def calibrate_experiment(
         body = load_reference(reference.reference_path)
     empty_logs = read_experiment(empty)
     reference_logs = None if reference is None else read_experiment(reference)
-    result = calibrate_logs(exp.device, empty_logs, reference_logs, body, progress)
+    result = calibrate_logs(exp.device, empty_logs, reference_logs, body)
     cut = unterminated_warnings(empty_logs)
     if reference_logs is not None:
         cut += unterminated_warnings(reference_logs)

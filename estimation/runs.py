@@ -20,9 +20,10 @@ from rsp_inertia.estimation.balance import StageBalance, balance_range, stage_ba
 from rsp_inertia.estimation.passes import PassEstimate, estimate_pass
 from rsp_inertia.estimation.smoothing import Smoothed
 from rsp_inertia.plant.config import Device
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.experiment import DEVICE_FILE
 from rsp_inertia.plant.logs import Log, check_braking_monotone, mirror_log
-from rsp_inertia.plant.progress import report
+from rsp_inertia.plant.progress import report, say
 from rsp_inertia.plant.transducers import true_angle
 
 __all__ = [
@@ -48,12 +49,12 @@ class Sources:
     """The experiment's name, prefixing the progress line of each run (None: no prefix)."""
     device: str = DEVICE_FILE
     """The device description."""
-    runs: Mapping[tuple[int, str], tuple[str, str]] = field(default_factory=dict)
+    runs: Mapping[tuple[int, Direction], tuple[str, str]] = field(default_factory=dict)
     """(stage, direction) -> the braking log's and the reverse log's names."""
     pendulum: Mapping[tuple[int, int], str] = field(default_factory=dict)
     """(stage, node from 1) -> the torsion-pendulum log's name."""
 
-    def run(self, stage: int, direction: str) -> tuple[str, str]:
+    def run(self, stage: int, direction: Direction) -> tuple[str, str]:
         """The names of one run's braking and reverse logs ("stage N direction braking" and
         "... reverse" when not given)."""
         label = f"stage {stage} {direction}"
@@ -70,7 +71,7 @@ class ExperimentLogs:
 
     device: Device
     """The device (device.toml)."""
-    runs: Mapping[tuple[int, str], tuple[Log, Log]]
+    runs: Mapping[tuple[int, Direction], tuple[Log, Log]]
     """(stage, direction) -> (braking log, reverse log) of every run of the device, as logged
     (a backward run not mirrored; the reverse's counter continuing the braking's,
     rsp_inertia.plant.logs.align_counter)."""
@@ -80,7 +81,7 @@ class ExperimentLogs:
     """The names messages give the inputs."""
 
 
-def runs(device: Device) -> list[tuple[int, str]]:
+def runs(device: Device) -> list[tuple[int, Direction]]:
     """(stage, direction) of every run of the device, stage by stage."""
     return [
         (stage, direction)
@@ -105,7 +106,7 @@ def corrected_log(log: Log, encoder) -> Log:
 
 
 def run_logs(
-    device: Device, braking: Log, reverse: Log, direction: str, encoder=()
+    device: Device, braking: Log, reverse: Log, direction: Direction, encoder=()
 ) -> tuple[Log, Log]:
     """A run's braking and reverse logs as its passes are estimated: the readings taken back
     to the true angle (:func:`corrected_log`) and a backward run mirrored into the forward
@@ -117,8 +118,8 @@ def run_logs(
         The device (its encoder's quantum).
     braking, reverse : Log
         The run's logs as logged.
-    direction : str
-        "forward" or "backward".
+    direction : Direction
+        The run's direction.
     encoder : sequence of float
         The encoder's error coefficients theta_e (empty: none).
 
@@ -128,7 +129,7 @@ def run_logs(
         The logs in the true angle and the forward coordinate.
     """
     braking, reverse = corrected_log(braking, encoder), corrected_log(reverse, encoder)
-    if direction == "backward":
+    if direction is Direction.BACKWARD:
         q = device.encoder.quantum
         braking, reverse = mirror_log(braking, q), mirror_log(reverse, q)
     return braking, reverse
@@ -138,7 +139,7 @@ def estimate_run(
     device: Device,
     braking: Log,
     reverse: Log,
-    direction: str,
+    direction: Direction,
     warnings: list[str],
     braking_source: str = "braking",
     reverse_source: str = "reverse",
@@ -154,8 +155,8 @@ def estimate_run(
         The device.
     braking, reverse : Log
         The run's logs as logged.
-    direction : str
-        "forward" or "backward".
+    direction : Direction
+        The run's direction.
     warnings : list of str
         Gets what identify warns about the passes.
     braking_source, reverse_source : str
@@ -234,7 +235,7 @@ def checked_run(
     device: Device,
     stage: int,
     pair: tuple[Log, Log],
-    direction: str,
+    direction: Direction,
     warnings: list[str],
     sources: tuple[str, str] = ("braking", "reverse"),
     encoder=(),
@@ -254,8 +255,8 @@ def checked_run(
         Stage number, from 1.
     pair : tuple of Log
         The run's (braking, reverse) logs as logged (:attr:`ExperimentLogs.runs`).
-    direction : str
-        "forward" or "backward".
+    direction : Direction
+        The run's direction.
     warnings : list of str
         Gets what identify warns about the passes.
     sources : tuple of str
@@ -278,14 +279,13 @@ def checked_run(
     # are not kept through the estimation, only the ones estimated (mirrored, corrected).
     del pair
     b_est, r_est = estimate_forward_run(device, braking, reverse, warnings, *sources)
-    balance_range(device, stage, b_est, r_est, 1 if direction == "forward" else -1)
+    balance_range(device, stage, b_est, r_est, direction.sign)
     return b_est, r_est
 
 
 def balance_runs(
     logs: ExperimentLogs,
     warnings: list[str],
-    progress: Callable[[str], None] | None = None,
     encoder=(),
     keep: Callable[[int, int, PassEstimate, PassEstimate], T] | None = None,
 ) -> tuple[list[StageBalance], list[T]]:
@@ -294,7 +294,8 @@ def balance_runs(
 
     One run at a time: its logs are looked up, its passes estimated, balanced and handed to
     ``keep(stage, sign, braking, reverse)`` (sign +1 forward, -1 backward), then let go, so
-    that an experiment's memory is one run's passes whatever its number of runs.
+    that an experiment's memory is one run's passes whatever its number of runs. Each run
+    done is a line and a step of the fraction done (rsp_inertia.plant.progress).
 
     Parameters
     ----------
@@ -302,8 +303,6 @@ def balance_runs(
         The experiment's logs in memory.
     warnings : list of str
         Gets what identify warns about the passes.
-    progress : callable, optional
-        Called with a line when a run is done.
     encoder : sequence of float
         The encoder's error coefficients, taken off every log's readings
         (:func:`corrected_log`).
@@ -335,16 +334,14 @@ def balance_runs(
             device, stage, logs.runs[stage, direction], direction, warnings,
             logs.sources.run(stage, direction), encoder,
         )
-        sign = 1 if direction == "forward" else -1
-        balances.append(stage_balance(device, stage, b_est, r_est, sign))
+        balances.append(stage_balance(device, stage, b_est, r_est, direction.sign))
         if keep is not None:
-            kept.append(keep(stage, sign, b_est, r_est))
+            kept.append(keep(stage, direction.sign, b_est, r_est))
         rows = (len(b_est.log), len(r_est.log))
         del b_est, r_est  # before the next run's logs are read
-        if progress is not None:
-            progress(
-                f"{prefix}stage {stage} {direction}: {rows[0]} + {rows[1]} "
-                "rows smoothed and balanced"
-            )
+        say(
+            f"{prefix}stage {stage} {direction}: {rows[0]} + {rows[1]} "
+            "rows smoothed and balanced"
+        )
         report("runs smoothed and balanced", k, len(expected))
     return balances, kept

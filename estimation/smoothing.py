@@ -614,8 +614,8 @@ def smooth_log(log: Log, quantum: float, source: str = "log") -> Smoothed:
     F_of = np.stack([_transition(T) for T in lengths])  # indexed per step, not stacked per step
     Q_of = [_process_noise(T, q_j) for T in lengths]
     readings = functools.partial(_block_readings, t, z, centres, block, variance)
-    progress = functools.partial(report, f"{source}: smoothing")
-    means, covs, predicted = _kalman_filter(x0, P0, F_of, Q_of, which, readings, progress)
+    task = f"{source}: smoothing"
+    means, covs, predicted = _kalman_filter(x0, P0, F_of, Q_of, which, readings, task)
     xs, speed_var = _rts_smoother(means, covs, predicted, F_of, which)
     del means, covs, predicted, readings, z  # before the rows' arrays are made
 
@@ -684,7 +684,7 @@ def _block_readings(
     return A, b, reference
 
 
-def _kalman_filter(x0, P0, F_of, Q_of, which, readings, progress):
+def _kalman_filter(x0, P0, F_of, Q_of, which, readings, task):
     """The forward Kalman filter over the block states, its update in information form.
 
     State k's prediction (x, P~) from state k - 1 is (F x, F P F^T + Q); the update adds block
@@ -693,7 +693,8 @@ def _kalman_filter(x0, P0, F_of, Q_of, which, readings, progress):
     (z_ref the block's reference reading). That is the update with the block's B readings
     (the Kalman gain through their B x B innovation covariance) rearranged: it needs 3 x 3
     matrices only. The sums A_k, b_k come vectorised, _BLOCKS_CHUNK blocks at a time;
-    ``progress(done, total)`` is called with the blocks done before each chunk.
+    the blocks done before each chunk are reported as ``task``'s progress
+    (rsp_inertia.plant.progress.report).
 
     State 0 is the start (x0, P0) itself, not updated: the start is the least-squares fit of
     the first blocks' readings, block 0's among them (filterpy's UKF, which this filter
@@ -711,7 +712,7 @@ def _kalman_filter(x0, P0, F_of, Q_of, which, readings, progress):
     identity = np.eye(3)
     x, P = np.asarray(x0, dtype=float), P0
     for start in range(0, n, _BLOCKS_CHUNK):
-        progress(start, n)
+        report(task, start, n)
         A, b, reference = readings(slice(start, min(start + _BLOCKS_CHUNK, n)))
         for j in range(A.shape[0]):
             k = start + j
@@ -729,7 +730,7 @@ def _kalman_filter(x0, P0, F_of, Q_of, which, readings, progress):
             x = x + P @ (b[j] - A[j] @ shifted)
             means[k] = x
             covs[k] = P
-    progress(n, n)
+    report(task, n, n)
     return means, covs, predicted
 
 

@@ -25,6 +25,7 @@ from rsp_inertia.ocp.nominal import fit_nominal_with_covariance
 from rsp_inertia.ocp.reference import Mirror, mirror
 from rsp_inertia.ocp.regulator import bandwidth, lqr_gains
 from rsp_inertia.plant.config import Device
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.logs import (
     Log,
     Program,
@@ -111,7 +112,7 @@ def make_program(
     braking: Log,
     source: str = "braking.csv",
     nominal: ModelParameters | None = None,
-    direction: str = "forward",
+    direction: Direction = Direction.FORWARD,
 ) -> TorqueProgram:
     """The torque program that drives stage ``stage`` back along the mirror of its braking.
 
@@ -127,7 +128,7 @@ def make_program(
         Names the log in messages.
     nominal : ModelParameters, optional
         Use this nominal model instead of fitting one (tests of robustness perturb it).
-    direction : {"forward", "backward"}
+    direction : Direction
         A backward braking (phi decreasing) is solved in the mirrored coordinate -phi, where it
         is a forward one (rsp_inertia.plant.logs.mirror_log; the spring's zero angle mirrored
         with it), and its program mirrored back: phi_ref, omega_ref and the feedforward
@@ -145,7 +146,7 @@ def make_program(
         not positive, or a mirror the motor cannot drive
         (rsp_inertia.ocp.feedforward.check_mirror).
     """
-    if direction == "backward":
+    if direction is Direction.BACKWARD:
         result = make_program(
             mirrored_device(device),
             stage,

@@ -12,6 +12,7 @@ from rsp_inertia.plant.lazy import lazy_names
 _HOMES = {
     "InputError": "errors",
     "Device": "config",
+    "Direction": "direction",
     "Virtual": "config",
     "load_device": "config",
     "load_reference": "config",
@@ -59,6 +60,7 @@ __all__ = [
     "MODEL",
     "AxisDesign",
     "Device",
+    "Direction",
     "Experiment",
     "GimbalModel",
     "InputError",

@@ -31,7 +31,6 @@ A variation of an experiment is a changed config instance written back::
 
 from rsp_inertia.plant.device_config import (
     DEFAULT_GRAVITY,
-    DIRECTIONS,
     PROTOCOL,
     REQUIRED_AXES,
     ROTATION_TOLERANCE,
@@ -66,7 +65,6 @@ from rsp_inertia.plant.virtual_config import (
 
 __all__ = [
     "DEFAULT_GRAVITY",
-    "DIRECTIONS",
     "PROTOCOL",
     "REQUIRED_AXES",
     "ROTATION_TOLERANCE",

@@ -14,6 +14,7 @@ import os
 
 import numpy as np
 
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.toml_schema import (
@@ -36,10 +37,6 @@ PROTOCOL = ("launch_speed", "braking_torque")
 """A stage's keys that ``rsp-inertia plan`` chooses: device.toml may leave them out until
 plan has written them (:func:`require_protocol`)."""
 
-DIRECTIONS = ("forward", "backward")
-"""Directions of a stage's run: forward, phi increases during the braking pass and decreases
-during its reverse pass; backward, the other way round."""
-
 
 def _distinct(values: tuple, key: str, noun: str, at_least: str) -> None:
     """Refuse an empty list (``at_least``: what it must have) or a repeated ``noun``."""
@@ -54,7 +51,7 @@ def _distinct_nodes(nodes: tuple[float, ...], key: str) -> None:
     _distinct(nodes, key, "node", "have at least one node")
 
 
-def _distinct_directions(directions: tuple[str, ...], key: str) -> None:
+def _distinct_directions(directions: tuple[Direction, ...], key: str) -> None:
     _distinct(directions, key, "direction", "name at least one direction")
 
 
@@ -174,12 +171,8 @@ class Stage:
         "``motor.torque_limit`` (the motor applies it). None (left out): ``plan`` chooses it; "
         "every command that runs the protocol needs it (:func:`require_protocol`).",
     )
-    directions: tuple[str, ...] = key(
-        ("forward",),
-        bound=Bound(
-            "one of " + ", ".join(repr(name) for name in DIRECTIONS),
-            lambda name: name in DIRECTIONS,
-        ),
+    directions: tuple[Direction, ...] = key(
+        (Direction.FORWARD,),
         check=_distinct_directions,
         doc="Directions the stage is run in, distinct, at least one: forward (phi increases "
         "while braking), backward (phi decreases while braking), or both.",

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rsp_inertia.plant import transducers
-from rsp_inertia.plant.config import DIRECTIONS, Stage, Virtual
+from rsp_inertia.plant.config import Stage, Virtual
 from rsp_inertia.plant.integrate import Pair, advance
 from rsp_inertia.plant.logs import Log
 from rsp_inertia.plant.transducers import delivered_torque
@@ -42,7 +42,6 @@ __all__ = [
     "SimulatedPass",
     "SpeedObserver",
     "braking_torque",
-    "direction_sign",
     "encoder_reading",
     "jittered",
     "logged",
@@ -63,13 +62,6 @@ STREAM_DROPS = 200
 """Added to a pass's stream for the rows its logger drops (``[logger] dropped_fraction``)."""
 
 
-def direction_sign(direction: str) -> float:
-    """s = +1.0 for a forward run, -1.0 for a backward one (docs/method.md §4 mirrored)."""
-    if direction not in DIRECTIONS:
-        raise ValueError(f"direction must be one of {DIRECTIONS}, got {direction!r}")
-    return 1.0 if direction == "forward" else -1.0
-
-
 def braking_torque(stage: Stage, virtual: Virtual, s: float) -> tuple[float, float]:
     """The braking pass's motor torque, N m: (the logged command, the torque the body receives).
 
@@ -85,7 +77,8 @@ def braking_torque(stage: Stage, virtual: Virtual, s: float) -> tuple[float, flo
     virtual : Virtual
         The virtual device; its ``[rig]`` drive gains give h_b.
     s : float
-        Direction of the motion, +1.0 forward, -1.0 backward (:func:`direction_sign`).
+        Direction of the motion, +1.0 forward, -1.0 backward
+        (:attr:`rsp_inertia.plant.direction.Direction.sign`).
 
     Returns
     -------

@@ -26,13 +26,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from rsp_inertia.plant.config import (
-    DIRECTIONS,
     Device,
     Virtual,
     load_device,
     load_virtual,
     require_protocol,
 )
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.errors import InputError
 
 __all__ = [
@@ -94,23 +94,21 @@ class Experiment:
         self.check_stage(stage)
         return self.root / f"stage{stage}"
 
-    def _pass_path(self, stage: int, name: str, direction: str) -> Path:
+    def _pass_path(self, stage: int, name: str, direction: Direction) -> Path:
         """``stageN/name.csv`` for a forward run, ``stageN/name_backward.csv`` backward."""
-        if direction not in DIRECTIONS:
-            raise ValueError(f"direction must be one of {DIRECTIONS}, got {direction!r}")
-        suffix = "" if direction == "forward" else f"_{direction}"
+        suffix = "" if direction is Direction.FORWARD else f"_{direction}"
         return self.stage_dir(stage) / f"{name}{suffix}.csv"
 
-    def braking_path(self, stage: int, direction: str = "forward") -> Path:
-        """``stageN/braking.csv``, or ``stageN/braking_backward.csv`` for ``"backward"``."""
+    def braking_path(self, stage: int, direction: Direction = Direction.FORWARD) -> Path:
+        """``stageN/braking.csv``, or ``stageN/braking_backward.csv`` backward."""
         return self._pass_path(stage, "braking", direction)
 
-    def program_path(self, stage: int, direction: str = "forward") -> Path:
-        """``stageN/program.csv``, or ``stageN/program_backward.csv`` for ``"backward"``."""
+    def program_path(self, stage: int, direction: Direction = Direction.FORWARD) -> Path:
+        """``stageN/program.csv``, or ``stageN/program_backward.csv`` backward."""
         return self._pass_path(stage, "program", direction)
 
-    def reverse_path(self, stage: int, direction: str = "forward") -> Path:
-        """``stageN/reverse.csv``, or ``stageN/reverse_backward.csv`` for ``"backward"``."""
+    def reverse_path(self, stage: int, direction: Direction = Direction.FORWARD) -> Path:
+        """``stageN/reverse.csv``, or ``stageN/reverse_backward.csv`` backward."""
         return self._pass_path(stage, "reverse", direction)
 
     def pilot_path(self, stage: int) -> Path:

@@ -19,6 +19,7 @@ from typing import Protocol
 
 import numpy as np
 
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.errors import InputError
 
 __all__ = [
@@ -562,7 +563,9 @@ def check_grid(path: str | os.PathLike, phi: np.ndarray, encoder: EncoderLike) -
         )
 
 
-def check_direction(path: str | os.PathLike, phi: np.ndarray, kind: str, direction: str) -> None:
+def check_direction(
+    path: str | os.PathLike, phi: np.ndarray, kind: str, direction: Direction
+) -> None:
     """A forward braking runs up from the release to rest and its reverse pass back down; a
     backward run is the other way round.
 
@@ -574,8 +577,8 @@ def check_direction(path: str | os.PathLike, phi: np.ndarray, kind: str, directi
         The log's angle column.
     kind : str
         One of rsp_inertia.plant.logs.LOG_KINDS; only a braking and a reverse are checked.
-    direction : str
-        "forward" or "backward", the stage's run.
+    direction : Direction
+        The stage's run.
 
     Raises
     ------
@@ -585,15 +588,15 @@ def check_direction(path: str | os.PathLike, phi: np.ndarray, kind: str, directi
     if kind not in ("braking", "reverse"):
         return
     last_line = len(phi) + 1
-    increases = (kind == "braking") == (direction == "forward")
+    increases = (kind == "braking") == (direction is Direction.FORWARD)
     if (phi[-1] > phi[0]) if increases else (phi[-1] < phi[0]):
         return
     run = "a braking" if kind == "braking" else "a reverse"
-    if direction == "backward":
+    if direction is Direction.BACKWARD:
         run = f"a backward {kind}"
     end = "larger" if increases else "smaller"
     why = ""
-    if direction == "backward":
+    if direction is Direction.BACKWARD:
         moves = "increases" if increases else "decreases"
         why = f" (phi {moves} during a backward {kind})"
     raise InputError(

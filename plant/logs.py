@@ -22,7 +22,8 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from rsp_inertia.plant.config import DIRECTIONS, Device
+from rsp_inertia.plant.config import Device
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.files import write_atomic
 from rsp_inertia.plant.log_checks import (
@@ -229,7 +230,7 @@ def read_log(
     path: str | os.PathLike,
     encoder: EncoderLike,
     kind: str,
-    direction: str = "forward",
+    direction: Direction = Direction.FORWARD,
     torque_limit: float | None = None,
     launch_speed: float | None = None,
 ) -> Log:
@@ -250,10 +251,9 @@ def read_log(
     kind : {"braking", "reverse", "pendulum", "pilot"}
         Which run (``LOG_KINDS``): a forward braking must end at a larger phi than it starts,
         its reverse at a smaller one; a pendulum or pilot run may go either way.
-    direction : {"forward", "backward"}
-        The direction of the stage's run (``rsp_inertia.plant.config.DIRECTIONS``): a
-        backward braking must end at a smaller phi than it starts, its reverse at a larger
-        one. Pendulum and pilot runs ignore it.
+    direction : Direction
+        The direction of the stage's run: a backward braking must end at a smaller phi than
+        it starts, its reverse at a larger one. Pendulum and pilot runs ignore it.
     torque_limit : float, optional
         N m, device.toml's ``motor.torque_limit``: a torque beyond
         rsp_inertia.plant.log_checks.TORQUE_MARGIN times it is refused (physically
@@ -284,8 +284,6 @@ def read_log(
     """
     if kind not in LOG_KINDS:
         raise ValueError(f"kind must be one of {LOG_KINDS}, got {kind!r}")
-    if direction not in DIRECTIONS:
-        raise ValueError(f"direction must be one of {DIRECTIONS}, got {direction!r}")
     if read_header(path) == list(COUNT_COLUMNS):
         t, counts, torque = read_table(path, COUNT_COLUMNS).T
         phi = unwrap_counts(path, counts, encoder) * float(encoder.quantum)
@@ -302,7 +300,10 @@ def read_log(
 
 
 def read_device_log(
-    path: str | os.PathLike, device: Device, kind: str, direction: str = "forward"
+    path: str | os.PathLike,
+    device: Device,
+    kind: str,
+    direction: Direction = Direction.FORWARD,
 ) -> Log:
     """:func:`read_log` with every check the device allows: its encoder, its motor's
     ``torque_limit`` and the fastest ``launch_speed`` of its stages (what no run of it can
@@ -316,7 +317,9 @@ def read_device_log(
         The log (header ``t,phi,torque`` or ``t,counts,torque``).
     device : Device
         device.toml's gimbal (rsp_inertia.plant.config.Device).
-    kind, direction : str
+    kind : str
+        As for :func:`read_log`.
+    direction : Direction
         As for :func:`read_log`.
 
     Returns

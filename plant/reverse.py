@@ -14,6 +14,7 @@ import math
 import numpy as np
 
 from rsp_inertia.plant.config import Device, Virtual
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.drive import (
     STREAM_CLOCK,
     STREAM_REVERSE,
@@ -22,7 +23,6 @@ from rsp_inertia.plant.drive import (
     SimulatedPass,
     SpeedObserver,
     braking_torque,
-    direction_sign,
     encoder_reading,
     logged,
     sampling_instants,
@@ -57,7 +57,7 @@ def run_program(
     start: tuple[float, float],
     *,
     ideal: bool = False,
-    direction: str = "forward",
+    direction: Direction = Direction.FORWARD,
     coarse: bool = False,
 ) -> SimulatedPass:
     """Execute ``program`` in closed loop on the virtual device (docs/files.md, program.csv).
@@ -96,7 +96,7 @@ def run_program(
         state instead of the encoder and the speed observer, and u applied physically exactly
         (the log records the command that gives u: u / h_d driving, u / h_b back-driven).
         The log is still the encoder's.
-    direction : {"forward", "backward"}
+    direction : Direction
         The direction of the stage's run whose reverse pass this is; it only selects the
         pass's noise stream (the motion follows the program, in whichever direction).
     coarse : bool
@@ -110,7 +110,7 @@ def run_program(
     SimulatedPass
         The log and the true states; ``truth.torque`` is the physical torque.
     """
-    s = direction_sign(direction)
+    s = float(direction.sign)
     pair = true_pair(device, stage, virtual)
     gains = virtual.rig.drive_gains
     reading_error = virtual.rig.encoder_error
@@ -230,7 +230,7 @@ def ideal_program(
     stage: int,
     virtual: Virtual,
     braking: SimulatedPass,
-    direction: str = "forward",
+    direction: Direction = Direction.FORWARD,
 ) -> Program:
     """The exact mirror of a simulated braking pass, as a program (docs/method.md §4).
 
@@ -253,7 +253,7 @@ def ideal_program(
         The virtual device's truth.
     braking : SimulatedPass
         The braking pass of ``direction`` (:func:`rsp_inertia.plant.virtual.simulate_braking`).
-    direction : {"forward", "backward"}
+    direction : Direction
         The direction of the braking: a backward braking's mirror moves phi up.
 
     Returns
@@ -266,7 +266,7 @@ def ideal_program(
     ValueError
         The braking pass does not run in ``direction``.
     """
-    s = direction_sign(direction)
+    s = float(direction.sign)
     if not braking.truth.omega[0] * s > 0.0:
         raise ValueError(f"the braking pass does not run {direction}")
     st = device.stages[stage - 1]
@@ -310,7 +310,7 @@ def simulate_ideal_reverse(
     stage: int,
     virtual: Virtual,
     braking: SimulatedPass,
-    direction: str = "forward",
+    direction: Direction = Direction.FORWARD,
 ) -> SimulatedPass:
     """The ideal reverse pass: the exact mirror driven by an ideal drive.
 
@@ -331,7 +331,7 @@ def simulate_ideal_reverse(
         The virtual device's truth.
     braking : SimulatedPass
         The braking pass of ``direction``; the reverse starts at its rest point.
-    direction : {"forward", "backward"}
+    direction : Direction
         The braking's direction (a backward braking's mirror moves phi up); it selects the
         pass's noise stream.
 

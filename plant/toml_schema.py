@@ -4,7 +4,8 @@ A config class is a frozen dataclass made by :func:`config_class`; each field th
 file holds is made by :func:`key`, and that field is the whole contract of its key:
 
 - the TOML key is the field's name (``name=`` where the file spells it otherwise);
-- the type is the annotation: ``float`` (integers accepted), ``int``, ``str``, ``bool``;
+- the type is the annotation: ``float`` (integers accepted), ``int``, ``str``, ``bool``,
+  or a ``StrEnum`` (a string, one of its values, read as its member);
   ``tuple[float, ...]``, ``tuple[str, ...]`` or ``np.ndarray`` for an array (``names=``
   fixes its length and names its entries in messages; it may be empty unless a check
   refuses that); ``tuple[tuple[float, ...], ...]`` for a matrix (an array of arrays of
@@ -33,6 +34,7 @@ from __future__ import annotations
 import codecs
 import copy
 import dataclasses
+import enum
 import functools
 import inspect
 import math
@@ -163,13 +165,18 @@ def config_class(cls: type) -> type:
     """Make ``cls`` a frozen dataclass and document its keys in an Attributes section."""
     cls = dataclasses.dataclass(frozen=True)(cls)
     lines = []
+    hints = typing.get_type_hints(cls)
     for field in dataclasses.fields(cls):
         meta = field.metadata
         if "doc" not in meta:
             continue
         facts = [f"unit {meta['unit']}"] if meta["unit"] else []
-        if meta["bounds"]:
-            facts.append("must be " + " and ".join(bound.text for bound in meta["bounds"]))
+        bounds = [bound.text for bound in meta["bounds"]]
+        choices = _choices(_kind(hints[field.name])[0])
+        if choices:  # a StrEnum's values, checked first (_convert)
+            bounds.insert(0, choices)
+        if bounds:
+            facts.append("must be " + " and ".join(bounds))
         if meta["nan"]:
             facts.append("may be nan")
         default = field.default if field.default is not REQUIRED else meta["absent"]
@@ -194,7 +201,7 @@ class Key:
     field: str
     name: str
     kind: type
-    """float, int, str, bool, or a config class (a table)."""
+    """float, int, str, bool, a StrEnum, or a config class (a table)."""
     array: bool
     """An array of ``kind`` (of values, or of tables); a matrix too."""
     default: Any
@@ -393,7 +400,7 @@ def _entry(value: Any, dotted: str, entry: Key) -> Any:
 
 def _array(values: Any, dotted: str, entry: Key) -> tuple:
     """An array's entries, each converted and checked against the key's bounds."""
-    noun = "strings" if entry.kind is str else "numbers"
+    noun = "strings" if issubclass(entry.kind, str) else "numbers"
     if not isinstance(values, list):
         raise ContentError(dotted, f"must be an array of {noun}, got {_describe(values)}")
     names = entry.meta["names"]
@@ -470,9 +477,13 @@ def _known(table: dict[str, Any], where: str, allowed: set[str]) -> None:
 def _convert(value: Any, kind: type, key: str, nan: bool = False) -> Any:
     """Check the TOML type of ``value``; integers are accepted as floats, booleans never;
     NaN only where ``nan``."""
-    if kind is str:
+    if issubclass(kind, str):
         if not isinstance(value, str):
             raise ContentError(key, f"must be a string, got {_describe(value)}")
+        if issubclass(kind, enum.StrEnum):
+            if value not in kind._value2member_map_:
+                raise ContentError(key, f"must be {_choices(kind)}, got {value!r}")
+            return kind(value)
         return value
     if kind is bool:
         if not isinstance(value, bool):
@@ -488,6 +499,13 @@ def _convert(value: Any, kind: type, key: str, nan: bool = False) -> Any:
     if not (math.isfinite(value) or (nan and math.isnan(value))):
         raise ContentError(key, f"must be finite, got {value!r}")
     return value
+
+
+def _choices(kind: type) -> str:
+    """"one of 'a', 'b'" for a StrEnum's values; "" for any other type."""
+    if not (isinstance(kind, type) and issubclass(kind, enum.StrEnum)):
+        return ""
+    return "one of " + ", ".join(repr(member.value) for member in kind)
 
 
 def _describe(value: Any) -> str:

@@ -36,6 +36,7 @@ import math
 import numpy as np
 
 from rsp_inertia.plant.config import Device, Stage, Virtual, placed_body
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.drive import (
     STREAM_BRAKING,
     STREAM_BRAKING_BACKWARD,
@@ -46,7 +47,6 @@ from rsp_inertia.plant.drive import (
     SimulatedPass,
     SpeedObserver,
     braking_torque,
-    direction_sign,
     encoder_reading,
     jittered,
     logged,
@@ -131,7 +131,7 @@ def release_angle(stage: Stage, virtual: Virtual) -> float:
 
 
 def simulate_braking(
-    device: Device, stage: int, virtual: Virtual, direction: str = "forward"
+    device: Device, stage: int, virtual: Virtual, direction: Direction = Direction.FORWARD
 ) -> SimulatedPass:
     """The braking pass of docs/method.md §4 for stage ``stage`` (1-based).
 
@@ -151,9 +151,8 @@ def simulate_braking(
         The stage number, from 1.
     virtual : Virtual
         The virtual device's truth.
-    direction : {"forward", "backward"}
-        The direction of the run (``rsp_inertia.plant.config.DIRECTIONS``); each has its
-        own noise stream.
+    direction : Direction
+        The direction of the run; each has its own noise stream.
 
     Returns
     -------
@@ -165,7 +164,7 @@ def simulate_braking(
     InputError
         If the body does not stop within ``MAX_BRAKING_TIME``.
     """
-    s = direction_sign(direction)
+    s = float(direction.sign)
     st = device.stages[stage - 1]
     p = true_parameters(device, stage, virtual, s).vector
     dt = device.encoder.dt

@@ -18,7 +18,8 @@ module re-exports them, so ``rsp_inertia.api.IdentifyResult`` and
 Bad input raises :class:`~rsp_inertia.plant.errors.InputError`, whose message is the line
 the command line prints after ``rsp-inertia: error:``. Nothing is printed: what the command
 line shows while it works goes to the optional ``progress`` callable, one line (a ``str``)
-at a time.
+at a time (rsp_inertia.plant.progress.lines_to: without it, to the progress installed around
+the call, none by default).
 
 This module is the package's lazy boundary: each function imports its command's module
 when it is called, and the result classes load on first use (module ``__getattr__``), so
@@ -35,6 +36,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from rsp_inertia.plant.errors import InputError  # public: raised by every function
+from rsp_inertia.plant.progress import lines_to
 from rsp_inertia.public import API_NAMES, RESULT_CLASSES
 
 if TYPE_CHECKING:
@@ -69,11 +71,6 @@ def __getattr__(name: str):
 
 Progress = Callable[[str], None]
 """A callable that receives each progress line (str) as the command line would print it."""
-
-
-def _quiet(progress: Progress | None) -> Progress:
-    """The progress callable, or one that drops the lines (a library does not print)."""
-    return progress if progress is not None else (lambda _text: None)
 
 
 def _identify_figures(result: IdentifyResult) -> list[tuple[str, Figure]]:
@@ -122,7 +119,8 @@ def identify(path: str | Path, *, progress: Progress | None = None) -> IdentifyR
     from rsp_inertia.identifying import identify as run
     from rsp_inertia.results import IdentifyResult
 
-    identification = run(path, progress=_quiet(progress))
+    with lines_to(progress):
+        identification = run(path)
     return IdentifyResult(identification, Path(path), drawer=_identify_figures)
 
 
@@ -167,7 +165,8 @@ def demo(
     from rsp_inertia.results import IdentifyResult
     from rsp_inertia.rig_demo import demo as run
 
-    result = run(path, progress=_quiet(progress))
+    with lines_to(progress):
+        result = run(path)
     exp = open_experiment(path)
     truth = np.array(placed_body(exp.device, exp.load_virtual()).inertia, dtype=float)
     return IdentifyResult(result, Path(path), truth, drawer=_identify_figures)
@@ -227,10 +226,8 @@ def simulate(
     from rsp_inertia.results import SimulateResult
     from rsp_inertia.simulating import simulate as run
 
-    say = _quiet(progress)
-    passes = run(
-        path, stage, part, ideal=ideal, direction=direction, progress=lambda s: say(str(s))
-    )
+    with lines_to(progress):
+        passes = run(path, stage, part, ideal=ideal, direction=direction)
     return SimulateResult(tuple(passes), Path(path))
 
 
@@ -270,7 +267,8 @@ def program(
     from rsp_inertia.programming import program_summaries
     from rsp_inertia.results import ProgramResult
 
-    runs = program_summaries(path, stage, progress=_quiet(progress))
+    with lines_to(progress):
+        runs = program_summaries(path, stage)
     return ProgramResult(tuple(runs), Path(path))
 
 
@@ -326,7 +324,9 @@ def calibrate(
     from rsp_inertia.calibrating import calibrate as run
     from rsp_inertia.calibrating import calibrate_result
 
-    return calibrate_result(run(path, empty, reference, progress=_quiet(progress)), path)
+    with lines_to(progress):
+        calibration = run(path, empty, reference)
+    return calibrate_result(calibration, path)
 
 
 def plan(
@@ -378,7 +378,8 @@ def plan(
 
     if max_duration is not None:
         max_duration = float(max_duration)  # as the command line parses it
-    return run(path, max_duration, progress=_quiet(progress), rehearse=rehearse)
+    with lines_to(progress):
+        return run(path, max_duration, rehearse=rehearse)
 
 
 # --- check, report, create_experiment -------------------------------------------------------

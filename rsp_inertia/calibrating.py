@@ -8,7 +8,6 @@ object made (:class:`rsp_inertia.results.CalibrateResult`).
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from pathlib import Path
 
 from rsp_inertia.estimation.calibration import Calibration
@@ -27,7 +26,6 @@ def calibrate(
     path: str | Path,
     empty: str | Path,
     reference: str | Path | None = None,
-    progress: Callable[[str], None] | None = None,
 ) -> Calibration:
     """The command behind :func:`rsp_inertia.api.calibrate`, documented there; returns the
     library's record (rsp_inertia.estimation.calibration.Calibration), which
@@ -38,7 +36,6 @@ def calibrate(
         exp,
         open_experiment(empty),
         None if reference is None else open_experiment(reference),
-        progress,
     )
     write_calibration_file(exp.calibration_path, result.to_file())
     save_figures(encoder_figures(result), exp.root)

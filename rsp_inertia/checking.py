@@ -51,6 +51,7 @@ from rsp_inertia.estimation.reading import known_terms, read_calibration, read_r
 from rsp_inertia.estimation.runs import checked_run
 from rsp_inertia.estimation.smoothing import top_speed
 from rsp_inertia.plant.config import Device, load_reference, require_protocol
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import Experiment, open_experiment
 from rsp_inertia.plant.geometry import turns_past_last_node
@@ -133,7 +134,11 @@ def check(path: str | Path, calibration: bool = False) -> CheckResult:
 
 
 def _try_read(
-    findings: Findings, path: Path, device: Device, kind: str, direction: str = "forward"
+    findings: Findings,
+    path: Path,
+    device: Device,
+    kind: str,
+    direction: Direction = Direction.FORWARD,
 ) -> Log | None:
     """The log read as identify reads it (the device's encoder and torque limit), or None
     with an ``error`` line; a ``suspicious`` line when its last line has no line end (the
@@ -160,7 +165,13 @@ def _check_last_line(findings: Findings, path: Path) -> None:
 
 
 def _check_timing(
-    exp: Experiment, stage: int, direction: str, path: Path, log, findings: Findings, nodes: bool
+    exp: Experiment,
+    stage: int,
+    direction: Direction,
+    path: Path,
+    log,
+    findings: Findings,
+    nodes: bool,
 ) -> None:
     """A log's sampling: dropped samples and jitter (a line when there are any); with
     ``nodes``, a gap near a node that identify would refuse
@@ -182,10 +193,12 @@ def _check_timing(
         )
     if not nodes or missing.max(initial=0) <= NODE_GAP_SAMPLES:
         return
-    forward = log if direction == "forward" else mirror_log(log, exp.device.encoder.quantum)
-    sign = 1 if direction == "forward" else -1
+    q = exp.device.encoder.quantum
+    forward = log if direction is Direction.FORWARD else mirror_log(log, q)
     try:
-        check_node_gaps(exp.device, stage, forward, str(path), direction=sign, dropped=missing)
+        check_node_gaps(
+            exp.device, stage, forward, str(path), direction=direction.sign, dropped=missing
+        )
     except InputError as error:
         _add(
             findings,
@@ -194,7 +207,9 @@ def _check_timing(
         )
 
 
-def _check_run(exp: Experiment, stage: int, direction: str, encoder, findings: Findings) -> None:
+def _check_run(
+    exp: Experiment, stage: int, direction: Direction, encoder, findings: Findings
+) -> None:
     """One stage in one direction: braking, program, reverse. The two logs are read as
     identify reads them (rsp_inertia.estimation.reading.read_run; each alone, to say which
     and why, when that fails) and checked as identify checks them before its fit
@@ -202,7 +217,7 @@ def _check_run(exp: Experiment, stage: int, direction: str, encoder, findings: F
     ``encoder``)."""
     device = exp.device
     run = f"stage {stage} {direction}"
-    option = "" if direction == "forward" else f" --direction {direction}"
+    option = "" if direction is Direction.FORWARD else f" --direction {direction}"
     b_path = exp.braking_path(stage, direction)
     p_path = exp.program_path(stage, direction)
     r_path = exp.reverse_path(stage, direction)
@@ -290,7 +305,7 @@ def _check_run(exp: Experiment, stage: int, direction: str, encoder, findings: F
 def _check_braking(
     exp: Experiment,
     stage: int,
-    direction: str,
+    direction: Direction,
     path: Path,
     braking: Log,
     findings: Findings,
@@ -303,7 +318,8 @@ def _check_braking(
     device = exp.device
     st = device.stages[stage - 1]
     _check_timing(exp, stage, direction, path, braking, findings, nodes)
-    forward = braking if direction == "forward" else mirror_log(braking, device.encoder.quantum)
+    q = device.encoder.quantum
+    forward = braking if direction is Direction.FORWARD else mirror_log(braking, q)
     usable = True
     try:
         check_braking_monotone(forward, str(path))

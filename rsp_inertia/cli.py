@@ -7,9 +7,10 @@ no function among the package's names, calls :func:`rsp_inertia.api.axis_designs
 Bad input (:class:`rsp_inertia.plant.errors.InputError`) becomes one line on stderr and exit
 status 2, and so does running out of memory (a MemoryError anywhere: the line names the
 command, its experiment folders and their logs' rows); argparse's own usage errors exit with
-2 as well. ``identify``, ``calibrate`` and
-``demo`` show their long work's progress on stderr when it is a terminal
-(:class:`rsp_inertia.plant.progress.TerminalProgress`); in a pipe they print only their lines.
+2 as well. Every command's progress goes to a
+:class:`rsp_inertia.plant.progress.TerminalProgress`: its lines on stdout and, for
+``identify``, ``calibrate`` and ``demo``, the fraction done of their long work on stderr
+when it is a terminal; in a pipe they print only their lines.
 """
 
 from __future__ import annotations
@@ -21,49 +22,49 @@ from pathlib import Path
 import rsp_inertia
 from rsp_inertia import api
 from rsp_inertia.plant import progress
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.errors import InputError
 
 
-def _say(text: object) -> None:
-    """The progress callable of every command: one line on stdout, at once (the terminal's
-    progress line erased first, so that the two never share a line)."""
-    progress.clear()
-    print(text, flush=True)
+def _terminal(fractions: bool = True):
+    """The progress of a command's work (its lines; with ``fractions``, its fraction done),
+    installed for the block."""
+    return progress.reporting(progress.TerminalProgress(fractions=fractions))
 
 
 def _cmd_demo(args: argparse.Namespace) -> None:
-    with progress.reporting(progress.TerminalProgress()):
-        rsp_inertia.demo(args.exp, progress=_say)
+    with _terminal():
+        rsp_inertia.demo(args.exp)
 
 
 def _cmd_simulate(args: argparse.Namespace) -> None:
-    rsp_inertia.simulate(
-        args.exp, args.stage, args.part, ideal=args.ideal, direction=args.direction,
-        progress=_say,
-    )
+    with _terminal(fractions=False):
+        rsp_inertia.simulate(
+            args.exp, args.stage, args.part, ideal=args.ideal, direction=args.direction
+        )
 
 
 def _cmd_program(args: argparse.Namespace) -> None:
-    rsp_inertia.program(args.exp, args.stage, progress=_say)
+    with _terminal(fractions=False):
+        rsp_inertia.program(args.exp, args.stage)
 
 
 def _cmd_plan(args: argparse.Namespace) -> None:
-    print(
-        rsp_inertia.plan(
-            args.exp, args.max_duration, rehearse=not args.no_rehearsal, progress=_say
-        )
-    )
+    # No fraction line: plan's stages run in forked processes, which would share it.
+    with _terminal(fractions=False):
+        result = rsp_inertia.plan(args.exp, args.max_duration, rehearse=not args.no_rehearsal)
+    print(result)
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> None:
-    with progress.reporting(progress.TerminalProgress()):
-        result = rsp_inertia.calibrate(args.exp, args.empty, args.reference, progress=_say)
+    with _terminal():
+        result = rsp_inertia.calibrate(args.exp, args.empty, args.reference)
     print(result)
 
 
 def _cmd_identify(args: argparse.Namespace) -> None:
-    with progress.reporting(progress.TerminalProgress()):
-        result = rsp_inertia.identify(args.exp, progress=_say)
+    with _terminal():
+        result = rsp_inertia.identify(args.exp)
     print(result)
 
 
@@ -127,7 +128,7 @@ def _parser() -> argparse.ArgumentParser:
         help="with --part reverse: the exact mirror on an ideal drive (no program needed)",
     )
     p.add_argument(
-        "--direction", choices=("forward", "backward"), default=None,
+        "--direction", choices=tuple(Direction), default=None,
         help="only the runs in this direction (default: every direction of each stage)",
     )
     p.set_defaults(run=_cmd_simulate)
@@ -239,13 +240,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"rsp-inertia: error: {error}", file=sys.stderr)
         return 2
     except MemoryError:
-        progress.clear()
         print(f"rsp-inertia: error: {_out_of_memory(args)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         # Every output is written atomically (rsp_inertia.plant.files.write_atomic): an
         # interrupted command leaves the files it had not finished as they were.
-        progress.clear()
         print(f"rsp-inertia: interrupted: {args.command} stopped; nothing half-written",
               file=sys.stderr)
         return 130

@@ -10,7 +10,6 @@ sha256 as identify read them (rsp_inertia.provenance). Its result object is
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
@@ -23,16 +22,14 @@ from rsp_inertia.provenance import make_provenance
 __all__ = ["identify"]
 
 
-def identify(
-    path: str | Path, progress: Callable[[str], None] | None = None
-) -> Identification:
+def identify(path: str | Path) -> Identification:
     """The command behind :func:`rsp_inertia.api.identify`, documented there; returns the
     library's record (rsp_inertia.estimation.results.Identification), which the API views as
     its IdentifyResult."""
     exp = open_experiment(path)
     check_writable(exp.result_path)
     provenance = make_provenance("identify", exp.root, exp.identify_inputs())
-    result = identify_experiment(exp, progress)
+    result = identify_experiment(exp)
     result = replace(result, provenance=provenance)
     write_atomic(exp.result_path, result.to_json())
     return result

@@ -16,7 +16,6 @@ device.toml does state is only evaluated beside the plan, for comparison.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -35,6 +34,7 @@ from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.files import check_writable
+from rsp_inertia.plant.progress import say
 from rsp_inertia.plots import plan_figure, plan_figures
 from rsp_inertia.results.plan import PlanResult
 
@@ -108,7 +108,6 @@ def _axial_guess(sm: StageModel, device: Device) -> float:
 def plan(
     path: str | Path,
     max_duration: float | None = None,
-    progress: Callable[[str], None] | None = None,
     rehearse: bool = True,
 ) -> PlanResult:
     """The command behind :func:`rsp_inertia.api.plan`, documented there (and in this
@@ -126,22 +125,21 @@ def plan(
     if not max_duration > 0:
         raise InputError(f"--max-duration: must be > 0, got {max_duration!r}")
     models = stage_models(path)
-    if progress is not None:
-        for sm in models:
-            m = sm.model
-            progress(
-                f"stage {sm.stage}: model from {sm.source}: M0 {m.inertia_harmonics[0]:.4g} "
-                f"kg m^2, friction a1 {m.coulomb:.3g} N m (up to {sm.coulomb:.3g}), a2 "
-                f"{m.viscous:.3g} N m s, a3 {m.quadratic:.3g} N m s^2, torque noise "
-                f"{sm.torque_noise:.3g} N m"
-            )
+    for sm in models:
+        m = sm.model
+        say(
+            f"stage {sm.stage}: model from {sm.source}: M0 {m.inertia_harmonics[0]:.4g} "
+            f"kg m^2, friction a1 {m.coulomb:.3g} N m (up to {sm.coulomb:.3g}), a2 "
+            f"{m.viscous:.3g} N m s, a3 {m.quadratic:.3g} N m s^2, torque noise "
+            f"{sm.torque_noise:.3g} N m"
+        )
     made = make_plan(device, models, max_duration)
     old = [(st.launch_speed, st.braking_torque, st.release_angle_deg) for st in device.stages]
     write_protocols(exp.device_path, device, made.chosen)
     rehearsal, rehearsal_error = None, None
     if rehearse:
         try:
-            rehearsal = run_rehearsal(device, models, made.chosen, progress=progress)
+            rehearsal = run_rehearsal(device, models, made.chosen)
         except InputError as exc:
             rehearsal_error = str(exc)
     predicted = rehearsal.axis_std if rehearsal is not None else made.axis_std

@@ -8,13 +8,13 @@ feedforward torque and regulator gains at the encoder's rate); each program writ
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from pathlib import Path
 
 from rsp_inertia.ocp.program import TorqueProgram, make_program
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.files import check_writable
 from rsp_inertia.plant.logs import read_device_log, write_program
+from rsp_inertia.plant.progress import say
 from rsp_inertia.results.program import ProgramSummary
 
 __all__ = ["program", "program_summaries"]
@@ -23,7 +23,6 @@ __all__ = ["program", "program_summaries"]
 def program_summaries(
     path: str | Path,
     stage: int | None = None,
-    progress: Callable[[str], None] | None = None,
 ) -> list[ProgramSummary]:
     """The command behind :func:`rsp_inertia.api.program`, documented there; returns the
     runs' records (rsp_inertia.results.ProgramSummary), which the API holds in its
@@ -44,8 +43,7 @@ def program_summaries(
             out = exp.program_path(st, direction)
             write_program(out, result.program)
             summary = ProgramSummary(st, direction, out, result)
-            if progress is not None:
-                progress(str(summary))
+            say(str(summary))
             summaries.append(summary)
     return summaries
 
@@ -53,8 +51,7 @@ def program_summaries(
 def program(
     path: str | Path,
     stage: int | None = None,
-    progress: Callable[[str], None] | None = None,
 ) -> list[TorqueProgram]:
     """:func:`program_summaries`, each run's library record only (the command behind
     :func:`rsp_inertia.api.program`, documented there)."""
-    return [summary.details for summary in program_summaries(path, stage, progress)]
+    return [summary.details for summary in program_summaries(path, stage)]

@@ -9,7 +9,6 @@ not named ``demo``: ``rsp_inertia.demo`` is the API's function.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +22,7 @@ from rsp_inertia.plant.config import placed_body
 from rsp_inertia.plant.experiment import CALIBRATION_FILE, open_experiment
 from rsp_inertia.plant.files import write_atomic
 from rsp_inertia.plant.geometry import relative_errors
+from rsp_inertia.plant.progress import drop, lines_to, say
 from rsp_inertia.plots import demo_figures
 from rsp_inertia.programming import program
 from rsp_inertia.results.identify import format_identification
@@ -35,9 +35,7 @@ DEFAULT_EXPERIMENT = Path("demo-experiment")
 """Where ``rsp-inertia demo`` builds its experiment when no folder is given."""
 
 
-def demo(
-    path: str | Path = DEFAULT_EXPERIMENT, progress: Callable[[str], None] | None = None
-) -> Identification:
+def demo(path: str | Path = DEFAULT_EXPERIMENT) -> Identification:
     """The command behind :func:`rsp_inertia.api.demo`, documented there; returns the
     calibrated identification's library record (the API adds the truth).
 
@@ -48,22 +46,24 @@ def demo(
     without calibration (its warnings and error shown); ``calibrate``; the identification,
     printed against the virtual device's true tensor, with figures; then the body mounted
     again, turned 90 deg about x, identified on the calibrated rig, and both mountings
-    combined.
+    combined. Its lines go to the progress (rsp_inertia.plant.progress.say); those of the
+    identification without calibration, of ``calibrate`` and of the second mounting's
+    identification do not.
     """
-    say = progress or (lambda _text: None)
     root, empty, reference = create_rig_experiment(path)
     say(f"experiment folder: {root}; calibration runs: {empty}, {reference}")
     for folder in (empty, reference, root):
-        simulate(folder, part="braking", progress=lambda s: say(str(s)))
-        program(folder, progress=say)
-        simulate(folder, part="reverse", progress=lambda s: say(str(s)))
+        simulate(folder, part="braking")
+        program(folder)
+        simulate(folder, part="reverse")
     for folder in (empty, reference, root):  # calibration folders: the torsion element's runs
         if open_experiment(folder).device.pendulum is not None:
-            simulate(folder, part="pendulum", progress=lambda s: say(str(s)))
+            simulate(folder, part="pendulum")
     exp = open_experiment(root)
     truth = placed_body(exp.device, exp.load_virtual())
     exp.calibration_path.unlink(missing_ok=True)
-    raw = identify(root)
+    with lines_to(drop):
+        raw = identify(root)
     say(
         "without calibration: worst tensor error / largest moment "
         f"{np.abs(relative_errors(raw.entries, truth.inertia)).max():.1e}, warnings:"
@@ -71,8 +71,10 @@ def demo(
     for warning in raw.warnings:
         say(f"  {warning}")
     say(f"rsp-inertia calibrate {root} --empty {empty} --reference {reference}")
-    say(str(calibrate(root, empty, reference)))
-    result = identify(root, progress=say)
+    with lines_to(drop):
+        calibration = calibrate(root, empty, reference)
+    say(str(calibration))
+    result = identify(root)
     say(format_identification(result, truth.inertia))
     figures = save_figures(demo_figures(exp, result), exp.root)
     say(f"figures -> {', '.join(str(p) for p in figures)}")
@@ -83,10 +85,11 @@ def demo(
     second = create_second_mounting(root)
     say(f"second mounting: {second}, the body turned 90 deg about x, on the calibrated rig")
     write_atomic(second / CALIBRATION_FILE, exp.calibration_path.read_text())
-    simulate(second, part="braking", progress=lambda s: say(str(s)))
-    program(second, progress=say)
-    simulate(second, part="reverse", progress=lambda s: say(str(s)))
-    identify(second)
+    simulate(second, part="braking")
+    program(second)
+    simulate(second, part="reverse")
+    with lines_to(drop):
+        identify(second)
     combination, body = combine([root, second], root / "body")
     say(str(combination))
     true_body = exp.load_virtual().body  # body axes, about the body frame's origin

@@ -8,17 +8,18 @@ it; each log written is a :class:`rsp_inertia.results.PassSummary`.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
-from rsp_inertia.plant.config import DIRECTIONS, Virtual
+from rsp_inertia.plant.config import Virtual
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import Experiment, open_experiment
 from rsp_inertia.plant.files import check_writable
 from rsp_inertia.plant.geometry import turns_past_last_node
 from rsp_inertia.plant.logs import Log, align_counter, read_device_log, read_program, write_log
+from rsp_inertia.plant.progress import say
 from rsp_inertia.plant.virtual import (
     SimulatedPass,
     run_program,
@@ -41,7 +42,7 @@ def _summary(
     part: str,
     path: Path,
     sim: SimulatedPass,
-    direction: str = "forward",
+    direction: Direction = Direction.FORWARD,
 ) -> PassSummary:
     log = sim.log
     past = None
@@ -60,7 +61,7 @@ def _summary(
 
 
 def _check_simulate_outputs(
-    exp: Experiment, stages: list[int], part: str, direction: str | None
+    exp: Experiment, stages: list[int], part: str, direction: Direction | None
 ) -> None:
     """Refuse, before any run is simulated, a log that :func:`simulate` could not write
     (rsp_inertia.plant.files.check_writable): in a stage folder that exists, each log; else
@@ -96,7 +97,7 @@ def _write_log(exp: Experiment, virtual: Virtual, path: Path, log: Log) -> None:
 
 
 def _braking_truth(
-    exp: Experiment, stage: int, virtual: Virtual, direction: str = "forward"
+    exp: Experiment, stage: int, virtual: Virtual, direction: Direction = Direction.FORWARD
 ) -> SimulatedPass:
     """Re-run the (deterministic) braking pass of ``direction`` and check it is the one on disk.
 
@@ -136,21 +137,19 @@ def simulate(
     *,
     ideal: bool = False,
     direction: str | None = None,
-    progress: Callable[[PassSummary], None] | None = None,
 ) -> list[PassSummary]:
     """The command behind :func:`rsp_inertia.api.simulate`, documented there; returns the
     passes' records (rsp_inertia.results.PassSummary), which the API holds in its
-    SimulateResult, and hands ``progress`` each of them (not its line). Braking and reverse
-    need every stage's protocol in device.toml (rsp_inertia.plant.config.require_protocol);
-    pendulum and pilot runs do not, and ignore ``direction``."""
+    SimulateResult, and says each one's line (rsp_inertia.plant.progress.say) as soon as its
+    log is written. Braking and reverse need every stage's protocol in device.toml
+    (rsp_inertia.plant.config.require_protocol); pendulum and pilot runs do not, and ignore
+    ``direction``."""
     if part not in PARTS:
         raise InputError(f"--part: must be one of {', '.join(PARTS)}, got {part!r}")
     if ideal and part != "reverse":
         raise InputError("--ideal goes with --part reverse")
-    if direction is not None and direction not in DIRECTIONS:
-        raise InputError(
-            f"--direction: must be one of {', '.join(DIRECTIONS)}, got {direction!r}"
-        )
+    if direction is not None:
+        direction = Direction.parse(direction, "--direction")
     exp = open_experiment(path, protocol=part in ("braking", "reverse"))
     virtual = exp.load_virtual()
     stages = exp.stages(stage)
@@ -174,8 +173,7 @@ def simulate(
                 log_path = exp.pendulum_path(st, k + 1)
                 _write_log(exp, virtual, log_path, sim.log)
                 summary = _summary(exp, st, f"pendulum at node {k + 1}", log_path, sim)
-                if progress is not None:
-                    progress(summary)
+                say(str(summary))
                 summaries.append(summary)
             continue
         if part == "pilot":
@@ -183,8 +181,7 @@ def simulate(
             log_path = exp.pilot_path(st)
             _write_log(exp, virtual, log_path, sim.log)
             summary = _summary(exp, st, "pilot", log_path, sim)
-            if progress is not None:
-                progress(summary)
+            say(str(summary))
             summaries.append(summary)
             continue
         directions = exp.device.stages[st - 1].directions if direction is None else (direction,)
@@ -206,7 +203,6 @@ def simulate(
                 log_path = exp.reverse_path(st, d)
             _write_log(exp, virtual, log_path, sim.log)
             summary = _summary(exp, st, label, log_path, sim, d)
-            if progress is not None:
-                progress(summary)
+            say(str(summary))
             summaries.append(summary)
     return summaries

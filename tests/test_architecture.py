@@ -414,3 +414,112 @@ def test_a_heavy_import_in_a_result_is_found() -> None:
     )
     assert _third_party(source) - LIGHT_PACKAGES == {"matplotlib"}
     assert len(RESULT_MODULES) == 10  # the package, the shared module, eight commands
+
+
+# --- one representation each: the direction of a run, the progress of the work --------------
+
+ROOT = Path(__file__).resolve().parent.parent
+
+WORDS = {"forward", "backward"}
+"""The direction's words: only rsp_inertia.plant.direction turns them into meaning."""
+
+
+def _direction_restatements(source: str) -> list[int]:
+    """Lines of ``source`` that restate the direction's conversion instead of using
+    :class:`rsp_inertia.plant.direction.Direction`: a comparison with one of its words
+    (``direction == "forward"``, the first step of ``1 if direction == "forward" else -1``),
+    a choice between its words (``"forward" if s > 0 else "backward"``), or its words listed
+    (``("forward", "backward")``)."""
+
+    def word(node: ast.AST) -> bool:
+        return isinstance(node, ast.Constant) and node.value in WORDS
+
+    lines = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Compare) and any(map(word, [node.left, *node.comparators])):
+            lines.append(node.lineno)
+        elif isinstance(node, ast.IfExp) and (word(node.body) or word(node.orelse)):
+            lines.append(node.lineno)
+        elif isinstance(node, (ast.Tuple, ast.List, ast.Set)) and {
+            element.value for element in node.elts if word(element)
+        } == WORDS:
+            lines.append(node.lineno)
+    return sorted(set(lines))
+
+
+def _sources() -> dict[str, Path]:
+    """The installed package's modules, the tests and the benchmarks."""
+    files = dict(MODULES)
+    for folder in ("tests", "benchmarks"):
+        files |= {str(path.relative_to(ROOT)): path for path in (ROOT / folder).rglob("*.py")}
+    return files
+
+
+def test_the_direction_is_converted_in_one_place() -> None:
+    """The direction of a run is a Direction everywhere: its words are parsed once where they
+    enter (device.toml, --direction, the API's direction=) and its sign is Direction.sign."""
+    # The type itself, its test, and this check name the words.
+    homes = {
+        MODULES["rsp_inertia.plant.direction"],
+        ROOT / "tests" / "plant" / "test_direction.py",
+        Path(__file__).resolve(),
+    }
+    found = {
+        name: lines
+        for name, path in _sources().items()
+        if path.resolve() not in homes and (lines := _direction_restatements(path.read_text()))
+    }
+    assert found == {}, f"the direction restated (use rsp_inertia.plant.direction): {found}"
+
+
+def test_a_restated_direction_is_found() -> None:
+    source = (
+        'sign = 1 if direction == "forward" else -1\n'
+        'name = "forward" if bal.direction > 0 else "backward"\n'
+        'DIRECTIONS = ("forward", "backward")\n'
+        "sign = direction.sign\n"
+        'path = exp.braking_path(1, Direction.BACKWARD)\n'
+    )
+    assert _direction_restatements(source) == [1, 2, 3]
+
+
+def _progress_channels(name: str, source: str) -> list[str]:
+    """What in module ``name`` makes a second way for progress: a function that takes a
+    ``progress`` callable (only the API's functions do, and hand it to
+    rsp_inertia.plant.progress.lines_to), or a context variable of its own."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            arguments = node.args.posonlyargs + node.args.args + node.args.kwonlyargs
+            if name != "rsp_inertia.api" and any(a.arg == "progress" for a in arguments):
+                found.append(f"line {node.lineno}: {node.name}(progress)")
+        elif isinstance(node, (ast.Import, ast.ImportFrom)):
+            modules = [a.name for a in node.names] if isinstance(node, ast.Import) else [
+                node.module or ""
+            ]
+            if "contextvars" in modules and name != "rsp_inertia.plant.progress":
+                found.append(f"line {node.lineno}: imports contextvars")
+    return found
+
+
+@pytest.mark.parametrize("name", sorted(MODULES))
+def test_progress_travels_through_one_channel(name: str) -> None:
+    """Lines and fractions alike go through rsp_inertia.plant.progress (say, report) to the
+    one Progress installed; no function passes a progress callable along."""
+    assert _progress_channels(name, MODULES[name].read_text()) == []
+
+
+def test_a_second_progress_channel_is_found() -> None:
+    source = (
+        "import contextvars\n"
+        "def balance_runs(logs, warnings, progress=None):\n"
+        "    say(str(logs))\n"
+        "def identify(path, *, progress=None):\n"
+        "    pass\n"
+    )
+    assert _progress_channels("rsp_inertia.estimation.runs", source) == [
+        "line 1: imports contextvars",
+        "line 2: balance_runs(progress)",
+        "line 4: identify(progress)",
+    ]
+    assert _progress_channels("rsp_inertia.api", "def identify(path, *, progress=None): ...\n") == []

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar
 
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.results.common import Records, json_text
 
 if TYPE_CHECKING:
@@ -22,8 +23,8 @@ class ProgramSummary:
 
     stage: int
     """Stage number, from 1."""
-    direction: str
-    """'forward' or 'backward'."""
+    direction: Direction
+    """The run's direction."""
     path: Path
     """The program.csv written."""
     details: TorqueProgram
@@ -32,7 +33,7 @@ class ProgramSummary:
 
     def __str__(self) -> str:
         prog = self.details.program
-        label = "" if self.direction == "forward" else f" {self.direction}"
+        label = "" if self.direction is Direction.FORWARD else f" {self.direction}"
         return (
             f"stage {self.stage}{label}: program: {len(prog.t)} rows over {prog.t[-1]:.2f} s, "
             f"peak torque {abs(prog.torque_ff).max():.3f} N m, k_phi "

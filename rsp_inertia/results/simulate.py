@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import ClassVar
 
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.results.common import Records, json_text
 
 __all__ = ["PassSummary", "SimulateResult"]
@@ -29,11 +30,11 @@ class PassSummary:
     """Turns covered by the pass (encoder angle span / 2 pi)."""
     turns_past_last_node: float | None
     """Braking only: turns after the first passage of the stage's last node."""
-    direction: str = "forward"
-    """Direction of the stage's run, 'forward' or 'backward' (pendulum runs: 'forward')."""
+    direction: Direction = Direction.FORWARD
+    """Direction of the stage's run (pendulum and pilot runs: forward)."""
 
     def __str__(self) -> str:
-        part = self.part if self.direction == "forward" else f"{self.part} {self.direction}"
+        part = self.part if self.direction is Direction.FORWARD else f"{self.part} {self.direction}"
         text = (
             f"stage {self.stage}: {part}: {self.duration:.2f} s, {self.rows} rows, "
             f"{self.turns:.2f} turns"

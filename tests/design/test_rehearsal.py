@@ -17,6 +17,7 @@ from rsp_inertia.estimation.reading import read_run
 from rsp_inertia.estimation.runs import estimate_run
 from rsp_inertia.ocp.program import make_program
 from rsp_inertia.plant.config import ControllerSettings, Friction, RunSettings, Virtual
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.geometry import axis_direction, design_matrix, entries_from_tensor
 from rsp_inertia.plant.model import inertia_harmonics
@@ -87,11 +88,11 @@ def test_estimate_run_reuses_the_programs_smoothing(tmp_path):
     simulate(root, part="braking", stage=1)
     simulate(root, part="reverse", stage=1, ideal=True)
     exp = open_experiment(root)
-    braking, reverse = read_run(exp, 1, "forward")
-    b_read, r_read = estimate_run(exp.device, braking, reverse, "forward", [])
+    braking, reverse = read_run(exp, 1, Direction.FORWARD)
+    b_read, r_read = estimate_run(exp.device, braking, reverse, Direction.FORWARD, [])
     made = make_program(exp.device, 1, braking)
     b_mem, r_mem = estimate_run(
-        exp.device, braking, reverse, "forward", [], braking_smoothed=made.smoothed
+        exp.device, braking, reverse, Direction.FORWARD, [], braking_smoothed=made.smoothed
     )
     np.testing.assert_array_equal(b_mem.smoothed.omega, b_read.smoothed.omega)
     np.testing.assert_array_equal(b_mem.work, b_read.work)

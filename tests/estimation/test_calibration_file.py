@@ -533,7 +533,7 @@ def test_identify_reads_the_calibration_once(tmp_path, monkeypatch):
     exp = open_experiment(root)
     handed = {}
 
-    def estimator(logs, known, *, pendulum_stiffness, warnings, progress):
+    def estimator(logs, known, *, pendulum_stiffness, warnings):
         handed.update(known=known, stiffness=pendulum_stiffness, warnings=warnings)
         return "identified"
 

@@ -32,6 +32,7 @@ from rsp_inertia.estimation.smoothing import (
 )
 from rsp_inertia.ocp.nominal import fit_nominal
 from rsp_inertia.plant import virtual as vd
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.logs import Log
 from rsp_inertia.plant.transducers import encoder_reading
 
@@ -65,7 +66,7 @@ def coarse_brakings(default_device, default_virtual):
         )
         virtual = replace(default_virtual, run=replace(default_virtual.run, seed=1))
         for stage in (1, 2):
-            braking = vd.simulate_braking(device, stage, virtual, "forward")
+            braking = vd.simulate_braking(device, stage, virtual, Direction.FORWARD)
             out[bits, stage] = (device, virtual, braking, smooth_log(braking.log, device.encoder.quantum))
     return out
 

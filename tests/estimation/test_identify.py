@@ -23,6 +23,7 @@ from rsp_inertia.estimation.runs import ExperimentLogs
 from rsp_inertia.identifying import identify
 from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.config import load_device, write_device
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.geometry import device_design, relative_errors, tensor_from_entries
 from rsp_inertia.plant.logs import read_log, write_log
@@ -71,7 +72,7 @@ def test_identify_logs_takes_the_logs_in_memory(ideal, monkeypatch):
     for stage in (1, 2):
         braking = vd.simulate_braking(device, stage, virtual)
         reverse = vd.simulate_ideal_reverse(device, stage, virtual, braking)
-        runs[stage, "forward"] = (braking.log, reverse.log)
+        runs[stage, Direction.FORWARD] = (braking.log, reverse.log)
     known, warnings = device_known_terms(device)
 
     def no_file(*args, **kwargs):

@@ -38,6 +38,7 @@ from rsp_inertia.estimation.smoothing import (
 from rsp_inertia.plant.logs import Log
 from rsp_inertia.plant.progress import reporting
 from tests.estimation.conftest import STAGES
+from tests.plant.test_progress import Recorder
 
 
 @pytest.fixture(scope="module")
@@ -199,7 +200,7 @@ def test_the_kalman_smoother_solves_the_least_squares_of_its_model():
     x0, P0 = np.array([z[0], 5.0, -4.0]), np.diag([q * q, 1.0, 100.0])
     readings = functools.partial(_block_readings, t, z, centres, block, q * q / 12)
     which = np.arange(n - 1)  # every step its own transition
-    means, covs, predicted = _kalman_filter(x0, P0, F, Q, which, readings, lambda *_: None)
+    means, covs, predicted = _kalman_filter(x0, P0, F, Q, which, readings, "smoothing")
     xs, speed_var = _rts_smoother(means, covs, predicted, F, which)
 
     A, b, reference = readings(slice(0, n))
@@ -230,8 +231,9 @@ def test_the_kalman_smoother_solves_the_least_squares_of_its_model():
 
 
 def test_smoothing_reports_its_progress(default_device, default_brakings):
-    seen = []
-    with reporting(lambda task, fraction: seen.append((task, fraction))):
+    recorder = Recorder()
+    with reporting(recorder):
         smooth_log(default_brakings[1].log, default_device.encoder.quantum, "braking.csv")
+    seen = recorder.fractions
     assert {task for task, _ in seen} == {"braking.csv: smoothing"}
     assert seen[0][1] == 0.0 and seen[-1][1] == 1.0

@@ -26,6 +26,7 @@ from rsp_inertia.estimation.tensor_fit import fit_tensor
 from rsp_inertia.identifying import identify
 from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.config import Pendulum, load_device, write_device
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.geometry import axis_direction, tensor_from_entries
 from rsp_inertia.plant.logs import mirror_log
@@ -46,12 +47,12 @@ def _fit(device, virtual, directions):
         for direction in directions:
             braking = vd.simulate_braking(device, stage, virtual, direction=direction)
             reverse = vd.simulate_ideal_reverse(device, stage, virtual, braking, direction)
-            b, r, sign = braking.log, reverse.log, 1
-            if direction == "backward":
-                b, r, sign = mirror_log(b, q), mirror_log(r, q), -1
+            b, r = braking.log, reverse.log
+            if direction is Direction.BACKWARD:
+                b, r = mirror_log(b, q), mirror_log(r, q)
             b_est = estimate_pass(b, q, "braking", constant_torque=True)
             r_est = estimate_pass(r, q, "reverse", sigma_torque=b_est.sigma_torque)
-            balances.append(stage_balance(device, stage, b_est, r_est, sign))
+            balances.append(stage_balance(device, stage, b_est, r_est, direction.sign))
     fit = fit_tensor(balances)
     axes = np.array(
         [
@@ -74,7 +75,7 @@ def asymmetric(default_device, default_virtual):
 
 
 def test_two_directions_cancel_direction_dependent_friction(default_device, asymmetric):
-    fit, J, J_std, J_true = _fit(default_device, asymmetric, ("forward", "backward"))
+    fit, J, J_std, J_true = _fit(default_device, asymmetric, tuple(Direction))
     assert np.all(np.abs(J / J_true - 1) < 1e-4)  # the benchmark's target
     assert np.all(np.abs(J - J_true) < 3 * J_std)  # the std is a promise
     assert not any(test.significant for test in fit.tests)
@@ -86,7 +87,7 @@ def test_two_directions_cancel_direction_dependent_friction(default_device, asym
 
 
 def test_one_direction_under_asymmetric_friction_warns(default_device, asymmetric):
-    fit, J, J_std, J_true = _fit(default_device, asymmetric, ("forward",))
+    fit, J, J_std, J_true = _fit(default_device, asymmetric, (Direction.FORWARD,))
     # The result is off by many std (the physics: one direction cannot tell the asymmetry
     # from a different inertia) ...
     assert np.max(np.abs(J - J_true) / J_std) > 3
@@ -298,7 +299,7 @@ def _realisations(virtual, n: int, entropy: int):
 def test_two_direction_stds_match_the_scatter(default_device, asymmetric):
     squares = []
     for virtual in _realisations(asymmetric, N_MONTE_CARLO, entropy=9):
-        _, J, J_std, J_true = _fit(default_device, virtual, ("forward", "backward"))
+        _, J, J_std, J_true = _fit(default_device, virtual, tuple(Direction))
         squares.append(((J - J_true) / J_std) ** 2)
     mean_sq = float(np.mean(squares))
     # The six axial moments of one realisation are correlated (one tensor); the least

@@ -37,6 +37,7 @@ from rsp_inertia.plant.config import (
     write_reference,
     write_virtual,
 )
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.errors import InputError
 
 # The example of docs/files.md: the paper's icosahedron design, two stages of three nodes.
@@ -512,7 +513,8 @@ def test_stage_directions_default_to_forward_and_may_list_both(tmp_path):
     assert [st.directions for st in device.stages] == [("forward",), ("forward",)]
     both = edited(DEVICE_TOML, STAGE_1_END, STAGE_1_END + 'directions = ["forward", "backward"]\n')
     device = load_device(write(tmp_path, "device.toml", both))
-    assert device.stages[0].directions == ("forward", "backward")
+    assert device.stages[0].directions == (Direction.FORWARD, Direction.BACKWARD)
+    assert all(type(direction) is Direction for direction in device.stages[0].directions)
     back = edited(DEVICE_TOML, STAGE_1_END, STAGE_1_END + 'directions = ["backward"]\n')
     assert load_device(write(tmp_path, "device.toml", back)).stages[0].directions == ("backward",)
 
@@ -1034,7 +1036,9 @@ def stages(draw, torque_limit: float):
                 launch_speed=draw(maybe(positive)),
                 braking_torque=draw(maybe(st.floats(0.0, torque_limit))),
                 directions=draw(
-                    st.sampled_from([("forward",), ("backward",), ("backward", "forward")])
+                    st.sampled_from(
+                        [(Direction.FORWARD,), (Direction.BACKWARD,), tuple(reversed(Direction))]
+                    )
                 ),
                 tare_inertia_std=draw(maybe(non_negative)),
                 release_angle_deg=draw(maybe(finite)),

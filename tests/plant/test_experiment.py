@@ -12,6 +12,7 @@ import pytest
 
 from rsp_inertia import scenarios, simulating
 from rsp_inertia.plant import experiment
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.logs import read_log
@@ -36,16 +37,14 @@ def short_experiment(root: Path, directions: str) -> Path:
 def test_backward_files_sit_beside_the_forward_ones(tmp_path):
     exp = open_experiment(scenarios.create_default_experiment(tmp_path))
     stage1 = tmp_path / "stage1"
-    assert exp.braking_path(1) == exp.braking_path(1, "forward") == stage1 / "braking.csv"
-    assert exp.program_path(1, "forward") == stage1 / "program.csv"
+    assert exp.braking_path(1) == exp.braking_path(1, Direction.FORWARD) == stage1 / "braking.csv"
+    assert exp.program_path(1, Direction.FORWARD) == stage1 / "program.csv"
     assert exp.reverse_path(1) == stage1 / "reverse.csv"
-    assert exp.braking_path(2, "backward") == tmp_path / "stage2" / "braking_backward.csv"
-    assert exp.program_path(1, "backward") == stage1 / "program_backward.csv"
-    assert exp.reverse_path(1, "backward") == stage1 / "reverse_backward.csv"
-    with pytest.raises(ValueError, match="direction"):
-        exp.braking_path(1, "up")
+    assert exp.braking_path(2, Direction.BACKWARD) == tmp_path / "stage2" / "braking_backward.csv"
+    assert exp.program_path(1, Direction.BACKWARD) == stage1 / "program_backward.csv"
+    assert exp.reverse_path(1, Direction.BACKWARD) == stage1 / "reverse_backward.csv"
     with pytest.raises(InputError, match="no stage 3"):
-        exp.reverse_path(3, "backward")
+        exp.reverse_path(3, Direction.BACKWARD)
 
 
 def test_the_experiments_files_are_named_in_one_place(tmp_path):
@@ -82,7 +81,9 @@ def test_simulate_writes_every_direction_of_each_stage(tmp_path):
     ]
     assert str(summaries[1]).startswith("stage 1: braking backward: ")
     assert str(summaries[0]).startswith("stage 1: braking: ")
-    backward = read_log(exp.braking_path(1, "backward"), exp.device.encoder, "braking", "backward")
+    backward = read_log(
+        exp.braking_path(1, Direction.BACKWARD), exp.device.encoder, "braking", Direction.BACKWARD
+    )
     assert backward.phi[-1] < backward.phi[0]
     # Turns past the last node, along the motion: the release sits 30 deg before node 0 in
     # either direction; the last node met is 240 deg further forward, 270 deg further back.
@@ -98,7 +99,9 @@ def test_simulate_writes_every_direction_of_each_stage(tmp_path):
 
     reverses = simulating.simulate(root, stage=1, part="reverse", ideal=True, direction="backward")
     assert [(s.stage, s.part, s.direction) for s in reverses] == [(1, "ideal reverse", "backward")]
-    reverse = read_log(exp.reverse_path(1, "backward"), exp.device.encoder, "reverse", "backward")
+    reverse = read_log(
+        exp.reverse_path(1, Direction.BACKWARD), exp.device.encoder, "reverse", Direction.BACKWARD
+    )
     assert reverse.phi[-1] > reverse.phi[0]
     assert not exp.reverse_path(1).exists()
 
@@ -119,7 +122,7 @@ def test_the_reverse_needs_the_backward_braking_of_the_same_settings(tmp_path):
         simulating.simulate(root, stage=1, part="reverse", ideal=True)
     simulating.simulate(root, stage=1, part="braking")
     exp = open_experiment(root)
-    assert exp.braking_path(1, "backward").is_file() and not exp.braking_path(1).exists()
+    assert exp.braking_path(1, Direction.BACKWARD).is_file() and not exp.braking_path(1).exists()
     path = root / "virtual.toml"
     path.write_text(path.read_text().replace("seed = 0", "seed = 1"))
     with pytest.raises(InputError, match="not the virtual device's braking pass"):

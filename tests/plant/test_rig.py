@@ -13,12 +13,13 @@ from scipy.interpolate import CubicSpline
 
 from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.config import Friction, Rig, TrueBody
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.integrate import advance
 from rsp_inertia.plant.logs import Program, read_log, write_log
 from rsp_inertia.plant.model import dissipation, mechanical_energy, static_torque
 
-DIRECTIONS = ("forward", "backward")
+DIRECTIONS = tuple(Direction)
 
 
 @pytest.fixture(scope="module")
@@ -61,8 +62,8 @@ def test_backward_braking_is_the_mirror_of_the_mirrored_bodys_forward_braking(de
     mirror = dataclasses.replace(
         asymmetric, body=mirrored(asymmetric.body), friction=asymmetric.friction_for(-1)
     )
-    backward = vd.simulate_braking(original, 1, asymmetric, "backward")
-    forward = vd.simulate_braking(mirror_device, 1, mirror, "forward")
+    backward = vd.simulate_braking(original, 1, asymmetric, Direction.BACKWARD)
+    forward = vd.simulate_braking(mirror_device, 1, mirror, Direction.FORWARD)
 
     assert backward.truth.phi[-1] < backward.truth.phi[0] - 2 * math.pi  # it ran backward
     assert len(backward.log) == len(forward.log)
@@ -81,7 +82,7 @@ def test_backward_braking_balances_energy(device, virtual):
     # docs/method.md §3: E(end) - E(release) = motor work + friction work, the motor's constant
     # torque +b times the (negative) displacement, the friction's -integral of D Omega dt.
     asymmetric = with_friction(virtual, backward_scale=1.5)
-    braking = vd.simulate_braking(device, 1, asymmetric, "backward")
+    braking = vd.simulate_braking(device, 1, asymmetric, Direction.BACKWARD)
     params = vd.true_parameters(device, 1, asymmetric, -1)
     truth = braking.truth
     t = np.append(truth.t, truth.end_time)
@@ -106,7 +107,7 @@ def test_backward_braking_balances_energy(device, virtual):
 
 
 def test_backward_braking_logs_a_pass_that_moves_down(device, default_virtual, tmp_path):
-    braking = vd.simulate_braking(device, 1, default_virtual, "backward")
+    braking = vd.simulate_braking(device, 1, default_virtual, Direction.BACKWARD)
     truth, log = braking.truth, braking.log
     st = device.stages[0]
     # The mirror of the forward release: -release_angle_deg at -launch_speed.
@@ -120,14 +121,14 @@ def test_backward_braking_logs_a_pass_that_moves_down(device, default_virtual, t
     # from the backward pass's own stream (not the forward pass's).
     np.testing.assert_array_equal(truth.torque, st.braking_torque)
     noise = log.torque - st.braking_torque
-    forward = vd.simulate_braking(device, 1, default_virtual, "forward")
+    forward = vd.simulate_braking(device, 1, default_virtual, Direction.FORWARD)
     forward_noise = forward.log.torque + st.braking_torque
     n = min(len(noise), len(forward_noise))
     assert np.all(noise != 0.0) and not np.any(noise[:n] == forward_noise[:n])
     # The file is a backward braking log and nothing else.
     path = tmp_path / "braking_backward.csv"
     write_log(path, log)
-    back = read_log(path, device.encoder, "braking", "backward")
+    back = read_log(path, device.encoder, "braking", Direction.BACKWARD)
     np.testing.assert_array_equal(back.phi, log.phi)
     with pytest.raises(InputError, match="must end at a larger phi"):
         read_log(path, device.encoder, "braking")
@@ -150,8 +151,8 @@ def test_ideal_reverse_of_a_backward_braking_mirrors_it_with_a_torque_gain(devic
     imperfect = dataclasses.replace(
         with_friction(virtual, backward_scale=2.0), rig=Rig(torque_gain=2.0)
     )
-    braking = vd.simulate_braking(device, 1, imperfect, "backward")
-    reverse = vd.simulate_ideal_reverse(device, 1, imperfect, braking, "backward")
+    braking = vd.simulate_braking(device, 1, imperfect, Direction.BACKWARD)
+    reverse = vd.simulate_ideal_reverse(device, 1, imperfect, braking, Direction.BACKWARD)
     truth = reverse.truth
     # The reverse moves phi up, from the braking's rest back to its release.
     assert truth.phi[0] == braking.truth.end_phi and np.all(truth.omega[1:] > 0.0)
@@ -174,7 +175,7 @@ def test_torque_gain_logs_the_command_and_applies_command_over_gain(device, virt
     gain = 2.5
     st = device.stages[0]
     run = vd.simulate_braking(device, 1, dataclasses.replace(virtual, rig=Rig(gain)), direction)
-    s = 1.0 if direction == "forward" else -1.0
+    s = float(direction.sign)
     np.testing.assert_array_equal(run.log.torque, -s * st.braking_torque)
     # The body receives the command times h_b = 1 / gain (rounding aside, command / gain).
     h_b = Rig(gain).drive_gains[1]
@@ -216,7 +217,7 @@ def test_closed_loop_logs_the_command_and_applies_command_over_gain(device, virt
 
 
 def test_backward_scale_one_changes_nothing(device, virtual):
-    plain = vd.simulate_braking(device, 1, virtual, "backward")
+    plain = vd.simulate_braking(device, 1, virtual, Direction.BACKWARD)
     explicit = with_friction(virtual, backward_scale=1.0)
     same_table = dataclasses.replace(
         virtual,
@@ -230,7 +231,7 @@ def test_backward_scale_one_changes_nothing(device, virtual):
                 vd.true_parameters(device, 1, other, direction).vector,
                 vd.true_parameters(device, 1, virtual, direction).vector,
             )
-        assert_same_truth(vd.simulate_braking(device, 1, other, "backward"), plain)
+        assert_same_truth(vd.simulate_braking(device, 1, other, Direction.BACKWARD), plain)
 
 
 def test_backward_scale_changes_only_backward_motion(device, virtual):
@@ -247,13 +248,13 @@ def test_backward_scale_changes_only_backward_motion(device, virtual):
     np.testing.assert_array_equal(backward.vector[:9], forward.vector[:9])  # all but friction
     # A forward braking never moves backward: bit for bit the symmetric rig's.
     assert_same_truth(
-        vd.simulate_braking(device, 1, scaled, "forward"),
-        vd.simulate_braking(device, 1, virtual, "forward"),
+        vd.simulate_braking(device, 1, scaled, Direction.FORWARD),
+        vd.simulate_braking(device, 1, virtual, Direction.FORWARD),
     )
     # A backward one loses more energy and stops sooner.
     assert (
-        vd.simulate_braking(device, 1, scaled, "backward").truth.end_time
-        < vd.simulate_braking(device, 1, virtual, "backward").truth.end_time
+        vd.simulate_braking(device, 1, scaled, Direction.BACKWARD).truth.end_time
+        < vd.simulate_braking(device, 1, virtual, Direction.BACKWARD).truth.end_time
     )
     # The explicit [friction_backward] table with the same coefficients is the same rig.
     table = dataclasses.replace(
@@ -319,7 +320,7 @@ def test_an_empty_fixture_run_has_only_the_fixture_and_the_tare(device, virtual)
         bare.inertia_harmonics, [device.stages[1].tare_inertia, 0, 0, 0, 0]
     )
     assert bare.gravity_sin == bare.gravity_cos == 0.0
-    braking = vd.simulate_braking(device, 1, empty, "backward")
+    braking = vd.simulate_braking(device, 1, empty, Direction.BACKWARD)
     assert braking.truth.end_phi < braking.truth.phi[0]
 
 
@@ -359,10 +360,8 @@ def test_a_tare_list_of_the_wrong_length_is_an_input_error(device, virtual):
 
 
 def test_direction_arguments_are_checked(device, virtual):
-    with pytest.raises(ValueError, match="direction"):
-        vd.simulate_braking(device, 1, virtual, "sideways")
     with pytest.raises(ValueError, match="sign of Omega"):
         vd.true_parameters(device, 1, virtual, 0)
     forward = vd.simulate_braking(device, 1, virtual)
     with pytest.raises(ValueError, match="does not run backward"):
-        vd.ideal_program(device, 1, virtual, forward, "backward")
+        vd.ideal_program(device, 1, virtual, forward, Direction.BACKWARD)

@@ -14,6 +14,7 @@ import pytest
 
 from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.config import Rig, load_virtual
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.integrate import advance, true_pair
 from rsp_inertia.plant.logs import write_log
 from rsp_inertia.plant.model import (
@@ -221,7 +222,7 @@ def test_a_backdriven_loss_brakes_like_a_stronger_braking_torque(device, virtual
     # h_b = 1 / (eta_b gain), here 1 / (0.8 x 1.03) = 1.21 times the command.
     lossy = with_rig(virtual, torque_gain=1.03, efficiency_backdriven=0.8)
     st = device.stages[0]
-    s = 1.0 if direction == "forward" else -1.0
+    s = float(direction.sign)
     h_b = lossy.rig.drive_gains[1]
     run = vd.simulate_braking(device, 1, lossy, direction)
     np.testing.assert_array_equal(run.log.torque, -s * st.braking_torque)
@@ -398,7 +399,7 @@ def test_every_log_is_the_erring_encoders_reading_of_the_true_angle(device, virt
     braking = vd.simulate_braking(device, 1, erring)
     passes = {
         "braking": braking,
-        "braking backward": vd.simulate_braking(device, 1, erring, "backward"),
+        "braking backward": vd.simulate_braking(device, 1, erring, Direction.BACKWARD),
         "reverse": vd.simulate_ideal_reverse(device, 1, erring, braking),
         "pendulum": vd.simulate_pendulum(device, 1, erring, 0),
         "pilot": vd.simulate_pilot(device, 1, erring),
@@ -439,7 +440,7 @@ def test_the_default_rig_is_the_exact_one(device, default_virtual, tmp_path):
         start = (braking.truth.end_phi, 0.0)
         return {
             "braking": braking.log,
-            "braking_backward": vd.simulate_braking(device, 1, virtual, "backward").log,
+            "braking_backward": vd.simulate_braking(device, 1, virtual, Direction.BACKWARD).log,
             "reverse_ideal": vd.simulate_ideal_reverse(device, 1, virtual, braking).log,
             "reverse": vd.run_program(device, 1, virtual, program, start).log,
             "pendulum": vd.simulate_pendulum(device, 1, virtual, 0).log,

@@ -11,6 +11,7 @@ from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
 from rsp_inertia.plant import virtual as vd
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.integrate import BLOCK, advance, step_block
 from rsp_inertia.plant.logs import Program, read_log, write_log
 from rsp_inertia.plant.model import (
@@ -499,12 +500,12 @@ def test_braking_is_reproducible_and_the_seed_moves_only_the_noise(
     assert abs(difference.std() / (math.sqrt(2) * sigma) - 1.0) < 0.05
 
 
-@pytest.mark.parametrize("direction", ["forward", "backward"])
+@pytest.mark.parametrize("direction", [Direction.FORWARD, Direction.BACKWARD])
 def test_a_stage_release_angle_overrides_the_virtual_rigs(default_device, default_virtual, direction):
     """device.toml's protocol says where to release; virtual.toml's angle is only the rig's
     default. A release 40 deg later is the same motion as the default one seen from 40 deg on:
     same start speed, phi shifted by 40 deg at t = 0 (backward: by -40 deg)."""
-    sign = 1 if direction == "forward" else -1
+    sign = direction.sign
     default = vd.simulate_braking(default_device, 1, default_virtual, direction)
     angle = default_virtual.run.release_angle_deg + 40.0
     stage = dataclasses.replace(default_device.stages[0], release_angle_deg=angle)
