@@ -27,9 +27,9 @@ from benchmarks import RESULTS
 from benchmarks.experiments import default_experiment, scale_friction, seeded
 from benchmarks.tables import command_line, markdown_table
 from benchmarks.truth import tensor_error, true_moments
+from rsp_inertia.estimation.axes import axis_values
 from rsp_inertia.estimation.reading import identify_experiment
 from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs
-from rsp_inertia.estimation.axes import axis_values
 from rsp_inertia.estimation.tensor_fit import fit_tensor
 from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.experiment import open_experiment

@@ -52,8 +52,8 @@ from rsp_inertia.estimation.predict import PlannedPass, predicted_balance, run_i
 from rsp_inertia.estimation.smoothing import hermite
 from rsp_inertia.plant.config import Device, Stage
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.geometry import turns_past_last_node
 from rsp_inertia.plant.friction import FRICTION
+from rsp_inertia.plant.geometry import turns_past_last_node
 from rsp_inertia.plant.model import (
     ModelParameters,
     acceleration,

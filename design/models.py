@@ -19,8 +19,8 @@ from rsp_inertia.design.plan import map_stages
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
-from rsp_inertia.plant.logs import Log, read_device_log
 from rsp_inertia.plant.friction import FRICTION
+from rsp_inertia.plant.logs import Log, read_device_log
 from rsp_inertia.plant.model import ModelParameters, inertia_harmonics
 
 __all__ = ["guess_model", "stage_models"]

@@ -37,10 +37,10 @@ import numpy as np
 
 from rsp_inertia.design.candidates import Candidate, StageModel, planned_release
 from rsp_inertia.design.plan import map_stages
-from rsp_inertia.estimation.balance import stage_balance
-from rsp_inertia.estimation.runs import estimate_run
 from rsp_inertia.estimation.axes import axis_values
+from rsp_inertia.estimation.balance import stage_balance
 from rsp_inertia.estimation.columns import format_run
+from rsp_inertia.estimation.runs import estimate_run
 from rsp_inertia.estimation.tensor_fit import fit_tensor
 from rsp_inertia.ocp.program import make_program
 from rsp_inertia.ocp.regulator import OBSERVER_BANDWIDTH

@@ -19,9 +19,10 @@ from rsp_inertia.estimation.balance import StageBalance
 from rsp_inertia.estimation.gls import Prior
 from rsp_inertia.estimation.layout import encoder_names
 from rsp_inertia.estimation.model_tests import DRIVE_PROBE, ENCODER_PROBE, PROBE_ORDERS
+from rsp_inertia.plant.direction import Direction
+from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.model import gravity_basis
 from rsp_inertia.plant.transducers import error_slope_basis
-from rsp_inertia.plant.direction import Direction
 
 __all__ = [
     "both_directions",
@@ -117,12 +118,24 @@ def run_columns(
     n = len(bal.phi)
     cols = {f"C[{key}]": -np.ones(n)}
     if np.any(bal.mismatch != 0.0):
-        cols[f"d1[{key}]"] = -bal.mismatch[:, 0]
-        cols[f"d2[{key}]"] = -bal.mismatch[:, 1]
+        for j, name in enumerate(slope_unknowns(key)):
+            cols[name] = -bal.mismatch[:, j]
     if both_directions:
-        for k in range(3):
-            cols[f"e{k + 1}[{group}]"] = -bal.direction * bal.friction_shape[:, k]
+        for k, name in enumerate(asymmetry_unknowns(group)):
+            cols[name] = -bal.direction * bal.friction_shape[:, k]
     return cols
+
+
+def slope_unknowns(key: str) -> tuple[str, ...]:
+    """The names of a run's friction slopes among the unknowns, ``d1[key]``, ``d2[key]``, ...:
+    one per slope of the friction law (rsp_inertia.plant.friction.FRICTION.slope_names)."""
+    return tuple(f"{name}[{key}]" for name in FRICTION.slope_names)
+
+
+def asymmetry_unknowns(group: str) -> tuple[str, ...]:
+    """The names of a group's friction asymmetry among the unknowns, ``e1[group]``, ...: one
+    per coefficient of the friction law (D_backward - D_forward has its terms)."""
+    return tuple(f"e{k + 1}[{group}]" for k in range(len(FRICTION.names)))
 
 
 def run_priors(bal: StageBalance, columns: dict[str, np.ndarray], key: str) -> tuple[Prior, ...]:
@@ -144,7 +157,7 @@ def run_priors(bal: StageBalance, columns: dict[str, np.ndarray], key: str) -> t
     tuple of Prior
         The friction slopes' prior, or none.
     """
-    names = (f"d1[{key}]", f"d2[{key}]")
+    names = slope_unknowns(key)
     if bal.slope_prior is None or not all(name in columns for name in names):
         return ()
     return (Prior(names, *bal.slope_prior),)

@@ -23,7 +23,7 @@ The torsion-pendulum baseline (:func:`pendulum_baseline`) reduces the pendulum l
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 

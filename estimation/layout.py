@@ -20,12 +20,12 @@ from functools import cache
 from rsp_inertia.plant.geometry import ENTRY_KEYS
 
 __all__ = [
+    "GAIN_NAMES",
     "GRAVITY_NAMES",
     "HARMONIC_NAMES",
     "SHARED_LAYOUT",
     "Layout",
     "Segment",
-    "GAIN_NAMES",
     "encoder_names",
     "theta_layout",
 ]

@@ -51,8 +51,8 @@ from scipy.optimize import lsq_linear
 from rsp_inertia.estimation.smoothing import Smoothed, median_step
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.logs import Log
 from rsp_inertia.plant.friction import FRICTION
+from rsp_inertia.plant.logs import Log
 from rsp_inertia.plant.model import (
     PARAMETER_NAMES,
     force_curvature_regressor,

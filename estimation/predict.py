@@ -27,10 +27,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from rsp_inertia.estimation.balance import StageBalance, stage_balance
-from rsp_inertia.estimation.passes import PassEstimate
-from rsp_inertia.estimation.smoothing import Smoothed, noise_density, smoother_bandwidth
 from rsp_inertia.estimation.known_terms import KnownTerms
 from rsp_inertia.estimation.layout import SHARED_LAYOUT
+from rsp_inertia.estimation.passes import PassEstimate
+from rsp_inertia.estimation.smoothing import Smoothed, noise_density, smoother_bandwidth
 from rsp_inertia.estimation.tensor_fit import tensor_block
 from rsp_inertia.estimation.whitening import Noise, information, scaled_band
 from rsp_inertia.plant.config import Device

@@ -28,9 +28,9 @@ from rsp_inertia.estimation.calibration import (
 )
 from rsp_inertia.estimation.calibration_file import CalibrationFile, read_calibration_file
 from rsp_inertia.estimation.identify import identify_logs
+from rsp_inertia.estimation.known_terms import KnownTerms
 from rsp_inertia.estimation.results import Identification
 from rsp_inertia.estimation.runs import ExperimentLogs, Sources, runs
-from rsp_inertia.estimation.known_terms import KnownTerms
 from rsp_inertia.plant.config import load_reference
 from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.errors import InputError

@@ -13,9 +13,9 @@ import numpy as np
 
 from rsp_inertia.estimation.best_practice import BestPractice
 from rsp_inertia.estimation.calibration_summary import CalibrationSummary
+from rsp_inertia.estimation.columns import format_run
 from rsp_inertia.estimation.model_tests import ModelTest
 from rsp_inertia.estimation.pendulum import PendulumEstimate
-from rsp_inertia.estimation.columns import format_run
 from rsp_inertia.plant.geometry import (
     ENTRY_KEYS,
     axis_direction,

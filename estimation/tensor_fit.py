@@ -37,6 +37,7 @@ import numpy as np
 
 from rsp_inertia.estimation.balance import StageBalance
 from rsp_inertia.estimation.columns import (
+    asymmetry_unknowns,
     both_directions,
     cause_probes,
     gravity_rows,
@@ -44,6 +45,7 @@ from rsp_inertia.estimation.columns import (
     run_key,
     run_label,
     run_priors,
+    slope_unknowns,
 )
 from rsp_inertia.estimation.gls import (
     BalanceFit,
@@ -272,21 +274,22 @@ def _tensor_fit(
     model_tests = described(tests, known, one_direction)
     shared = [fit.index(name) for name in SHARED_LAYOUT.names()]
     n_runs, stages = len(balances), sorted({bal.stage for bal in balances})
-    slope = np.full((n_runs, 2), np.nan)
-    slope_std = np.full((n_runs, 2), np.nan)
-    slope_cov = np.full((n_runs, 2, 2), np.nan)
+    n_slopes, n_terms = len(slope_unknowns("")), len(asymmetry_unknowns(""))
+    slope = np.full((n_runs, n_slopes), np.nan)
+    slope_std = np.full((n_runs, n_slopes), np.nan)
+    slope_cov = np.full((n_runs, n_slopes, n_slopes), np.nan)
     for k in range(n_runs):
-        for j in range(2):
-            slope[k, j], slope_std[k, j] = fit.value(f"d{j + 1}[{k}]")
-        names = [f"d1[{k}]", f"d2[{k}]"]
+        names = slope_unknowns(str(k))
+        for j, name in enumerate(names):
+            slope[k, j], slope_std[k, j] = fit.value(name)
         if all(name in fit.names for name in names):
             i = [fit.index(name) for name in names]
             slope_cov[k] = fit.cov[np.ix_(i, i)]
-    asym = np.full((max(stages), 3), np.nan)
-    asym_std = np.full((max(stages), 3), np.nan)
+    asym = np.full((max(stages), n_terms), np.nan)
+    asym_std = np.full((max(stages), n_terms), np.nan)
     for s in both:
-        for j in range(3):
-            asym[s - 1, j], asym_std[s - 1, j] = fit.value(f"e{j + 1}[{s}]")
+        for j, name in enumerate(asymmetry_unknowns(str(s))):
+            asym[s - 1, j], asym_std[s - 1, j] = fit.value(name)
     sub = np.ix_(shared, shared)
     # The sum of the sources' parts is symmetric up to rounding (4e-10 of the smallest
     # products); result.json and a combination of mountings take it exactly symmetric.

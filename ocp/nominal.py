@@ -24,8 +24,8 @@ from rsp_inertia.estimation.modulated import MODEL_UNKNOWNS, fit_modulated
 from rsp_inertia.estimation.smoothing import Smoothed
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.logs import Log, torque_noise
 from rsp_inertia.plant.friction import FRICTION
+from rsp_inertia.plant.logs import Log, torque_noise
 from rsp_inertia.plant.model import ModelParameters
 
 __all__ = ["UNKNOWN", "fit_nominal", "fit_nominal_with_covariance"]

@@ -27,9 +27,9 @@ from rsp_inertia.plant.drive import (
     logged,
     sampling_instants,
 )
+from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.integrate import BLOCK, advance, step_block, true_pair, true_parameters
 from rsp_inertia.plant.logs import Program
-from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.model import (
     PARAMETER_NAMES,
     acceleration,

@@ -53,7 +53,8 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time, __getattr__ below
         SimulateResult,
     )
 
-__all__ = sorted([*API_NAMES, "__version__"])
+__all__ = list(API_NAMES)
+__all__ += ["__version__"]
 """The public names: the API's (rsp_inertia.public, written once for both) and the version."""
 
 

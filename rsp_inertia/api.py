@@ -35,7 +35,6 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from rsp_inertia.plant.errors import InputError  # public: raised by every function
 from rsp_inertia.plant.progress import lines_to
 from rsp_inertia.public import API_NAMES, RESULT_CLASSES
 
@@ -53,7 +52,7 @@ if TYPE_CHECKING:
         SimulateResult,
     )
 
-__all__ = sorted(API_NAMES)
+__all__ = list(API_NAMES)
 """The package's public names without its version (rsp_inertia.public, which
 rsp_inertia.__all__ is made from too)."""
 

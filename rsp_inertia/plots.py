@@ -37,8 +37,8 @@ from rsp_inertia.plant.virtual import free_motion
 if TYPE_CHECKING:
     from rsp_inertia.design.plan import Plan
     from rsp_inertia.estimation.calibration import Calibration
-    from rsp_inertia.estimation.results import Identification
     from rsp_inertia.estimation.known_terms import KnownTerms
+    from rsp_inertia.estimation.results import Identification
     from rsp_inertia.results import (
         AxisDesignResult,
         CalibrateResult,

@@ -436,11 +436,7 @@ def _direction_restatements(source: str) -> list[int]:
 
     lines = []
     for node in ast.walk(ast.parse(source)):
-        if isinstance(node, ast.Compare) and any(map(word, [node.left, *node.comparators])):
-            lines.append(node.lineno)
-        elif isinstance(node, ast.IfExp) and (word(node.body) or word(node.orelse)):
-            lines.append(node.lineno)
-        elif isinstance(node, (ast.Tuple, ast.List, ast.Set)) and {
+        if isinstance(node, ast.Compare) and any(map(word, [node.left, *node.comparators])) or isinstance(node, ast.IfExp) and (word(node.body) or word(node.orelse)) or isinstance(node, (ast.Tuple, ast.List, ast.Set)) and {
             element.value for element in node.elts if word(element)
         } == WORDS:
             lines.append(node.lineno)

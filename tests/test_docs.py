@@ -526,8 +526,8 @@ def test_calibration_toml_keys_are_documented_and_exist():
     """docs/files.md documents the keys calibration.toml's reader accepts, with their units
     and whether they are required; calibrate writes every one but the older files' keys."""
     from rsp_inertia.estimation.calibration import Calibration
-    from rsp_inertia.estimation.stiffness import StiffnessCalibration
     from rsp_inertia.estimation.known_terms import KnownTerms
+    from rsp_inertia.estimation.stiffness import StiffnessCalibration
 
     fields = _calibration_keys()
     documented = _documented("calibration.toml")

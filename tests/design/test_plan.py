@@ -12,6 +12,7 @@ import pytest
 
 from rsp_inertia.cli import main
 from rsp_inertia.design.candidates import NOMINAL_COULOMB_SHARE, TORQUE_MARGIN, StageModel, evaluate
+from rsp_inertia.estimation.axes import axis_values
 from rsp_inertia.estimation.predict import (
     PlannedPass,
     combine_information,
@@ -19,7 +20,6 @@ from rsp_inertia.estimation.predict import (
     run_information,
 )
 from rsp_inertia.estimation.reading import identify_experiment
-from rsp_inertia.estimation.axes import axis_values
 from rsp_inertia.estimation.tensor_fit import predict_tensor
 from rsp_inertia.plant.config import load_device, load_virtual
 from rsp_inertia.plant.experiment import open_experiment

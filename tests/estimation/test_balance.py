@@ -14,9 +14,9 @@ import pytest
 
 from rsp_inertia.estimation import columns, tensor_fit
 from rsp_inertia.estimation.balance import stage_balance
+from rsp_inertia.estimation.known_terms import KnownTerms
 from rsp_inertia.estimation.nodes import node_formula
 from rsp_inertia.estimation.passes import PassEstimate
-from rsp_inertia.estimation.known_terms import KnownTerms
 from rsp_inertia.estimation.smoothing import Smoothed
 from rsp_inertia.estimation.tensor_fit import fit_tensor, tensor_block
 from rsp_inertia.plant import virtual as vd

@@ -23,8 +23,8 @@ from rsp_inertia.estimation.calibration_file import (
     read_calibration_file,
     write_calibration_file,
 )
-from rsp_inertia.estimation.stiffness import StiffnessCalibration
 from rsp_inertia.estimation.known_terms import KnownTerms
+from rsp_inertia.estimation.stiffness import StiffnessCalibration
 from rsp_inertia.plant.config import load_device
 from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment

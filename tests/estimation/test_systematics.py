@@ -16,12 +16,12 @@ import pytest
 from rsp_inertia.calibrating import calibrate
 from rsp_inertia.cli import main
 from rsp_inertia.estimation import identify as identify_module
+from rsp_inertia.estimation.axes import axis_values
 from rsp_inertia.estimation.balance import stage_balance
+from rsp_inertia.estimation.known_terms import KnownTerms
 from rsp_inertia.estimation.passes import estimate_pass
 from rsp_inertia.estimation.reading import known_terms, read_calibration
 from rsp_inertia.estimation.runs import ExperimentLogs
-from rsp_inertia.estimation.axes import axis_values
-from rsp_inertia.estimation.known_terms import KnownTerms
 from rsp_inertia.estimation.tensor_fit import fit_tensor
 from rsp_inertia.identifying import identify
 from rsp_inertia.plant import virtual as vd

@@ -15,8 +15,8 @@ import pytest
 
 from rsp_inertia.estimation.balance import stage_balance
 from rsp_inertia.estimation.gls import NOISE_SOURCES, assemble_blocks, solve_blocks
-from rsp_inertia.estimation.passes import estimate_pass
 from rsp_inertia.estimation.known_terms import KnownTerms
+from rsp_inertia.estimation.passes import estimate_pass
 from rsp_inertia.estimation.tensor_fit import tensor_block
 from rsp_inertia.estimation.whitening import (
     JITTER,

@@ -12,9 +12,9 @@ import math
 import numpy as np
 import pytest
 
+from rsp_inertia.estimation.axes import axis_values
 from rsp_inertia.estimation.balance import FRICTION_PRIOR_ALLOWANCE, stage_balance
 from rsp_inertia.estimation.passes import estimate_pass
-from rsp_inertia.estimation.axes import axis_values
 from rsp_inertia.estimation.tensor_fit import fit_tensor
 from rsp_inertia.ocp.program import make_program
 from rsp_inertia.plant import virtual as vd
