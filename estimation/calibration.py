@@ -74,8 +74,8 @@ from rsp_inertia.estimation.tensor import (
     run_label,
     run_priors,
 )
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.config import Device, TrueBody
-from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import CALIBRATION_FILE
 from rsp_inertia.plant.model import inertia_basis, inertia_harmonics
 

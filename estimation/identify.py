@@ -38,8 +38,8 @@ from rsp_inertia.estimation.tensor import (
     format_run,
     tensor_from_axes,
 )
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.config import Device, Pendulum
-from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.geometry import (
     AxisDesign,
     axis_direction,

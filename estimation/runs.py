@@ -19,10 +19,10 @@ import numpy as np
 from rsp_inertia.estimation.balance import StageBalance, balance_range, stage_balance
 from rsp_inertia.estimation.passes import PassEstimate, estimate_pass
 from rsp_inertia.estimation.smoothing import Smoothed
+from rsp_inertia.infra.progress import report
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.experiment import DEVICE_FILE
 from rsp_inertia.plant.logs import Log, check_braking_monotone, mirror_log
-from rsp_inertia.plant.progress import report
 from rsp_inertia.plant.transducers import true_angle
 
 __all__ = [

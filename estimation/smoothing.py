@@ -128,9 +128,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import trapezoid
 
-from rsp_inertia.plant.errors import InputError
+from rsp_inertia.infra.errors import InputError
+from rsp_inertia.infra.progress import report
 from rsp_inertia.plant.logs import Log
-from rsp_inertia.plant.progress import report
 
 __all__ = [
     "BANDWIDTH_FACTOR",
@@ -562,7 +562,7 @@ def hermite(t0, t1, f0, d0, f1, d1, t):
 
 def smooth_log(log: Log, quantum: float, source: str = "log") -> Smoothed:
     """Smoothed angle, speed and acceleration of a pass (Kalman filter forward, RTS backward;
-    module docstring), reporting its progress (rsp_inertia.plant.progress) as "SOURCE:
+    module docstring), reporting its progress (rsp_inertia.infra.progress) as "SOURCE:
     smoothing".
 
     Parameters

@@ -15,7 +15,7 @@ The result classes, one per command, are defined in :mod:`rsp_inertia.results`; 
 module re-exports them, so ``rsp_inertia.api.IdentifyResult`` and
 ``rsp_inertia.IdentifyResult`` are the same class.
 
-Bad input raises :class:`~rsp_inertia.plant.errors.InputError`, whose message is the line
+Bad input raises :class:`~rsp_inertia.infra.errors.InputError`, whose message is the line
 the command line prints after ``rsp-inertia: error:``. Nothing is printed: what the command
 line shows while it works goes to the optional ``progress`` callable, one line (a ``str``)
 at a time.
@@ -34,7 +34,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from rsp_inertia.plant.errors import InputError  # public: raised by every function
+from rsp_inertia.infra.errors import InputError  # public: raised by every function
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -177,7 +177,7 @@ def demo(
     -------
     IdentifyResult
         The calibrated identification, with ``truth`` set to the virtual body's entries in
-        rig axes (rsp_inertia.plant.virtual.placed_body): ``str(result)`` is the demo's
+        rig axes (rsp_inertia.virtual.config.placed_body): ``str(result)`` is the demo's
         table against the truth.
 
     Raises
@@ -190,14 +190,14 @@ def demo(
     >>> result = rsp_inertia.demo("demo-experiment", progress=print)    # doctest: +SKIP
     """
     # everything: the demo runs every command and draws
-    from rsp_inertia.plant.config import placed_body
     from rsp_inertia.plant.experiment import open_experiment
     from rsp_inertia.results import IdentifyResult
     from rsp_inertia.rig_demo import demo as run
+    from rsp_inertia.virtual.config import experiment_virtual, placed_body
 
     result = run(path, progress=_quiet(progress))
     exp = open_experiment(path)
-    truth = placed_body(exp.device, exp.load_virtual()).inertia
+    truth = placed_body(exp.device, experiment_virtual(exp)).inertia
     return IdentifyResult._from(result, path, truth, drawer=_identify_figures)
 
 

@@ -4,12 +4,12 @@ Each command calls its function of the Python API (:mod:`rsp_inertia.api`, the s
 function a script calls) and prints its progress lines and its result; ``design``, which has
 no function among the package's names, calls :func:`rsp_inertia.api.axis_designs`.
 
-Bad input (:class:`rsp_inertia.plant.errors.InputError`) becomes one line on stderr and exit
+Bad input (:class:`rsp_inertia.infra.errors.InputError`) becomes one line on stderr and exit
 status 2, and so does running out of memory (a MemoryError anywhere: the line names the
 command, its experiment folders and their logs' rows); argparse's own usage errors exit with
 2 as well. ``identify``, ``calibrate`` and
 ``demo`` show their long work's progress on stderr when it is a terminal
-(:class:`rsp_inertia.plant.progress.TerminalProgress`); in a pipe they print only their lines.
+(:class:`rsp_inertia.infra.progress.TerminalProgress`); in a pipe they print only their lines.
 """
 
 from __future__ import annotations
@@ -20,8 +20,8 @@ from pathlib import Path
 
 import rsp_inertia
 from rsp_inertia import api
-from rsp_inertia.plant import progress
-from rsp_inertia.plant.errors import InputError
+from rsp_inertia.infra import progress
+from rsp_inertia.infra.errors import InputError
 
 
 def _say(text: object) -> None:
@@ -243,7 +243,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"rsp-inertia: error: {_out_of_memory(args)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        # Every output is written atomically (rsp_inertia.plant.files.write_atomic): an
+        # Every output is written atomically (rsp_inertia.infra.files.write_atomic): an
         # interrupted command leaves the files it had not finished as they were.
         progress.clear()
         print(f"rsp-inertia: interrupted: {args.command} stopped; nothing half-written",

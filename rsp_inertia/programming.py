@@ -11,9 +11,9 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
+from rsp_inertia.infra.files import check_writable
 from rsp_inertia.ocp.program import TorqueProgram, make_program
 from rsp_inertia.plant.experiment import open_experiment
-from rsp_inertia.plant.files import check_writable
 from rsp_inertia.plant.logs import read_device_log, write_program
 from rsp_inertia.results import ProgramSummary
 

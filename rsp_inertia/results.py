@@ -39,6 +39,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 
 from rsp_inertia.figure_files import save_figures
+from rsp_inertia.infra.toml_writer import document
 from rsp_inertia.plant.experiment import CALIBRATION_FILE, ENCODER_FIGURE, RESULT_FILE
 from rsp_inertia.plant.geometry import (
     ENTRY_KEYS,
@@ -47,7 +48,6 @@ from rsp_inertia.plant.geometry import (
     relative_errors,
     tensor_from_entries,
 )
-from rsp_inertia.plant.toml_writer import document
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure

@@ -19,15 +19,15 @@ from rsp_inertia.combining import combine
 from rsp_inertia.estimation.results import Identification
 from rsp_inertia.figure_files import save_figures
 from rsp_inertia.identifying import identify
-from rsp_inertia.plant.config import placed_body
+from rsp_inertia.infra.files import write_atomic
 from rsp_inertia.plant.experiment import CALIBRATION_FILE, open_experiment
-from rsp_inertia.plant.files import write_atomic
 from rsp_inertia.plant.geometry import relative_errors
 from rsp_inertia.plots import demo_figures
 from rsp_inertia.programming import program
 from rsp_inertia.results import format_identification
 from rsp_inertia.scenarios import create_rig_experiment, create_second_mounting
 from rsp_inertia.simulating import simulate
+from rsp_inertia.virtual.config import experiment_virtual, placed_body
 
 __all__ = ["DEFAULT_EXPERIMENT", "demo"]
 
@@ -60,7 +60,7 @@ def demo(
         if open_experiment(folder).device.pendulum is not None:
             simulate(folder, part="pendulum", progress=lambda s: say(str(s)))
     exp = open_experiment(root)
-    truth = placed_body(exp.device, exp.load_virtual())
+    truth = placed_body(exp.device, experiment_virtual(exp))
     exp.calibration_path.unlink(missing_ok=True)
     raw = identify(root)
     say(
@@ -88,7 +88,7 @@ def demo(
     identify(second)
     combination, path = combine([root, second], root / "body")
     say(str(combination))
-    body = exp.load_virtual().body  # body axes, about the body frame's origin
+    body = experiment_virtual(exp).body  # body axes, about the body frame's origin
     say(
         "against the true body: worst tensor error / largest moment "
         f"{np.abs(relative_errors(combination.entries, body.inertia)).max():.1e}; centre of "

@@ -1,7 +1,7 @@
 """``rsp-inertia simulate``: the virtual device writes the logs a rig would.
 
 Reads device.toml and virtual.toml (the virtual device's truth), runs the simulator
-(rsp_inertia.plant.virtual) and writes each log atomically, as the virtual rig's logger writes
+(rsp_inertia.virtual.device) and writes each log atomically, as the virtual rig's logger writes
 it; each log written is a :class:`rsp_inertia.results.PassSummary`.
 """
 
@@ -13,13 +13,15 @@ from pathlib import Path
 
 import numpy as np
 
-from rsp_inertia.plant.config import DIRECTIONS, Virtual
-from rsp_inertia.plant.errors import InputError
+from rsp_inertia.infra.errors import InputError
+from rsp_inertia.infra.files import check_writable
+from rsp_inertia.plant.config import DIRECTIONS
 from rsp_inertia.plant.experiment import Experiment, open_experiment
-from rsp_inertia.plant.files import check_writable
 from rsp_inertia.plant.geometry import turns_past_last_node
 from rsp_inertia.plant.logs import Log, align_counter, read_device_log, read_program, write_log
-from rsp_inertia.plant.virtual import (
+from rsp_inertia.results import PassSummary
+from rsp_inertia.virtual.config import Virtual, experiment_virtual
+from rsp_inertia.virtual.device import (
     SimulatedPass,
     run_program,
     simulate_braking,
@@ -27,7 +29,6 @@ from rsp_inertia.plant.virtual import (
     simulate_pendulum,
     simulate_pilot,
 )
-from rsp_inertia.results import PassSummary
 
 __all__ = ["PARTS", "simulate"]
 
@@ -63,7 +64,7 @@ def _check_simulate_outputs(
     exp: Experiment, stages: list[int], part: str, direction: str | None
 ) -> None:
     """Refuse, before any run is simulated, a log that :func:`simulate` could not write
-    (rsp_inertia.plant.files.check_writable): in a stage folder that exists, each log; else
+    (rsp_inertia.infra.files.check_writable): in a stage folder that exists, each log; else
     the experiment folder, where the stage folder is to be made."""
     for st in stages:
         if part == "pendulum":
@@ -186,7 +187,7 @@ def simulate(
             f"--direction: must be one of {', '.join(DIRECTIONS)}, got {direction!r}"
         )
     exp = open_experiment(root, protocol=part in ("braking", "reverse"))
-    virtual = exp.load_virtual()
+    virtual = experiment_virtual(exp)
     stages = exp.stages(stage)
     if direction is not None and part not in ("pendulum", "pilot"):
         runs = [st for st in stages if direction in exp.device.stages[st - 1].directions]

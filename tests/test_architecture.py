@@ -22,16 +22,22 @@ from pathlib import Path
 import pytest
 
 LAYERS = {
-    "plant": {"plant"},
-    "estimation": {"plant", "estimation"},
-    "ocp": {"plant", "ocp", "estimation.smoothing", "estimation.modulated"},
-    "design": {"plant", "estimation", "ocp", "design"},
-    "commands": {"plant", "estimation", "ocp", "design", "commands"},
+    "infra": {"infra"},
+    "plant": {"infra", "plant"},
+    "virtual": {"infra", "plant", "virtual"},
+    "estimation": {"infra", "plant", "estimation"},
+    "ocp": {"infra", "plant", "ocp", "estimation.smoothing", "estimation.modulated"},
+    "design": {"infra", "plant", "virtual", "estimation", "ocp", "design"},
+    "commands": {"infra", "plant", "virtual", "estimation", "ocp", "design", "commands"},
 }
-"""What each layer may import. The torque program (ocp) uses the identification's smoother and
-its modulating-function fit of Lagrange's equation (its nominal model), nothing else of
-estimation; experiment design sits above both; the command layer (the modules of rsp_inertia/
-itself) above everything."""
+"""What each layer may import. Infrastructure (errors, files, lazy names, TOML schema, progress)
+imports nothing of the package; the plant (model, geometry, transducers, file contracts) only
+it. The virtual device and the estimation both stand on the plant and know nothing of each
+other: a real rig's identification never loads the simulator. The torque program (ocp) uses
+the identification's smoother and its modulating-function fit of Lagrange's equation (its
+nominal model), nothing else of estimation; experiment design sits above them (its rehearsal
+runs the virtual device); the command layer (the modules of rsp_inertia/ itself) above
+everything."""
 
 LAZY_BOUNDARY = {"rsp_inertia", "rsp_inertia.api"}
 """The modules whose functions may import: ``rsp_inertia.__getattr__`` loads the API on first use,
@@ -144,9 +150,9 @@ IMPORTS = {name: _imports(name) for name in MODULES}
 
 
 def _layer(name: str) -> str:
-    """The layer of a module: plant, estimation, ocp, design, or commands (rsp_inertia/)."""
+    """The layer of a module: its subpackage (``LAYERS``), or commands (rsp_inertia/)."""
     parts = name.split(".")
-    if len(parts) > 1 and parts[1] in ("plant", "estimation", "ocp", "design"):
+    if len(parts) > 1 and parts[1] in set(LAYERS) - {"commands"}:
         return parts[1]
     return "commands"
 
@@ -163,7 +169,8 @@ def test_the_walk_finds_every_layer() -> None:
     """The walk sees the installed package whole: every layer, with its known modules."""
     layers = {_layer(name) for name in MODULES}
     assert layers == set(LAYERS)
-    for name in ("rsp_inertia.api", "rsp_inertia.plant.model", "rsp_inertia.estimation.tensor",
+    for name in ("rsp_inertia.api", "rsp_inertia.infra.errors", "rsp_inertia.plant.model",
+                 "rsp_inertia.virtual.device", "rsp_inertia.estimation.smoothing",
                  "rsp_inertia.ocp.program", "rsp_inertia.design.plan"):
         assert name in MODULES
     assert any(IMPORTS[name] for name in MODULES)
@@ -210,11 +217,11 @@ def test_no_import_cycle() -> None:
 
 
 def test_the_cycle_finder_finds_a_cycle() -> None:
-    """The check can fail: an edge back from plant.errors to plant.logs closes a cycle of three
+    """The check can fail: an edge back from infra.errors to plant.logs closes a cycle of three
     (logs -> files -> errors -> logs)."""
     edges = dict(IMPORTS)
-    edges["rsp_inertia.plant.errors"] = [("rsp_inertia.plant.logs", 1, True)]
-    closed = [cycle for cycle in _cycles(edges) if "rsp_inertia.plant.errors" in cycle]
+    edges["rsp_inertia.infra.errors"] = [("rsp_inertia.plant.logs", 1, True)]
+    closed = [cycle for cycle in _cycles(edges) if "rsp_inertia.infra.errors" in cycle]
     assert len(closed) == 1 and "rsp_inertia.plant.logs" in closed[0]
 
 
@@ -227,8 +234,12 @@ def test_layers_import_only_below(name: str) -> None:
 
 def test_the_layer_rule_can_fail() -> None:
     assert not _allowed("rsp_inertia.plant.model", "rsp_inertia.estimation.smoothing")
+    assert not _allowed("rsp_inertia.infra.files", "rsp_inertia.plant.logs")
+    assert not _allowed("rsp_inertia.plant.experiment", "rsp_inertia.virtual.config")
+    assert not _allowed("rsp_inertia.estimation.balance", "rsp_inertia.virtual.device")
+    assert not _allowed("rsp_inertia.virtual.device", "rsp_inertia.estimation.smoothing")
     assert not _allowed("rsp_inertia.ocp.program", "rsp_inertia.estimation.balance")
-    assert not _allowed("rsp_inertia.estimation.tensor", "rsp_inertia.design.plan")
+    assert not _allowed("rsp_inertia.estimation.balance", "rsp_inertia.design.plan")
     assert _allowed("rsp_inertia.ocp.program", "rsp_inertia.estimation.smoothing")
     assert _allowed("rsp_inertia.design.plan", "rsp_inertia.estimation.predict")
 
@@ -267,17 +278,82 @@ def _has_reason(lines: list[str], lineno: int) -> bool:
     return False
 
 
-SUBPACKAGES = ("plant", "estimation", "ocp", "design")
+SUBPACKAGES = ("infra", "plant", "virtual", "estimation", "ocp", "design")
 
 
 @pytest.mark.parametrize("sub", SUBPACKAGES)
 def test_each_subpackage_exports_its_public_api_from_the_homes(sub: str) -> None:
     """Every name of a subpackage's ``__all__`` comes from the module its ``__init__`` names,
     whose own ``__all__`` holds it (plant.config is the public home of device_config's and
-    virtual_config's classes, its docstring says)."""
+    reference_config's classes, its docstring says)."""
     package = importlib.import_module(f"rsp_inertia.{sub}")
     assert package.__all__, f"rsp_inertia.{sub} exports nothing"
     for name in package.__all__:
         home = importlib.import_module(f"rsp_inertia.{sub}.{package._HOMES[name]}")
         assert name in home.__all__, f"{name} is not in {home.__name__}.__all__"
         assert getattr(package, name) is getattr(home, name)
+
+
+def _forwarders(tree: ast.Module) -> list[str]:
+    """The functions of a module whose whole body (after the docstring) returns a call of a
+    function of the same name with the same arguments in the same order: a second name for
+    one home, not a function of its own."""
+    found = []
+    for node in tree.body:
+        if not isinstance(node, ast.FunctionDef):
+            continue
+        body = node.body
+        if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant):
+            body = body[1:]
+        if len(body) != 1 or not isinstance(body[0], ast.Return):
+            continue
+        call = body[0].value
+        if not isinstance(call, ast.Call):
+            continue
+        called = call.func.attr if isinstance(call.func, ast.Attribute) else getattr(
+            call.func, "id", ""
+        )
+        params = [a.arg for a in node.args.posonlyargs + node.args.args]
+        passed = [a.id for a in call.args if isinstance(a, ast.Name)]
+        if called == node.name and passed == params and len(call.args) == len(params):
+            found.append(node.name)
+    return found
+
+
+@pytest.mark.parametrize("name", sorted(MODULES))
+def test_no_function_only_forwards_to_its_namesake(name: str) -> None:
+    """A function lives in one module: no module wraps another's function under the same
+    name (as virtual.drive.encoder_reading once forwarded to plant.transducers')."""
+    tree = ast.parse(MODULES[name].read_text(), str(MODULES[name]))
+    assert _forwarders(tree) == [], f"{name}: forwards to another home"
+
+
+def test_the_forwarder_check_can_fail() -> None:
+    source = '''
+def encoder_reading(phi, quantum, error=()):
+    """Forwards."""
+    return transducers.encoder_reading(phi, quantum, error)
+
+
+def reading(phi, quantum):
+    return transducers.encoder_reading(phi, quantum, ())
+'''
+    assert _forwarders(ast.parse(source)) == ["encoder_reading"]
+
+
+INFRASTRUCTURE = {"scipy", "casadi", "matplotlib"}
+"""What the infrastructure (rsp_inertia.infra) never imports: it holds no physics (numpy only
+for the arrays a TOML file's keys hold), so that every layer stands on it at no cost."""
+
+
+@pytest.mark.parametrize("name", sorted(n for n in MODULES if _layer(n) == "infra"))
+def test_infrastructure_holds_no_physics(name: str) -> None:
+    tree = ast.parse(MODULES[name].read_text(), str(MODULES[name]))
+    imported = {
+        alias.name.split(".")[0] for node in ast.walk(tree) if isinstance(node, ast.Import)
+        for alias in node.names
+    } | {
+        node.module.split(".")[0] for node in ast.walk(tree)
+        if isinstance(node, ast.ImportFrom) and node.module and not node.level
+    }
+    assert imported & INFRASTRUCTURE == set(), f"{name} imports {imported & INFRASTRUCTURE}"

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import io
 
-from rsp_inertia.plant import progress
-from rsp_inertia.plant.progress import DELAY, INTERVAL, TerminalProgress, clear, report, reporting
+from rsp_inertia.infra import progress
+from rsp_inertia.infra.progress import DELAY, INTERVAL, TerminalProgress, clear, report, reporting
 
 
 class FakeTerminal(io.StringIO):
