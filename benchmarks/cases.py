@@ -38,14 +38,14 @@ from rsp_inertia.estimation.pendulum import estimate_pendulum
 from rsp_inertia.estimation.reading import known_terms, read_calibration
 from rsp_inertia.estimation.runs import ExperimentLogs, Sources
 from rsp_inertia.identifying import identify
-from rsp_inertia.plant.config import placed_body
-from rsp_inertia.plant.errors import InputError
+from rsp_inertia.infra.errors import InputError
+from rsp_inertia.infra.progress import lines_to
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.logs import Log, read_log
-from rsp_inertia.plant.progress import lines_to
 from rsp_inertia.programming import program
 from rsp_inertia.scenarios import create_default_experiment
 from rsp_inertia.simulating import simulate
+from rsp_inertia.virtual.config import experiment_virtual, placed_body
 
 __all__ = [
     "COM_FRICTION_FACTORS",
@@ -241,7 +241,7 @@ def _run_experiment(root: Path, case: Case) -> dict:
     create_default_experiment(root)
     configure(root, case)
     exp = open_experiment(root)
-    row: dict = {"release_angle_deg": exp.load_virtual().run.release_angle_deg}
+    row: dict = {"release_angle_deg": experiment_virtual(exp).run.release_angle_deg}
     stages = exp.stages()
     for stage in stages:
         row.update(fit_protocol(root, stage))
@@ -276,7 +276,7 @@ def _run_experiment(root: Path, case: Case) -> dict:
         row[f"time_program_{stage}"] for stage in stages
     )
     row["axes"] = len(result.axes)
-    body = placed_body(exp.device, exp.load_virtual())
+    body = placed_body(exp.device, experiment_virtual(exp))
     row.update(identification_errors(result, body, exp.device))
     row["warnings"] = "; ".join(result.warnings).replace(str(root), "EXP")
     # Experiment time (physical): RSP's braking and reverse passes; the pendulum's logged
@@ -364,7 +364,7 @@ def _equal_time_pendulum(root: Path, result, row: dict) -> dict:
         known_terms(exp, read_calibration(exp))[0], result.gravity, result.gravity_cov,
         warnings=warnings,
     )
-    body = placed_body(exp.device, exp.load_virtual())
+    body = placed_body(exp.device, experiment_virtual(exp))
     out: dict = {
         "experiment_time_pendulum_equal": used,
         "pendulum_failures_equal": "; ".join(left_out + warnings) or None,

@@ -43,18 +43,19 @@ from benchmarks.program import node_mismatch
 from benchmarks.tables import command_line, fmt, table_lines
 from benchmarks.truth import true_moments
 from rsp_inertia.identifying import identify
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.direction import Direction
-from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.logs import read_program, write_log
-from rsp_inertia.plant.virtual import (
+from rsp_inertia.programming import program
+from rsp_inertia.virtual.config import experiment_virtual
+from rsp_inertia.virtual.device import (
     ideal_program,
     placed_body,
     run_program,
     simulate_braking,
     simulate_ideal_reverse,
 )
-from rsp_inertia.programming import program
 
 BITS = (10, 12, 14, 16)
 NOISES = (1e-4, 1e-3, 3e-3)
@@ -91,7 +92,7 @@ def _run(tmp: Path, base: dict) -> list[dict]:
     rows = []
     exp = open_experiment(_folder(tmp / "exp", **{k: base[k] for k in
                                                     ("bits", "noise", "stages", "seed")}))
-    device, virtual = exp.device, exp.load_virtual()
+    device, virtual = exp.device, experiment_virtual(exp)
     brakings = {}
     need_torque = need_rate = 0.0
     for st in range(1, len(device.stages) + 1):

@@ -15,8 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
-from rsp_inertia.plant.config import Device, Stage, Virtual, load_device, load_virtual
+from rsp_inertia.plant.config import Device, Stage, load_device
 from rsp_inertia.scenarios import create_default_experiment
+from rsp_inertia.virtual.config import Virtual, load_virtual
 
 __all__ = [
     "default_experiment",
@@ -45,7 +46,8 @@ def load(root: str | Path) -> tuple[Device, Virtual]:
 def write(root: str | Path, device: Device | None = None, virtual: Virtual | None = None) -> None:
     """Write ``device`` as ``root/device.toml`` and ``virtual`` as ``root/virtual.toml``
     (each atomically; None leaves that file as it is)."""
-    from rsp_inertia.plant.config import write_device, write_virtual
+    from rsp_inertia.plant.config import write_device
+    from rsp_inertia.virtual.config import write_virtual
 
     root = Path(root)
     if device is not None:
@@ -123,7 +125,7 @@ def with_encoder_bits(device: Device, bits: int) -> Device:
 
 
 def with_rig(virtual: Virtual, **changes) -> Virtual:
-    """The rig's imperfections (virtual.toml ``[rig]``, :class:`rsp_inertia.plant.config.Rig`)
+    """The rig's imperfections (virtual.toml ``[rig]``, :class:`rsp_inertia.virtual.config.Rig`)
     with the given fields changed."""
     return replace(virtual, rig=replace(virtual.rig, **changes))
 

@@ -31,11 +31,12 @@ from rsp_inertia.estimation.axes import axis_values
 from rsp_inertia.estimation.reading import identify_experiment
 from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs
 from rsp_inertia.estimation.tensor_fit import fit_tensor
+from rsp_inertia.infra.files import write_atomic
 from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.experiment import open_experiment
-from rsp_inertia.plant.files import write_atomic
-from rsp_inertia.plant.virtual import placed_body, simulate_braking, simulate_ideal_reverse
 from rsp_inertia.simulating import simulate
+from rsp_inertia.virtual.config import experiment_virtual
+from rsp_inertia.virtual.device import placed_body, simulate_braking, simulate_ideal_reverse
 
 
 def _std_with_exact_speeds(exp, virtual, directions: np.ndarray) -> np.ndarray:
@@ -88,7 +89,7 @@ def run_case(factor: float, seed: int) -> dict:
         start = time.perf_counter()
         result = identify_experiment(exp)
         identified = time.perf_counter() - start
-        truth = exp.load_virtual()
+        truth = experiment_virtual(exp)
         exact_std = _std_with_exact_speeds(exp, truth, np.array([a.direction for a in result.axes]))
         body = placed_body(exp.device, truth)
     J_true = true_moments([a.direction for a in result.axes], body.tensor)

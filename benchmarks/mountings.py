@@ -91,7 +91,7 @@ def _mounting(folder: Path, seed: int, rotation, misalignment: tuple | None) -> 
 def run_seed(seed: int, work: str, misaligned: bool, accuracy: bool) -> dict:
     """Seed ``seed``'s mountings and combinations (one process: its own folders)."""
     from rsp_inertia.api import combine
-    from rsp_inertia.plant.config import load_virtual
+    from rsp_inertia.virtual.config import load_virtual
 
     base = Path(work) / f"seed{seed}"
     first = _mounting(base / "m1", seed, np.eye(3), None)

@@ -29,14 +29,15 @@ from benchmarks.experiments import default_experiment, scale_friction, with_stag
 from benchmarks.tables import command_line, markdown_table
 from benchmarks.truth import true_moments
 from rsp_inertia.identifying import identify
+from rsp_inertia.infra.files import write_atomic
 from rsp_inertia.planning import plan
-from rsp_inertia.plant.config import Device, Virtual, load_device, load_virtual, placed_body
+from rsp_inertia.plant.config import Device, load_device
 from rsp_inertia.plant.experiment import open_experiment
-from rsp_inertia.plant.files import write_atomic
 from rsp_inertia.plant.geometry import axis_direction
 from rsp_inertia.plant.logs import read_log
 from rsp_inertia.programming import program
 from rsp_inertia.simulating import simulate
+from rsp_inertia.virtual.config import Virtual, load_virtual, placed_body
 
 SCENARIOS = ("paper", "spring", "heavy-friction", "com-offset", "cone-z")
 CONE_OPENING = 140.0

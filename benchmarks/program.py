@@ -26,15 +26,16 @@ from benchmarks.tables import command_line, markdown_table
 from benchmarks.truth import tensor_error, true_moments
 from rsp_inertia.estimation.reading import identify_experiment
 from rsp_inertia.estimation.smoothing import smooth_log
+from rsp_inertia.infra.files import write_atomic
 from rsp_inertia.ocp.nominal import fit_nominal
 from rsp_inertia.ocp.program import make_program
 from rsp_inertia.plant.experiment import open_experiment
-from rsp_inertia.plant.files import write_atomic
 from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.logs import write_log, write_program
-from rsp_inertia.plant.virtual import placed_body, run_program, simulate_braking
 from rsp_inertia.plots import plot_tracking
 from rsp_inertia.scenarios import create_default_experiment
+from rsp_inertia.virtual.config import experiment_virtual
+from rsp_inertia.virtual.device import placed_body, run_program, simulate_braking
 
 CASES = [(1.0, 1.0), (1.3, 1.5), (1.3, 0.5), (0.7, 1.5), (0.7, 0.5)]
 """(inertia factor, friction factor) applied to the fitted nominal model."""
@@ -61,7 +62,7 @@ def run_case(inertia: float, friction: float, figures: bool) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         root = create_default_experiment(Path(tmp))
         exp = open_experiment(root)
-        device, virtual = exp.device, exp.load_virtual()
+        device, virtual = exp.device, experiment_virtual(exp)
         row = {"inertia x": inertia, "friction x": friction}
         mismatches = []
         for stage in exp.stages():

@@ -18,13 +18,14 @@ from scipy.optimize import brentq
 
 from benchmarks.experiments import vary, with_stage
 from rsp_inertia.checking import MIN_TURNS_PAST_LAST_NODE
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.ocp.feedforward import required_torque
 from rsp_inertia.ocp.reference import Mirror
-from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.model import ModelParameters, acceleration
-from rsp_inertia.plant.virtual import true_parameters
 from rsp_inertia.simulating import simulate
+from rsp_inertia.virtual.config import experiment_virtual
+from rsp_inertia.virtual.device import true_parameters
 
 __all__ = ["MAX_PROTOCOL_TRIES", "TORQUE_MARGIN", "fit_protocol", "mirror_torque"]
 
@@ -85,7 +86,7 @@ def fit_protocol(root: Path, stage: int) -> dict:
     """
     exp = open_experiment(root)
     st = exp.device.stages[stage - 1]
-    params = true_parameters(exp.device, stage, exp.load_virtual())
+    params = true_parameters(exp.device, stage, experiment_virtual(exp))
     limit = TORQUE_MARGIN * exp.device.motor.torque_limit
     if mirror_torque(params, 1e-9, 0.0) >= limit:
         raise InputError(

@@ -36,13 +36,14 @@ from benchmarks.experiments import seeded, vary
 from benchmarks.tables import command_line, markdown_table
 from benchmarks.truth import principal_scale
 from rsp_inertia.identifying import identify
-from rsp_inertia.plant.config import LoggerSettings, load_device, load_virtual, placed_body
-from rsp_inertia.plant.files import write_atomic
+from rsp_inertia.infra.files import write_atomic
+from rsp_inertia.plant.config import load_device
 from rsp_inertia.plant.geometry import relative_errors
 from rsp_inertia.programming import program
 from rsp_inertia.rig_demo import demo
 from rsp_inertia.scenarios import create_default_experiment, create_rig_experiment
 from rsp_inertia.simulating import simulate
+from rsp_inertia.virtual.config import LoggerSettings, load_virtual, placed_body
 
 LOGGER = LoggerSettings(time_jitter=0.2, dropped_fraction=0.001, counts=True)
 """virtual.toml [logger] of the real logs."""

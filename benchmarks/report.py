@@ -24,7 +24,7 @@ from benchmarks.sensitivity import sensitivity_figure, sensitivity_table
 from benchmarks.tables import new_figure
 from benchmarks.truth import METHODS
 from rsp_inertia.checking import MIN_TURNS_PAST_LAST_NODE
-from rsp_inertia.plant.files import write_atomic
+from rsp_inertia.infra.files import write_atomic
 
 __all__ = ["SweepReport", "accuracy_figure", "write_report"]
 

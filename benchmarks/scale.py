@@ -53,10 +53,11 @@ import numpy as np
 from benchmarks import RESULTS
 from benchmarks.experiments import default_experiment, load, with_stage
 from benchmarks.tables import command_line, fmt, table_lines
-from rsp_inertia.plant.config import Device, Virtual
+from rsp_inertia.infra.errors import InputError
+from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.direction import Direction
-from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.friction import FRICTION
+from rsp_inertia.virtual.config import Virtual
 
 BRAKINGS = (
     (10.0, 0.1, 0.04323),
@@ -134,7 +135,7 @@ def braking_experiment(root: Path, friction: float, torque: float, rate: float =
 
 def braking_duration(device: Device, virtual: Virtual, torque: float) -> float:
     """s: stage 1's simulated braking under ``torque`` (inf if it does not stop in time)."""
-    from rsp_inertia.plant.virtual import simulate_braking
+    from rsp_inertia.virtual.device import simulate_braking
 
     try:
         log = simulate_braking(with_stage(device, 1, braking_torque=torque), 1, virtual).log

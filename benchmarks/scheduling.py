@@ -23,8 +23,8 @@ from benchmarks import sensitivity
 from benchmarks.cases import Case, code_fingerprint
 from benchmarks.scratch import remove_stale
 from benchmarks.sensitivity import Perturbation
-from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.files import write_atomic
+from rsp_inertia.infra.errors import InputError
+from rsp_inertia.infra.files import write_atomic
 
 __all__ = ["PACKAGES", "run_guarded", "run_sweep"]
 

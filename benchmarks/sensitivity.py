@@ -34,12 +34,13 @@ from benchmarks.scratch import scratch_folder
 from benchmarks.tables import fmt, new_figure, table_lines
 from benchmarks.truth import identification_errors
 from rsp_inertia.identifying import identify
-from rsp_inertia.plant.config import Device, placed_body
-from rsp_inertia.plant.errors import InputError
+from rsp_inertia.infra.errors import InputError
+from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.programming import program
 from rsp_inertia.scenarios import create_default_experiment
 from rsp_inertia.simulating import simulate
+from rsp_inertia.virtual.config import experiment_virtual, placed_body
 
 __all__ = [
     "SENSITIVITY_METHODS",
@@ -125,7 +126,7 @@ def _run(p: Perturbation, row: dict) -> None:
                 vary(root, device=lambda d: _stated_stds(d, p))
             exp = open_experiment(root)
             result = identify(root)
-            body = placed_body(exp.device, exp.load_virtual())
+            body = placed_body(exp.device, experiment_virtual(exp))
             errors = identification_errors(result, body, exp.device)
             row.update({f"{k}{suffix}": v for k, v in errors.items()
                         if k.endswith(tuple(SENSITIVITY_METHODS))})

@@ -28,7 +28,7 @@ from benchmarks.report import SweepReport, write_report
 from benchmarks.scheduling import run_sweep
 from benchmarks.sensitivity import default_perturbations
 from benchmarks.tables import command_line
-from rsp_inertia.plant.errors import InputError
+from rsp_inertia.infra.errors import InputError
 
 __all__ = ["main", "sweep"]
 

@@ -55,7 +55,7 @@ moment (benchmarks.truth.tensor_error); worst |J_k err|/std <= 3; mean (err/std)
 a warning that names the cause (CAUSE_PHRASE: "drive loss" for drive-*, "encoder error" for
 encoder) in at least 19 of 20 seeds. Reported for the calibrated rows besides: the fitted
 drive gains and encoder coefficients (result.json ``calibration``) against the truth
-(:attr:`rsp_inertia.plant.config.Rig.drive_gains`, ``Rig.encoder_error``) in std, and each
+(:attr:`rsp_inertia.virtual.config.Rig.drive_gains`, ``Rig.encoder_error``) in std, and each
 calibration line's share of the std. Every target is printed PASS or FAIL (a target over
 20 seeds has its seed count as a target of its own).
 
@@ -94,20 +94,14 @@ from benchmarks.tables import command_line, markdown_table, table_lines
 from benchmarks.truth import tensor_error, true_moments
 from rsp_inertia.calibrating import calibrate
 from rsp_inertia.identifying import identify
-from rsp_inertia.plant.config import (
-    Device,
-    Rig,
-    TrueBody,
-    Virtual,
-    placed_body,
-    write_reference,
-)
+from rsp_inertia.infra.files import write_atomic
+from rsp_inertia.plant.config import Device, TrueBody, write_reference
 from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.experiment import open_experiment
-from rsp_inertia.plant.files import write_atomic
 from rsp_inertia.programming import program
 from rsp_inertia.scenarios import create_rig_experiment
 from rsp_inertia.simulating import simulate
+from rsp_inertia.virtual.config import Rig, Virtual, experiment_virtual, placed_body
 
 BACKWARD_SCALE = 1.02
 TARE_ERROR = 1.02
@@ -313,7 +307,7 @@ def _budget_shares(budget: dict, J_std: np.ndarray) -> dict[str, float]:
 def _score(root: Path) -> dict:
     """Errors of result.json against the virtual truth."""
     exp = open_experiment(root)
-    virtual = exp.load_virtual()
+    virtual = experiment_virtual(exp)
     body = placed_body(exp.device, virtual)
     r = json.loads((exp.root / "result.json").read_text())
     J = np.array([a["J"] for a in r["axes"]])

@@ -1,7 +1,7 @@
 """Errors of an identification against the virtual device's truth.
 
 The truth is virtual.toml's body placed on the rig by its mounting, in rig axes as identify
-reports (:func:`rsp_inertia.plant.virtual.placed_body`, a
+reports (:func:`rsp_inertia.virtual.device.placed_body`, a
 :class:`rsp_inertia.plant.config.TrueBody`; the callers place it). Moments of
 inertia J_k about identified axes are compared relatively (J / J_true - 1); tensor entries
 relative to the largest principal moment (products of inertia may be near zero; the

@@ -50,8 +50,8 @@ import numpy as np
 from rsp_inertia.estimation.balance import MIN_SPEED_FRACTION, MIN_TURNS
 from rsp_inertia.estimation.predict import PlannedPass, predicted_balance, run_information
 from rsp_inertia.estimation.smoothing import hermite
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.config import Device, Stage
-from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.geometry import turns_past_last_node
 from rsp_inertia.plant.model import (
@@ -62,7 +62,7 @@ from rsp_inertia.plant.model import (
     reduced_inertia,
     static_torque,
 )
-from rsp_inertia.plant.virtual import MAX_BRAKING_TIME, integrate_to_stop
+from rsp_inertia.virtual.device import MAX_BRAKING_TIME, integrate_to_stop
 
 __all__ = [
     "MIN_LOSS_PER_TURN",

@@ -15,8 +15,8 @@ from pathlib import Path
 import tomlkit
 
 from rsp_inertia.design.candidates import Candidate, planned_release
+from rsp_inertia.infra.files import write_atomic
 from rsp_inertia.plant.config import Device
-from rsp_inertia.plant.files import write_atomic
 
 __all__ = ["set_key", "write_protocols"]
 

@@ -16,8 +16,8 @@ import numpy as np
 from rsp_inertia.design.candidates import StageModel
 from rsp_inertia.design.pilot import fit_pilot
 from rsp_inertia.design.plan import map_stages
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.config import Device
-from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.logs import Log, read_device_log

@@ -1,7 +1,7 @@
 """A stage's mean reduced inertia and friction from a pilot run, for experiment planning.
 
 A pilot run (``stageN/pilot.csv``, the log format of braking.csv; the virtual device's
-:func:`rsp_inertia.plant.virtual.simulate_pilot`) starts at rest, drives the body forward at a constant
+:func:`rsp_inertia.virtual.device.simulate_pilot`) starts at rest, drives the body forward at a constant
 known torque up to the stage's launch speed (or until a spring stops the speed rising),
 then switches the motor off and lets it coast to rest (or for a while). Its equation of
 motion in momentum form, modulated over overlapping windows of the pass (docs/method.md §3),
@@ -31,8 +31,8 @@ import numpy as np
 
 from rsp_inertia.estimation.modulated import MODEL_UNKNOWNS, fit_modulated
 from rsp_inertia.estimation.smoothing import smooth_log
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.config import Device
-from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.logs import Log, torque_noise
 from rsp_inertia.plant.model import ModelParameters
@@ -138,7 +138,7 @@ def fit_pilot(device: Device, stage: int, log: Log, source: str | None = None) -
         The stage number, from 1.
     log : Log
         The pilot log (rsp_inertia.plant.logs.read_log of ``stageN/pilot.csv``): the powered rows
-        first, then the coast's (the protocol of rsp_inertia.plant.virtual.simulate_pilot).
+        first, then the coast's (the protocol of rsp_inertia.virtual.device.simulate_pilot).
     source : str, optional
         The log's name in messages; default ``stageN/pilot.csv``.
 

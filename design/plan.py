@@ -37,8 +37,8 @@ from rsp_inertia.design.candidates import (
     stage_candidates,
 )
 from rsp_inertia.estimation.predict import axis_stds, combine_information
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.config import Device
-from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.geometry import device_design
 
 # RELEASE_BEFORE_NODE_DEG, TORQUE_MARGIN, StageModel and planned_release live in

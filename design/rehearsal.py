@@ -42,13 +42,14 @@ from rsp_inertia.estimation.balance import stage_balance
 from rsp_inertia.estimation.columns import format_run
 from rsp_inertia.estimation.runs import estimate_run
 from rsp_inertia.estimation.tensor_fit import fit_tensor
+from rsp_inertia.infra.progress import say
 from rsp_inertia.ocp.program import make_program
 from rsp_inertia.ocp.regulator import OBSERVER_BANDWIDTH
-from rsp_inertia.plant.config import ControllerSettings, Device, Friction, RunSettings, Virtual
+from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.geometry import device_design
 from rsp_inertia.plant.model import ModelParameters, harmonics_matrix, inertia_harmonics
-from rsp_inertia.plant.progress import say
-from rsp_inertia.plant.virtual import run_program, simulate_braking
+from rsp_inertia.virtual.config import ControllerSettings, Friction, RunSettings, Virtual
+from rsp_inertia.virtual.device import run_program, simulate_braking
 
 __all__ = ["Rehearsal", "consistent_models", "rehearse"]
 

@@ -57,8 +57,8 @@ from rsp_inertia.estimation.modulated import MODEL_UNKNOWNS, fit_modulated
 from rsp_inertia.estimation.passes import PassEstimate, angle_work_noise
 from rsp_inertia.estimation.smoothing import median_step
 from rsp_inertia.estimation.whitening import Noise, add_bands, scaled_band
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.config import Device, Stage
-from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.logs import Log, dropped_samples, mirrored_device
 from rsp_inertia.plant.model import potential, spring_parameters

@@ -42,7 +42,7 @@ from scipy.optimize import least_squares
 
 from rsp_inertia.estimation.pendulum import pendulum_inertia
 from rsp_inertia.estimation.smoothing import median_step
-from rsp_inertia.plant.errors import InputError
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.logs import Log
 
 __all__ = [

@@ -78,11 +78,11 @@ from rsp_inertia.estimation.layout import HARMONIC_NAMES, theta_layout
 from rsp_inertia.estimation.model_tests import ModelTest, described, model_warnings
 from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs, corrected_log
 from rsp_inertia.estimation.stiffness import StiffnessCalibration, calibrate_stiffness
+from rsp_inertia.infra.errors import InputError
+from rsp_inertia.infra.progress import drop, lines_to, say
 from rsp_inertia.plant.config import Device, TrueBody
-from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import CALIBRATION_FILE
 from rsp_inertia.plant.model import inertia_basis, inertia_harmonics
-from rsp_inertia.plant.progress import drop, lines_to, say
 
 __all__ = [
     "Calibration",
@@ -361,7 +361,7 @@ def calibrate_logs(
 
     With a reference the fit repeats on the logs corrected with the encoder's error found so
     far (module docstring). The torsion stiffness comes from the nodes with a pendulum log in
-    both. Its lines (rsp_inertia.plant.progress.say): each run balanced, in the first fit
+    both. Its lines (rsp_inertia.infra.progress.say): each run balanced, in the first fit
     only, and each repetition of the fit.
 
     Parameters

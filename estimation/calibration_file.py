@@ -2,7 +2,7 @@
 
 ``rsp-inertia calibrate`` writes it into the experiment it calibrates and identify applies it
 (rsp_inertia.estimation.calibration). The config classes below declare its keys
-(rsp_inertia.plant.toml_schema), as rsp_inertia.plant.device_config does for device.toml:
+(rsp_inertia.infra.toml_schema), as rsp_inertia.plant.device_config does for device.toml:
 each field's name is its key, with its unit, bounds and doc. The rules that join tables
 (array lengths, the covariance's parameters) are :func:`_calibration`'s.
 
@@ -24,9 +24,8 @@ import numpy as np
 
 from rsp_inertia.estimation.known_terms import KnownTerms
 from rsp_inertia.estimation.layout import HARMONIC_NAMES, theta_layout
-from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.experiment import CALIBRATION_FILE
-from rsp_inertia.plant.toml_schema import (
+from rsp_inertia.infra.errors import InputError
+from rsp_inertia.infra.toml_schema import (
     Bound,
     ContentError,
     config_class,
@@ -34,7 +33,8 @@ from rsp_inertia.plant.toml_schema import (
     read_file,
     read_table,
 )
-from rsp_inertia.plant.toml_writer import checked_text, write_file
+from rsp_inertia.infra.toml_writer import checked_text, write_file
+from rsp_inertia.plant.experiment import CALIBRATION_FILE
 
 if TYPE_CHECKING:
     from rsp_inertia.estimation.calibration import Calibration

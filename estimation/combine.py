@@ -30,7 +30,7 @@ import numpy as np
 from scipy.linalg import solve_triangular
 from scipy.special import chdtrc
 
-from rsp_inertia.plant.errors import InputError
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.experiment import Experiment
 from rsp_inertia.plant.geometry import (
     ENTRY_KEYS,

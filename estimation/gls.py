@@ -68,7 +68,7 @@ from rsp_inertia.estimation.whitening import (
     whitened_rows,
     whiteners,
 )
-from rsp_inertia.plant.progress import report
+from rsp_inertia.infra.progress import report
 
 __all__ = [
     "CALIBRATION_SOURCE",

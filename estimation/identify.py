@@ -38,8 +38,9 @@ from rsp_inertia.estimation.pendulum import PendulumEstimate, estimate_pendulum
 from rsp_inertia.estimation.results import AxisResult, Identification, PendulumResult
 from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs, corrected_log
 from rsp_inertia.estimation.tensor_fit import TensorFit, fit_tensor
+from rsp_inertia.infra.errors import InputError
+from rsp_inertia.infra.progress import say
 from rsp_inertia.plant.config import Device, Pendulum
-from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.geometry import (
     AxisDesign,
     axis_direction,
@@ -48,7 +49,6 @@ from rsp_inertia.plant.geometry import (
     physical_warnings,
 )
 from rsp_inertia.plant.logs import Log
-from rsp_inertia.plant.progress import say
 
 __all__ = [
     "MAX_CONDITION",

@@ -45,7 +45,7 @@ import numpy as np
 from scipy.stats import chi2
 
 from rsp_inertia.estimation.whitening import Identity, lstsq_rows, weighted_chi2, whiten
-from rsp_inertia.plant.progress import report
+from rsp_inertia.infra.progress import report
 
 if TYPE_CHECKING:
     from rsp_inertia.estimation.gls import Block

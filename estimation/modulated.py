@@ -49,8 +49,8 @@ from scipy.integrate import simpson
 from scipy.optimize import lsq_linear
 
 from rsp_inertia.estimation.smoothing import Smoothed, median_step
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.config import Device
-from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.logs import Log
 from rsp_inertia.plant.model import (

@@ -29,8 +29,8 @@ from rsp_inertia.estimation.balance import (
     usable_range,
 )
 from rsp_inertia.estimation.passes import PassEstimate, angle_work_noise
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.config import Device
-from rsp_inertia.plant.errors import InputError
 
 __all__ = ["NodeEstimate", "NodePassages", "node_estimates", "node_formula", "node_passages"]
 

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import curve_fit
 
-from rsp_inertia.plant.errors import InputError
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.logs import Log
 
 __all__ = [

@@ -31,11 +31,11 @@ from rsp_inertia.estimation.identify import identify_logs
 from rsp_inertia.estimation.known_terms import KnownTerms
 from rsp_inertia.estimation.results import Identification
 from rsp_inertia.estimation.runs import ExperimentLogs, Sources, runs
+from rsp_inertia.infra.errors import InputError
+from rsp_inertia.infra.files import file_sha256
 from rsp_inertia.plant.config import load_reference
 from rsp_inertia.plant.direction import Direction
-from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import Experiment
-from rsp_inertia.plant.files import file_sha256
 from rsp_inertia.plant.log_checks import unterminated_last_line
 from rsp_inertia.plant.logs import Log, align_counter, read_device_log
 

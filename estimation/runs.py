@@ -19,11 +19,11 @@ import numpy as np
 from rsp_inertia.estimation.balance import StageBalance, balance_range, stage_balance
 from rsp_inertia.estimation.passes import PassEstimate, estimate_pass
 from rsp_inertia.estimation.smoothing import Smoothed
+from rsp_inertia.infra.progress import report, say
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.experiment import DEVICE_FILE
 from rsp_inertia.plant.logs import Log, check_braking_monotone, mirror_log
-from rsp_inertia.plant.progress import report, say
 from rsp_inertia.plant.transducers import true_angle
 
 __all__ = [
@@ -295,7 +295,7 @@ def balance_runs(
     One run at a time: its logs are looked up, its passes estimated, balanced and handed to
     ``keep(stage, sign, braking, reverse)`` (sign +1 forward, -1 backward), then let go, so
     that an experiment's memory is one run's passes whatever its number of runs. Each run
-    done is a line and a step of the fraction done (rsp_inertia.plant.progress).
+    done is a line and a step of the fraction done (rsp_inertia.infra.progress).
 
     Parameters
     ----------

@@ -128,9 +128,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import trapezoid
 
-from rsp_inertia.plant.errors import InputError
+from rsp_inertia.infra.errors import InputError
+from rsp_inertia.infra.progress import report
 from rsp_inertia.plant.logs import Log
-from rsp_inertia.plant.progress import report
 
 __all__ = [
     "BANDWIDTH_FACTOR",
@@ -562,7 +562,7 @@ def hermite(t0, t1, f0, d0, f1, d1, t):
 
 def smooth_log(log: Log, quantum: float, source: str = "log") -> Smoothed:
     """Smoothed angle, speed and acceleration of a pass (Kalman filter forward, RTS backward;
-    module docstring), reporting its progress (rsp_inertia.plant.progress) as "SOURCE:
+    module docstring), reporting its progress (rsp_inertia.infra.progress) as "SOURCE:
     smoothing".
 
     Parameters
@@ -694,7 +694,7 @@ def _kalman_filter(x0, P0, F_of, Q_of, which, readings, task):
     (the Kalman gain through their B x B innovation covariance) rearranged: it needs 3 x 3
     matrices only. The sums A_k, b_k come vectorised, _BLOCKS_CHUNK blocks at a time;
     the blocks done before each chunk are reported as ``task``'s progress
-    (rsp_inertia.plant.progress.report).
+    (rsp_inertia.infra.progress.report).
 
     State 0 is the start (x0, P0) itself, not updated: the start is the least-squares fit of
     the first blocks' readings, block 0's among them (filterpy's UKF, which this filter

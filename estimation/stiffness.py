@@ -39,8 +39,8 @@ from rsp_inertia.estimation.best_practice import (
 )
 from rsp_inertia.estimation.pendulum import crossing_period
 from rsp_inertia.estimation.runs import ExperimentLogs
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.config import TrueBody
-from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.model import inertia_basis, inertia_harmonics
 
 __all__ = ["StiffnessCalibration", "calibrate_stiffness"]

@@ -1,13 +1,13 @@
 """The torque program of the reverse pass: mirror, nominal model, OCP feedforward, LQR regulator.
 
 The names below are its public API, each from the module that is its home; they load on
-first use (rsp_inertia.plant.lazy, as ``rsp_inertia`` does), so importing one module of the
+first use (rsp_inertia.infra.lazy, as ``rsp_inertia`` does), so importing one module of the
 package does not import the others.
 """
 
 from __future__ import annotations
 
-from rsp_inertia.plant.lazy import lazy_names
+from rsp_inertia.infra.lazy import lazy_names
 
 _HOMES = {
     "Mirror": "reference",

@@ -45,9 +45,9 @@ import casadi as ca
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.ocp.reference import Mirror
 from rsp_inertia.plant.config import Device
-from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.model import (
     MODEL,

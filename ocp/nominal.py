@@ -22,8 +22,8 @@ import numpy as np
 
 from rsp_inertia.estimation.modulated import MODEL_UNKNOWNS, fit_modulated
 from rsp_inertia.estimation.smoothing import Smoothed
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.config import Device
-from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.logs import Log, torque_noise
 from rsp_inertia.plant.model import ModelParameters

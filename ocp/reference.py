@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rsp_inertia.estimation.smoothing import Smoothed, hermite, median_step
-from rsp_inertia.plant.errors import InputError
+from rsp_inertia.infra.errors import InputError
 
 __all__ = ["REST_COUNTS", "REST_WINDOW", "Mirror", "RestFit", "braking_states_at", "mirror", "rest_fit"]
 

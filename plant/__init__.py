@@ -1,23 +1,20 @@
-"""Gimbal model, geometry, device description, the experiment's files and the virtual device.
+"""The plant: the gimbal's model and geometry, the transducers, and the file contracts of an
+experiment (device.toml, reference.toml, the logs and programs, the experiment folder).
 
 The names below are its public API, each from the module that is its home; they load on
-first use (rsp_inertia.plant.lazy, as ``rsp_inertia`` does), so importing one module of the
+first use (rsp_inertia.infra.lazy, as ``rsp_inertia`` does), so importing one module of the
 package does not import the others.
 """
 
 from __future__ import annotations
 
-from rsp_inertia.plant.lazy import lazy_names
+from rsp_inertia.infra.lazy import lazy_names
 
 _HOMES = {
-    "InputError": "errors",
     "Device": "config",
     "Direction": "direction",
-    "Virtual": "config",
     "load_device": "config",
     "load_reference": "config",
-    "load_virtual": "config",
-    "placed_body": "config",
     "Experiment": "experiment",
     "open_experiment": "experiment",
     "Log": "logs",
@@ -28,8 +25,6 @@ _HOMES = {
     "read_program": "logs",
     "write_log": "logs",
     "write_program": "logs",
-    "check_writable": "files",
-    "write_atomic": "files",
     "FRICTION": "friction",
     "FrictionLaw": "friction",
     "GimbalModel": "model",
@@ -46,12 +41,6 @@ _HOMES = {
     "principal": "geometry",
     "principal_uncertainty": "geometry",
     "tensor_from_entries": "geometry",
-    "SimulatedPass": "virtual",
-    "run_program": "virtual",
-    "simulate_braking": "virtual",
-    "simulate_ideal_reverse": "virtual",
-    "simulate_pendulum": "virtual",
-    "simulate_pilot": "virtual",
 }
 """Each public name and the module (of this package) that is its home."""
 
@@ -63,13 +52,9 @@ __all__ = [
     "Direction",
     "Experiment",
     "GimbalModel",
-    "InputError",
     "Log",
     "ModelParameters",
     "Program",
-    "SimulatedPass",
-    "Virtual",
-    "check_writable",
     "design_matrix",
     "device_design",
     "dropped_samples",
@@ -77,23 +62,15 @@ __all__ = [
     "inertia_harmonics",
     "load_device",
     "load_reference",
-    "load_virtual",
     "open_experiment",
     "place_body",
-    "placed_body",
     "principal",
     "principal_uncertainty",
     "read_device_log",
     "read_log",
     "read_program",
     "reduced_inertia",
-    "run_program",
-    "simulate_braking",
-    "simulate_ideal_reverse",
-    "simulate_pendulum",
-    "simulate_pilot",
     "tensor_from_entries",
-    "write_atomic",
     "write_log",
     "write_program",
 ]

@@ -1,22 +1,20 @@
-"""Read and write the experiment's description files: ``device.toml``, ``virtual.toml`` and
-``reference.toml``.
+"""Read and write the experiment's description files: ``device.toml`` and ``reference.toml``.
 
 ``device.toml`` describes the gimbal: its spring, motor, encoder, the stages (one gear ratio
 each, with the nodes where the tensor is sampled) and, optionally, the body's mass, how the
-body is mounted, the torsion-pendulum baseline and guesses for planning. ``virtual.toml``
-exists only for a virtual device: the true body and fixture, the friction law, the rig's
-imperfections, a body seated off its stated mounting, and the settings of the simulated runs.
+body is mounted, the torsion-pendulum baseline and guesses for planning.
 ``reference.toml`` holds a reference body's certified data. docs/files.md documents every
 key. This module is the public home of their config classes, readers and writers, which
-live in rsp_inertia.plant.device_config and rsp_inertia.plant.virtual_config; nothing else
-reads or writes these files.
+live in rsp_inertia.plant.device_config and rsp_inertia.plant.reference_config; nothing
+else reads or writes these files. (The virtual device's ``virtual.toml`` is read and written
+by rsp_inertia.virtual.config.)
 
-Each file is a frozen config class (:class:`Device`, :class:`Virtual`; :class:`TrueBody` for
-reference.toml) whose fields declare the keys: name, type, unit, bounds, default and doc
-(rsp_inertia.plant.toml_schema). A writer writes every key whose value is not None, reads
+Each file is a frozen config class (:class:`Device`; :class:`TrueBody` for reference.toml)
+whose fields declare the keys: name, type, unit, bounds, default and doc
+(rsp_inertia.infra.toml_schema). A writer writes every key whose value is not None, reads
 the text back and refuses (ValueError) what its loader would refuse or not give back equal.
 
-Bad input raises :class:`rsp_inertia.plant.errors.InputError` with one line that names the
+Bad input raises :class:`rsp_inertia.infra.errors.InputError` with one line that names the
 file, the dotted key and the fault, for example
 ``device.toml: stage[2].gear_ratio: must be >= 0, got -0.5``. Indices in keys count from 1,
 as the ``stage1/``, ``stage2/`` folders of an experiment do. Unknown keys and tables are
@@ -47,21 +45,7 @@ from rsp_inertia.plant.device_config import (
     require_protocol,
     write_device,
 )
-from rsp_inertia.plant.virtual_config import (
-    ControllerSettings,
-    Friction,
-    LoggerSettings,
-    Rig,
-    RunSettings,
-    TrueBody,
-    Virtual,
-    VirtualMounting,
-    load_reference,
-    load_virtual,
-    placed_body,
-    write_reference,
-    write_virtual,
-)
+from rsp_inertia.plant.reference_config import TrueBody, load_reference, write_reference
 
 __all__ = [
     "DEFAULT_GRAVITY",
@@ -69,28 +53,18 @@ __all__ = [
     "REQUIRED_AXES",
     "ROTATION_TOLERANCE",
     "Body",
-    "ControllerSettings",
     "Device",
     "Encoder",
-    "Friction",
-    "LoggerSettings",
     "Motor",
     "Mounting",
     "Pendulum",
     "PlanGuess",
-    "Rig",
-    "RunSettings",
     "Spring",
     "Stage",
     "TrueBody",
-    "Virtual",
-    "VirtualMounting",
     "load_device",
     "load_reference",
-    "load_virtual",
-    "placed_body",
     "require_protocol",
     "write_device",
     "write_reference",
-    "write_virtual",
 ]

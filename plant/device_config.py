@@ -3,7 +3,7 @@
 The file describes the gimbal's spring, motor and encoder, the stages (one gear ratio each,
 with the nodes where the tensor is sampled) and, optionally, the body's mass, how the body is
 mounted, the torsion-pendulum baseline and guesses for planning; docs/files.md documents
-every key. The config classes below declare the keys (rsp_inertia.plant.toml_schema): each
+every key. The config classes below declare the keys (rsp_inertia.infra.toml_schema): each
 field's name is its key, with its unit, bounds, default and doc.
 """
 
@@ -14,10 +14,8 @@ import os
 
 import numpy as np
 
-from rsp_inertia.plant.direction import Direction
-from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.friction import FRICTION
-from rsp_inertia.plant.toml_schema import (
+from rsp_inertia.infra.errors import InputError
+from rsp_inertia.infra.toml_schema import (
     Bound,
     ContentError,
     config_class,
@@ -25,7 +23,9 @@ from rsp_inertia.plant.toml_schema import (
     read_file,
     read_table,
 )
-from rsp_inertia.plant.toml_writer import write_file
+from rsp_inertia.infra.toml_writer import write_file
+from rsp_inertia.plant.direction import Direction
+from rsp_inertia.plant.friction import FRICTION
 
 DEFAULT_GRAVITY = 9.80665
 """Standard gravity, m/s^2: used when ``[device]`` has no ``gravity``."""
@@ -448,7 +448,7 @@ def load_device(path: str | os.PathLike) -> Device:
 
 def write_device(path: str | os.PathLike, device: Device) -> None:
     """Write ``device`` to ``path`` as a ``device.toml`` that :func:`load_device` reads back
-    equal; atomically (rsp_inertia.plant.files.write_atomic).
+    equal; atomically (rsp_inertia.infra.files.write_atomic).
 
     Every key whose value is not None is written, in the order of the fields, with its unit
     as a comment.

@@ -5,7 +5,7 @@ pass and decreases during its reverse pass; backward, the other way round (the m
 docs/method.md §4). The words "forward" and "backward" name a run in device.toml, on the
 command line (``--direction``), in the API (``direction=``), in the log files' names
 (``braking_backward.csv``) and in the results. They are parsed into :class:`Direction` where
-they enter (device.toml by rsp_inertia.plant.toml_schema, the others by
+they enter (device.toml by rsp_inertia.infra.toml_schema, the others by
 :meth:`Direction.parse`); everything inside takes a Direction, and its :attr:`Direction.sign`
 is the one place the word becomes the sign s = +1 / -1 of the mathematics.
 """
@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import enum
 
-from rsp_inertia.plant.errors import InputError
+from rsp_inertia.infra.errors import InputError
 
 __all__ = ["Direction"]
 

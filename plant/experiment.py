@@ -25,15 +25,9 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from rsp_inertia.plant.config import (
-    Device,
-    Virtual,
-    load_device,
-    load_virtual,
-    require_protocol,
-)
+from rsp_inertia.infra.errors import InputError
+from rsp_inertia.plant.config import Device, load_device, require_protocol
 from rsp_inertia.plant.direction import Direction
-from rsp_inertia.plant.errors import InputError
 
 __all__ = [
     "BODY_FILE",
@@ -165,24 +159,6 @@ class Experiment:
     def virtual_path(self) -> Path:
         """``virtual.toml`` (virtual device only)."""
         return self.root / VIRTUAL_FILE
-
-    def load_virtual(self) -> Virtual:
-        """The virtual device's truth; an error if this is not a virtual experiment.
-
-        Also checks virtual.toml against device.toml (``rig.tare_inertia``: one per stage).
-        """
-        if not self.virtual_path.is_file():
-            raise InputError(
-                f"{self.virtual_path}: not found: only a virtual device (with virtual.toml) "
-                "can be simulated; write one (the true body, friction and rig: docs/files.md "
-                "lists its keys, docs/real-rig.md shows a rig's), or python -c \"import "
-                f"rsp_inertia; rsp_inertia.create_experiment({str(self.root)!r})\" writes the "
-                "default one (the paper's body on an exact gimbal) and keeps the device.toml "
-                "there"
-            )
-        virtual = load_virtual(self.virtual_path)
-        virtual.rig.true_tare(self.device, 1, source=str(self.virtual_path))
-        return virtual
 
     def check_stage(self, stage: int) -> None:
         """Raise InputError unless 1 <= stage <= n_stages."""

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from rsp_inertia.plant.errors import InputError
+from rsp_inertia.infra.errors import InputError
 
 __all__ = [
     "ENTRY_KEYS",

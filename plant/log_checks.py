@@ -4,7 +4,7 @@
 expected header and finite numbers, time stamps from 0 at the encoder's sample rate (a log's
 within :data:`JITTER_LIMIT` of its grid, a program's regular), angles on the encoder grid, the
 direction of a pass, integer counts of a wrapping counter unwrapped. Every fault is one
-:class:`~rsp_inertia.plant.errors.InputError` line naming the file and the line (1-based
+:class:`~rsp_inertia.infra.errors.InputError` line naming the file and the line (1-based
 lines of the file, the header being line 1).
 """
 
@@ -19,8 +19,8 @@ from typing import Protocol
 
 import numpy as np
 
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.direction import Direction
-from rsp_inertia.plant.errors import InputError
 
 __all__ = [
     "CHUNK_BYTES",

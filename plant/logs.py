@@ -5,7 +5,7 @@ logs its position counter; the torque program of a reverse pass is
 ``t,phi_ref,omega_ref,torque_ff,k_phi,k_omega`` (a :class:`Program`). Reading checks
 everything the rest of the package relies on (:mod:`rsp_inertia.plant.log_checks`: finite
 numbers, t from 0 at the encoder's sample rate, phi on the encoder grid, the direction of the
-pass) and turns every fault into one :class:`~rsp_inertia.plant.errors.InputError` line
+pass) and turns every fault into one :class:`~rsp_inertia.infra.errors.InputError` line
 naming the file and the line. Writing is exact (``repr`` round-trips every float64),
 deterministic and atomic.
 
@@ -22,10 +22,10 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from rsp_inertia.infra.errors import InputError
+from rsp_inertia.infra.files import write_atomic
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.direction import Direction
-from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.files import write_atomic
 from rsp_inertia.plant.log_checks import (
     JITTER_LIMIT,
     EncoderLike,

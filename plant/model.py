@@ -298,7 +298,7 @@ def rk4_step(
 ) -> ca.SX:
     """x advanced by h: ``substeps`` classical fourth-order Runge-Kutta steps of h / substeps.
 
-    The simulator (rsp_inertia.plant.virtual) and the optimal-control problem
+    The simulator (rsp_inertia.virtual.device) and the optimal-control problem
     (rsp_inertia.ocp.feedforward) make the result into their step functions.
 
     Parameters

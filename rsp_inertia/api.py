@@ -15,10 +15,10 @@ The result classes, one module per command, are in :mod:`rsp_inertia.results`; t
 module re-exports them, so ``rsp_inertia.api.IdentifyResult`` and
 ``rsp_inertia.IdentifyResult`` are the same class.
 
-Bad input raises :class:`~rsp_inertia.plant.errors.InputError`, whose message is the line
+Bad input raises :class:`~rsp_inertia.infra.errors.InputError`, whose message is the line
 the command line prints after ``rsp-inertia: error:``. Nothing is printed: what the command
 line shows while it works goes to the optional ``progress`` callable, one line (a ``str``)
-at a time (rsp_inertia.plant.progress.lines_to: without it, to the progress installed around
+at a time (rsp_inertia.infra.progress.lines_to: without it, to the progress installed around
 the call, none by default).
 
 This module is the package's lazy boundary: each function imports its command's module
@@ -35,7 +35,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from rsp_inertia.plant.progress import lines_to
+from rsp_inertia.infra.progress import lines_to
 from rsp_inertia.public import API_NAMES, RESULT_CLASSES
 
 if TYPE_CHECKING:
@@ -144,7 +144,7 @@ def demo(
     -------
     IdentifyResult
         The calibrated identification, with ``truth`` set to the virtual body's entries in
-        rig axes (rsp_inertia.plant.virtual.placed_body): ``str(result)`` is the demo's
+        rig axes (rsp_inertia.virtual.config.placed_body): ``str(result)`` is the demo's
         table against the truth.
 
     Raises
@@ -159,15 +159,15 @@ def demo(
     # everything: the demo runs every command and draws
     import numpy as np
 
-    from rsp_inertia.plant.config import placed_body
     from rsp_inertia.plant.experiment import open_experiment
     from rsp_inertia.results import IdentifyResult
     from rsp_inertia.rig_demo import demo as run
+    from rsp_inertia.virtual.config import experiment_virtual, placed_body
 
     with lines_to(progress):
         result = run(path)
     exp = open_experiment(path)
-    truth = np.array(placed_body(exp.device, exp.load_virtual()).inertia, dtype=float)
+    truth = np.array(placed_body(exp.device, experiment_virtual(exp)).inertia, dtype=float)
     return IdentifyResult(result, Path(path), truth, drawer=_identify_figures)
 
 

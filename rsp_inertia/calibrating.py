@@ -14,8 +14,8 @@ from rsp_inertia.estimation.calibration import Calibration
 from rsp_inertia.estimation.calibration_file import write_calibration_file
 from rsp_inertia.estimation.reading import calibrate_experiment
 from rsp_inertia.figure_files import save_figures
+from rsp_inertia.infra.files import check_writable
 from rsp_inertia.plant.experiment import CALIBRATION_FILE, open_experiment
-from rsp_inertia.plant.files import check_writable
 from rsp_inertia.plots import calibrate_figures, encoder_figures
 from rsp_inertia.results.calibrate import CalibrateResult
 

@@ -50,9 +50,9 @@ from rsp_inertia.estimation.identify import (
 from rsp_inertia.estimation.reading import known_terms, read_calibration, read_run
 from rsp_inertia.estimation.runs import checked_run
 from rsp_inertia.estimation.smoothing import top_speed
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.config import Device, load_reference, require_protocol
 from rsp_inertia.plant.direction import Direction
-from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import Experiment, open_experiment
 from rsp_inertia.plant.geometry import turns_past_last_node
 from rsp_inertia.plant.log_checks import unterminated_last_line

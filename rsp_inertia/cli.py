@@ -4,11 +4,11 @@ Each command calls its function of the Python API (:mod:`rsp_inertia.api`, the s
 function a script calls) and prints its progress lines and its result; ``design``, which has
 no function among the package's names, calls :func:`rsp_inertia.api.axis_designs`.
 
-Bad input (:class:`rsp_inertia.plant.errors.InputError`) becomes one line on stderr and exit
+Bad input (:class:`rsp_inertia.infra.errors.InputError`) becomes one line on stderr and exit
 status 2, and so does running out of memory (a MemoryError anywhere: the line names the
 command, its experiment folders and their logs' rows); argparse's own usage errors exit with
 2 as well. Every command's progress goes to a
-:class:`rsp_inertia.plant.progress.TerminalProgress`: its lines on stdout and, for
+:class:`rsp_inertia.infra.progress.TerminalProgress`: its lines on stdout and, for
 ``identify``, ``calibrate`` and ``demo``, the fraction done of their long work on stderr
 when it is a terminal; in a pipe they print only their lines.
 """
@@ -21,9 +21,9 @@ from pathlib import Path
 
 import rsp_inertia
 from rsp_inertia import api
-from rsp_inertia.plant import progress
+from rsp_inertia.infra import progress
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.direction import Direction
-from rsp_inertia.plant.errors import InputError
 
 
 def _terminal(fractions: bool = True):
@@ -243,7 +243,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"rsp-inertia: error: {_out_of_memory(args)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        # Every output is written atomically (rsp_inertia.plant.files.write_atomic): an
+        # Every output is written atomically (rsp_inertia.infra.files.write_atomic): an
         # interrupted command leaves the files it had not finished as they were.
         print(f"rsp-inertia: interrupted: {args.command} stopped; nothing half-written",
               file=sys.stderr)

@@ -12,9 +12,9 @@ from dataclasses import replace
 from pathlib import Path
 
 from rsp_inertia.estimation.combine import Combination, combine_mountings, read_mounting
-from rsp_inertia.plant.errors import InputError
+from rsp_inertia.infra.errors import InputError
+from rsp_inertia.infra.files import check_writable, write_atomic
 from rsp_inertia.plant.experiment import BODY_FILE, open_experiment
-from rsp_inertia.plant.files import check_writable, write_atomic
 from rsp_inertia.provenance import input_changes, input_status
 
 __all__ = ["combine"]

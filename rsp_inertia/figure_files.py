@@ -13,7 +13,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from rsp_inertia.plant.files import write_atomic
+from rsp_inertia.infra.files import write_atomic
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -22,7 +22,7 @@ __all__ = ["figure_png", "save_figure", "save_figures"]
 
 
 def save_figure(fig: Figure, path: str | os.PathLike) -> None:
-    """Write ``fig`` as PNG to ``path`` atomically (rsp_inertia.plant.files.write_atomic: a
+    """Write ``fig`` as PNG to ``path`` atomically (rsp_inertia.infra.files.write_atomic: a
     reader sees the old file or the new one), with the usual file permissions.
 
     Parameters

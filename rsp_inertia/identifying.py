@@ -15,8 +15,8 @@ from pathlib import Path
 
 from rsp_inertia.estimation.reading import identify_experiment
 from rsp_inertia.estimation.results import Identification
+from rsp_inertia.infra.files import check_writable, write_atomic
 from rsp_inertia.plant.experiment import open_experiment
-from rsp_inertia.plant.files import check_writable, write_atomic
 from rsp_inertia.provenance import make_provenance
 
 __all__ = ["identify"]

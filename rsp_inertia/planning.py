@@ -29,12 +29,12 @@ from rsp_inertia.design.rehearsal import rehearse as run_rehearsal
 from rsp_inertia.estimation.balance import harmonic_reach
 from rsp_inertia.estimation.identify import axial_moment
 from rsp_inertia.figure_files import save_figure
+from rsp_inertia.infra.errors import InputError
+from rsp_inertia.infra.files import check_writable
+from rsp_inertia.infra.progress import say
 from rsp_inertia.ocp.regulator import MAX_BANDWIDTH, bandwidth
 from rsp_inertia.plant.config import Device
-from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
-from rsp_inertia.plant.files import check_writable
-from rsp_inertia.plant.progress import say
 from rsp_inertia.plots import plan_figure, plan_figures
 from rsp_inertia.results.plan import PlanResult
 

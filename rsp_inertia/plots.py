@@ -22,7 +22,6 @@ from numpy.typing import ArrayLike
 from rsp_inertia.design.mountings import DEFAULT_OPENINGS_DEG, best_cone_opening
 from rsp_inertia.estimation.smoothing import smooth_log
 from rsp_inertia.figure_files import figure_png, save_figure
-from rsp_inertia.plant.config import Virtual, placed_body
 from rsp_inertia.plant.experiment import (
     ENCODER_FIGURE,
     PLAN_FIGURE,
@@ -32,7 +31,8 @@ from rsp_inertia.plant.experiment import (
 from rsp_inertia.plant.geometry import design_matrix, icosahedron_design, rcond_curve
 from rsp_inertia.plant.logs import read_device_log, read_program
 from rsp_inertia.plant.transducers import error_basis, error_slope_basis
-from rsp_inertia.plant.virtual import free_motion
+from rsp_inertia.virtual.config import Virtual, experiment_virtual, placed_body
+from rsp_inertia.virtual.device import free_motion
 
 if TYPE_CHECKING:
     from rsp_inertia.design.plan import Plan
@@ -277,7 +277,7 @@ def experiment_figures(
 
     - ``motion_stageN.png`` (paper Fig. 3): the forward run's smoothed braking speed, then
       the reverse's, from the logs; with the free undamped and damped motions from the same
-      release when ``virtual`` (the virtual device, rsp_inertia.plant.config.Virtual) is
+      release when ``virtual`` (the virtual device, rsp_inertia.virtual.config.Virtual) is
       given: a simulation can release the body with the motor off, a rig's logs hold no
       such run, and ``report`` never reads virtual.toml;
     - ``tracking_stageN.png`` (paper Fig. 4), when the stage has its ``program.csv``: the
@@ -501,7 +501,7 @@ def demo_figures(exp: Experiment, result: Identification) -> list[tuple[str, Fig
     list of (str, matplotlib.figure.Figure)
         The figures with their file names, in that order.
     """
-    virtual = exp.load_virtual() if exp.virtual_path.is_file() else None
+    virtual = experiment_virtual(exp) if exp.virtual_path.is_file() else None
     figures = [(AXIS_DESIGN_FIGURE, cone_conditioning_figure())]
     figures += experiment_figures(exp, virtual)
     body = None if virtual is None else placed_body(exp.device, virtual)

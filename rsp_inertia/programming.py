@@ -10,11 +10,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from rsp_inertia.infra.files import check_writable
+from rsp_inertia.infra.progress import say
 from rsp_inertia.ocp.program import TorqueProgram, make_program
 from rsp_inertia.plant.experiment import open_experiment
-from rsp_inertia.plant.files import check_writable
 from rsp_inertia.plant.logs import read_device_log, write_program
-from rsp_inertia.plant.progress import say
 from rsp_inertia.results.program import ProgramSummary
 
 __all__ = ["program", "program_summaries"]

@@ -15,7 +15,7 @@ from collections.abc import Iterable
 from importlib import metadata
 from pathlib import Path
 
-from rsp_inertia.plant.files import file_sha256
+from rsp_inertia.infra.files import file_sha256
 
 __all__ = [
     "CHANGES",

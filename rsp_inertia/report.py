@@ -21,7 +21,8 @@ from pathlib import Path
 
 from rsp_inertia.estimation.runs import runs
 from rsp_inertia.estimation.smoothing import smooth_log
-from rsp_inertia.plant.errors import InputError
+from rsp_inertia.infra.errors import InputError
+from rsp_inertia.infra.files import check_writable, write_atomic
 from rsp_inertia.plant.experiment import (
     ENCODER_FIGURE,
     PLAN_FIGURE,
@@ -29,7 +30,6 @@ from rsp_inertia.plant.experiment import (
     Experiment,
     open_experiment,
 )
-from rsp_inertia.plant.files import check_writable, write_atomic
 from rsp_inertia.plant.logs import read_device_log
 from rsp_inertia.plots import (
     AXIS_DESIGN_FIGURE,

@@ -18,16 +18,16 @@ from rsp_inertia.combining import combine
 from rsp_inertia.estimation.results import Identification
 from rsp_inertia.figure_files import save_figures
 from rsp_inertia.identifying import identify
-from rsp_inertia.plant.config import placed_body
+from rsp_inertia.infra.files import write_atomic
+from rsp_inertia.infra.progress import drop, lines_to, say
 from rsp_inertia.plant.experiment import CALIBRATION_FILE, open_experiment
-from rsp_inertia.plant.files import write_atomic
 from rsp_inertia.plant.geometry import relative_errors
-from rsp_inertia.plant.progress import drop, lines_to, say
 from rsp_inertia.plots import demo_figures
 from rsp_inertia.programming import program
 from rsp_inertia.results.identify import format_identification
 from rsp_inertia.scenarios import create_rig_experiment, create_second_mounting
 from rsp_inertia.simulating import simulate
+from rsp_inertia.virtual.config import experiment_virtual, placed_body
 
 __all__ = ["DEFAULT_EXPERIMENT", "demo"]
 
@@ -46,7 +46,7 @@ def demo(path: str | Path = DEFAULT_EXPERIMENT) -> Identification:
     without calibration (its warnings and error shown); ``calibrate``; the identification,
     printed against the virtual device's true tensor, with figures; then the body mounted
     again, turned 90 deg about x, identified on the calibrated rig, and both mountings
-    combined. Its lines go to the progress (rsp_inertia.plant.progress.say); those of the
+    combined. Its lines go to the progress (rsp_inertia.infra.progress.say); those of the
     identification without calibration, of ``calibrate`` and of the second mounting's
     identification do not.
     """
@@ -60,7 +60,7 @@ def demo(path: str | Path = DEFAULT_EXPERIMENT) -> Identification:
         if open_experiment(folder).device.pendulum is not None:
             simulate(folder, part="pendulum")
     exp = open_experiment(root)
-    truth = placed_body(exp.device, exp.load_virtual())
+    truth = placed_body(exp.device, experiment_virtual(exp))
     exp.calibration_path.unlink(missing_ok=True)
     with lines_to(drop):
         raw = identify(root)
@@ -92,7 +92,7 @@ def demo(path: str | Path = DEFAULT_EXPERIMENT) -> Identification:
         identify(second)
     combination, body = combine([root, second], root / "body")
     say(str(combination))
-    true_body = exp.load_virtual().body  # body axes, about the body frame's origin
+    true_body = experiment_virtual(exp).body  # body axes, about the body frame's origin
     say(
         "against the true body: worst tensor error / largest moment "
         f"{np.abs(relative_errors(combination.entries, true_body.inertia)).max():.1e}; centre of "

@@ -14,13 +14,13 @@ from pathlib import Path
 import numpy as np
 import tomlkit
 
+from rsp_inertia.infra.files import write_atomic
 from rsp_inertia.plant.experiment import (
     DEVICE_FILE,
     REFERENCE_FILE,
     VIRTUAL_FILE,
     open_experiment,
 )
-from rsp_inertia.plant.files import write_atomic
 
 __all__ = [
     "CALIBRATION_FOLDERS",

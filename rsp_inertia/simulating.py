@@ -1,7 +1,7 @@
 """``rsp-inertia simulate``: the virtual device writes the logs a rig would.
 
 Reads device.toml and virtual.toml (the virtual device's truth), runs the simulator
-(rsp_inertia.plant.virtual) and writes each log atomically, as the virtual rig's logger writes
+(rsp_inertia.virtual.device) and writes each log atomically, as the virtual rig's logger writes
 it; each log written is a :class:`rsp_inertia.results.PassSummary`.
 """
 
@@ -12,15 +12,16 @@ from pathlib import Path
 
 import numpy as np
 
-from rsp_inertia.plant.config import Virtual
+from rsp_inertia.infra.errors import InputError
+from rsp_inertia.infra.files import check_writable
+from rsp_inertia.infra.progress import say
 from rsp_inertia.plant.direction import Direction
-from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import Experiment, open_experiment
-from rsp_inertia.plant.files import check_writable
 from rsp_inertia.plant.geometry import turns_past_last_node
 from rsp_inertia.plant.logs import Log, align_counter, read_device_log, read_program, write_log
-from rsp_inertia.plant.progress import say
-from rsp_inertia.plant.virtual import (
+from rsp_inertia.results.simulate import PassSummary
+from rsp_inertia.virtual.config import Virtual, experiment_virtual
+from rsp_inertia.virtual.device import (
     SimulatedPass,
     run_program,
     simulate_braking,
@@ -28,7 +29,6 @@ from rsp_inertia.plant.virtual import (
     simulate_pendulum,
     simulate_pilot,
 )
-from rsp_inertia.results.simulate import PassSummary
 
 __all__ = ["PARTS", "simulate"]
 
@@ -64,7 +64,7 @@ def _check_simulate_outputs(
     exp: Experiment, stages: list[int], part: str, direction: Direction | None
 ) -> None:
     """Refuse, before any run is simulated, a log that :func:`simulate` could not write
-    (rsp_inertia.plant.files.check_writable): in a stage folder that exists, each log; else
+    (rsp_inertia.infra.files.check_writable): in a stage folder that exists, each log; else
     the experiment folder, where the stage folder is to be made."""
     for st in stages:
         if part == "pendulum":
@@ -140,7 +140,7 @@ def simulate(
 ) -> list[PassSummary]:
     """The command behind :func:`rsp_inertia.api.simulate`, documented there; returns the
     passes' records (rsp_inertia.results.PassSummary), which the API holds in its
-    SimulateResult, and says each one's line (rsp_inertia.plant.progress.say) as soon as its
+    SimulateResult, and says each one's line (rsp_inertia.infra.progress.say) as soon as its
     log is written. Braking and reverse need every stage's protocol in device.toml
     (rsp_inertia.plant.config.require_protocol); pendulum and pilot runs do not, and ignore
     ``direction``."""
@@ -151,7 +151,7 @@ def simulate(
     if direction is not None:
         direction = Direction.parse(direction, "--direction")
     exp = open_experiment(path, protocol=part in ("braking", "reverse"))
-    virtual = exp.load_virtual()
+    virtual = experiment_virtual(exp)
     stages = exp.stages(stage)
     if direction is not None and part not in ("pendulum", "pilot"):
         runs = [st for st in stages if direction in exp.device.stages[st - 1].directions]

@@ -1,5 +1,6 @@
 """Shared fixtures: the default experiment of ``rsp-inertia demo`` (plant/defaults/)."""
 
+import dataclasses
 import os
 from pathlib import Path
 
@@ -11,7 +12,8 @@ import pytest
 os.environ["SOURCE_DATE_EPOCH"] = "1795000000"
 
 import rsp_inertia.plant
-from rsp_inertia.plant.config import Device, Virtual, load_device, load_virtual
+from rsp_inertia.plant.config import Device, load_device
+from rsp_inertia.virtual.config import Virtual, load_virtual
 
 DEFAULTS = Path(rsp_inertia.plant.__file__).parent / "defaults"
 """The embedded default experiment: the paper's icosahedron design on a virtual gimbal."""
@@ -27,3 +29,11 @@ def default_device() -> Device:
 def default_virtual() -> Virtual:
     """The true body, friction and run settings of plant/defaults/virtual.toml."""
     return load_virtual(DEFAULTS / "virtual.toml")
+
+
+@pytest.fixture(scope="module")
+def virtual(default_virtual):
+    """The default truth without torque noise, so that logged torques are exact (the virtual
+    device's tests, and the plant's that drive it)."""
+    run = dataclasses.replace(default_virtual.run, torque_noise=0.0)
+    return dataclasses.replace(default_virtual, run=run)

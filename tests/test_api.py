@@ -163,7 +163,7 @@ def test_result_classes_document_every_field(name):
 
 
 def test_input_error_is_the_librarys():
-    from rsp_inertia.plant.errors import InputError
+    from rsp_inertia.infra.errors import InputError
 
     assert rsp_inertia.InputError is InputError
 

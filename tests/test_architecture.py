@@ -25,16 +25,22 @@ from pathlib import Path
 import pytest
 
 LAYERS = {
-    "plant": {"plant"},
-    "estimation": {"plant", "estimation"},
-    "ocp": {"plant", "ocp", "estimation.smoothing", "estimation.modulated"},
-    "design": {"plant", "estimation", "ocp", "design"},
-    "commands": {"plant", "estimation", "ocp", "design", "commands"},
+    "infra": {"infra"},
+    "plant": {"infra", "plant"},
+    "virtual": {"infra", "plant", "virtual"},
+    "estimation": {"infra", "plant", "estimation"},
+    "ocp": {"infra", "plant", "ocp", "estimation.smoothing", "estimation.modulated"},
+    "design": {"infra", "plant", "virtual", "estimation", "ocp", "design"},
+    "commands": {"infra", "plant", "virtual", "estimation", "ocp", "design", "commands"},
 }
-"""What each layer may import. The torque program (ocp) uses the identification's smoother and
-its modulating-function fit of Lagrange's equation (its nominal model), nothing else of
-estimation; experiment design sits above both; the command layer (the modules of rsp_inertia/
-itself) above everything."""
+"""What each layer may import. Infrastructure (errors, files, lazy names, TOML schema, progress)
+imports nothing of the package; the plant (model, geometry, transducers, file contracts) only
+it. The virtual device and the estimation both stand on the plant and know nothing of each
+other: a real rig's identification never loads the simulator. The torque program (ocp) uses
+the identification's smoother and its modulating-function fit of Lagrange's equation (its
+nominal model), nothing else of estimation; experiment design sits above them (its rehearsal
+runs the virtual device); the command layer (the modules of rsp_inertia/ itself) above
+everything."""
 
 LAZY_BOUNDARY = {"rsp_inertia", "rsp_inertia.api"}
 """The modules whose functions may import: ``rsp_inertia.__getattr__`` loads the API on first use,
@@ -147,9 +153,9 @@ IMPORTS = {name: _imports(name) for name in MODULES}
 
 
 def _layer(name: str) -> str:
-    """The layer of a module: plant, estimation, ocp, design, or commands (rsp_inertia/)."""
+    """The layer of a module: its subpackage (``LAYERS``), or commands (rsp_inertia/)."""
     parts = name.split(".")
-    if len(parts) > 1 and parts[1] in ("plant", "estimation", "ocp", "design"):
+    if len(parts) > 1 and parts[1] in set(LAYERS) - {"commands"}:
         return parts[1]
     return "commands"
 
@@ -213,11 +219,11 @@ def test_no_import_cycle() -> None:
 
 
 def test_the_cycle_finder_finds_a_cycle() -> None:
-    """The check can fail: an edge back from plant.errors to plant.logs closes a cycle of three
+    """The check can fail: an edge back from infra.errors to plant.logs closes a cycle of three
     (logs -> files -> errors -> logs)."""
     edges = dict(IMPORTS)
-    edges["rsp_inertia.plant.errors"] = [("rsp_inertia.plant.logs", 1, True)]
-    closed = [cycle for cycle in _cycles(edges) if "rsp_inertia.plant.errors" in cycle]
+    edges["rsp_inertia.infra.errors"] = [("rsp_inertia.plant.logs", 1, True)]
+    closed = [cycle for cycle in _cycles(edges) if "rsp_inertia.infra.errors" in cycle]
     assert len(closed) == 1 and "rsp_inertia.plant.logs" in closed[0]
 
 
@@ -230,6 +236,10 @@ def test_layers_import_only_below(name: str) -> None:
 
 def test_the_layer_rule_can_fail() -> None:
     assert not _allowed("rsp_inertia.plant.model", "rsp_inertia.estimation.smoothing")
+    assert not _allowed("rsp_inertia.infra.files", "rsp_inertia.plant.logs")
+    assert not _allowed("rsp_inertia.plant.experiment", "rsp_inertia.virtual.config")
+    assert not _allowed("rsp_inertia.estimation.balance", "rsp_inertia.virtual.device")
+    assert not _allowed("rsp_inertia.virtual.device", "rsp_inertia.estimation.smoothing")
     assert not _allowed("rsp_inertia.ocp.program", "rsp_inertia.estimation.balance")
     assert not _allowed("rsp_inertia.estimation.tensor_fit", "rsp_inertia.design.plan")
     assert _allowed("rsp_inertia.ocp.program", "rsp_inertia.estimation.smoothing")
@@ -270,14 +280,14 @@ def _has_reason(lines: list[str], lineno: int) -> bool:
     return False
 
 
-SUBPACKAGES = ("plant", "estimation", "ocp", "design")
+SUBPACKAGES = ("infra", "plant", "virtual", "estimation", "ocp", "design")
 
 
 @pytest.mark.parametrize("sub", (*SUBPACKAGES, "results"))
 def test_each_subpackage_exports_its_public_api_from_the_homes(sub: str) -> None:
     """Every name of a subpackage's ``__all__`` comes from the module its ``__init__`` names,
     whose own ``__all__`` holds it (plant.config is the public home of device_config's and
-    virtual_config's classes, its docstring says)."""
+    reference_config's classes, its docstring says)."""
     package = importlib.import_module(f"rsp_inertia.{sub}")
     assert package.__all__, f"rsp_inertia.{sub} exports nothing"
     for name in package.__all__:
@@ -400,8 +410,8 @@ def test_the_results_import_nothing_heavy(name: str) -> None:
     device's files and geometry, the figure writer, other results), never a layer's
     computation; of the rest, numpy."""
     light = ("rsp_inertia.results", "rsp_inertia.figure_files", "rsp_inertia.plant.experiment",
-             "rsp_inertia.plant.geometry", "rsp_inertia.plant.toml_writer",
-             "rsp_inertia.plant.lazy")
+             "rsp_inertia.plant.geometry", "rsp_inertia.infra.toml_writer",
+             "rsp_inertia.infra.lazy")
     heavy = [target for target, _, _ in IMPORTS[name] if not target.startswith(light)]
     assert heavy == [], f"{name} imports {heavy}"
     assert _third_party(MODULES[name].read_text()) <= LIGHT_PACKAGES
@@ -482,7 +492,7 @@ def test_a_restated_direction_is_found() -> None:
 def _progress_channels(name: str, source: str) -> list[str]:
     """What in module ``name`` makes a second way for progress: a function that takes a
     ``progress`` callable (only the API's functions do, and hand it to
-    rsp_inertia.plant.progress.lines_to), or a context variable of its own."""
+    rsp_inertia.infra.progress.lines_to), or a context variable of its own."""
     found = []
     for node in ast.walk(ast.parse(source)):
         if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
@@ -493,14 +503,14 @@ def _progress_channels(name: str, source: str) -> list[str]:
             modules = [a.name for a in node.names] if isinstance(node, ast.Import) else [
                 node.module or ""
             ]
-            if "contextvars" in modules and name != "rsp_inertia.plant.progress":
+            if "contextvars" in modules and name != "rsp_inertia.infra.progress":
                 found.append(f"line {node.lineno}: imports contextvars")
     return found
 
 
 @pytest.mark.parametrize("name", sorted(MODULES))
 def test_progress_travels_through_one_channel(name: str) -> None:
-    """Lines and fractions alike go through rsp_inertia.plant.progress (say, report) to the
+    """Lines and fractions alike go through rsp_inertia.infra.progress (say, report) to the
     one Progress installed; no function passes a progress callable along."""
     assert _progress_channels(name, MODULES[name].read_text()) == []
 
@@ -519,3 +529,68 @@ def test_a_second_progress_channel_is_found() -> None:
         "line 4: identify(progress)",
     ]
     assert _progress_channels("rsp_inertia.api", "def identify(path, *, progress=None): ...\n") == []
+
+
+def _forwarders(tree: ast.Module) -> list[str]:
+    """The functions of a module whose whole body (after the docstring) returns a call of a
+    function of the same name with the same arguments in the same order: a second name for
+    one home, not a function of its own."""
+    found = []
+    for node in tree.body:
+        if not isinstance(node, ast.FunctionDef):
+            continue
+        body = node.body
+        if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant):
+            body = body[1:]
+        if len(body) != 1 or not isinstance(body[0], ast.Return):
+            continue
+        call = body[0].value
+        if not isinstance(call, ast.Call):
+            continue
+        called = call.func.attr if isinstance(call.func, ast.Attribute) else getattr(
+            call.func, "id", ""
+        )
+        params = [a.arg for a in node.args.posonlyargs + node.args.args]
+        passed = [a.id for a in call.args if isinstance(a, ast.Name)]
+        if called == node.name and passed == params and len(call.args) == len(params):
+            found.append(node.name)
+    return found
+
+
+@pytest.mark.parametrize("name", sorted(MODULES))
+def test_no_function_only_forwards_to_its_namesake(name: str) -> None:
+    """A function lives in one module: no module wraps another's function under the same
+    name (as virtual.drive.encoder_reading once forwarded to plant.transducers')."""
+    tree = ast.parse(MODULES[name].read_text(), str(MODULES[name]))
+    assert _forwarders(tree) == [], f"{name}: forwards to another home"
+
+
+def test_the_forwarder_check_can_fail() -> None:
+    source = '''
+def encoder_reading(phi, quantum, error=()):
+    """Forwards."""
+    return transducers.encoder_reading(phi, quantum, error)
+
+
+def reading(phi, quantum):
+    return transducers.encoder_reading(phi, quantum, ())
+'''
+    assert _forwarders(ast.parse(source)) == ["encoder_reading"]
+
+
+INFRASTRUCTURE = {"scipy", "casadi", "matplotlib"}
+"""What the infrastructure (rsp_inertia.infra) never imports: it holds no physics (numpy only
+for the arrays a TOML file's keys hold), so that every layer stands on it at no cost."""
+
+
+@pytest.mark.parametrize("name", sorted(n for n in MODULES if _layer(n) == "infra"))
+def test_infrastructure_holds_no_physics(name: str) -> None:
+    tree = ast.parse(MODULES[name].read_text(), str(MODULES[name]))
+    imported = {
+        alias.name.split(".")[0] for node in ast.walk(tree) if isinstance(node, ast.Import)
+        for alias in node.names
+    } | {
+        node.module.split(".")[0] for node in ast.walk(tree)
+        if isinstance(node, ast.ImportFrom) and node.module and not node.level
+    }
+    assert imported & INFRASTRUCTURE == set(), f"{name} imports {imported & INFRASTRUCTURE}"

@@ -35,7 +35,7 @@ from benchmarks.scheduling import run_sweep
 from benchmarks.scratch import PREFIX, remove_stale, scratch_folder
 from benchmarks.truth import METHODS
 from rsp_inertia.plant.model import dissipation
-from rsp_inertia.plant.virtual import true_parameters
+from rsp_inertia.virtual.device import true_parameters
 
 ROOT = Path(__file__).parents[1]
 

@@ -236,7 +236,7 @@ def test_ctrl_c_is_one_line_and_130(experiment, capsys, monkeypatch):
 def test_a_killed_writers_temporary_file_is_removed_by_the_next_write(tmp_path):
     # A writer killed between creating its temporary file and renaming it leaves the file;
     # the next write of the same target removes it, but never a live writer's.
-    from rsp_inertia.plant.files import write_atomic
+    from rsp_inertia.infra.files import write_atomic
 
     target = tmp_path / "result.json"
     dead = 2**22 + 12345  # above Linux's default pid_max of 2**22: no such process

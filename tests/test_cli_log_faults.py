@@ -12,10 +12,11 @@ import pytest
 
 from benchmarks.experiments import vary
 from rsp_inertia.cli import main
-from rsp_inertia.plant.config import LoggerSettings, load_device
+from rsp_inertia.plant.config import load_device
 from rsp_inertia.plant.logs import read_device_log, read_log
 from rsp_inertia.scenarios import create_default_experiment
 from rsp_inertia.simulating import simulate
+from rsp_inertia.virtual.config import LoggerSettings
 
 
 def test_an_angle_jump_in_a_log_is_refused_by_check_identify_and_program(tmp_path, capsys):

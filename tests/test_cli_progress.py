@@ -14,7 +14,7 @@ import sys
 import pytest
 
 from rsp_inertia.cli import main
-from rsp_inertia.plant import progress
+from rsp_inertia.infra import progress
 from tests.test_api import short_experiment
 
 

@@ -35,9 +35,10 @@ import tomlkit
 
 import rsp_inertia.plant
 from rsp_inertia.cli import _parser, main
-from rsp_inertia.plant import config, virtual_config
-from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.toml_schema import REQUIRED, Key, accepted_keys, is_table, layout
+from rsp_inertia.infra.errors import InputError
+from rsp_inertia.infra.toml_schema import REQUIRED, Key, accepted_keys, is_table, layout
+from rsp_inertia.plant import config, reference_config
+from rsp_inertia.virtual import config as virtual_config
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
@@ -221,7 +222,7 @@ def test_commands_md_documents_every_command_and_option():
 
 LOADERS = {
     "device.toml": config.load_device,
-    "virtual.toml": config.load_virtual,
+    "virtual.toml": virtual_config.load_virtual,
     "reference.toml": config.load_reference,
 }
 BASES = {
@@ -233,8 +234,8 @@ BASES = {
 
 FILE_CLASSES = {
     "device.toml": config.Device,
-    "virtual.toml": config.Virtual,
-    "reference.toml": virtual_config._ReferenceFile,
+    "virtual.toml": virtual_config.Virtual,
+    "reference.toml": reference_config._ReferenceFile,
 }
 """The config class each loader reads a whole file into (reference.toml: its [body] holder)."""
 
@@ -244,7 +245,7 @@ def _accepted() -> dict[str, dict[str, set[str]]]:
     """Per file, per table ("" for the top level), the keys rsp_inertia.plant.config accepts.
 
     Read off the config classes' fields: the key sets its reader checks unknown keys against
-    (rsp_inertia.plant.toml_schema.layout, through accepted_keys).
+    (rsp_inertia.infra.toml_schema.layout, through accepted_keys).
     """
     return {file: accepted_keys(cls) for file, cls in FILE_CLASSES.items()}
 
@@ -503,7 +504,7 @@ def test_result_json_placeholders_name_the_real_keys(result):
 def _calibration_keys() -> dict[str, Key]:
     """Dotted key (docs notation: ``stage.gear_ratio``, ``inputs.<file>``) -> the field of
     rsp_inertia.estimation.calibration_file that declares it, for every key its reader accepts
-    (rsp_inertia.plant.toml_schema.accepted_keys)."""
+    (rsp_inertia.infra.toml_schema.accepted_keys)."""
     from rsp_inertia.estimation.calibration_file import CalibrationFile
 
     out = {}

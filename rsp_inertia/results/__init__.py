@@ -34,12 +34,12 @@ and ``check`` or ``combine`` must not pay for what they do not use. So a result 
 draw by itself: the command that makes it hands it the function of :mod:`rsp_inertia.plots`
 that draws its figures (``drawer``; for :func:`rsp_inertia.identify`, one that imports
 matplotlib on first use). The names below load from their modules on first use
-(rsp_inertia.plant.lazy), so a command loads only its own result's module.
+(rsp_inertia.infra.lazy), so a command loads only its own result's module.
 """
 
 from __future__ import annotations
 
-from rsp_inertia.plant.lazy import lazy_names
+from rsp_inertia.infra.lazy import lazy_names
 
 _HOMES = {
     "Drawer": "common",

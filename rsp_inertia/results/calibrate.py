@@ -11,8 +11,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rsp_inertia.figure_files import save_figures
+from rsp_inertia.infra.toml_writer import document
 from rsp_inertia.plant.experiment import ENCODER_FIGURE
-from rsp_inertia.plant.toml_writer import document
 from rsp_inertia.results.common import Drawer, Drawn, json_text
 
 if TYPE_CHECKING:

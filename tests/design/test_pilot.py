@@ -1,4 +1,4 @@
-"""Pilot runs (rsp_inertia.plant.virtual.simulate_pilot) and their fit (rsp_inertia.design.pilot.fit_pilot).
+"""Pilot runs (rsp_inertia.virtual.device.simulate_pilot) and their fit (rsp_inertia.design.pilot.fit_pilot).
 
 Every estimate is compared with the virtual device's truth (true_parameters), at the default
 friction and at 30x its Coulomb and viscous terms (the coast then stops in 10 s on stage 1).
@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 
 from rsp_inertia.design.pilot import PILOT_UNKNOWNS, fit_pilot
-from rsp_inertia.plant import virtual as vd
-from rsp_inertia.plant.errors import InputError
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.logs import Log, read_log, write_log
 from rsp_inertia.plant.model import dissipation
+from rsp_inertia.virtual import device as vd
 from tests.conftest import DEFAULTS
 
 STAGES = (1, 2)

@@ -21,13 +21,14 @@ from rsp_inertia.estimation.predict import (
 )
 from rsp_inertia.estimation.reading import identify_experiment
 from rsp_inertia.estimation.tensor_fit import predict_tensor
-from rsp_inertia.plant.config import load_device, load_virtual
+from rsp_inertia.plant.config import load_device
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.geometry import device_design
 from rsp_inertia.plant.model import acceleration, dissipation, motor_torque, reduced_inertia
-from rsp_inertia.plant.virtual import integrate_to_stop, true_parameters
 from rsp_inertia.scenarios import create_default_experiment
 from rsp_inertia.simulating import simulate
+from rsp_inertia.virtual.config import load_virtual
+from rsp_inertia.virtual.device import integrate_to_stop, true_parameters
 
 DEFAULTS = Path(__file__).parents[2] / "plant" / "defaults"
 
@@ -259,7 +260,7 @@ def test_program_serves_a_two_second_spring_pass(paper):
     (rsp_inertia.ocp.nominal): M0 within 2%; the program starts from the hold torque there."""
     from rsp_inertia.ocp.program import make_program
     from rsp_inertia.plant.model import static_torque
-    from rsp_inertia.plant.virtual import run_program, simulate_braking
+    from rsp_inertia.virtual.device import run_program, simulate_braking
 
     device, virtual = paper
     spring = dataclasses.replace(device.spring, stiffness=0.02)

@@ -16,14 +16,14 @@ from rsp_inertia.design.rehearsal import consistent_models
 from rsp_inertia.estimation.reading import read_run
 from rsp_inertia.estimation.runs import estimate_run
 from rsp_inertia.ocp.program import make_program
-from rsp_inertia.plant.config import ControllerSettings, Friction, RunSettings, Virtual
 from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.geometry import axis_direction, design_matrix, entries_from_tensor
 from rsp_inertia.plant.model import inertia_harmonics
-from rsp_inertia.plant.virtual import integrate_to_stop, simulate_braking, true_parameters
 from rsp_inertia.scenarios import create_default_experiment
 from rsp_inertia.simulating import simulate
+from rsp_inertia.virtual.config import ControllerSettings, Friction, RunSettings, Virtual
+from rsp_inertia.virtual.device import integrate_to_stop, simulate_braking, true_parameters
 
 
 def _square(a: float, b: float) -> float:
@@ -122,7 +122,7 @@ def test_rehearsal_predicts_the_closed_loop_std(tmp_path, capsys):
     ratio = std / report.rehearsal.axis_std
     assert np.all((ratio > 1 / 1.5) & (ratio < 1.5)), ratio
     exp = open_experiment(root)
-    from rsp_inertia.plant.config import load_virtual
+    from rsp_inertia.virtual.config import load_virtual
 
     body = load_virtual(root / "virtual.toml").body
     dirs = [

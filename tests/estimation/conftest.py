@@ -6,7 +6,7 @@ virtual body really did, never with numbers from an earlier run.
 
 import pytest
 
-from rsp_inertia.plant import virtual as vd
+from rsp_inertia.virtual import device as vd
 
 STAGES = (1, 2)
 

@@ -19,10 +19,10 @@ from rsp_inertia.estimation.nodes import node_formula
 from rsp_inertia.estimation.passes import PassEstimate
 from rsp_inertia.estimation.smoothing import Smoothed
 from rsp_inertia.estimation.tensor_fit import fit_tensor, tensor_block
-from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.geometry import ENTRY_KEYS, relative_errors
 from rsp_inertia.plant.logs import Log, dropped_samples, motor_work
 from rsp_inertia.plant.model import acceleration, gravity_basis, reduced_inertia, tensor_basis
+from rsp_inertia.virtual import device as vd
 from tests.estimation.conftest import STAGES
 
 EXACT_REL = 1e-6
@@ -44,7 +44,7 @@ def exact_pass(
     sim : SimulatedPass
         The virtual device's pass, with its truth.
     params : np.ndarray
-        The true model parameters (rsp_inertia.plant.virtual.true_parameters).
+        The true model parameters (rsp_inertia.virtual.device.true_parameters).
     direction : float
         The sign of the pass's motion (+1 braking, -1 reverse), for the acceleration.
     sample_rate : float

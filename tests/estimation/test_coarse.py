@@ -31,10 +31,10 @@ from rsp_inertia.estimation.smoothing import (
     speed_error_autocovariance,
 )
 from rsp_inertia.ocp.nominal import fit_nominal
-from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.logs import Log
 from rsp_inertia.plant.transducers import encoder_reading
+from rsp_inertia.virtual import device as vd
 
 
 def test_angle_error_kernel_has_its_closed_form():

@@ -23,7 +23,7 @@ from rsp_inertia.estimation.combine import (
     MountedResult,
     combine_mountings,
 )
-from rsp_inertia.plant.errors import InputError
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.geometry import entries_from_tensor
 
 MASS = 2.0

@@ -21,7 +21,6 @@ from rsp_inertia.estimation.calibration import device_known_terms
 from rsp_inertia.estimation.identify import identify_logs
 from rsp_inertia.estimation.runs import ExperimentLogs
 from rsp_inertia.identifying import identify
-from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.config import load_device, write_device
 from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.experiment import open_experiment
@@ -29,6 +28,8 @@ from rsp_inertia.plant.geometry import device_design, relative_errors, tensor_fr
 from rsp_inertia.plant.logs import read_log, write_log
 from rsp_inertia.scenarios import create_default_experiment
 from rsp_inertia.simulating import simulate
+from rsp_inertia.virtual import device as vd
+from rsp_inertia.virtual.config import experiment_virtual
 
 ENTRY_NAMES = ("Jx", "Jy", "Jz", "Jxy", "Jyz", "Jxz")
 
@@ -60,7 +61,7 @@ def ideal(tmp_path_factory):
     simulate(root, part="reverse", ideal=True)
     result = identify(root)
     exp = open_experiment(root)
-    return root, result, exp.load_virtual()
+    return root, result, experiment_virtual(exp)
 
 
 def test_identify_logs_takes_the_logs_in_memory(ideal, monkeypatch):
@@ -111,7 +112,7 @@ def test_a_locked_stage_gives_the_designs_one_z_axis(tmp_path):
         (1, 0.0), (1, 72.0), (1, 144.0), (1, 216.0), (1, 288.0), (2, 0.0)
     ]
     np.testing.assert_array_equal([a.direction for a in result.axes], design.directions)
-    Jz = open_experiment(root).load_virtual().body.inertia[2]
+    Jz = experiment_virtual(open_experiment(root)).body.inertia[2]
     z = result.axes[-1]
     assert abs(z.J - Jz) <= N_STD * z.J_std
     assert abs(z.J_node - Jz) <= N_STD * z.J_node_std

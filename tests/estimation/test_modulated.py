@@ -13,9 +13,9 @@ import pytest
 
 from rsp_inertia.estimation.modulated import fit_modulated
 from rsp_inertia.estimation.smoothing import Smoothed
-from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.logs import Log
 from rsp_inertia.plant.model import PARAMETER_NAMES
+from rsp_inertia.virtual import device as vd
 
 STAGES = (1, 2)
 FITTED = ("M0", "a1", "a2", "a3", "Mc2", "Ms2", "Gs", "Gc", "Ms1", "Mc1")

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from rsp_inertia.estimation.passes import CONSTANCY_TAIL, constancy_p_value, estimate_pass
-from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.logs import torque_noise
+from rsp_inertia.virtual import device as vd
 from tests.estimation.conftest import STAGES
 
 

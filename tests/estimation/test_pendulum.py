@@ -12,12 +12,13 @@ from scipy.optimize import brentq
 from rsp_inertia.cli import main
 from rsp_inertia.estimation.best_practice import best_practice_inertia, half_cycle_fit
 from rsp_inertia.estimation.pendulum import crossing_period
-from rsp_inertia.plant.errors import InputError
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.geometry import axis_direction, design_matrix, entries_from_tensor
 from rsp_inertia.plant.logs import Log
 from rsp_inertia.plant.model import reduced_inertia, static_torque
-from rsp_inertia.plant.virtual import encoder_reading, pendulum_parameters, simulate_pendulum
+from rsp_inertia.plant.transducers import encoder_reading
 from rsp_inertia.scenarios import create_default_experiment
+from rsp_inertia.virtual.device import pendulum_parameters, simulate_pendulum
 
 Q = 2 * math.pi / 65536
 
@@ -113,7 +114,8 @@ def test_identify_reports_the_best_practice_pendulum(tmp_path, capsys):
     capsys.readouterr()
     result = json.loads((root / "result.json").read_text())
     pend = result["pendulum"]
-    from rsp_inertia.plant.config import load_device, load_virtual
+    from rsp_inertia.plant.config import load_device
+    from rsp_inertia.virtual.config import load_virtual
 
     device = load_device(root / "device.toml")
     truth = entries_from_tensor(load_virtual(root / "virtual.toml").body.tensor)

@@ -20,11 +20,11 @@ from rsp_inertia.estimation.balance import NODE_GAP_SAMPLES, check_node_gaps
 from rsp_inertia.estimation.passes import gap_work
 from rsp_inertia.estimation.smoothing import Smoothed
 from rsp_inertia.identifying import identify
-from rsp_inertia.plant.config import load_virtual
-from rsp_inertia.plant.errors import InputError
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.logs import Log, dropped_samples, motor_work, read_log, write_log
 from rsp_inertia.scenarios import create_default_experiment
 from rsp_inertia.simulating import simulate
+from rsp_inertia.virtual.config import load_virtual
 
 
 def _smoothed(t, phi, omega) -> Smoothed:

@@ -35,8 +35,8 @@ from rsp_inertia.estimation.smoothing import (
     smooth_log,
     speed_error_autocovariance,
 )
+from rsp_inertia.infra.progress import reporting
 from rsp_inertia.plant.logs import Log
-from rsp_inertia.plant.progress import reporting
 from tests.estimation.conftest import STAGES
 from tests.plant.test_progress import Recorder
 

@@ -32,9 +32,10 @@ from rsp_inertia.estimation.smoothing import block_length, block_speed_bias, smo
 from rsp_inertia.identifying import identify
 from rsp_inertia.plant.experiment import DEVICE_FILE, VIRTUAL_FILE, open_experiment
 from rsp_inertia.plant.logs import Log
-from rsp_inertia.plant.virtual import simulate_braking
 from rsp_inertia.scenarios import create_default_experiment
 from rsp_inertia.simulating import simulate
+from rsp_inertia.virtual.config import experiment_virtual
+from rsp_inertia.virtual.device import simulate_braking
 from tests.estimation.conftest import STAGES
 
 STIFFNESS = 0.02
@@ -101,7 +102,7 @@ def spring_experiment(tmp_path_factory):
     """(device, virtual) of the first realisation, no logs written."""
     exp = open_experiment(build(tmp_path_factory.mktemp("spring"), *REALISATIONS[0]))
     assert exp.device.spring.stiffness == STIFFNESS
-    return exp.device, exp.load_virtual()
+    return exp.device, experiment_virtual(exp)
 
 
 @pytest.fixture(scope="module")
@@ -180,7 +181,7 @@ def identified(tmp_path_factory):
         simulate(root, part="braking")
         simulate(root, part="reverse", ideal=True)
         result = identify(root)
-        J = open_experiment(root).load_virtual().body.tensor
+        J = experiment_virtual(open_experiment(root)).body.tensor
         out.append((result, np.array([a.direction @ J @ a.direction for a in result.axes])))
     return out
 

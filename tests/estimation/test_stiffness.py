@@ -13,9 +13,10 @@ from rsp_inertia.estimation.stiffness import _two_period, calibrate_stiffness
 from rsp_inertia.plant.config import load_reference
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.logs import read_log
-from rsp_inertia.plant.virtual import true_parameters
 from rsp_inertia.scenarios import create_rig_experiment
 from rsp_inertia.simulating import simulate
+from rsp_inertia.virtual.config import experiment_virtual
+from rsp_inertia.virtual.device import true_parameters
 
 
 def test_two_period_formula_is_the_textbook_one_without_gravity():
@@ -67,7 +68,7 @@ def test_calibrated_stiffness_recovers_the_rigs(rig):
     the rig's true c within 3 of its std and 1e-3, every node's c within 3 of its own std,
     and the nominal value (0.5% off) excluded."""
     empty, reference = rig
-    virtual = empty.load_virtual()
+    virtual = experiment_virtual(empty)
     device = empty.device
     fixture = virtual.fixture
     g = device.gravity
@@ -125,7 +126,7 @@ def test_calibrate_writes_the_stiffness_and_identify_uses_it(rig, capsys):
                      "source": "calibration.toml"}
     pend = after.pendulum
     exp = open_experiment(root)
-    tensor = tensor_from_entries(exp.load_virtual().body.inertia)
+    tensor = tensor_from_entries(experiment_virtual(exp).body.inertia)
     axes = pend.best_axes(exp.device)
     J_true = np.einsum("ij,jk,ik->i", axes, tensor, axes)
     assert np.all(np.abs(pend.J_best - J_true) <= 3 * pend.J_best_std)

@@ -24,7 +24,6 @@ from rsp_inertia.estimation.reading import known_terms, read_calibration
 from rsp_inertia.estimation.runs import ExperimentLogs
 from rsp_inertia.estimation.tensor_fit import fit_tensor
 from rsp_inertia.identifying import identify
-from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.config import Pendulum, load_device, write_device
 from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.experiment import open_experiment
@@ -33,6 +32,8 @@ from rsp_inertia.plant.logs import mirror_log
 from rsp_inertia.plant.transducers import true_angle
 from rsp_inertia.scenarios import create_default_experiment
 from rsp_inertia.simulating import simulate
+from rsp_inertia.virtual import device as vd
+from rsp_inertia.virtual.config import experiment_virtual
 from tests.estimation.test_uncertainty import honest_band
 
 ASYMMETRY = 1.02
@@ -180,7 +181,7 @@ def test_calibration_makes_the_result_true(rig, capsys):
     # encoder's phases make e = sum A_n sin(n phi + p_n)).
     calibrated = open_experiment(exp)
     known, _ = known_terms(calibrated, read_calibration(calibrated))
-    rig = open_experiment(exp).load_virtual().rig
+    rig = experiment_virtual(open_experiment(exp)).rig
     std = known.std
     assert np.all(np.abs(np.array(known.gains) - rig.drive_gains) < 4 * std[:2])
     assert np.all(np.abs(known.encoder - rig.encoder_error) < 4 * std[known.encoder_slice])
@@ -188,7 +189,7 @@ def test_calibration_makes_the_result_true(rig, capsys):
     result = identify(exp)
     assert result.warnings == []
     axes = np.array([a.direction for a in result.axes])
-    tensor = tensor_from_entries(open_experiment(exp).load_virtual().body.inertia)
+    tensor = tensor_from_entries(experiment_virtual(open_experiment(exp)).body.inertia)
     J_true = np.einsum("ij,jk,ik->i", axes, tensor, axes)
     J = np.array([a.J for a in result.axes])
     J_std = np.array([a.J_std for a in result.axes])
@@ -319,7 +320,7 @@ def test_calibrated_stds_match_the_scatter(tmp_path):
         assert main(["calibrate", str(exp), "--empty", str(empty), "--reference", str(ref)]) == 0
         result = identify(exp)
         axes = np.array([a.direction for a in result.axes])
-        tensor = tensor_from_entries(open_experiment(exp).load_virtual().body.inertia)
+        tensor = tensor_from_entries(experiment_virtual(open_experiment(exp)).body.inertia)
         J_true = np.einsum("ij,jk,ik->i", axes, tensor, axes)
         J = np.array([a.J for a in result.axes])
         squares.append(((J - J_true) / np.array([a.J_std for a in result.axes])) ** 2)
@@ -336,7 +337,7 @@ def test_an_encoder_certificate_in_device_toml_is_applied_with_its_std(rig, tmp_
     shutil.copytree(exp, target)
     (target / "calibration.toml").unlink(missing_ok=True)
     device = load_device(target / "device.toml")
-    theta = open_experiment(target).load_virtual().rig.encoder_error
+    theta = experiment_virtual(open_experiment(target)).rig.encoder_error
     encoder = dataclasses.replace(
         device.encoder,
         error_cos=tuple(theta[0::2]),
@@ -357,9 +358,9 @@ def test_the_pendulum_baseline_reads_the_corrected_encoder(rig, monkeypatch):
     # reductions with the readings taken back to the true angle.
     exp, _, _ = rig
     exp_ = open_experiment(exp)
-    theta = exp_.load_virtual().rig.encoder_error
+    theta = experiment_virtual(exp_).rig.encoder_error
     device = dataclasses.replace(exp_.device, pendulum=Pendulum(stiffness=2.0))
-    log = vd.simulate_pendulum(device, 1, exp_.load_virtual(), 0).log
+    log = vd.simulate_pendulum(device, 1, experiment_virtual(exp_), 0).log
     seen = []
 
     def capture(log, *args, **kwargs):

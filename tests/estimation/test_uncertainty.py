@@ -17,6 +17,7 @@ from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.geometry import tensor_from_entries
 from rsp_inertia.scenarios import create_default_experiment
 from rsp_inertia.simulating import simulate
+from rsp_inertia.virtual.config import experiment_virtual
 
 RELEASE_JITTER_DEG = 0.5
 """Release angles are drawn uniformly within this of the default (up to ~90 counts away)."""
@@ -37,7 +38,7 @@ def realisation(root, seed: int, release_deg: float) -> dict[str, tuple[np.ndarr
     simulate(root, part="braking")
     simulate(root, part="reverse", ideal=True)
     result = identify(root)
-    body = open_experiment(root).load_virtual().body
+    body = experiment_virtual(open_experiment(root)).body
     J = tensor_from_entries(body.inertia)
     true_axes = np.array([a.direction @ J @ a.direction for a in result.axes])
     return {

@@ -15,8 +15,8 @@ from scipy.interpolate import CubicHermiteSpline
 
 from rsp_inertia.estimation.smoothing import Smoothed, smooth_log
 from rsp_inertia.ocp.program import make_program
-from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.model import ModelParameters, acceleration
+from rsp_inertia.virtual import device as vd
 
 STAGES = (1, 2)
 

@@ -17,9 +17,9 @@ from rsp_inertia.estimation.balance import FRICTION_PRIOR_ALLOWANCE, stage_balan
 from rsp_inertia.estimation.passes import estimate_pass
 from rsp_inertia.estimation.tensor_fit import fit_tensor
 from rsp_inertia.ocp.program import make_program
-from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.geometry import axis_direction
 from rsp_inertia.plant.model import dissipation
+from rsp_inertia.virtual import device as vd
 from tests.ocp.conftest import STAGES, TARGET, node_passages, true_rest
 
 

@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 from rsp_inertia.ocp.nominal import fit_nominal
-from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.logs import Log
 from rsp_inertia.plant.model import acceleration, dissipation, reduced_inertia
+from rsp_inertia.virtual import device as vd
 from tests.ocp.conftest import NODE_SPEED_FRACTION, STAGES, exact_states
 
 SCALE_MARGIN = 0.04

@@ -12,6 +12,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from rsp_inertia.cli import main
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.ocp.feedforward import (
     W_PHI,
     check_mirror,
@@ -22,8 +23,6 @@ from rsp_inertia.ocp.feedforward import (
 from rsp_inertia.ocp.nominal import fit_nominal_with_covariance
 from rsp_inertia.ocp.program import START_FADE_BANDWIDTHS, make_program
 from rsp_inertia.ocp.regulator import bandwidth
-from rsp_inertia.plant import virtual as vd
-from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.logs import read_program, write_program
 from rsp_inertia.plant.model import (
     acceleration,
@@ -33,6 +32,7 @@ from rsp_inertia.plant.model import (
     static_torque,
 )
 from rsp_inertia.scenarios import create_default_experiment
+from rsp_inertia.virtual import device as vd
 from tests.ocp.conftest import STAGES, TARGET, true_accelerations
 
 IPOPT_TOLERANCE = 1e-6

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 from rsp_inertia.estimation.smoothing import Smoothed
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.ocp.reference import braking_states_at, mirror, rest_fit
-from rsp_inertia.plant import virtual as vd
-from rsp_inertia.plant.errors import InputError
+from rsp_inertia.virtual import device as vd
 from tests.ocp.conftest import (
     NODE_SPEED_FRACTION,
     STAGES,

@@ -12,8 +12,8 @@ import pytest
 import scipy.linalg
 
 from rsp_inertia.ocp.regulator import GAIN_STEP, MAX_BANDWIDTH, bandwidth, lqr_gains
-from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.model import ModelParameters, acceleration, reduced_inertia
+from rsp_inertia.virtual import device as vd
 from tests.ocp.conftest import STAGES
 
 

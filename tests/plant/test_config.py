@@ -11,34 +11,36 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 import rsp_inertia.plant
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.config import (
     Body,
-    ControllerSettings,
     Device,
     Encoder,
-    Friction,
-    LoggerSettings,
     Motor,
     Mounting,
     Pendulum,
     PlanGuess,
-    Rig,
-    RunSettings,
     Spring,
     Stage,
     TrueBody,
-    Virtual,
-    VirtualMounting,
     load_device,
     load_reference,
-    load_virtual,
     require_protocol,
     write_device,
     write_reference,
-    write_virtual,
 )
 from rsp_inertia.plant.direction import Direction
-from rsp_inertia.plant.errors import InputError
+from rsp_inertia.virtual.config import (
+    ControllerSettings,
+    Friction,
+    LoggerSettings,
+    Rig,
+    RunSettings,
+    Virtual,
+    VirtualMounting,
+    load_virtual,
+    write_virtual,
+)
 
 # The example of docs/files.md: the paper's icosahedron design, two stages of three nodes.
 DEVICE_TABLE = """\

@@ -4,8 +4,8 @@ import json
 
 import pytest
 
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.direction import Direction
-from rsp_inertia.plant.errors import InputError
 
 
 def test_the_sign_is_that_of_the_braking_speed():

@@ -11,11 +11,12 @@ from pathlib import Path
 import pytest
 
 from rsp_inertia import scenarios, simulating
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant import experiment
 from rsp_inertia.plant.direction import Direction
-from rsp_inertia.plant.errors import InputError
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.logs import read_log
+from rsp_inertia.virtual.config import experiment_virtual
 
 
 def short_experiment(root: Path, directions: str) -> Path:
@@ -134,7 +135,7 @@ def test_load_virtual_checks_the_rigs_tare_against_the_stages(tmp_path):
     path = root / "virtual.toml"
     path.write_text(path.read_text() + "\n[rig]\ntare_inertia = [0.004]\n")
     with pytest.raises(InputError) as error:
-        open_experiment(root).load_virtual()
+        experiment_virtual(open_experiment(root))
     message = str(error.value)
     assert "\n" not in message and message.startswith(f"{path}: rig.tare_inertia: ")
 

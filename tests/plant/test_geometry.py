@@ -10,7 +10,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from rsp_inertia.design.mountings import best_cone_opening
-from rsp_inertia.plant.errors import InputError
+from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.geometry import (
     axis_angles_deg,
     axis_direction,

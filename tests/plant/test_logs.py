@@ -11,9 +11,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from rsp_inertia.infra.errors import InputError
+from rsp_inertia.infra.files import write_atomic
 from rsp_inertia.plant.direction import Direction
-from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.files import write_atomic
 from rsp_inertia.plant.log_checks import SPEED_MARGIN, TORQUE_MARGIN, unterminated_last_line
 from rsp_inertia.plant.logs import (
     JITTER_LIMIT,

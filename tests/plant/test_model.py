@@ -398,10 +398,10 @@ def _euler(derivative, x, h, substeps=1):
 
 
 def test_the_simulator_and_the_ocp_step_with_rk4_step(monkeypatch):
-    """rsp_inertia.plant.integrate and rsp_inertia.ocp.feedforward build their steps with
+    """rsp_inertia.virtual.integrate and rsp_inertia.ocp.feedforward build their steps with
     rk4_step: replaced by an Euler step, their step functions become Euler steps."""
     from rsp_inertia.ocp import feedforward
-    from rsp_inertia.plant import integrate
+    from rsp_inertia.virtual import integrate
 
     params = ModelParameters(np.array([0.03, 0.001, 0.0, 0.0, 0.0]), 0.1, 0.2, 0.01, 0.0, 1e-3)
     x0, u, h = np.array([0.4, 3.0]), 0.05, 1e-3

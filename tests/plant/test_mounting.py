@@ -3,7 +3,7 @@
 rsp_inertia.plant.geometry.place_body carries a body's tensor and centre of mass from its
 own axes to the rig's; device.toml's ``[mounting]`` states the rotation and the origin,
 virtual.toml's ``[mounting]`` turns the real mounting by small angles from the stated one,
-and rsp_inertia.plant.virtual.placed_body is the virtual device's truth on the rig, which the
+and rsp_inertia.virtual.device.placed_body is the virtual device's truth on the rig, which the
 simulator runs and identify's result is compared with.
 """
 
@@ -13,29 +13,22 @@ import numpy as np
 import pytest
 
 from rsp_inertia.identifying import identify
-from rsp_inertia.plant import virtual as vd
-from rsp_inertia.plant.config import (
-    Mounting,
-    VirtualMounting,
-    load_device,
-    load_virtual,
-    placed_body,
-    write_device,
-    write_virtual,
-)
-from rsp_inertia.plant.errors import InputError
+from rsp_inertia.infra.errors import InputError
+from rsp_inertia.plant.config import Mounting, load_device, write_device
 from rsp_inertia.plant.geometry import entries_from_tensor, place_body, small_rotation
 from rsp_inertia.scenarios import create_default_experiment
 from rsp_inertia.simulating import simulate
+from rsp_inertia.virtual import device as vd
+from rsp_inertia.virtual.config import VirtualMounting, load_virtual, placed_body, write_virtual
 from tests.one_home import assert_calls_home, home_cases
 
 QUARTER_TURN_X = ((1.0, 0.0, 0.0), (0.0, 0.0, -1.0), (0.0, 1.0, 0.0))
 """90 deg about x: body y -> rig z, body z -> rig -y (v_rig = R v_body)."""
 
 HOMES = [
-    ("a body carried to the rig's axes", "plant.geometry", "place_body", ["plant.virtual_config"]),
-    ("the virtual body on the rig", "plant.virtual_config", "placed_body",
-     ["plant.integrate", "rig_demo"]),
+    ("a body carried to the rig's axes", "plant.geometry", "place_body", ["virtual.config"]),
+    ("the virtual body on the rig", "virtual.config", "placed_body",
+     ["virtual.integrate", "rig_demo"]),
 ]
 """(formula, home module, function, consumers): each consumer calls the home: a formula lives in one module."""
 

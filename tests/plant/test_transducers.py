@@ -12,10 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from rsp_inertia.plant import virtual as vd
-from rsp_inertia.plant.config import Rig, load_virtual
 from rsp_inertia.plant.direction import Direction
-from rsp_inertia.plant.integrate import advance, true_pair
 from rsp_inertia.plant.logs import write_log
 from rsp_inertia.plant.model import (
     dissipation,
@@ -35,9 +32,12 @@ from rsp_inertia.plant.transducers import (
     power_flow_split,
     true_angle,
 )
+from rsp_inertia.virtual import device as vd
+from rsp_inertia.virtual.config import Rig, load_virtual
+from rsp_inertia.virtual.integrate import advance, true_pair
 from tests.conftest import DEFAULTS
-from tests.plant.test_rig import DIRECTIONS, assert_same_truth, braking_speed_at
-from tests.plant.test_virtual import constant_program
+from tests.virtual.test_device import constant_program
+from tests.virtual.test_rig import DIRECTIONS, assert_same_truth, braking_speed_at
 
 Q = 2 * math.pi / 65536
 """rad, one count of the default 16-bit encoder."""

@@ -1,6 +1,6 @@
 """Config instances written as TOML files that their readers give back equal.
 
-The writer walks the fields of a config class (rsp_inertia.plant.toml_schema) as the reader
+The writer walks the fields of a config class (rsp_inertia.infra.toml_schema) as the reader
 does: every key whose value is not None, in field order, each with its unit as a comment (a
 matrix one row per line, a free table's keys in their order). Before anything is written, the
 text is read back with the file's reader; a value the reader refuses, or one that would not
@@ -19,8 +19,8 @@ from typing import Any
 import numpy as np
 import tomlkit
 
-from rsp_inertia.plant.files import write_atomic
-from rsp_inertia.plant.toml_schema import ContentError, Key, is_table, layout
+from rsp_inertia.infra.files import write_atomic
+from rsp_inertia.infra.toml_schema import ContentError, Key, is_table, layout
 
 
 def write_text(value: Any, header: str) -> str:
@@ -101,7 +101,7 @@ def write_file(
     path : str or os.PathLike
         The file; its folder must exist.
     value : object
-        The config instance (rsp_inertia.plant.toml_schema.config_class).
+        The config instance (rsp_inertia.infra.toml_schema.config_class).
     header : str
         The file's header, written as a comment (one per line).
     read : callable
@@ -127,7 +127,7 @@ def checked_text(
     Parameters
     ----------
     value : object
-        The config instance (rsp_inertia.plant.toml_schema.config_class).
+        The config instance (rsp_inertia.infra.toml_schema.config_class).
     header : str
         The file's header, written as a comment (one per line).
     read : callable

@@ -1,4 +1,4 @@
-"""The virtual rig's imperfections and backward runs (docs/method.md §2-4, plant/virtual.py): a
+"""The virtual rig's imperfections and backward runs (docs/method.md §2-4, virtual/device.py): a
 backward braking is the mirror of a forward one, energy balances, the torque gain separates
 the logged command from the physical torque, friction may differ backward, the fixture adds
 its inertia, the rig's true tare replaces device.toml's."""
@@ -11,13 +11,14 @@ import pytest
 from scipy.integrate import simpson
 from scipy.interpolate import CubicSpline
 
-from rsp_inertia.plant import virtual as vd
-from rsp_inertia.plant.config import Friction, Rig, TrueBody
+from rsp_inertia.infra.errors import InputError
+from rsp_inertia.plant.config import TrueBody
 from rsp_inertia.plant.direction import Direction
-from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.integrate import advance
 from rsp_inertia.plant.logs import Program, read_log, write_log
 from rsp_inertia.plant.model import dissipation, mechanical_energy, static_torque
+from rsp_inertia.virtual import device as vd
+from rsp_inertia.virtual.config import Friction, Rig
+from rsp_inertia.virtual.integrate import advance
 
 DIRECTIONS = tuple(Direction)
 

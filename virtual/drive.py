@@ -1,7 +1,7 @@
 """The virtual device's drive and its logger: what leaves the device of a simulated pass.
 
 A rig's drive reads the encoder, floor((phi + e(phi))/q) q with the encoder's reading error e
-(:func:`encoder_reading`, ``[rig]``), at its sampling instants: one per period of the sample
+(:func:`rsp_inertia.plant.transducers.encoder_reading`, ``[rig]``), at its sampling instants: one per period of the sample
 rate, each off the regular grid by up to
 ``[logger] time_jitter`` of a period (:func:`sampling_instants`). Its controller estimates
 the speed from the encoder alone (:class:`SpeedObserver`). The log records the drive's
@@ -23,11 +23,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rsp_inertia.plant import transducers
-from rsp_inertia.plant.config import Stage, Virtual
-from rsp_inertia.plant.integrate import Pair, advance
+from rsp_inertia.plant.config import Stage
 from rsp_inertia.plant.logs import Log
-from rsp_inertia.plant.transducers import delivered_torque
+from rsp_inertia.plant.transducers import delivered_torque, encoder_reading
+from rsp_inertia.virtual.config import Virtual
+from rsp_inertia.virtual.integrate import Pair, advance
 
 __all__ = [
     "STREAM_BRAKING",
@@ -42,7 +42,6 @@ __all__ = [
     "SimulatedPass",
     "SpeedObserver",
     "braking_torque",
-    "encoder_reading",
     "jittered",
     "logged",
     "resample",
@@ -89,27 +88,6 @@ def braking_torque(stage: Stage, virtual: Virtual, s: float) -> tuple[float, flo
     """
     command = -s * stage.braking_torque
     return command, delivered_torque(command, s, virtual.rig.drive_gains)
-
-
-def encoder_reading(phi: np.ndarray, quantum: float, error=()) -> np.ndarray:
-    """Incremental encoder: floor((phi + e(phi)) / q) q (docs/files.md, logs).
-
-    Parameters
-    ----------
-    phi : numpy.ndarray
-        rad, the true angles.
-    quantum : float
-        q, rad, the encoder's step.
-    error : sequence of float, optional
-        The coefficients of its reading error e (``[rig]``, rsp_inertia.plant.transducers);
-        none: e = 0.
-
-    Returns
-    -------
-    numpy.ndarray
-        rad, the readings, shaped like ``phi``.
-    """
-    return transducers.encoder_reading(phi, quantum, error)
 
 
 @dataclass(frozen=True)
@@ -179,7 +157,7 @@ def resample(truth: PassTruth, pair: Pair, instants: np.ndarray) -> PassTruth:
     instants (braking, pendulum: one torque throughout; a pilot's switch-off is a grid
     sample, so its one row around the switch carries the command of the grid sample before
     it). Each state advances from the grid sample before it, stops and static friction
-    included (:func:`rsp_inertia.plant.integrate.advance`).
+    included (:func:`rsp_inertia.virtual.integrate.advance`).
 
     Parameters
     ----------

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import io
 
-from rsp_inertia.plant import progress
-from rsp_inertia.plant.progress import (
+from rsp_inertia.infra import progress
+from rsp_inertia.infra.progress import (
     DELAY,
     INTERVAL,
     Lines,

@@ -13,22 +13,9 @@ import math
 
 import numpy as np
 
-from rsp_inertia.plant.config import Device, Virtual
+from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.direction import Direction
-from rsp_inertia.plant.drive import (
-    STREAM_CLOCK,
-    STREAM_REVERSE,
-    STREAM_REVERSE_BACKWARD,
-    PassTruth,
-    SimulatedPass,
-    SpeedObserver,
-    braking_torque,
-    encoder_reading,
-    logged,
-    sampling_instants,
-)
 from rsp_inertia.plant.friction import FRICTION
-from rsp_inertia.plant.integrate import BLOCK, advance, step_block, true_pair, true_parameters
 from rsp_inertia.plant.logs import Program
 from rsp_inertia.plant.model import (
     PARAMETER_NAMES,
@@ -37,7 +24,20 @@ from rsp_inertia.plant.model import (
     reduced_inertia,
     static_torque,
 )
-from rsp_inertia.plant.transducers import delivered_torque, logged_torque
+from rsp_inertia.plant.transducers import delivered_torque, encoder_reading, logged_torque
+from rsp_inertia.virtual.config import Virtual
+from rsp_inertia.virtual.drive import (
+    STREAM_CLOCK,
+    STREAM_REVERSE,
+    STREAM_REVERSE_BACKWARD,
+    PassTruth,
+    SimulatedPass,
+    SpeedObserver,
+    braking_torque,
+    logged,
+    sampling_instants,
+)
+from rsp_inertia.virtual.integrate import BLOCK, advance, step_block, true_pair, true_parameters
 
 __all__ = ["IDEAL_BANDWIDTH", "ideal_program", "run_program", "simulate_ideal_reverse"]
 
@@ -63,9 +63,9 @@ def run_program(
     """Execute ``program`` in closed loop on the virtual device (docs/files.md, program.csv).
 
     At each of its sampling instants (regular, or jittered by ``[logger] time_jitter``:
-    :func:`rsp_inertia.plant.drive.sampling_instants`; the program interpolated there) the
+    :func:`rsp_inertia.virtual.drive.sampling_instants`; the program interpolated there) the
     controller reads the encoder, updates its speed estimate
-    (:class:`rsp_inertia.plant.drive.SpeedObserver`), computes
+    (:class:`rsp_inertia.virtual.drive.SpeedObserver`), computes
 
         u = clip(torque_ff - k_phi (phi - phi_ref) - k_omega (omega - omega_ref), +-torque_limit)
 
@@ -252,7 +252,7 @@ def ideal_program(
     virtual : Virtual
         The virtual device's truth.
     braking : SimulatedPass
-        The braking pass of ``direction`` (:func:`rsp_inertia.plant.virtual.simulate_braking`).
+        The braking pass of ``direction`` (:func:`rsp_inertia.virtual.device.simulate_braking`).
     direction : Direction
         The direction of the braking: a backward braking's mirror moves phi up.
 

@@ -13,7 +13,7 @@ import os
 import secrets
 from pathlib import Path
 
-from rsp_inertia.plant.errors import InputError
+from rsp_inertia.infra.errors import InputError
 
 __all__ = ["check_writable", "file_sha256", "write_atomic"]
 

@@ -25,7 +25,7 @@ file holds is made by :func:`key`, and that field is the whole contract of its k
 :func:`read_table` walks a class's fields to read a table: unknown keys are errors, types
 are converted, bounds and checks applied. A fault is a :class:`ContentError` naming the
 dotted key; the file readers prefix the path and raise
-:class:`rsp_inertia.plant.errors.InputError`. rsp_inertia.plant.toml_writer walks the same
+:class:`rsp_inertia.infra.errors.InputError`. rsp_inertia.infra.toml_writer walks the same
 fields to write an instance back.
 """
 
@@ -50,7 +50,7 @@ from typing import Any
 
 import numpy as np
 
-from rsp_inertia.plant.errors import InputError
+from rsp_inertia.infra.errors import InputError
 
 REQUIRED: Any = dataclasses.MISSING
 """The default of a key the file must give."""

@@ -4,14 +4,14 @@ It integrates the model of :mod:`rsp_inertia.plant.model` (the true body of ``vi
 placed on the gimbal of ``device.toml`` by its mounting, :func:`placed_body`,
 :func:`true_parameters`) sample by sample, the motor torque held over each sample
 (zero-order hold, docs/method.md §4), with stops as events decided by static friction
-(:mod:`rsp_inertia.plant.integrate`). What leaves the device is what a rig
+(:mod:`rsp_inertia.virtual.integrate`). What leaves the device is what a rig
 produces: encoder readings floor(phi/q) q at the drive's sampling instants and the logged
-command with its noise (:mod:`rsp_inertia.plant.drive`); the true states are returned beside
+command with its noise (:mod:`rsp_inertia.virtual.drive`); the true states are returned beside
 the log.
 
 The passes: :func:`simulate_braking` (the constant braking torque until rest), the reverse
 pass :func:`run_program` and its ideal mirror :func:`simulate_ideal_reverse`
-(:mod:`rsp_inertia.plant.reverse`), the torsion-pendulum runs :func:`simulate_pendulum`, the
+(:mod:`rsp_inertia.virtual.reverse`), the torsion-pendulum runs :func:`simulate_pendulum`, the
 pilot run :func:`simulate_pilot` for planning, and :func:`free_motion` (motor off).
 
 A stage runs forward (phi increases while braking) or backward (the mirror: released at
@@ -24,8 +24,8 @@ the body receives h_d or h_b times it), and an encoder that reads phi + e(phi)
 (rsp_inertia.plant.transducers).
 
 This module is the virtual device's interface: it also exposes the public names of
-:mod:`rsp_inertia.plant.integrate`, :mod:`rsp_inertia.plant.drive` and
-:mod:`rsp_inertia.plant.reverse` that its callers use (``__all__``).
+:mod:`rsp_inertia.virtual.integrate`, :mod:`rsp_inertia.virtual.drive` and
+:mod:`rsp_inertia.virtual.reverse` that its callers use (``__all__``).
 """
 
 from __future__ import annotations
@@ -35,9 +35,13 @@ import math
 
 import numpy as np
 
-from rsp_inertia.plant.config import Device, Stage, Virtual, placed_body
+from rsp_inertia.infra.errors import InputError
+from rsp_inertia.plant.config import Device, Stage
 from rsp_inertia.plant.direction import Direction
-from rsp_inertia.plant.drive import (
+from rsp_inertia.plant.friction import FRICTION
+from rsp_inertia.plant.transducers import delivered_torque
+from rsp_inertia.virtual.config import Virtual, placed_body
+from rsp_inertia.virtual.drive import (
     STREAM_BRAKING,
     STREAM_BRAKING_BACKWARD,
     STREAM_CLOCK,
@@ -47,15 +51,12 @@ from rsp_inertia.plant.drive import (
     SimulatedPass,
     SpeedObserver,
     braking_torque,
-    encoder_reading,
     jittered,
     logged,
     resample,
     sampling_instants,
 )
-from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.friction import FRICTION
-from rsp_inertia.plant.integrate import (
+from rsp_inertia.virtual.integrate import (
     BLOCK,
     SUBSTEPS,
     integrate_free,
@@ -65,8 +66,7 @@ from rsp_inertia.plant.integrate import (
     true_pair,
     true_parameters,
 )
-from rsp_inertia.plant.reverse import ideal_program, run_program, simulate_ideal_reverse
-from rsp_inertia.plant.transducers import delivered_torque
+from rsp_inertia.virtual.reverse import ideal_program, run_program, simulate_ideal_reverse
 
 __all__ = [
     "MAX_BRAKING_TIME",
@@ -78,7 +78,6 @@ __all__ = [
     "PassTruth",
     "SimulatedPass",
     "SpeedObserver",
-    "encoder_reading",
     "free_motion",
     "ideal_program",
     "integrate_to_stop",

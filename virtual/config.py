@@ -1,11 +1,11 @@
-"""``virtual.toml`` and ``reference.toml``: the virtual device's truth, read and written.
+"""``virtual.toml``: the virtual device's truth, read and written.
 
 ``virtual.toml`` exists only for a virtual device: the true body in its own axes (absent for
 an empty-fixture run; :func:`placed_body` puts it on the rig) and the fixture, the friction
 law in each direction of motion, the rig's imperfections, a body seated off its stated
-mounting, and the settings of the simulated runs. ``reference.toml`` holds a reference body's
-certified data, the ``[body]`` keys of virtual.toml. docs/files.md documents every key; the
-config classes below declare them (rsp_inertia.plant.toml_schema).
+mounting, and the settings of the simulated runs. docs/files.md documents every key; the
+config classes below declare them (rsp_inertia.infra.toml_schema). The bodies are
+:class:`rsp_inertia.plant.reference_config.TrueBody`, the rigid body of reference.toml.
 """
 
 from __future__ import annotations
@@ -14,91 +14,34 @@ import os
 
 import numpy as np
 
-from rsp_inertia.plant.device_config import Device, Mounting
-from rsp_inertia.plant.errors import InputError
-from rsp_inertia.plant.geometry import (
-    physical_margins,
-    place_body,
-    small_rotation,
-    tensor_from_entries,
-)
-from rsp_inertia.plant.toml_schema import (
+from rsp_inertia.infra.errors import InputError
+from rsp_inertia.infra.toml_schema import (
     ContentError,
     config_class,
     key,
     read_file,
     read_table,
 )
-from rsp_inertia.plant.toml_writer import write_file
+from rsp_inertia.infra.toml_writer import write_file
+from rsp_inertia.plant.device_config import Device, Mounting
+from rsp_inertia.plant.experiment import VIRTUAL_FILE, Experiment
+from rsp_inertia.plant.geometry import place_body, small_rotation
+from rsp_inertia.plant.reference_config import TrueBody
 from rsp_inertia.plant.transducers import drive_gains, error_coefficients
 
-_INERTIA_NAMES = ("Jx", "Jy", "Jz", "Jxy", "Jyz", "Jxz")
-
-
-def _physical_inertia(inertia: tuple[float, ...], key: str) -> None:
-    """Refuse an inertia that is not the tensor of a physical body (docs/method.md §2)."""
-    for name, value in zip(_INERTIA_NAMES[:3], inertia[:3], strict=True):
-        if not value > 0.0:
-            raise ContentError(key, f"{name} must be > 0, got {value!r}")
-    smallest, triangle = physical_margins(inertia)
-    # A flat plate has I3 = I1 + I2 exactly, hence the rounding margin on the triangle.
-    if smallest <= 0.0 or triangle < -1e-12 * sum(inertia[:3]):
-        moments = np.linalg.eigvalsh(tensor_from_entries(inertia))
-        listed = ", ".join(f"{moment:.6g}" for moment in moments)
-        fault = (
-            "not positive definite"
-            if smallest <= 0.0
-            else "the largest exceeds the sum of the other two (triangle inequality)"
-        )
-        raise ContentError(
-            key, f"not a physical inertia tensor: principal moments [{listed}] kg m^2, {fault}"
-        )
-
-
-@config_class
-class TrueBody:
-    """A rigid part a virtual device carries on its shaft: the body under test (the truth
-    that identification should recover) or the fixture that holds it.
-
-    Two bodies are equal when their mass and arrays are."""
-
-    mass: float = key(unit="kg", bound="> 0", doc="Mass.")
-    inertia: np.ndarray = key(
-        unit="kg m^2",
-        names=_INERTIA_NAMES,
-        check=_physical_inertia,
-        doc="[Jx, Jy, Jz, Jxy, Jyz, Jxz] about O in the body frame, products as tensor "
-        "entries (Jxy = -integral of x y dm); shape (6,), read-only.",
-    )
-    com: np.ndarray = key(
-        unit="m",
-        names=("x", "y", "z"),
-        doc="Centre of mass [x, y, z] in the body frame; shape (3,), read-only.",
-    )
-
-    def __post_init__(self) -> None:
-        # Own read-only copies, so that a frozen body stays frozen however it was built.
-        for name, size in (("inertia", 6), ("com", 3)):
-            array = np.array(getattr(self, name), dtype=float)
-            if array.shape != (size,):
-                raise ValueError(f"TrueBody.{name} must have shape ({size},), got {array.shape}")
-            array.flags.writeable = False
-            object.__setattr__(self, name, array)
-
-    def __eq__(self, other: object) -> bool:
-        if not isinstance(other, TrueBody):
-            return NotImplemented
-        return (
-            self.mass == other.mass
-            and np.array_equal(self.inertia, other.inertia)
-            and np.array_equal(self.com, other.com)
-        )
-
-    @property
-    def tensor(self) -> np.ndarray:
-        """The inertia tensor J, kg m^2, shape (3, 3) (docs/method.md §2)."""
-        return tensor_from_entries(self.inertia)
-
+__all__ = [
+    "ControllerSettings",
+    "Friction",
+    "LoggerSettings",
+    "Rig",
+    "RunSettings",
+    "Virtual",
+    "VirtualMounting",
+    "experiment_virtual",
+    "load_virtual",
+    "placed_body",
+    "write_virtual",
+]
 
 @config_class
 class Friction:
@@ -240,7 +183,7 @@ class Rig:
             return np.zeros(0)
         return error_coefficients(self.encoder_error_amplitude, self.encoder_error_phase_deg)
 
-    def true_tare(self, device: Device, stage: int, source: str = "virtual.toml") -> float:
+    def true_tare(self, device: Device, stage: int, source: str = VIRTUAL_FILE) -> float:
         """The true M_tare of a stage (docs/method.md §2).
 
         Parameters
@@ -301,7 +244,7 @@ class Virtual:
 
     body: TrueBody | None = key(
         doc="The true body in its own axes (placed on the rig by device.toml's "
-        "``[mounting]``: rsp_inertia.plant.virtual.placed_body); None for an empty-fixture "
+        "``[mounting]``: rsp_inertia.virtual.device.placed_body); None for an empty-fixture "
         "run (no ``[body]``)."
     )
     friction: Friction = key(
@@ -387,13 +330,6 @@ def placed_body(device: Device, virtual: Virtual) -> TrueBody | None:
     return TrueBody(mass=body.mass, inertia=inertia, com=com)
 
 
-@config_class
-class _ReferenceFile:
-    """``reference.toml``: the reference body's certified data."""
-
-    body: TrueBody = key(doc="The reference body, with the keys of virtual.toml's ``[body]``.")
-
-
 def load_virtual(path: str | os.PathLike) -> Virtual:
     """Read a ``virtual.toml`` file.
 
@@ -432,9 +368,45 @@ def load_virtual(path: str | os.PathLike) -> Virtual:
         raise InputError(f"{path}: {error}") from None
 
 
+
+def experiment_virtual(exp: Experiment) -> Virtual:
+    """The virtual device's truth of an experiment folder (``EXP/virtual.toml``); an error if
+    the folder is not a virtual experiment.
+
+    Also checks virtual.toml against device.toml (``rig.tare_inertia``: one per stage).
+
+    Parameters
+    ----------
+    exp : rsp_inertia.plant.experiment.Experiment
+        The experiment folder.
+
+    Returns
+    -------
+    Virtual
+        What ``exp.virtual_path`` holds.
+
+    Raises
+    ------
+    InputError
+        No virtual.toml in the folder (the message says where to get one), or one that
+        :func:`load_virtual` or :meth:`Rig.true_tare` refuses.
+    """
+    if not exp.virtual_path.is_file():
+        raise InputError(
+            f"{exp.virtual_path}: not found: only a virtual device (with virtual.toml) "
+            "can be simulated; write one (the true body, friction and rig: docs/files.md "
+            "lists its keys, docs/real-rig.md shows a rig's), or python -c \"import "
+            f"rsp_inertia; rsp_inertia.create_experiment({str(exp.root)!r})\" writes the "
+            "default one (the paper's body on an exact gimbal) and keeps the device.toml "
+            "there"
+        )
+    virtual = load_virtual(exp.virtual_path)
+    virtual.rig.true_tare(exp.device, 1, source=str(exp.virtual_path))
+    return virtual
+
 def write_virtual(path: str | os.PathLike, virtual: Virtual) -> None:
     """Write ``virtual`` to ``path`` as a ``virtual.toml`` that :func:`load_virtual` reads
-    back equal; atomically (rsp_inertia.plant.files.write_atomic).
+    back equal; atomically (rsp_inertia.infra.files.write_atomic).
 
     Every key whose value is not None is written, in the order of the fields, with its unit
     as a comment.
@@ -446,7 +418,7 @@ def write_virtual(path: str | os.PathLike, virtual: Virtual) -> None:
         front), or holds what the file cannot: ``models``, or a ``friction_backward`` with a
         ``backward_scale``. Nothing is written.
     """
-    header = "virtual.toml: written by rsp_inertia.plant.config.write_virtual"
+    header = "virtual.toml: written by rsp_inertia.virtual.config.write_virtual"
     write_file(path, virtual, header, _virtual)
 
 
@@ -469,35 +441,3 @@ def _virtual(doc: dict) -> Virtual:
             "give either friction.backward_scale or [friction_backward], not both",
         )
     return virtual
-
-
-def load_reference(path: str | os.PathLike) -> TrueBody:
-    """Read a calibration's ``reference.toml``: the reference body's ``[body]`` table.
-
-    The same keys as virtual.toml's ``[body]``: ``mass`` (kg), ``inertia = [Jx, Jy, Jz, Jxy,
-    Jyz, Jxz]`` (kg m^2, body frame about O) and ``com = [x, y, z]`` (m).
-
-    Raises
-    ------
-    InputError
-        The file is missing or is not TOML; a key is missing, unknown or out of range; the
-        inertia is not that of a physical body.
-    """
-    doc = read_file(path)
-    try:
-        return read_table(_ReferenceFile, doc).body
-    except ContentError as error:
-        raise InputError(f"{path}: {error}") from None
-
-
-def write_reference(path: str | os.PathLike, body: TrueBody) -> None:
-    """Write ``body`` to ``path`` as a ``reference.toml`` that :func:`load_reference` reads
-    back equal; atomically.
-
-    Raises
-    ------
-    ValueError
-        ``body`` is no physical body (load_reference's message, with ``path`` in front).
-    """
-    header = "reference.toml: written by rsp_inertia.plant.config.write_reference"
-    write_file(path, _ReferenceFile(body), header, lambda doc: read_table(_ReferenceFile, doc))

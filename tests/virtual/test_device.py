@@ -10,9 +10,7 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
-from rsp_inertia.plant import virtual as vd
 from rsp_inertia.plant.direction import Direction
-from rsp_inertia.plant.integrate import BLOCK, advance, step_block
 from rsp_inertia.plant.logs import Program, read_log, write_log
 from rsp_inertia.plant.model import (
     acceleration,
@@ -20,6 +18,9 @@ from rsp_inertia.plant.model import (
     reduced_inertia,
     static_torque,
 )
+from rsp_inertia.plant.transducers import encoder_reading
+from rsp_inertia.virtual import device as vd
+from rsp_inertia.virtual.integrate import BLOCK, advance, step_block
 
 STAGES = (1, 2)
 
@@ -84,7 +85,7 @@ def test_integrator_conserves_energy_without_dissipation(default_device, default
     trajectory = np.concatenate(blocks)
     assert trajectory[-1, 0] - trajectory[0, 0] > 3 * 2 * math.pi  # turns of swings in M, Pi
     drift = np.abs(mechanical_energy(trajectory[:, 0], trajectory[:, 1], params) / E0 - 1.0)
-    # The bound plant/integrate.py's docstring states: 1e-9 relative over 10 s. RK4 at
+    # The bound virtual/integrate.py's docstring states: 1e-9 relative over 10 s. RK4 at
     # h = dt/8 loses ~(h Omega)^4 ~ 1e-13 per unit time at these speeds.
     assert drift.max() < 1e-9
 
@@ -431,7 +432,7 @@ def observe_ramp(phi0, omega0, a, bandwidth, dt, q, n=3000):
     """Run the SpeedObserver on the encoder readings of phi0 + omega0 t + a t^2 / 2."""
     t = np.arange(n) * dt
     phi = phi0 + omega0 * t + a * t * t / 2
-    y = vd.encoder_reading(phi, q)
+    y = encoder_reading(phi, q)
     observer = vd.SpeedObserver(float(y[0]), omega0, bandwidth, dt)
     estimate = np.array([observer.update(float(v)) for v in y])
     return estimate - (omega0 + a * t)
@@ -545,7 +546,7 @@ def test_jittered_braking_samples_the_same_motion(default_device, default_virtua
     assert t[-1] < regular.truth.end_time
     on_path = braking_speed_at(regular, sim.truth.phi)
     np.testing.assert_allclose(sim.truth.omega, on_path, rtol=0, atol=1e-8)
-    np.testing.assert_array_equal(sim.log.phi, vd.encoder_reading(sim.truth.phi, default_device.encoder.quantum))
+    np.testing.assert_array_equal(sim.log.phi, encoder_reading(sim.truth.phi, default_device.encoder.quantum))
     n = min(len(sim.log), len(regular.log))
     np.testing.assert_array_equal(sim.log.torque[:n], regular.log.torque[:n])
 

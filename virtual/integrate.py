@@ -24,8 +24,8 @@ import casadi as ca
 import numpy as np
 from scipy.optimize import brentq
 
-from rsp_inertia.plant.config import Device, Virtual, placed_body
-from rsp_inertia.plant.errors import InputError
+from rsp_inertia.infra.errors import InputError
+from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.model import (
     MODEL,
@@ -35,6 +35,7 @@ from rsp_inertia.plant.model import (
     rk4_step,
     static_torque,
 )
+from rsp_inertia.virtual.config import Virtual, placed_body
 
 __all__ = [
     "BLOCK",
@@ -183,12 +184,12 @@ def true_parameters(
     """The true model of stage ``stage`` (1-based) while the body moves in ``direction``.
 
     device.toml's gimbal with virtual.toml's moving system. The moving system is the body,
-    placed on the rig by its mounting (:func:`rsp_inertia.plant.config.placed_body`), and the
+    placed on the rig by its mounting (:func:`rsp_inertia.virtual.config.placed_body`), and the
     fixture (either may be absent): their tensors, both about O in rig axes, add
     (docs/method.md §2), and so do their gravity terms Gs = sum m g x_c, Gc = sum m g y_c
     (docs/method.md §3). The tare is the rig's true one (``[rig] tare_inertia``, else
-    device.toml's, :meth:`rsp_inertia.plant.config.Rig.true_tare`); the friction that of the
-    direction of motion (:meth:`rsp_inertia.plant.config.Virtual.friction_for`).
+    device.toml's, :meth:`rsp_inertia.virtual.config.Rig.true_tare`); the friction that of the
+    direction of motion (:meth:`rsp_inertia.virtual.config.Virtual.friction_for`).
 
     Parameters
     ----------
