@@ -27,7 +27,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from rsp_inertia.public import API_NAMES
+from rsp_inertia.public import PACKAGE_NAMES
 
 if TYPE_CHECKING:  # for type checkers and IDEs; at run time, __getattr__ below
     from rsp_inertia.api import (
@@ -53,8 +53,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time, __getattr__ below
         SimulateResult,
     )
 
-__all__ = list(API_NAMES)
-__all__ += ["__version__"]
+__all__ = list(PACKAGE_NAMES)
 """The public names: the API's (rsp_inertia.public, written once for both) and the version."""
 
 

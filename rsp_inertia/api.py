@@ -35,6 +35,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from rsp_inertia.infra.errors import InputError  # noqa: F401 (public: raised by every function)
 from rsp_inertia.infra.progress import lines_to
 from rsp_inertia.public import API_NAMES, RESULT_CLASSES
 

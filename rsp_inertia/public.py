@@ -7,7 +7,7 @@ the API, and the API without importing the package back (which would close a cyc
 
 from __future__ import annotations
 
-__all__ = ["API_NAMES", "RESULT_CLASSES"]
+__all__ = ["API_NAMES", "PACKAGE_NAMES", "RESULT_CLASSES"]
 
 RESULT_CLASSES = (
     "CalibrateResult",
@@ -20,20 +20,27 @@ RESULT_CLASSES = (
 )
 """The commands' result classes among the public names (homes: rsp_inertia.results)."""
 
-API_NAMES = (
-    *RESULT_CLASSES,
-    "InputError",
-    "calibrate",
-    "check",
-    "combine",
-    "create_experiment",
-    "demo",
-    "identify",
-    "plan",
-    "program",
-    "simulate",
-    "write_report",
+API_NAMES = tuple(
+    sorted(
+        (
+            *RESULT_CLASSES,
+            "InputError",
+            "calibrate",
+            "check",
+            "combine",
+            "create_experiment",
+            "demo",
+            "identify",
+            "plan",
+            "program",
+            "simulate",
+            "write_report",
+        )
+    )
 )
-"""The public names of rsp_inertia.api: the result classes, the exception, and one
+"""The public names of rsp_inertia.api, sorted: the result classes, the exception, and one
 function per command (``design``'s, rsp_inertia.api.axis_designs, is the command line's
 only)."""
+
+PACKAGE_NAMES = tuple(sorted((*API_NAMES, "__version__")))
+"""The public names of rsp_inertia, sorted: the API's and the version."""

@@ -407,11 +407,11 @@ RESULT_MODULES = sorted(name for name in MODULES if name.startswith("rsp_inertia
 @pytest.mark.parametrize("name", RESULT_MODULES)
 def test_the_results_import_nothing_heavy(name: str) -> None:
     """Of the package, a result imports only the light modules the results share (the
-    device's files and geometry, the figure writer, other results), never a layer's
+    device's files, geometry and run directions, the figure writer, other results), never a layer's
     computation; of the rest, numpy."""
     light = ("rsp_inertia.results", "rsp_inertia.figure_files", "rsp_inertia.plant.experiment",
-             "rsp_inertia.plant.geometry", "rsp_inertia.infra.toml_writer",
-             "rsp_inertia.infra.lazy")
+             "rsp_inertia.plant.geometry", "rsp_inertia.plant.direction",
+             "rsp_inertia.infra.toml_writer", "rsp_inertia.infra.lazy")
     heavy = [target for target, _, _ in IMPORTS[name] if not target.startswith(light)]
     assert heavy == [], f"{name} imports {heavy}"
     assert _third_party(MODULES[name].read_text()) <= LIGHT_PACKAGES
