@@ -38,7 +38,7 @@ from rsp_inertia.estimation.smoothing import (
 from rsp_inertia.infra.progress import reporting
 from rsp_inertia.plant.logs import Log
 from tests.estimation.conftest import STAGES
-from tests.plant.test_progress import Recorder
+from tests.infra.test_progress import Recorder
 
 
 @pytest.fixture(scope="module")
