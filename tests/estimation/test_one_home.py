@@ -36,7 +36,7 @@ HOMES = [
     ("M = (c + k_g) / w_n^2", "estimation.best_practice", "best_practice_inertia",
      ["estimation.identify", "estimation.stiffness"]),
     ("V (design matrix)", "plant.geometry", "design_matrix", ["estimation.axes", "estimation.predict"]),
-    ("J from its entries", "plant.geometry", "tensor_from_entries", ["virtual.config"]),
+    ("J from its entries", "plant.geometry", "tensor_from_entries", ["plant.reference_config"]),
     ("e(phi)", "plant.geometry", "axis_direction", ["estimation.identify", "estimation.results"]),
     ("identify's axes and cond(V)", "plant.geometry", "device_design",
      ["estimation.identify", "estimation.predict"]),
