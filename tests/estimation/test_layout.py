@@ -17,7 +17,6 @@ import pytest
 
 import rsp_inertia.estimation
 from rsp_inertia.estimation import calibration
-from rsp_inertia.estimation.balance import stage_balance
 from rsp_inertia.estimation.calibration_file import CalibrationFile
 from rsp_inertia.estimation.known_terms import KnownTerms
 from rsp_inertia.estimation.layout import (
@@ -29,7 +28,6 @@ from rsp_inertia.estimation.layout import (
     encoder_names,
     theta_layout,
 )
-from rsp_inertia.estimation.passes import estimate_pass
 from rsp_inertia.estimation.tensor_fit import tensor_block
 from rsp_inertia.plant.geometry import ENTRY_KEYS
 
@@ -111,30 +109,19 @@ def test_calibration_file_names_theta_by_the_layout() -> None:
     assert CalibrationFile.parameters(file) == theta_layout(2, 3).names()
 
 
-@pytest.fixture(scope="module")
-def balances(default_device, default_brakings, default_ideal_reverses):
-    """The default stages' balances (braking and ideal reverse)."""
-    q = default_device.encoder.quantum
-    out = []
-    for stage in (1, 2):
-        b = estimate_pass(default_brakings[stage].log, q, "braking", constant_torque=True)
-        r = estimate_pass(default_ideal_reverses[stage].log, q, "reverse",
-                          sigma_torque=b.sigma_torque)
-        out.append(stage_balance(default_device, stage, b, r, slope_prior=False))
-    return out
 
 
-def test_the_fits_unknowns_are_named_by_the_layouts(default_device, balances) -> None:
+def test_the_fits_unknowns_are_named_by_the_layouts(default_device, default_balances) -> None:
     """The calibration fit's theta unknowns are the layout's names (its reference fit has
     every segment), and the tensor fit's blocks have the shared layout's columns."""
     theta = theta_layout(len(default_device.stages), calibration.ENCODER_ORDERS)
-    blocks = calibration._blocks(default_device, balances, "empty", None, True,
+    blocks = calibration._blocks(default_device, default_balances, "empty", None, True,
                                  calibration.ENCODER_ORDERS)
     unknowns = {n for b in blocks for n in (*b.columns, *b.inertia_scaled_columns)}
     assert set(theta.names()) <= unknowns
     assert {n for n in unknowns if n in theta.names()} == set(theta.names())
-    known = KnownTerms.from_tares([bal.tare_inertia for bal in balances])
-    block = tensor_block(balances[0], "0", known, False)
+    known = KnownTerms.from_tares([bal.tare_inertia for bal in default_balances])
+    block = tensor_block(default_balances[0], "0", known, False)
     assert list(block.columns)[: SHARED_LAYOUT.size] == SHARED_LAYOUT.names()
 
 

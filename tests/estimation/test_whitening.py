@@ -13,10 +13,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from rsp_inertia.estimation.balance import stage_balance
 from rsp_inertia.estimation.gls import NOISE_SOURCES, assemble_blocks, solve_blocks
 from rsp_inertia.estimation.known_terms import KnownTerms
-from rsp_inertia.estimation.passes import estimate_pass
 from rsp_inertia.estimation.tensor_fit import tensor_block
 from rsp_inertia.estimation.whitening import (
     JITTER,
@@ -108,17 +106,6 @@ def test_rows_folded_by_qr_equal_one_least_squares():
     assert np.allclose(x_rows, x, rtol=1e-10, atol=1e-12)
 
 
-@pytest.fixture(scope="module")
-def default_balances(default_device, default_brakings, default_ideal_reverses):
-    """The default stages' balances (braking and ideal reverse), without priors."""
-    q = default_device.encoder.quantum
-    out = []
-    for stage in (1, 2):
-        b = estimate_pass(default_brakings[stage].log, q, "braking", constant_torque=True)
-        r = estimate_pass(default_ideal_reverses[stage].log, q, "reverse",
-                          sigma_torque=b.sigma_torque)
-        out.append(stage_balance(default_device, stage, b, r, slope_prior=False))
-    return out
 
 
 def test_solve_blocks_equals_the_dense_reference(default_balances):
