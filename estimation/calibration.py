@@ -151,18 +151,21 @@ class Calibration:
     def __str__(self) -> str:
         k = self.known
         std = k.std
+        gains_std = std[k.gains_slice]
         out = []
         if self.reference:
             rt, rt_std = k.gains[0] / k.gains[1], k.round_trip_std()
             out.append(
-                f"drive: gain driving h_d = {k.gains[0]:.6f} +- {std[0]:.1e}, back-driven "
-                f"h_b = {k.gains[1]:.6f} +- {std[1]:.1e} (body torque / logged torque); "
+                f"drive: gain driving h_d = {k.gains[0]:.6f} +- {gains_std[0]:.1e}, "
+                f"back-driven h_b = {k.gains[1]:.6f} +- {gains_std[1]:.1e} (body torque / "
+                "logged torque); "
                 f"round-trip efficiency eta_d eta_b = h_d / h_b = {rt:.6f} +- {rt_std:.1e}"
             )
             out.append(
                 "  with the logged torque's scale exact, eta_d = h_d and eta_b = 1 / h_b: "
-                f"eta_d = {k.gains[0]:.5f} +- {std[0]:.1e}, eta_b = {1 / k.gains[1]:.5f} +- "
-                f"{std[1] / k.gains[1] ** 2:.1e} (a work balance measures only h_d and h_b: "
+                f"eta_d = {k.gains[0]:.5f} +- {gains_std[0]:.1e}, "
+                f"eta_b = {1 / k.gains[1]:.5f} +- {gains_std[1] / k.gains[1] ** 2:.1e} "
+                "(a work balance measures only h_d and h_b: "
                 "the torque constant and the two efficiencies are not separable)"
             )
         else:
