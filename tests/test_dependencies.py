@@ -17,6 +17,7 @@ against the declarations:
 from __future__ import annotations
 
 import ast
+import functools
 import re
 import sys
 import tomllib
@@ -87,8 +88,10 @@ def _distributions(paths) -> set[str]:
     return found
 
 
+@functools.cache
 def imported() -> dict[str, set[str]]:
-    """The distributions each part imports."""
+    """The distributions each part imports (scanned once for the tests of this module; callers
+    do not change it)."""
     return {
         "runtime": _distributions(MODULES.values()),
         "tests": _distributions(sorted((ROOT / "tests").rglob("*.py"))),

@@ -28,7 +28,7 @@ def default_ideal_reverses(default_device, default_virtual, default_brakings):
     }
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def default_balances(default_device, default_brakings, default_ideal_reverses):
     """The default stages' balances (braking and ideal reverse), without priors."""
     q = default_device.encoder.quantum

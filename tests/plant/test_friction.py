@@ -32,9 +32,9 @@ from rsp_inertia.plant.friction import FRICTION, FrictionLaw
 ROOT = Path(rsp_inertia.__file__).resolve().parents[1]
 """The source tree: the layers' folders side by side (pyproject's package-dir)."""
 
-LAYERS = {"rsp_inertia": "rsp_inertia", "plant": "rsp_inertia/plant",
-          "estimation": "rsp_inertia/estimation", "ocp": "rsp_inertia/ocp",
-          "design": "rsp_inertia/design"}
+LAYERS = {"rsp_inertia": "rsp_inertia", "infra": "rsp_inertia/infra", "plant": "rsp_inertia/plant",
+          "virtual": "rsp_inertia/virtual", "estimation": "rsp_inertia/estimation",
+          "ocp": "rsp_inertia/ocp", "design": "rsp_inertia/design"}
 """Folder -> where it sits in an importable copy of the package."""
 
 HOME = ROOT / "plant" / "friction.py"
@@ -77,6 +77,9 @@ field = {f.name: f for f in dataclasses.fields(device_config.PlanGuess)}["fricti
 out["device_toml_names"] = field.metadata["names"]
 out["usable"] = (1 - candidates.TORQUE_MARGIN) * device.motor.torque_limit
 out["top_speed"] = candidates._top_speed(device, p)
+import os, sys
+out["files"] = sorted(m.__file__ for name, m in sys.modules.items()
+                      if name.startswith("rsp_inertia") and getattr(m, "__file__", None))
 print(json.dumps(out))
 """
 
@@ -125,6 +128,8 @@ def test_every_user_follows_the_law(probes, which):
     n_top = 2 if which == 0 else 3
     a = [0.01, 0.002, 0.0003]
     assert Path(out["home"]).is_relative_to(ROOT) == (which == 0)
+    # the whole package from one tree: a copy that lacks a layer would mix in this tree's
+    assert all(Path(f).is_relative_to(ROOT) == (which == 0) for f in out["files"])
     assert tuple(out["parameter_names"][9:]) == names
     w = np.array([0.5, 2.0, 7.0])
     np.testing.assert_allclose(out["dissipation"], law(a, w), rtol=1e-14)
