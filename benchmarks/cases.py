@@ -102,7 +102,8 @@ FINGERPRINT_MODULES = (
     "benchmarks.cases",
     "benchmarks.sensitivity",
 )
-"""Modules outside plant, ocp, estimation and design whose source computes a row."""
+"""Modules outside infra, plant, virtual, ocp, estimation and design whose source computes a
+row."""
 
 
 @dataclass(frozen=True, order=True)
@@ -169,13 +170,14 @@ def configure(root: Path, case: Case) -> None:
 
 
 def code_fingerprint() -> str:
-    """A hash of the source that computes a case (plant, ocp, estimation and design with the
-    default experiment's files, FINGERPRINT_MODULES): a cached row is reused only under the same
+    """A hash of the source that computes a case (infra, plant, the virtual device, ocp,
+    estimation and design with the default experiment's files, FINGERPRINT_MODULES): a cached row is reused only under the same
     code."""
     digest = hashlib.sha256()
     files = []
     for package in (
-        "rsp_inertia.plant", "rsp_inertia.ocp", "rsp_inertia.estimation", "rsp_inertia.design"
+        "rsp_inertia.infra", "rsp_inertia.plant", "rsp_inertia.virtual", "rsp_inertia.ocp",
+        "rsp_inertia.estimation", "rsp_inertia.design",
     ):
         folder = Path(importlib.import_module(package).__file__).parent
         files += sorted(folder.rglob("*.py")) + sorted(folder.rglob("*.toml"))

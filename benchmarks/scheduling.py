@@ -28,7 +28,9 @@ from rsp_inertia.infra.files import write_atomic
 
 __all__ = ["PACKAGES", "run_guarded", "run_sweep"]
 
-PACKAGES = ("plant", "ocp", "estimation", "rsp_inertia", "benchmarks")  # folder names
+PACKAGES = (
+    "infra", "plant", "virtual", "ocp", "estimation", "design", "rsp_inertia", "benchmarks"
+)  # folder names
 """The project's packages: where a crash's innermost frame of interest lies."""
 
 

@@ -210,7 +210,7 @@ def test_a_law_needs_distinct_powers_and_a_field_per_coefficient():
 
 # --- nobody restates the law -----------------------------------------------------------
 
-SCANNED = ("plant", "estimation", "ocp", "design", "rsp_inertia", "benchmarks")
+SCANNED = ("infra", "plant", "virtual", "estimation", "ocp", "design", "rsp_inertia", "benchmarks")
 """The folders whose modules must take the law from its home."""
 
 BUILDERS = {"ModelParameters", "replace"}
