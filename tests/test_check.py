@@ -11,16 +11,14 @@ import pytest
 from rsp_inertia.cli import main
 from rsp_inertia.scenarios import create_default_experiment
 from rsp_inertia.simulating import simulate
+from tests.conftest import copy_experiment
 from tests.one_home import assert_calls_home, home_cases
 
 
 @pytest.fixture(scope="module")
-def ready(tmp_path_factory):
+def ready(tmp_path_factory, default_logs):
     """The default experiment with its braking and (ideal) reverse logs."""
-    root = create_default_experiment(tmp_path_factory.mktemp("check") / "exp")
-    simulate(root, part="braking")
-    simulate(root, part="reverse", ideal=True)
-    return root
+    return copy_experiment(default_logs, tmp_path_factory.mktemp("check") / "exp")
 
 
 def _lines(capsys) -> list[str]:

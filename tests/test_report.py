@@ -17,15 +17,13 @@ from rsp_inertia.identifying import identify
 from rsp_inertia.provenance import created_now
 from rsp_inertia.report import VALUE, Z95
 from rsp_inertia.scenarios import create_default_experiment
-from rsp_inertia.simulating import simulate
+from tests.conftest import copy_experiment
 
 
 @pytest.fixture(scope="module")
-def identified(tmp_path_factory):
+def identified(tmp_path_factory, default_logs):
     """The default experiment, ideal reverse, identified (no calibration: it warns)."""
-    root = create_default_experiment(tmp_path_factory.mktemp("report") / "exp")
-    simulate(root, part="braking")
-    simulate(root, part="reverse", ideal=True)
+    root = copy_experiment(default_logs, tmp_path_factory.mktemp("report") / "exp")
     identify(root)
     return root
 

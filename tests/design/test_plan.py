@@ -26,9 +26,9 @@ from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.geometry import device_design
 from rsp_inertia.plant.model import acceleration, dissipation, motor_torque, reduced_inertia
 from rsp_inertia.scenarios import create_default_experiment
-from rsp_inertia.simulating import simulate
 from rsp_inertia.virtual.config import load_virtual
 from rsp_inertia.virtual.device import integrate_to_stop, true_parameters
+from tests.conftest import copy_experiment
 
 DEFAULTS = Path(__file__).parents[2] / "plant" / "defaults"
 
@@ -95,13 +95,11 @@ def test_mirror_torque_is_braking_torque_plus_twice_friction(paper):
     assert c.peak_torque == pytest.approx(0.01 + 2 * float(np.max(D)), rel=1e-3)
 
 
-def test_prediction_matches_identify_on_an_ideal_reverse(tmp_path, paper):
+def test_prediction_matches_identify_on_an_ideal_reverse(tmp_path, paper, default_logs):
     """The predicted std is the one identify reports for the same protocol (its noise model,
     speed-noise scale near 1 on an ideal reverse): within 20% on every axis."""
     device, virtual = paper
-    root = create_default_experiment(tmp_path / "exp")
-    simulate(root, part="braking")
-    simulate(root, part="reverse", ideal=True)
+    root = copy_experiment(default_logs, tmp_path / "exp")
     result = identify_experiment(open_experiment(root))
     infos = []
     for stage in (1, 2):

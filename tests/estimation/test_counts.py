@@ -7,16 +7,13 @@ import numpy as np
 from rsp_inertia.identifying import identify
 from rsp_inertia.plant.config import load_device
 from rsp_inertia.plant.logs import read_log
-from rsp_inertia.scenarios import create_default_experiment
-from rsp_inertia.simulating import simulate
+from tests.conftest import copy_experiment
 
 
-def test_wrapped_counts_identify_like_the_angles(tmp_path):
+def test_wrapped_counts_identify_like_the_angles(tmp_path, default_logs):
     """The default experiment's logs rewritten as a 16-bit counter's counts (which wrap, and
     start a whole turn away: -30 deg reads as 330 deg): the same tensor to 1e-9 of it."""
-    root = create_default_experiment(tmp_path / "exp")
-    simulate(root, part="braking")
-    simulate(root, part="reverse", ideal=True)
+    root = copy_experiment(default_logs, tmp_path / "exp")
     phi_result = identify(root)
     device = load_device(root / "device.toml")
     q = device.encoder.quantum

@@ -30,6 +30,7 @@ from rsp_inertia.scenarios import create_default_experiment
 from rsp_inertia.simulating import simulate
 from rsp_inertia.virtual import device as vd
 from rsp_inertia.virtual.config import experiment_virtual
+from tests.conftest import copy_experiment
 
 ENTRY_NAMES = ("Jx", "Jy", "Jz", "Jxy", "Jyz", "Jxz")
 
@@ -54,11 +55,9 @@ def axis(phi_deg: float, gear_ratio: float) -> np.ndarray:
 
 
 @pytest.fixture(scope="module")
-def ideal(tmp_path_factory):
-    """(root, result, truth): the default experiment identified from its ideal reverse (~8 s)."""
-    root = create_default_experiment(tmp_path_factory.mktemp("ideal"))
-    simulate(root, part="braking")
-    simulate(root, part="reverse", ideal=True)
+def ideal(tmp_path_factory, default_logs):
+    """(root, result, truth): the default experiment identified from its ideal reverse."""
+    root = copy_experiment(default_logs, tmp_path_factory.mktemp("ideal") / "exp")
     result = identify(root)
     exp = open_experiment(root)
     return root, result, experiment_virtual(exp)
