@@ -34,6 +34,7 @@ from rsp_inertia.estimation.smoothing import smooth_log
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.friction import FRICTION
+from rsp_inertia.plant.geometry import GRAVITY_NAMES, HARMONIC_NAMES
 from rsp_inertia.plant.logs import Log, torque_noise
 from rsp_inertia.plant.model import ModelParameters
 
@@ -198,9 +199,9 @@ def fit_pilot(device: Device, stage: int, log: Log, source: str | None = None) -
         top_speed=float(sm.omega.max()),
         coast_turns=turns,
         duration=float(log.t[-1] - log.t[0]),
-        inertia_harmonics=tuple(float(values[k]) for k in ("M0", "Mc2", "Ms2", "Ms1", "Mc1")),
-        gravity_sin=float(values["Gs"]),
-        gravity_cos=float(values["Gc"]),
+        inertia_harmonics=tuple(float(values[k]) for k in HARMONIC_NAMES),
+        gravity_sin=float(values[GRAVITY_NAMES[0]]),
+        gravity_cos=float(values[GRAVITY_NAMES[1]]),
         stiffness=device.spring.stiffness,
         zero_angle=device.spring.zero_angle,
     )

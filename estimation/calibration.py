@@ -74,7 +74,7 @@ from rsp_inertia.estimation.gls import (
     speed_noise_scales,
 )
 from rsp_inertia.estimation.known_terms import KnownTerms
-from rsp_inertia.estimation.layout import HARMONIC_NAMES, theta_layout
+from rsp_inertia.estimation.layout import theta_layout
 from rsp_inertia.estimation.model_tests import ModelTest, described, model_warnings
 from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs, corrected_log
 from rsp_inertia.estimation.stiffness import StiffnessCalibration, calibrate_stiffness
@@ -82,6 +82,7 @@ from rsp_inertia.infra.errors import InputError
 from rsp_inertia.infra.progress import drop, lines_to, say
 from rsp_inertia.plant.config import Device, TrueBody
 from rsp_inertia.plant.experiment import CALIBRATION_FILE
+from rsp_inertia.plant.geometry import HARMONIC_NAMES
 from rsp_inertia.plant.model import inertia_basis, inertia_harmonics
 
 __all__ = [

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from rsp_inertia.estimation.known_terms import KnownTerms
-from rsp_inertia.estimation.layout import HARMONIC_NAMES, theta_layout
+from rsp_inertia.estimation.layout import theta_layout
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.infra.toml_schema import (
     Bound,
@@ -35,6 +35,7 @@ from rsp_inertia.infra.toml_schema import (
 )
 from rsp_inertia.infra.toml_writer import checked_text, write_file
 from rsp_inertia.plant.experiment import CALIBRATION_FILE
+from rsp_inertia.plant.geometry import HARMONIC_NAMES
 
 if TYPE_CHECKING:
     from rsp_inertia.estimation.calibration import Calibration

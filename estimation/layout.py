@@ -17,12 +17,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import cache
 
-from rsp_inertia.plant.geometry import ENTRY_KEYS
+from rsp_inertia.plant.geometry import ENTRY_KEYS, GRAVITY_NAMES, HARMONIC_NAMES
 
 __all__ = [
     "GAIN_NAMES",
-    "GRAVITY_NAMES",
-    "HARMONIC_NAMES",
     "SHARED_LAYOUT",
     "Layout",
     "Segment",
@@ -30,14 +28,8 @@ __all__ = [
     "theta_layout",
 ]
 
-HARMONIC_NAMES = ("M0", "Mc2", "Ms2", "Ms1", "Mc1")
-"""Names of the harmonics of M(phi) (rsp_inertia.plant.model.inertia_harmonics), in order."""
-
 GAIN_NAMES = ("h_d", "h_b")
 """Names of the drive's gains, driving and back-driven (rsp_inertia.plant.transducers)."""
-
-GRAVITY_NAMES = ("Gs", "Gc")
-"""Names of the gravity terms [m g x_c, m g y_c] (rsp_inertia.plant.model.gravity_basis)."""
 
 
 @dataclass(frozen=True)
@@ -66,22 +58,23 @@ class Layout:
         if len(set(seen)) != len(seen):
             raise ValueError(f"Layout: segment names repeat: {seen}")
 
+    def _length(self, segment: Segment) -> int:
+        """How many entries ``segment`` takes: its names, once or once per stage."""
+        return len(segment.names) * (self.stages if segment.per_stage else 1)
+
     def _segment(self, name: str) -> tuple[int, Segment]:
         """(start, segment) of the segment ``name``."""
         start = 0
         for segment in self.segments:
             if segment.name == name:
                 return start, segment
-            start += len(segment.names) * (self.stages if segment.per_stage else 1)
+            start += self._length(segment)
         raise KeyError(f"Layout: no segment {name!r} (segments {[s.name for s in self.segments]})")
 
     @property
     def size(self) -> int:
         """Length of the vector."""
-        return sum(
-            len(segment.names) * (self.stages if segment.per_stage else 1)
-            for segment in self.segments
-        )
+        return sum(self._length(segment) for segment in self.segments)
 
     def slice(self, name: str, stage: int | None = None) -> slice:
         """The vector's entries of segment ``name``: of stage ``stage`` (from 1) of a per-stage
@@ -102,7 +95,7 @@ class Layout:
         start, segment = self._segment(name)
         width = len(segment.names)
         if stage is None:
-            return slice(start, start + width * (self.stages if segment.per_stage else 1))
+            return slice(start, start + self._length(segment))
         if not segment.per_stage or not 1 <= stage <= self.stages:
             raise ValueError(f"Layout: segment {name!r} has no stage {stage}")
         start += width * (stage - 1)

@@ -58,9 +58,9 @@ from rsp_inertia.estimation.gls import (
     speed_noise_scales,
 )
 from rsp_inertia.estimation.known_terms import KnownTerms
-from rsp_inertia.estimation.layout import GRAVITY_NAMES, SHARED_LAYOUT
+from rsp_inertia.estimation.layout import SHARED_LAYOUT
 from rsp_inertia.estimation.model_tests import ModelTest, described
-from rsp_inertia.plant.geometry import ENTRY_KEYS
+from rsp_inertia.plant.geometry import ENTRY_KEYS, GRAVITY_NAMES
 from rsp_inertia.plant.model import inertia_basis, tensor_basis
 
 __all__ = [

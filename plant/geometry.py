@@ -19,6 +19,8 @@ from rsp_inertia.infra.errors import InputError
 
 __all__ = [
     "ENTRY_KEYS",
+    "GRAVITY_NAMES",
+    "HARMONIC_NAMES",
     "AxisDesign",
     "axis_angles_deg",
     "axis_direction",
@@ -44,6 +46,13 @@ __all__ = [
 
 ENTRY_KEYS = ("Jx", "Jy", "Jz", "Jxy", "Jyz", "Jxz")
 """Names of the tensor entries, in the order of every 6-vector."""
+
+HARMONIC_NAMES = ("M0", "Mc2", "Ms2", "Ms1", "Mc1")
+"""Names of the harmonics of a stage's reduced inertia M(phi), in the order of
+rsp_inertia.plant.model.inertia_harmonics (and of the model's parameter vector)."""
+
+GRAVITY_NAMES = ("Gs", "Gc")
+"""Names of the gravity terms [m g x_c, m g y_c] (rsp_inertia.plant.model.gravity_basis)."""
 
 
 def axis_direction(phi: ArrayLike, gear_ratio: ArrayLike) -> np.ndarray:

@@ -36,6 +36,7 @@ import casadi as ca
 import numpy as np
 
 from rsp_inertia.plant.friction import FRICTION
+from rsp_inertia.plant.geometry import GRAVITY_NAMES, HARMONIC_NAMES
 
 __all__ = [
     "MODEL",
@@ -66,7 +67,7 @@ __all__ = [
 
 
 
-PARAMETER_NAMES = ("M0", "Mc2", "Ms2", "Ms1", "Mc1", "c", "phi0", "Gs", "Gc", *FRICTION.names)
+PARAMETER_NAMES = (*HARMONIC_NAMES, "c", "phi0", *GRAVITY_NAMES, *FRICTION.names)
 
 
 def inertia_harmonics(inertia: np.ndarray, gear_ratio: float, tare_inertia: float) -> np.ndarray:

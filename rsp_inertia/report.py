@@ -30,6 +30,7 @@ from rsp_inertia.plant.experiment import (
     Experiment,
     open_experiment,
 )
+from rsp_inertia.plant.geometry import HARMONIC_NAMES
 from rsp_inertia.plant.logs import read_device_log
 from rsp_inertia.plots import (
     AXIS_DESIGN_FIGURE,
@@ -52,9 +53,6 @@ not 0.028, whose precision reads as two digits)."""
 
 Z95 = 1.959963984540054
 """The 95% interval of a Gaussian estimate is +- Z95 std."""
-
-HARMONICS = ("M0", "Mc2", "Ms2", "Ms1", "Mc1")
-"""Names of the empty system's reduced-inertia harmonics (docs/files.md, calibration)."""
 
 STYLE = (
     "body{font-family:sans-serif;max-width:62em;margin:auto;padding:0 1em;color:#222}"
@@ -260,7 +258,7 @@ def _calibration_section(result: dict) -> list[str]:
             for k, (harmonics, stds) in enumerate(zip(value, std or [[None] * 5] * len(value))):
                 rows += [[f"stage {k + 1} empty system {name}, kg m^2", f"{v:{VALUE}}",
                           "-" if s is None else f"{s:.2g}", "", ""]
-                         for name, v, s in zip(HARMONICS, harmonics, stds)]
+                         for name, v, s in zip(HARMONIC_NAMES, harmonics, stds)]
             continue
         values = value if isinstance(value, list) else [value]
         stds = std if isinstance(std, list) else [std] * len(values)

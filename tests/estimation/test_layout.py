@@ -20,8 +20,6 @@ from rsp_inertia.estimation import calibration
 from rsp_inertia.estimation.calibration_file import CalibrationFile
 from rsp_inertia.estimation.known_terms import KnownTerms
 from rsp_inertia.estimation.layout import (
-    GRAVITY_NAMES,
-    HARMONIC_NAMES,
     SHARED_LAYOUT,
     Layout,
     Segment,
@@ -29,7 +27,7 @@ from rsp_inertia.estimation.layout import (
     theta_layout,
 )
 from rsp_inertia.estimation.tensor_fit import tensor_block
-from rsp_inertia.plant.geometry import ENTRY_KEYS
+from rsp_inertia.plant.geometry import ENTRY_KEYS, GRAVITY_NAMES, HARMONIC_NAMES
 
 SHAPES = [(stages, orders) for stages in (1, 2, 3) for orders in (0, 1, 3)]
 
