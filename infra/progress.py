@@ -29,6 +29,7 @@ from typing import Protocol, TextIO
 __all__ = [
     "DELAY",
     "INTERVAL",
+    "LineReceiver",
     "Lines",
     "Progress",
     "TerminalProgress",
@@ -44,6 +45,11 @@ DELAY = 2.0
 
 INTERVAL = 0.2
 """s between rewrites of the line."""
+
+
+LineReceiver = Callable[[str], None]
+"""What the Python API's ``progress=`` is: a callable that receives each line (str) as the
+command line would print it (:func:`lines_to`)."""
 
 
 class Progress(Protocol):
@@ -107,7 +113,7 @@ def reporting(channel: Progress | None) -> Iterator[None]:
 
 
 @contextmanager
-def lines_to(receive: Callable[[str], None] | None) -> Iterator[None]:
+def lines_to(receive: LineReceiver | None) -> Iterator[None]:
     """The Python API's ``progress=``: the lines of the work inside the block go to
     ``receive``, its fractions on to the progress installed around it (:class:`Lines`).
     None leaves the installed progress as it is (none by default: the lines go nowhere)."""
@@ -127,7 +133,7 @@ class Lines:
     """A :class:`Progress` that hands each line to a callable and each fraction on to an
     outer progress (or nowhere)."""
 
-    def __init__(self, receive: Callable[[str], None], outer: Progress | None = None):
+    def __init__(self, receive: LineReceiver, outer: Progress | None = None):
         self.receive = receive
         """Receives each line."""
         self.outer = outer

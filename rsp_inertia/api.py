@@ -31,12 +31,11 @@ in the package, each with its reason. User documentation: docs/api.md.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from rsp_inertia.infra.errors import InputError  # noqa: F401 (public: raised by every function)
-from rsp_inertia.infra.progress import lines_to
+from rsp_inertia.infra.progress import LineReceiver, lines_to
 from rsp_inertia.public import API_NAMES, RESULT_CLASSES
 
 if TYPE_CHECKING:
@@ -69,9 +68,6 @@ def __getattr__(name: str):
     globals()[name] = value
     return value
 
-Progress = Callable[[str], None]
-"""A callable that receives each progress line (str) as the command line would print it."""
-
 
 def _identify_figures(result: IdentifyResult) -> list[tuple[str, Figure]]:
     """An identify result's figures (rsp_inertia.plots.identify_figures), its drawer."""
@@ -85,7 +81,7 @@ def _identify_figures(result: IdentifyResult) -> list[tuple[str, Figure]]:
 # --- identify and demo ----------------------------------------------------------------------
 
 
-def identify(path: str | Path, *, progress: Progress | None = None) -> IdentifyResult:
+def identify(path: str | Path, *, progress: LineReceiver | None = None) -> IdentifyResult:
     """Identify the inertia tensor and centre of mass (``rsp-inertia identify EXP``).
 
     Reads ``EXP/device.toml``, every stage's ``braking.csv`` and ``reverse.csv`` (and
@@ -125,7 +121,7 @@ def identify(path: str | Path, *, progress: Progress | None = None) -> IdentifyR
 
 
 def demo(
-    path: str | Path = "demo-experiment", *, progress: Progress | None = None
+    path: str | Path = "demo-experiment", *, progress: LineReceiver | None = None
 ) -> IdentifyResult:
     """The whole real-rig workflow on the virtual rig (``rsp-inertia demo [EXP]``).
 
@@ -182,7 +178,7 @@ def simulate(
     *,
     ideal: bool = False,
     direction: str | None = None,
-    progress: Progress | None = None,
+    progress: LineReceiver | None = None,
 ) -> SimulateResult:
     """Run the virtual device and write the logs a rig would (``rsp-inertia simulate EXP``).
 
@@ -232,7 +228,7 @@ def simulate(
 
 
 def program(
-    path: str | Path, stage: int | None = None, *, progress: Progress | None = None
+    path: str | Path, stage: int | None = None, *, progress: LineReceiver | None = None
 ) -> ProgramResult:
     """Make the reverse pass's torque program from the braking (``rsp-inertia program EXP``).
 
@@ -280,7 +276,7 @@ def calibrate(
     empty: str | Path,
     reference: str | Path | None = None,
     *,
-    progress: Progress | None = None,
+    progress: LineReceiver | None = None,
 ) -> CalibrateResult:
     """Calibrate the rig from empty-fixture and reference-body runs (``rsp-inertia calibrate``).
 
@@ -334,7 +330,7 @@ def plan(
     max_duration: float | None = None,
     *,
     rehearse: bool = True,
-    progress: Progress | None = None,
+    progress: LineReceiver | None = None,
 ) -> PlanResult:
     """Choose every stage's launch speed and braking torque (``rsp-inertia plan EXP``).
 
