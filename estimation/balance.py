@@ -61,7 +61,7 @@ from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.config import Device, Stage
 from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.logs import Log, dropped_samples, mirrored_device
-from rsp_inertia.plant.model import potential, spring_parameters
+from rsp_inertia.plant.model import potential, spring_parameters, static_torque
 
 __all__ = [
     "EDGE_MARGIN",
@@ -81,6 +81,7 @@ __all__ = [
     "mismatch_regressors",
     "short_overlap",
     "spring_potential",
+    "spring_torque",
     "stage_balance",
     "usable_range",
 ]
@@ -218,6 +219,13 @@ def spring_potential(phi: np.ndarray, device: Device) -> np.ndarray:
     """Spring part of Pi (docs/method.md §3, rsp_inertia.plant.model); gravity is estimated,
     not known."""
     return potential(phi, spring_parameters(device.spring.stiffness, device.spring.zero_angle))
+
+
+def spring_torque(phi: np.ndarray, device: Device) -> np.ndarray:
+    """d/dphi of :func:`spring_potential`, N m (rsp_inertia.plant.model.static_torque)."""
+    return static_torque(
+        phi, spring_parameters(device.spring.stiffness, device.spring.zero_angle)
+    )
 
 
 MIN_TURNS = 2.0
@@ -392,6 +400,8 @@ class StageBalance:
     """+1 for a forward run, -1 for a backward one (phi decreasing during the braking)."""
     spring: np.ndarray | None = None
     """2 Pi_spring(phi), J: ``work + spring`` is the logged motor work of both passes."""
+    spring_slope: np.ndarray | None = None
+    """d/dphi of ``spring`` at the balance angles, N m (phi the rig's angle, as ``phi``)."""
     friction_shape: np.ndarray | None = None
     """(n, 3) [int dphi, int |Omega| dphi, int Omega^2 dphi] from the first angle along the
     motion (rad, rad^2/s, rad^3/s^2), braking speeds: the work that a dissipative torque
@@ -535,6 +545,7 @@ def stage_balance(
         reverse_work_noise=reverse.work_noise(r),
         direction=direction,
         spring=spring,
+        spring_slope=2 * spring_torque(direction * phi, device),
         friction_shape=friction_shape(phi, b.omega),
         motor_work_back=b.work_back + r.work_back,
         back_driven=(braking.mainly_back_driven, reverse.mainly_back_driven),

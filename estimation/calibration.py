@@ -46,6 +46,7 @@ cancels within each run).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -60,10 +61,19 @@ from rsp_inertia.estimation.columns import (
     both_directions,
     cause_probes,
     encoder_unknowns,
+    gravity_row_slopes,
     gravity_rows,
     run_columns,
     run_label,
     run_priors,
+)
+from rsp_inertia.estimation.conventions import (
+    CONVENTION_FACTOR,
+    check_conventions,
+    reference_terms,
+    shows_orientation,
+    significant_terms,
+    unverified_conventions,
 )
 from rsp_inertia.estimation.gls import (
     BalanceFit,
@@ -74,7 +84,7 @@ from rsp_inertia.estimation.gls import (
     speed_noise_scales,
 )
 from rsp_inertia.estimation.known_terms import KnownTerms
-from rsp_inertia.estimation.layout import theta_layout
+from rsp_inertia.estimation.layout import ZERO_NAME, theta_layout
 from rsp_inertia.estimation.model_tests import ModelTest, described, model_warnings
 from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs, corrected_log
 from rsp_inertia.estimation.stiffness import StiffnessCalibration, calibrate_stiffness
@@ -83,7 +93,7 @@ from rsp_inertia.infra.progress import drop, lines_to, say
 from rsp_inertia.plant.config import Device, TrueBody
 from rsp_inertia.plant.experiment import CALIBRATION_FILE
 from rsp_inertia.plant.geometry import HARMONIC_NAMES
-from rsp_inertia.plant.model import inertia_basis, inertia_harmonics
+from rsp_inertia.plant.model import inertia_basis, inertia_basis_slope
 
 __all__ = [
     "Calibration",
@@ -136,6 +146,9 @@ class Calibration:
     """What the calibration's own checks found."""
     stiffness: StiffnessCalibration | None = None
     """The pendulum's torsion stiffness, when both folders have pendulum runs at a node."""
+    conventions: str = ""
+    """One line on the rig's conventions: verified by the reference, or not and how to
+    (rsp_inertia.estimation.conventions)."""
 
     def to_file(self) -> CalibrationFile:
         """The calibration as calibration.toml holds it
@@ -212,6 +225,8 @@ class Calibration:
                 f"{len(c.per_node)} node(s) with an empty and a reference run"
                 + ("" if math.isnan(c.chi2_dof) else f" (chi2/dof {c.chi2_dof:.2f})")
             )
+        if self.conventions:
+            out.append(self.conventions)
         out += [f"warning: {w}" for w in self.warnings]
         return "\n".join(out)
 
@@ -223,8 +238,18 @@ def _blocks(
     reference: TrueBody | None,
     has_gain: bool,
     encoder_orders: int,
+    orientation: bool = False,
+    flip: np.ndarray | None = None,
 ):
-    """The calibration equations of one experiment's runs (module docstring)."""
+    """The calibration equations of one experiment's runs (module docstring).
+
+    ``orientation``: the encoder's zero offset is an unknown (a reference that shows the
+    rig's orientation is in the fit): its column is the angle slope of the known terms (the
+    reference's and the spring's), the empty system's own terms being measured in the
+    corrected angle (rsp_inertia.estimation.known_terms.KnownTerms). ``flip``: a mask over
+    the reference's terms [M0, Mc2, Ms2, Ms1, Mc1, Gs, Gc] whose share gets a free factor,
+    the unknown :data:`CONVENTION_FACTOR` (+1 where the rig keeps the stated conventions,
+    -1 where a convention flips them, :data:`CONVENTIONS`)."""
     # The unknowns are theta's, by theta's names (rsp_inertia.estimation.layout).
     theta = theta_layout(len(device.stages), encoder_orders)
     gains = theta.names("gains")
@@ -249,11 +274,20 @@ def _blocks(
         # tests can still say whether the runs call for them (the probes of identify).
         probes, probes_per_inertia = ({}, {}) if has_gain else cause_probes(bal)
         known_M = np.zeros(len(bal.phi))
+        slope = np.zeros(len(bal.phi)) if bal.spring_slope is None else -bal.spring_slope
         if reference is not None:
-            st = device.stages[s - 1]
-            known_M = basis @ inertia_harmonics(reference.inertia, st.gear_ratio, 0.0)
-            weight = reference.mass * device.gravity
-            rhs = rhs - half_s * known_M - gravity_rows(bal.phi) @ (weight * reference.com[:2])
+            terms = reference_terms(reference, device.stages[s - 1].gear_ratio, device.gravity)
+            known_M = basis @ terms[:5]
+            # A convention's factor only on terms that can show it (an axisymmetric
+            # reference's products are zero: no factor, the convention unverified).
+            mask = np.zeros(len(terms), dtype=bool) if flip is None else flip
+            mask = mask & significant_terms(reference, terms)
+            rhs = rhs - _reference_balance(bal, np.where(mask, 0.0, terms))
+            if mask.any():
+                cols[CONVENTION_FACTOR] = _reference_balance(bal, np.where(mask, terms, 0.0))
+            slope = slope - _reference_balance(bal, terms, slope=True)
+        if orientation and np.any(slope):
+            cols[ZERO_NAME] = slope
         blocks.append(
             Block(
                 balance=bal,
@@ -269,7 +303,10 @@ def _blocks(
                 joint_only=frozenset(
                     name
                     for name in (*cols, *scaled)
-                    if name.startswith("e") or name in gains or name in scaled
+                    if name.startswith("e")
+                    or name in gains
+                    or name in scaled
+                    or name in (ZERO_NAME, CONVENTION_FACTOR)
                 ),
                 groups={name: f"{role} {run_label(bal)}" for name in harmonics},
                 fixed_in_tests=frozenset(gains),
@@ -282,6 +319,18 @@ def _blocks(
     return blocks
 
 
+def _reference_balance(bal, terms: np.ndarray, slope: bool = False) -> np.ndarray:
+    """The share in one run's balance of reference terms ``terms`` ([M0 .. Mc1, Gs, Gc]):
+    1/2 S M(phi) + 2 Pi(phi), or its slope d/dphi with ``slope``."""
+    if slope:
+        return 0.5 * bal.speed_sq * (inertia_basis_slope(bal.phi) @ terms[:5]) + (
+            gravity_row_slopes(bal.phi) @ terms[5:]
+        )
+    return 0.5 * bal.speed_sq * (inertia_basis(bal.phi) @ terms[:5]) + (
+        gravity_rows(bal.phi) @ terms[5:]
+    )
+
+
 def fit_calibration(
     device: Device,
     empty: list,
@@ -290,6 +339,8 @@ def fit_calibration(
     encoder: np.ndarray | None = None,
     scales: list[float] | None = None,
     tests: bool = True,
+    zero: float | None = None,
+    flip: np.ndarray | None = None,
 ) -> tuple[KnownTerms, BalanceFit]:
     """The calibrated terms from the empty runs' and the reference runs' balances.
 
@@ -310,6 +361,13 @@ def fit_calibration(
         rsp_inertia.estimation.gls.speed_noise_scales finds them).
     tests : bool
         Whether to make the model tests (rsp_inertia.estimation.gls.block_model_tests).
+    zero : float, optional
+        With a reference that shows the rig's orientation: the encoder's zero offset (rad)
+        already taken off the logs; the fit measures what is left and adds it. None: the
+        zero is not measured (0, exact).
+    flip : array of bool, optional
+        A convention's mask over the reference's terms (:data:`CONVENTIONS`): their share
+        gets the free factor :data:`CONVENTION_FACTOR` (the convention check).
 
     Returns
     -------
@@ -318,9 +376,12 @@ def fit_calibration(
     """
     has_gain = reference is not None
     orders = ENCODER_ORDERS if has_gain else 0
-    blocks = _blocks(device, empty, "empty", None, has_gain, orders)
+    orientation = has_gain and zero is not None
+    blocks = _blocks(device, empty, "empty", None, has_gain, orders, orientation)
     if has_gain:
-        blocks += _blocks(device, reference, "reference", reference_body, has_gain, orders)
+        blocks += _blocks(
+            device, reference, "reference", reference_body, has_gain, orders, orientation, flip
+        )
     equations = assemble_blocks(blocks)
     fit = solve_blocks(equations, speed_noise_scales(equations) if scales is None else scales)
     if tests:
@@ -330,8 +391,10 @@ def fit_calibration(
     # taken off the logs, to which the fit adds what it finds left.
     if has_gain:
         applied = np.zeros(2 * orders) if encoder is None else np.asarray(encoder, dtype=float)
-        start = KnownTerms.exact(len(device.stages), applied)
-        measured = start.names()
+        start = dataclasses.replace(
+            KnownTerms.exact(len(device.stages), applied), zero=zero or 0.0
+        )
+        measured = [n for n in start.names() if orientation or n != ZERO_NAME]
     else:
         stated, _ = device_known_terms(device)
         start = KnownTerms.exact(len(device.stages), stated.encoder)
@@ -348,7 +411,8 @@ def fit_calibration(
     theta, cov = start.theta, start.cov.copy()
     which = [names.index(n) for n in measured]
     where = [fit.index(n) for n in measured]
-    added = set(start.layout.names("encoder"))  # the encoder's: what is left, added to the applied
+    # The encoder's error and zero: what is left, added to what the logs had taken off.
+    added = {*start.layout.names("encoder"), ZERO_NAME}
     for i, j, name in zip(which, where, measured):
         theta[i] = theta[i] + fit.x[j] if name in added else fit.x[j]
     cov[np.ix_(which, which)] = fit.cov[np.ix_(where, where)]
@@ -390,37 +454,59 @@ def calibrate_logs(
         Bad logs; a pendulum run the best-practice fit cannot take.
     """
     encoder = np.zeros(2 * ENCODER_ORDERS) if reference is not None else None
+    # The encoder's zero is measured when the reference shows the rig's orientation.
+    zero = 0.0 if reference is not None and shows_orientation(reference_body, device) else None
     scales = None
+    conventions = None
     for iteration in range(ENCODER_ITERATIONS if reference is not None else 1):
         warnings: list[str] = []
         applied = () if encoder is None else encoder
         # The runs' lines from the first balancing only: the repetitions would repeat them.
         with lines_to(None if iteration == 0 else drop):
-            empty_bal, _ = balance_runs(empty, warnings, applied)
+            empty_bal, _ = balance_runs(empty, warnings, applied, zero=zero or 0.0)
             ref_bal = None
             if reference is not None:
-                ref_bal, _ = balance_runs(reference, warnings, applied)
+                ref_bal, _ = balance_runs(reference, warnings, applied, zero=zero or 0.0)
         # The runs' speed-noise scales come from the first fit (taken with the encoder's
         # terms off each run's own fit); the model tests from the fit that is kept.
         known, fit = fit_calibration(
-            device, empty_bal, ref_bal, reference_body, encoder, scales, tests=False
+            device, empty_bal, ref_bal, reference_body, encoder, scales, tests=False, zero=zero
         )
         scales = fit.scales
         if encoder is None:
             break
-        step = known.encoder - encoder
-        step_std = known.std[known.encoder_slice]
+        if iteration == 0:
+            # The rig's conventions first, before anything is taken for a drive loss or an
+            # encoder's error (rsp_inertia.estimation.conventions): a flip is refused here.
+            fitter = functools.partial(
+                fit_calibration, device, empty_bal, ref_bal, reference_body, encoder, scales,
+                tests=False, zero=zero,
+            )
+            conventions = check_conventions(fitter, known, reference.sources.experiment)
+            if not conventions.zero_measured:
+                zero = None
+                known, fit = fit_calibration(
+                    device, empty_bal, ref_bal, reference_body, encoder, scales, tests=False
+                )
+        step = np.append(known.encoder - encoder, known.zero - (zero or 0.0))
+        step_std = np.append(known.std[known.encoder_slice], known.std[known.zero_slice])
         encoder = known.encoder
+        zero = None if zero is None else known.zero
         if np.all(np.abs(step) <= ENCODER_TOLERANCE * step_std):
             break
         largest = float(np.max(np.abs(step) / np.where(step_std > 0, step_std, 1.0)))
         say(
-            f"encoder error: correction moved by up to {largest:.2g} std; the logs corrected "
-            f"with it are balanced again (fit {iteration + 2})"
+            f"encoder error and zero: correction moved by up to {largest:.2g} std; the logs "
+            f"corrected with it are balanced again (fit {iteration + 2})"
         )
     known, fit = fit_calibration(
-        device, empty_bal, ref_bal, reference_body, applied if len(applied) else None, scales
+        device, empty_bal, ref_bal, reference_body, applied if len(applied) else None, scales,
+        zero=zero,
     )
+    if conventions is None:
+        conventions = unverified_conventions()
+    else:
+        conventions = conventions.with_zero(known)
     one_direction = any(
         len(both_directions(runs)) < len({bal.stage for bal in runs})
         for runs in (empty_bal, ref_bal or [])
@@ -432,8 +518,8 @@ def calibrate_logs(
     stiffness = None
     if reference is not None:
         stiffness = calibrate_stiffness(
-            _corrected_pendulum(empty, known.encoder),
-            _corrected_pendulum(reference, known.encoder),
+            _corrected_pendulum(empty, known.encoder, known.zero),
+            _corrected_pendulum(reference, known.encoder, known.zero),
             reference_body,
             known.gravity,
             known.cov[known.gravity_slice, known.gravity_slice],
@@ -455,13 +541,18 @@ def calibrate_logs(
         tests=tests,
         warnings=warnings,
         stiffness=stiffness,
+        conventions=conventions.statement,
     )
 
 
-def _corrected_pendulum(logs: ExperimentLogs, encoder: np.ndarray) -> ExperimentLogs:
+def _corrected_pendulum(
+    logs: ExperimentLogs, encoder: np.ndarray, zero: float
+) -> ExperimentLogs:
     """``logs`` with its pendulum logs' readings taken back to the true angle: the pendulum
     reads the same encoder (rsp_inertia.estimation.runs.corrected_log)."""
-    pendulum = {key: corrected_log(logs.pendulum[key], encoder) for key in logs.pendulum}
+    pendulum = {
+        key: corrected_log(logs.pendulum[key], encoder, zero) for key in logs.pendulum
+    }
     return dataclasses.replace(logs, pendulum=pendulum)
 
 

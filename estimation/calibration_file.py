@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from rsp_inertia.estimation.known_terms import KnownTerms
-from rsp_inertia.estimation.layout import theta_layout
+from rsp_inertia.estimation.layout import ZERO_NAME, theta_layout
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.infra.toml_schema import (
     Bound,
@@ -58,9 +58,10 @@ __all__ = [
 HEADER = """\
 calibration.toml: the rig's calibration, written by rsp-inertia calibrate; identify applies it
 (docs/files.md). theta = [h_d, h_b, the empty system's harmonics [M0, Mc2, Ms2, Ms1, Mc1] of
-each stage, the fixture's gravity [Gs, Gc], the encoder's error c1, s1, c2, s2, ...]:
+each stage, the fixture's gravity [Gs, Gc], the encoder's zero offset, its error c1, s1,
+c2, s2, ...]:
 h_d, h_b = torque the body receives per unit of logged torque, motor driving / back-driven;
-Gs, Gc = m g x_c, m g y_c of the fixture; the encoder's reading error is
+Gs, Gc = m g x_c, m g y_c of the fixture; the encoder reads phi + zero + e(phi),
 e(phi) = sum_n c_n cos(n phi) + s_n sin(n phi). Each *_std is the square root of the
 [covariance] matrix's diagonal entry. [pendulum]: the torsion element's stiffness from the
 calibration folders' pendulum runs; [inputs]: the sha256 of every file used."""
@@ -85,6 +86,12 @@ class Head:
         bound=">= 0",
         doc="Residual chi^2 per degree of freedom of the calibration fit; nan when it has no "
         "degrees of freedom.",
+    )
+    conventions: str = key(
+        "",
+        doc="One line on the rig's conventions (the gear's sense, phi's handedness, the "
+        "encoder's zero, docs/method.md §1): verified by the reference, or not and how to "
+        "verify them. Empty in files of older rsp-inertia.",
     )
     torque_gain: float | None = key(
         None,
@@ -121,6 +128,15 @@ class EncoderError:
     error_sin: tuple[float, ...] = key(unit="rad", doc="s_n, one per order.")
     error_cos_std: tuple[float, ...] = key(unit="rad", bound=">= 0", doc="Stds of c_n.")
     error_sin_std: tuple[float, ...] = key(unit="rad", bound=">= 0", doc="Stds of s_n.")
+    zero: float | None = key(
+        None,
+        unit="rad",
+        doc="z, the encoder's zero offset: it reads phi + z + e(phi), phi = 0 where the body "
+        "frame's y points up (docs/method.md §1); measured with a reference that shows the "
+        "rig's orientation, else 0 and exact. Absent in files of older rsp-inertia (read as 0, "
+        "exact, and no ``zero`` among the covariance's parameters).",
+    )
+    zero_std: float | None = key(None, unit="rad", bound=">= 0", doc="Std of ``zero``.")
 
 
 @config_class
@@ -206,9 +222,17 @@ class CalibrationFile:
         """Orders of the encoder's error (0 in older files)."""
         return 0 if self.encoder is None else len(self.encoder.error_cos)
 
+    @property
+    def has_zero(self) -> bool:
+        """Whether the file states the encoder's zero offset (older files do not)."""
+        return self.encoder is not None and self.encoder.zero is not None
+
     def parameters(self) -> list[str]:
-        """The names of theta that the file's tables imply (:class:`Covariance`)."""
+        """The names of theta that the file's tables imply (:class:`Covariance`): without a
+        stated zero offset (older files), theta's names but ``zero``."""
         names = theta_layout(len(self.stages), self.orders).names()
+        if not self.has_zero:
+            names.remove(ZERO_NAME)
         return ["h", *names[2:]] if self.legacy else names
 
     def pendulum_stiffness(self) -> tuple[float, float] | None:
@@ -227,6 +251,7 @@ class CalibrationFile:
         gravity = np.array(self.fixture.gravity, dtype=float)
         size = len(self.covariance.parameters)
         cov = np.array(self.covariance.matrix, dtype=float).reshape(size, size)
+        zero = 0.0
         if self.drive is None:
             gain = self.calibration.torque_gain
             gains = (1.0 / gain, 1.0 / gain)
@@ -237,7 +262,14 @@ class CalibrationFile:
             gains = (self.drive.gain_driving, self.drive.gain_backdriven)
             encoder = np.empty(2 * self.orders)
             encoder[0::2], encoder[1::2] = self.encoder.error_cos, self.encoder.error_sin
-        return KnownTerms(gains, inertia, gravity, cov, calibrated=True, encoder=encoder)
+            if self.has_zero:
+                zero = self.encoder.zero
+        if not self.has_zero:  # an older file: the zero 0 and exact, its row and column zero
+            at = theta_layout(len(self.stages), encoder.size // 2).slice("zero").start
+            cov = np.insert(np.insert(cov, at, 0.0, axis=0), at, 0.0, axis=1)
+        return KnownTerms(
+            gains, inertia, gravity, cov, calibrated=True, encoder=encoder, zero=zero
+        )
 
 
 def calibration_file(calibration: Calibration) -> CalibrationFile:
@@ -266,6 +298,7 @@ def calibration_file(calibration: Calibration) -> CalibrationFile:
             counts_per_rev=int(calibration.counts_per_rev),
             reference=bool(calibration.reference),
             chi2_dof=float(calibration.chi2_dof),
+            conventions=calibration.conventions,
         ),
         drive=Drive(
             gain_driving=k.gains[0],
@@ -278,6 +311,8 @@ def calibration_file(calibration: Calibration) -> CalibrationFile:
             error_sin=_floats(k.encoder[1::2]),
             error_cos_std=_floats(encoder_std[0::2]),
             error_sin_std=_floats(encoder_std[1::2]),
+            zero=k.zero,
+            zero_std=float(std[k.zero_slice][0]),
         ),
         fixture=Fixture(gravity=_floats(k.gravity), gravity_std=_floats(std[k.gravity_slice])),
         stages=tuple(
@@ -393,6 +428,10 @@ def _calibration(doc: dict[str, Any]) -> CalibrationFile:
             if getattr(head, name) is not None:
                 raise ContentError(f"calibration.{name}", "only in older files, without [drive]")
     if value.encoder is not None:
+        if (value.encoder.zero is None) != (value.encoder.zero_std is None):
+            given, missing = ("zero", "zero_std") if value.encoder.zero_std is None else (
+                "zero_std", "zero")
+            raise ContentError(f"encoder.{missing}", f"missing: encoder.{given} is given")
         orders = value.orders
         for name in ("error_sin", "error_cos_std", "error_sin_std"):
             got = len(getattr(value.encoder, name))

@@ -29,6 +29,10 @@ class RefinedCalibration:
     """rad, ``(c_1, s_1, c_2, s_2, ...)`` of the encoder's reading error (empty: none)."""
     encoder_error_std: tuple[float, ...]
     """rad."""
+    encoder_zero: float = 0.0
+    """rad, the encoder's zero offset (it reads phi + zero + e(phi))."""
+    encoder_zero_std: float = 0.0
+    """rad."""
 
     def to_dict(self) -> dict:
         """result.json's ``calibration.refined``."""
@@ -39,6 +43,8 @@ class RefinedCalibration:
             "round_trip_efficiency_std": self.round_trip_efficiency_std,
             "encoder_error": list(self.encoder_error),
             "encoder_error_std": list(self.encoder_error_std),
+            "encoder_zero": self.encoder_zero,
+            "encoder_zero_std": self.encoder_zero_std,
         }
 
 
@@ -67,6 +73,14 @@ class CalibrationSummary:
     """rad, ``(c_1, s_1, c_2, s_2, ...)`` of the encoder's reading error (empty: none)."""
     encoder_error_std: tuple[float, ...]
     """rad."""
+    encoder_zero: float = 0.0
+    """rad, the encoder's zero offset (it reads phi + zero + e(phi); 0 and exact unless a
+    reference measured it)."""
+    encoder_zero_std: float = 0.0
+    """rad."""
+    conventions: str = ""
+    """The calibration's one line on the rig's conventions (gear sense, phi's handedness,
+    the encoder's zero): verified by the reference, or not, and how to verify them."""
     refined: RefinedCalibration | None = None
     """The drive's gains and the encoder's error after the runs (None: not computed)."""
 
@@ -83,6 +97,9 @@ class CalibrationSummary:
             "fixture_gravity_std": list(self.fixture_gravity_std),
             "encoder_error": list(self.encoder_error),
             "encoder_error_std": list(self.encoder_error_std),
+            "encoder_zero": self.encoder_zero,
+            "encoder_zero_std": self.encoder_zero_std,
+            "conventions": self.conventions,
         }
         if self.refined is not None:
             out["refined"] = self.refined.to_dict()
@@ -97,4 +114,6 @@ class CalibrationSummary:
             round_trip_efficiency_std=self.round_trip_efficiency_std,
             encoder_error=self.encoder_error,
             encoder_error_std=self.encoder_error_std,
+            encoder_zero=self.encoder_zero,
+            encoder_zero_std=self.encoder_zero_std,
         )

@@ -21,7 +21,7 @@ from rsp_inertia.estimation.layout import encoder_names
 from rsp_inertia.estimation.model_tests import DRIVE_PROBE, ENCODER_PROBE, PROBE_ORDERS
 from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.friction import FRICTION
-from rsp_inertia.plant.model import gravity_basis
+from rsp_inertia.plant.model import gravity_basis, gravity_basis_slope
 from rsp_inertia.plant.transducers import error_slope_basis
 
 __all__ = [
@@ -30,6 +30,7 @@ __all__ = [
     "encoder_columns",
     "encoder_unknowns",
     "format_run",
+    "gravity_row_slopes",
     "gravity_rows",
     "run_columns",
     "run_key",
@@ -72,6 +73,11 @@ def gravity_rows(phi: np.ndarray) -> np.ndarray:
     """(n, 2) 2 dPi/d[Gs, Gc]: the gravity potential's share of the balance, twice for the
     two passes (docs/method.md §3, rsp_inertia.plant.model.gravity_basis)."""
     return 2 * gravity_basis(phi)
+
+
+def gravity_row_slopes(phi: np.ndarray) -> np.ndarray:
+    """(n, 2) d/dphi of :func:`gravity_rows` (rsp_inertia.plant.model.gravity_basis_slope)."""
+    return 2 * gravity_basis_slope(phi)
 
 
 def run_key(bal: StageBalance) -> tuple[int, Direction]:

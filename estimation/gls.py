@@ -136,6 +136,14 @@ class Block:
     known_jacobian_inertia: np.ndarray | None = None
     """(n, p) the part of d rhs / d theta that is M(phi) times this (the encoder's error
     scales the kinetic energy M S / 2), M from the first unweighted pass; or None."""
+    known_jacobian_angle: np.ndarray | None = None
+    """(n, p) the part of d rhs / d theta that is the angle slope of the unknowns' side times
+    this (an encoder zero's change turns the body's terms, rsp_inertia.estimation.known_terms
+    .KnownTerms.jacobian_angle): the slope sum_name x[name] angle_slopes[name], x from the
+    first unweighted pass; or None."""
+    angle_slopes: dict[str, np.ndarray] = field(default_factory=dict)
+    """Unknown name -> d column / d phi (n,), for the unknowns whose columns are functions of
+    the angle (the tensor's entries, the gravity terms)."""
     inertia_scaled_columns: dict[str, np.ndarray] = field(default_factory=dict)
     """Unknown name -> its column per unit of M(phi): the column is M(phi) times this, M from
     a first pass without these unknowns (an encoder coefficient's, whose effect on the balance
@@ -290,11 +298,20 @@ def _inertia(blocks: list[Block], names: list[str], x: np.ndarray) -> list[np.nd
     ]
 
 
-def _known_jacobian(block: Block, M: np.ndarray, p: int) -> np.ndarray:
-    """(n, p) d rhs / d theta of a block, its M-proportional part with the block's M(phi)."""
+def _known_jacobian(
+    block: Block, M: np.ndarray, p: int, names: list[str], x: np.ndarray
+) -> np.ndarray:
+    """(n, p) d rhs / d theta of a block, its M-proportional part with the block's M(phi) and
+    its angle-slope part with the slope of the unknowns' side at ``x`` (named ``names``)."""
     B = np.zeros((len(block.rhs), p)) if block.known_jacobian is None else block.known_jacobian
     if block.known_jacobian_inertia is not None:
         B = B + M[:, None] * block.known_jacobian_inertia
+    if block.known_jacobian_angle is not None:
+        slope = sum(
+            (x[names.index(k)] * c for k, c in block.angle_slopes.items() if k in names),
+            np.zeros(len(block.rhs)),
+        )
+        B = B + slope[:, None] * block.known_jacobian_angle
     return B
 
 
@@ -452,7 +469,7 @@ def assemble_blocks(
     if p and any(
         b.known_jacobian is not None or b.known_jacobian_inertia is not None for b in blocks
     ):
-        B = np.vstack([_known_jacobian(b, M, p) for b, M in zip(blocks, inertia)])
+        B = np.vstack([_known_jacobian(b, M, p, names, x0) for b, M in zip(blocks, inertia)])
         groups = known_groups or {CALIBRATION_SOURCE: list(range(p))}
         S, prior_groups = _prior_root(known_cov, groups)
         N = -B @ S  # rhs(theta_cal + S z) = rhs + B S z: on the unknowns' side, -B S z

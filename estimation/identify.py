@@ -201,7 +201,9 @@ def identify_logs(
     # Refused before any log is read: device.toml alone says so. The axes are the device's
     # design (a lambda = 0 stage gives one, whatever its nodes), in its order.
     design = checked_design(device, logs.sources.device)
-    balances, passages = balance_runs(logs, warnings, known.encoder, _at_nodes(device, known))
+    balances, passages = balance_runs(
+        logs, warnings, known.encoder, _at_nodes(device, known), zero=known.zero
+    )
     fit = fit_tensor(balances, known)
     nodes = axis_nodes(device, passages, fit)
     warnings += fit_warnings(fit, balances, device)
@@ -483,12 +485,13 @@ def pendulum_baseline(
         return None
     pendulum_settings(device, logs.sources.device)
     encoder = () if known is None else known.encoder
+    zero = 0.0 if known is None else known.zero
     pendulum_logs, runs, directions = {}, [], []
     for stage, k in found:
         st = device.stages[stage - 1]
         pendulum_logs[stage, k], run = reduce_pendulum_run(
             device, logs.pendulum[stage, k], stage, k, logs.sources.pendulum_log(stage, k),
-            encoder,
+            encoder, zero,
         )
         runs.append(run)
         directions.append(axis_direction(st.nodes[k - 1], st.gear_ratio))
@@ -545,7 +548,13 @@ def pendulum_settings(device: Device, source: str = "device.toml") -> Pendulum:
 
 
 def reduce_pendulum_run(
-    device: Device, log: Log, stage: int, node: int, source: str, encoder=()
+    device: Device,
+    log: Log,
+    stage: int,
+    node: int,
+    source: str,
+    encoder=(),
+    zero: float = 0.0,
 ) -> tuple[Log, PendulumEstimate]:
     """One pendulum run reduced as :func:`pendulum_baseline` reduces it: its readings taken
     back to the true angle with the encoder's error coefficients (the RSP runs' encoder,
@@ -567,6 +576,8 @@ def reduce_pendulum_run(
         Names the log in messages.
     encoder : sequence of float, optional
         theta_e, rad, the encoder's error coefficients (none: the readings as they are).
+    zero : float, optional
+        rad, the encoder's zero offset, taken off with them.
 
     Returns
     -------
@@ -581,7 +592,7 @@ def reduce_pendulum_run(
         No ``[pendulum]`` table; a log with too few oscillations, naming ``source``.
     """
     stiffness = pendulum_settings(device).stiffness
-    log = corrected_log(log, encoder)
+    log = corrected_log(log, encoder, zero)
     nodes_deg = device.stages[stage - 1].nodes_deg
     return log, estimate_pendulum(log, stiffness, stage, nodes_deg[node - 1], source)
 

@@ -21,12 +21,14 @@ from rsp_inertia.estimation.layout import Layout, theta_layout
 from rsp_inertia.plant.model import inertia_basis
 from rsp_inertia.plant.transducers import error_slope_basis
 
-__all__ = ["DRIVE_SOURCE", "EMPTY_SOURCE", "ENCODER_SOURCE", "KnownTerms"]
+__all__ = ["DRIVE_SOURCE", "EMPTY_SOURCE", "ENCODER_SOURCE", "ZERO_SOURCE", "KnownTerms"]
 
 DRIVE_SOURCE = "calibration: drive gains"
 """Budget line of the drive's calibrated gains h_d, h_b."""
 ENCODER_SOURCE = "calibration: encoder error"
 """Budget line of the encoder's calibrated error harmonics."""
+ZERO_SOURCE = "calibration: encoder zero"
+"""Budget line of the encoder's calibrated zero offset (the rig axes' turn about z)."""
 EMPTY_SOURCE = "calibration: tare and fixture"
 """Budget line of the empty system's calibrated harmonics and the fixture's gravity."""
 
@@ -40,8 +42,13 @@ class KnownTerms:
     unit of logged torque while the motor drives it and while it is back-driven,
     rsp_inertia.plant.transducers.drive_gains), the empty system's reduced inertia per stage
     (tare and fixture), the fixture's gravity terms and the encoder's error harmonics, with
-    the covariance of theta = [h_d, h_b, harmonics of stage 1..n, Gs_f, Gc_f, c_1, s_1, ...]
-    (:attr:`layout`, rsp_inertia.estimation.layout.theta_layout).
+    the covariance of theta = [h_d, h_b, harmonics of stage 1..n, Gs_f, Gc_f, zero, c_1, s_1,
+    ...] (:attr:`layout`, rsp_inertia.estimation.layout.theta_layout).
+
+    The empty system's harmonics and the fixture's gravity are functions of the angle as the
+    readings corrected with :attr:`zero` give it (where calibrate measured them), so a change
+    of the zero turns only what identify measures, the body (and the spring, whose zero angle
+    device.toml states in the rig's phi): :meth:`jacobian` and :meth:`jacobian_angle`.
     """
 
     gains: tuple[float, float]
@@ -59,10 +66,15 @@ class KnownTerms:
     """theta_e = [c_1, s_1, c_2, s_2, ...], rad: the encoder's reading error e(phi)
     (rsp_inertia.plant.transducers); identify takes every log's readings back to the true
     angle with it. Empty: an exact encoder."""
+    zero: float = 0.0
+    """z, rad: the encoder's zero offset, what it reads at the rig's phi = 0 (body y up,
+    docs/method.md §1; rsp_inertia.plant.transducers); identify takes it off every reading
+    with the error. 0: the encoder zeroed there (exact unless a calibration measured it)."""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "gains", (float(self.gains[0]), float(self.gains[1])))
         object.__setattr__(self, "encoder", np.asarray(self.encoder, dtype=float).reshape(-1))
+        object.__setattr__(self, "zero", float(self.zero))
         size = self.layout.size
         if self.cov.shape != (size, size):
             raise ValueError(
@@ -101,6 +113,7 @@ class KnownTerms:
             ("gains", self.gains),
             ("harmonics", self.inertia.ravel()),
             ("gravity", self.gravity),
+            ("zero", (self.zero,)),
             ("encoder", self.encoder),
         ):
             theta[self.layout.slice(name)] = values
@@ -132,6 +145,7 @@ class KnownTerms:
             cov=cov,
             calibrated=calibrated,
             encoder=theta[self.encoder_slice],
+            zero=float(theta[self.zero_slice][0]),
         )
 
     @property
@@ -140,7 +154,7 @@ class KnownTerms:
         return self.encoder.size // 2
 
     def names(self) -> list[str]:
-        """The names of theta, in order: h_d, h_b, M0[1] .. Mc1[n], Gs, Gc, c1, s1, ..."""
+        """The names of theta, in order: h_d, h_b, M0[1] .. Mc1[n], Gs, Gc, zero, c1, s1, ..."""
         return self.layout.names()
 
     @property
@@ -156,6 +170,11 @@ class KnownTerms:
     def gravity_slice(self) -> slice:
         """theta's entries of the fixture's gravity terms."""
         return self.layout.slice("gravity")
+
+    @property
+    def zero_slice(self) -> slice:
+        """theta's entry of the encoder's zero offset."""
+        return self.layout.slice("zero")
 
     @property
     def encoder_slice(self) -> slice:
@@ -238,15 +257,18 @@ class KnownTerms:
             fixture_gravity_std=tuple(float(v) for v in std[self.gravity_slice]),
             encoder_error=tuple(float(v) for v in self.encoder),
             encoder_error_std=tuple(float(v) for v in std[encoder]),
+            encoder_zero=self.zero,
+            encoder_zero_std=float(std[self.zero_slice][0]),
         )
 
     def budget_groups(self) -> dict[str, list[int]]:
         """Budget lines of theta (rsp_inertia.estimation.gls), in the order they are added:
-        the drive's gains, the encoder's error, the tare and fixture."""
+        the drive's gains, the encoder's error, its zero, the tare and fixture."""
         layout = self.layout
         groups = {
             DRIVE_SOURCE: layout.indices("gains"),
             ENCODER_SOURCE: layout.indices("encoder"),
+            ZERO_SOURCE: layout.indices("zero"),
             EMPTY_SOURCE: layout.indices("harmonics", "gravity"),
         }
         return {name: indices for name, indices in groups.items() if indices}
@@ -266,6 +288,8 @@ class KnownTerms:
             bal.phi
         )
         B[:, self.gravity_slice] = -gravity_rows(bal.phi)
+        if bal.spring_slope is not None:  # the spring's phi0 is the rig's: it turns with z
+            B[:, self.zero_slice.start] = bal.spring_slope
         return B
 
     def jacobian_inertia(self, bal: StageBalance) -> np.ndarray | None:
@@ -275,4 +299,13 @@ class KnownTerms:
             return None
         B = np.zeros((len(bal.phi), self.cov.shape[0]))
         B[:, self.encoder_slice] = encoder_columns(bal, self.orders)
+        return B
+
+    def jacobian_angle(self, bal: StageBalance) -> np.ndarray:
+        """(n, p) the part of d rhs / d theta that is the angle slope of the balance's unknown
+        side (sum over the unknowns of x d column / d phi, rsp_inertia.estimation.gls) times
+        this: the zero's. The true angle is the corrected one less a change dz of the zero, so
+        the body's terms move by -dz times their slope; on the right-hand side, +dz times it."""
+        B = np.zeros((len(bal.phi), self.cov.shape[0]))
+        B[:, self.zero_slice.start] = 1.0
         return B

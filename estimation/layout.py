@@ -7,7 +7,7 @@ from it. Two vectors are laid out so:
 
 - theta, the rig's known terms (rsp_inertia.estimation.known_terms.KnownTerms, docs/method.md
   §5 Calibration): the drive's gains, the empty system's harmonics per stage, the fixture's
-  gravity and the encoder's error coefficients (:func:`theta_layout`);
+  gravity, the encoder's zero offset and its error coefficients (:func:`theta_layout`);
 - the tensor fit's shared unknowns (rsp_inertia.estimation.tensor_fit.TensorFit): the tensor's
   six entries and the body's gravity terms (:data:`SHARED_LAYOUT`).
 """
@@ -22,6 +22,7 @@ from rsp_inertia.plant.geometry import ENTRY_KEYS, GRAVITY_NAMES, HARMONIC_NAMES
 __all__ = [
     "GAIN_NAMES",
     "SHARED_LAYOUT",
+    "ZERO_NAME",
     "Layout",
     "Segment",
     "encoder_names",
@@ -30,6 +31,10 @@ __all__ = [
 
 GAIN_NAMES = ("h_d", "h_b")
 """Names of the drive's gains, driving and back-driven (rsp_inertia.plant.transducers)."""
+
+ZERO_NAME = "zero"
+"""Name of the encoder's zero offset z, rad: it reads phi + z + e(phi)
+(rsp_inertia.plant.transducers)."""
 
 
 @dataclass(frozen=True)
@@ -124,8 +129,9 @@ def encoder_names(orders: int) -> tuple[str, ...]:
 
 @cache
 def theta_layout(stages: int, orders: int) -> Layout:
-    """theta = [h_d, h_b, M0[1] .. Mc1[1], ..., M0[n] .. Mc1[n], Gs, Gc, c1, s1, ...]: the
-    rig's known terms of ``stages`` stages and an encoder error of ``orders`` orders.
+    """theta = [h_d, h_b, M0[1] .. Mc1[1], ..., M0[n] .. Mc1[n], Gs, Gc, zero, c1, s1, ...]:
+    the rig's known terms of ``stages`` stages, the encoder's zero offset and an encoder error
+    of ``orders`` orders.
 
     Parameters
     ----------
@@ -137,13 +143,14 @@ def theta_layout(stages: int, orders: int) -> Layout:
     Returns
     -------
     Layout
-        Segments "gains", "harmonics" (per stage), "gravity", "encoder".
+        Segments "gains", "harmonics" (per stage), "gravity", "zero", "encoder".
     """
     return Layout(
         (
             Segment("gains", GAIN_NAMES),
             Segment("harmonics", HARMONIC_NAMES, per_stage=True),
             Segment("gravity", GRAVITY_NAMES),
+            Segment("zero", (ZERO_NAME,)),
             Segment("encoder", encoder_names(orders)),
         ),
         stages,

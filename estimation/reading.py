@@ -33,7 +33,7 @@ from rsp_inertia.estimation.results import Identification
 from rsp_inertia.estimation.runs import ExperimentLogs, Sources, runs
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.infra.files import file_sha256
-from rsp_inertia.plant.config import load_reference
+from rsp_inertia.plant.config import load_reference, placed_reference
 from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.experiment import Experiment
 from rsp_inertia.plant.log_checks import unterminated_last_line
@@ -210,7 +210,14 @@ def identify_experiment(exp: Experiment) -> Identification:
     stiffness = None
     if calibration is not None and logs.pendulum:
         stiffness = calibration.pendulum_stiffness()
-    return identify_logs(logs, known, pendulum_stiffness=stiffness, warnings=warnings)
+    result = identify_logs(logs, known, pendulum_stiffness=stiffness, warnings=warnings)
+    if calibration is not None and result.calibration is not None:
+        # What calibrate found of the rig's conventions goes on with the calibration.
+        summary = dataclasses.replace(
+            result.calibration, conventions=calibration.calibration.conventions
+        )
+        result = dataclasses.replace(result, calibration=summary)
+    return result
 
 
 def unterminated_warnings(logs: ExperimentLogs) -> list[str]:
@@ -309,7 +316,9 @@ def calibrate_experiment(
     body = None
     if reference is not None:
         check_same_stages(exp, reference, "reference")
-        body = load_reference(reference.reference_path)
+        body = placed_reference(
+            load_reference(reference.reference_path), reference.device.mounting
+        )
     empty_logs = read_experiment(empty)
     reference_logs = None if reference is None else read_experiment(reference)
     result = calibrate_logs(exp.device, empty_logs, reference_logs, body)

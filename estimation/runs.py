@@ -90,23 +90,29 @@ def runs(device: Device) -> list[tuple[int, Direction]]:
     ]
 
 
-def corrected_log(log: Log, encoder) -> Log:
-    """The log with its readings taken back to the true angle: phi with phi + e(phi) = reading
-    (rsp_inertia.plant.transducers.true_angle), ``encoder`` the error's coefficients theta_e.
+def corrected_log(log: Log, encoder, zero: float = 0.0) -> Log:
+    """The log with its readings taken back to the true angle: phi with phi + z + e(phi) =
+    reading (rsp_inertia.plant.transducers.true_angle), ``encoder`` the error's coefficients
+    theta_e, ``zero`` the encoder's zero offset z (rad).
 
     The reading floor((phi + e) / q) q bounds the read angle from below, so its true angle
     bounds the true one from below: the floor convention the smoother assumes holds, the
     count's width changed by the factor 1 - e' (|e'| of a few 1e-4). An empty ``encoder``
-    returns the log itself.
+    and no zero offset return the log itself.
     """
     encoder = np.asarray(encoder, dtype=float)
-    if encoder.size == 0 or not np.any(encoder):
+    if (encoder.size == 0 or not np.any(encoder)) and not zero:
         return log
-    return Log(t=log.t, phi=true_angle(log.phi, encoder), torque=log.torque)
+    return Log(t=log.t, phi=true_angle(log.phi, encoder, zero), torque=log.torque)
 
 
 def run_logs(
-    device: Device, braking: Log, reverse: Log, direction: Direction, encoder=()
+    device: Device,
+    braking: Log,
+    reverse: Log,
+    direction: Direction,
+    encoder=(),
+    zero: float = 0.0,
 ) -> tuple[Log, Log]:
     """A run's braking and reverse logs as its passes are estimated: the readings taken back
     to the true angle (:func:`corrected_log`) and a backward run mirrored into the forward
@@ -122,13 +128,16 @@ def run_logs(
         The run's direction.
     encoder : sequence of float
         The encoder's error coefficients theta_e (empty: none).
+    zero : float
+        rad, the encoder's zero offset (:func:`corrected_log`).
 
     Returns
     -------
     braking, reverse : Log
         The logs in the true angle and the forward coordinate.
     """
-    braking, reverse = corrected_log(braking, encoder), corrected_log(reverse, encoder)
+    braking = corrected_log(braking, encoder, zero)
+    reverse = corrected_log(reverse, encoder, zero)
     if direction is Direction.BACKWARD:
         q = device.encoder.quantum
         braking, reverse = mirror_log(braking, q), mirror_log(reverse, q)
@@ -145,6 +154,7 @@ def estimate_run(
     reverse_source: str = "reverse",
     braking_smoothed: Smoothed | None = None,
     encoder=(),
+    zero: float = 0.0,
 ) -> tuple[PassEstimate, PassEstimate]:
     """Both passes of one run from their logs in memory, checked and estimated (a backward
     run mirrored): :func:`run_logs` then :func:`estimate_forward_run`.
@@ -167,13 +177,15 @@ def estimate_run(
     encoder : sequence of float
         The encoder's error coefficients; the readings are taken back to the true angle
         first (:func:`corrected_log`).
+    zero : float
+        rad, the encoder's zero offset, taken off with them.
 
     Returns
     -------
     braking, reverse : PassEstimate
         The run's passes.
     """
-    braking, reverse = run_logs(device, braking, reverse, direction, encoder)
+    braking, reverse = run_logs(device, braking, reverse, direction, encoder, zero)
     return estimate_forward_run(
         device, braking, reverse, warnings, braking_source, reverse_source, braking_smoothed
     )
@@ -239,6 +251,7 @@ def checked_run(
     warnings: list[str],
     sources: tuple[str, str] = ("braking", "reverse"),
     encoder=(),
+    zero: float = 0.0,
 ) -> tuple[PassEstimate, PassEstimate]:
     """One run's passes, estimated as :func:`balance_runs` estimates them, and checked for
     every reason identify and calibrate refuse a run before they fit: :func:`run_logs`,
@@ -263,6 +276,8 @@ def checked_run(
         The logs' names in messages.
     encoder : sequence of float
         The encoder's error coefficients (:func:`corrected_log`).
+    zero : float
+        rad, the encoder's zero offset (:func:`corrected_log`).
 
     Returns
     -------
@@ -274,7 +289,7 @@ def checked_run(
     InputError
         Naming the log at fault.
     """
-    braking, reverse = run_logs(device, *pair, direction, encoder)
+    braking, reverse = run_logs(device, *pair, direction, encoder, zero)
     # The logs as read go now (balance_runs hands them over, nothing else holds them): they
     # are not kept through the estimation, only the ones estimated (mirrored, corrected).
     del pair
@@ -288,6 +303,7 @@ def balance_runs(
     warnings: list[str],
     encoder=(),
     keep: Callable[[int, int, PassEstimate, PassEstimate], T] | None = None,
+    zero: float = 0.0,
 ) -> tuple[list[StageBalance], list[T]]:
     """Every run's balance equations (rsp_inertia.estimation.balance), in the device's order of
     runs, and what ``keep`` takes of each run's passes.
@@ -308,6 +324,8 @@ def balance_runs(
         (:func:`corrected_log`).
     keep : callable, optional
         ``keep(stage, sign, braking, reverse)``: what to keep of each run's passes.
+    zero : float
+        rad, the encoder's zero offset, taken off every log's readings with the error.
 
     Returns
     -------
@@ -332,7 +350,7 @@ def balance_runs(
     for k, (stage, direction) in enumerate(expected, 1):
         b_est, r_est = checked_run(
             device, stage, logs.runs[stage, direction], direction, warnings,
-            logs.sources.run(stage, direction), encoder,
+            logs.sources.run(stage, direction), encoder, zero,
         )
         balances.append(stage_balance(device, stage, b_est, r_est, direction.sign))
         if keep is not None:

@@ -40,6 +40,7 @@ from rsp_inertia.estimation.columns import (
     asymmetry_unknowns,
     both_directions,
     cause_probes,
+    gravity_row_slopes,
     gravity_rows,
     run_columns,
     run_key,
@@ -61,10 +62,11 @@ from rsp_inertia.estimation.known_terms import KnownTerms
 from rsp_inertia.estimation.layout import SHARED_LAYOUT
 from rsp_inertia.estimation.model_tests import ModelTest, described
 from rsp_inertia.plant.geometry import ENTRY_KEYS, GRAVITY_NAMES
-from rsp_inertia.plant.model import inertia_basis, tensor_basis
+from rsp_inertia.plant.model import inertia_basis, tensor_basis, tensor_basis_slope
 
 __all__ = [
     "TensorFit",
+    "angle_slopes",
     "balance_rhs",
     "fit_tensor",
     "predict_tensor",
@@ -151,6 +153,15 @@ def balance_rhs(bal: StageBalance, known: KnownTerms) -> np.ndarray:
     return received - 0.5 * bal.speed_sq * M_empty - gravity_rows(bal.phi) @ known.gravity
 
 
+def angle_slopes(bal: StageBalance) -> dict[str, np.ndarray]:
+    """d column / d phi of the tensor's entries and the body's gravity terms in one run's
+    equations (the body's terms an encoder zero's change turns, rsp_inertia.estimation.gls)."""
+    slopes = tensor_basis_slope(bal.phi, bal.gear_ratio)
+    out = {name: 0.5 * bal.speed_sq * slopes[:, i] for i, name in enumerate(ENTRY_KEYS)}
+    out.update(zip(GRAVITY_NAMES, gravity_row_slopes(bal.phi).T))
+    return out
+
+
 def tensor_block(bal: StageBalance, run: str, known: KnownTerms, asymmetry: bool) -> Block:
     """One run's equations in the tensor's unknowns (module docstring).
 
@@ -186,6 +197,8 @@ def tensor_block(bal: StageBalance, run: str, known: KnownTerms, asymmetry: bool
         work_scales=bal.work_scales(known.gains),
         known_jacobian=known.jacobian(bal) if known.calibrated else None,
         known_jacobian_inertia=known.jacobian_inertia(bal) if known.calibrated else None,
+        known_jacobian_angle=known.jacobian_angle(bal) if known.calibrated else None,
+        angle_slopes=angle_slopes(bal),
         probes=probes[0],
         probes_per_inertia=probes[1],
         groups={name: run_label(bal) for name in ENTRY_KEYS},

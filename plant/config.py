@@ -45,7 +45,12 @@ from rsp_inertia.plant.device_config import (
     require_protocol,
     write_device,
 )
-from rsp_inertia.plant.reference_config import TrueBody, load_reference, write_reference
+from rsp_inertia.plant.reference_config import (
+    TrueBody,
+    load_reference,
+    placed_reference,
+    write_reference,
+)
 
 __all__ = [
     "DEFAULT_GRAVITY",
@@ -64,6 +69,7 @@ __all__ = [
     "TrueBody",
     "load_device",
     "load_reference",
+    "placed_reference",
     "require_protocol",
     "write_device",
     "write_reference",

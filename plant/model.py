@@ -50,8 +50,10 @@ __all__ = [
     "force_curvature_regressor",
     "force_regressor",
     "gravity_basis",
+    "gravity_basis_slope",
     "harmonics_matrix",
     "inertia_basis",
+    "inertia_basis_slope",
     "inertia_harmonics",
     "mechanical_energy",
     "momentum_regressor",
@@ -63,6 +65,7 @@ __all__ = [
     "spring_parameters",
     "static_torque",
     "tensor_basis",
+    "tensor_basis_slope",
 ]
 
 
@@ -234,10 +237,18 @@ class GimbalModel:
             "inertia_basis": ca.Function(
                 "inertia_basis", [phi, self.p], [ca.jacobian(self.M, self.p)[:, :5]]
             ),
+            # Their angle slopes d/dphi: how the balance moves when the angle's zero does
+            # (an encoder's zero offset, rsp_inertia.estimation.columns.zero_columns).
+            "inertia_basis_slope": ca.Function(
+                "inertia_basis_slope", [phi, self.p], [ca.jacobian(self.dM, self.p)[:, :5]]
+            ),
             "potential": ca.Function("potential", [phi, self.p], [self.Pi]),
             # Pi is linear in the gravity terms p[7:9]: dPi/d[Gs, Gc] is their basis.
             "gravity_basis": ca.Function(
                 "gravity_basis", [phi, self.p], [ca.jacobian(self.Pi, self.p)[:, 7:9]]
+            ),
+            "gravity_basis_slope": ca.Function(
+                "gravity_basis_slope", [phi, self.p], [ca.jacobian(self.S, self.p)[:, 7:9]]
             ),
             "static_torque": ca.Function("static_torque", [phi, self.p], [self.S]),
             "dissipation": ca.Function(
@@ -378,6 +389,31 @@ def gravity_basis(phi) -> np.ndarray:
     row = phi.reshape(1, -1)
     out = np.asarray(MODEL.functions["gravity_basis"](row, np.zeros(len(PARAMETER_NAMES))))
     return out.reshape(phi.shape + (2,))
+
+
+def inertia_basis_slope(phi) -> np.ndarray:
+    """d/dphi of :func:`inertia_basis`, shape phi.shape + (5,): dM'/d[M0, Mc2, Ms2, Ms1, Mc1],
+    the functions 0, -2 sin 2phi, 2 cos 2phi, cos phi, -sin phi, from the model's own M'."""
+    return _basis("inertia_basis_slope", phi, 5)
+
+
+def tensor_basis_slope(phi, gear_ratio: float) -> np.ndarray:
+    """d/dphi of :func:`tensor_basis`, shape phi.shape + (6,)."""
+    return inertia_basis_slope(phi) @ harmonics_matrix(gear_ratio)
+
+
+def gravity_basis_slope(phi) -> np.ndarray:
+    """d/dphi of :func:`gravity_basis`, shape phi.shape + (2,): cos phi, -sin phi, from the
+    model's own static torque."""
+    return _basis("gravity_basis_slope", phi, 2)
+
+
+def _basis(name: str, phi, width: int) -> np.ndarray:
+    """The model's function ``name`` of phi alone (a basis), element-wise, phi.shape + (width,)."""
+    phi = np.asarray(phi, dtype=float)
+    row = phi.reshape(1, -1)
+    out = np.asarray(MODEL.functions[name](row, np.zeros(len(PARAMETER_NAMES))))
+    return out.reshape(phi.shape + (width,))
 
 
 def reduced_inertia_slope(phi, params: ModelParameters | np.ndarray):

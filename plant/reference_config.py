@@ -16,9 +16,9 @@ import numpy as np
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.infra.toml_schema import ContentError, config_class, key, read_file, read_table
 from rsp_inertia.infra.toml_writer import write_file
-from rsp_inertia.plant.geometry import physical_margins, tensor_from_entries
+from rsp_inertia.plant.geometry import physical_margins, place_body, tensor_from_entries
 
-__all__ = ["TrueBody", "load_reference", "write_reference"]
+__all__ = ["TrueBody", "load_reference", "placed_reference", "write_reference"]
 
 _INERTIA_NAMES = ("Jx", "Jy", "Jz", "Jxy", "Jyz", "Jxz")
 
@@ -114,6 +114,31 @@ def load_reference(path: str | os.PathLike) -> TrueBody:
         return read_table(_ReferenceFile, doc).body
     except ContentError as error:
         raise InputError(f"{path}: {error}") from None
+
+
+def placed_reference(body: TrueBody, mounting) -> TrueBody:
+    """A reference body as it sits on the rig: reference.toml's tensor and centre of mass
+    (in its own axes, about its own origin) placed by its folder's device.toml
+    ``[mounting]`` (rotation R, origin o; docs/method.md §2, "Mountings";
+    rsp_inertia.plant.geometry.place_body), exactly as identify's body is placed. Without
+    ``[mounting]`` (``mounting`` None) the body itself: its axes are the rig's.
+
+    Parameters
+    ----------
+    body : TrueBody
+        The certified body (:func:`load_reference`).
+    mounting : rsp_inertia.plant.device_config.Mounting or None
+        The reference folder's ``[mounting]``.
+
+    Returns
+    -------
+    TrueBody
+        The same mass; the tensor about O and the centre of mass in rig axes.
+    """
+    if mounting is None:
+        return body
+    inertia, com = place_body(body.inertia, body.com, body.mass, mounting.rotation, mounting.origin)
+    return TrueBody(mass=body.mass, inertia=inertia, com=com)
 
 
 def write_reference(path: str | os.PathLike, body: TrueBody) -> None:

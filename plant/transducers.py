@@ -1,15 +1,17 @@
 """The rig's transducers: the angle encoder's reading error and the drive's transmission, the
 two imperfections that act on every pass (docs/method.md §3, "Encoder and drive").
 
-**Encoder.** A real encoder reads phi_r = phi + e(phi), e periodic in the encoder's angle (an
-eccentric disc or ring, bearing runout, graduation errors). Its harmonic series,
+**Encoder.** A real encoder reads phi_r = phi + z + e(phi): z its zero offset (what it reads
+where the body frame's phi = 0, body y up: docs/method.md §1; an encoder zeroed off that
+position), e periodic in the encoder's angle (an eccentric disc or ring, bearing runout,
+graduation errors). Its harmonic series,
 
     e(phi) = sum_n c_n cos(n phi) + s_n sin(n phi),      n = 1 .. N,
 
 is linear in the coefficients theta_e = [c_1, s_1, c_2, s_2, ...] (rad): :func:`error_basis`
 gives the columns, :func:`error_slope_basis` their derivative e'(phi). The simulator reads
-floor((phi + e(phi)) / q) q (:func:`encoder_reading`); the estimators take the reading back
-to the true angle (:func:`true_angle`). An error curve stated as an amplitude and a phase per
+floor((phi + z + e(phi)) / q) q (:func:`encoder_reading`); the estimators take the reading
+back to the true angle (:func:`true_angle`). An error curve stated as an amplitude and a phase per
 order, e = sum_n A_n sin(n phi + p_n), has c_n = A_n sin p_n and s_n = A_n cos p_n
 (:func:`error_coefficients`).
 
@@ -88,9 +90,11 @@ def error_coefficients(amplitude, phase_deg) -> np.ndarray:
     return out
 
 
-def encoder_reading(phi, quantum: float, coefficients=()) -> np.ndarray | float:
-    """What the encoder reads at true angle ``phi``: floor((phi + e(phi)) / q) q (docs/files.md,
-    logs).
+def encoder_reading(
+    phi, quantum: float, coefficients=(), zero: float = 0.0
+) -> np.ndarray | float:
+    """What the encoder reads at true angle ``phi``: floor((phi + z + e(phi)) / q) q
+    (docs/files.md, logs; z the encoder's zero offset, module docstring).
 
     Parameters
     ----------
@@ -100,6 +104,8 @@ def encoder_reading(phi, quantum: float, coefficients=()) -> np.ndarray | float:
         q, rad, the encoder's step.
     coefficients : sequence of float, optional
         theta_e, rad, of the reading error e (module docstring); e = 0 without them.
+    zero : float, optional
+        z, rad: the encoder's zero offset, what it reads at phi = 0 (module docstring).
 
     Returns
     -------
@@ -109,15 +115,18 @@ def encoder_reading(phi, quantum: float, coefficients=()) -> np.ndarray | float:
     read = np.asarray(phi, dtype=float)
     if len(coefficients):
         read = read + angle_error(read, coefficients)
+    if zero:
+        read = read + zero
     out = np.floor(read / quantum) * quantum
     return float(out) if out.ndim == 0 else out
 
 
-def true_angle(reading, coefficients) -> np.ndarray:
-    """The true angle phi whose reading is ``reading``: phi + e(phi) = reading, solved by
-    fixed-point iteration (|e'| << 1: each step gains the factor |e'|, so four steps leave
-    (|e'|)^4 of e, far below rounding for any real encoder)."""
-    reading = np.asarray(reading, dtype=float)
+def true_angle(reading, coefficients, zero: float = 0.0) -> np.ndarray:
+    """The true angle phi whose reading is ``reading``: phi + z + e(phi) = reading (z the
+    encoder's zero offset, rad), solved by fixed-point iteration (|e'| << 1: each step gains
+    the factor |e'|, so four steps leave (|e'|)^4 of e, far below rounding for any real
+    encoder)."""
+    reading = np.asarray(reading, dtype=float) - zero
     coefficients = np.asarray(coefficients, dtype=float)
     if coefficients.size == 0 or not np.any(coefficients):
         return reading

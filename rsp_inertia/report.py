@@ -238,7 +238,14 @@ def _labels(key: str, count: int) -> list[str]:
         return ["m g x_c of the fixture, N m", "m g y_c of the fixture, N m"]
     if key == "encoder_error":
         return [f"{'cs'[i % 2]}_{i // 2 + 1} of the encoder error, rad" for i in range(count)]
+    if key == "encoder_zero":
+        return ["encoder zero offset, rad"]
     return [f"{key}[{i}]" for i in range(count)]
+
+
+def _sentence(text: str) -> str:
+    """``text`` with its first letter capitalised."""
+    return text[:1].upper() + text[1:]
 
 
 def _calibration_section(result: dict) -> list[str]:
@@ -250,7 +257,7 @@ def _calibration_section(result: dict) -> list[str]:
     refined = calibration.get("refined") or {}
     rows = []
     for key, value in calibration.items():
-        if key.endswith("_std") or key == "refined":
+        if key.endswith("_std") or key in ("refined", "conventions"):
             continue
         std = calibration.get(f"{key}_std")
         after, after_std = refined.get(key), refined.get(f"{key}_std")
@@ -264,7 +271,8 @@ def _calibration_section(result: dict) -> list[str]:
         stds = std if isinstance(std, list) else [std] * len(values)
         afters = after if isinstance(after, list) else [after] * len(values)
         after_stds = after_std if isinstance(after_std, list) else [after_std] * len(values)
-        names = _labels(key, len(values)) if isinstance(value, list) else [key.replace("_", " ")]
+        names = _labels(key, len(values)) if isinstance(value, list) else (
+            _labels(key, 1) if key == "encoder_zero" else [key.replace("_", " ")])
         for name, v, s, a, a_s in zip(names, values, stds, afters, after_stds):
             rows.append([name, f"{v:{VALUE}}", "-" if s is None else f"{s:.2g}",
                          "" if a is None else f"{a:{VALUE}}", "" if a_s is None else f"{a_s:.2g}"])
@@ -273,6 +281,8 @@ def _calibration_section(result: dict) -> list[str]:
         ("<p>What identify took as known, with its std (calibration.toml, or device.toml's "
          "stated stds); where the body's own runs refine a term, its value after them.</p>"),
         _table(["quantity", "calibration", "std", "after the runs", "std"], rows),
+        *([f"<p>{html.escape(_sentence(calibration['conventions']))}.</p>"]
+          if calibration.get("conventions") else []),
     ]
 
 

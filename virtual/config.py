@@ -10,6 +10,7 @@ config classes below declare them (rsp_inertia.infra.toml_schema). The bodies ar
 
 from __future__ import annotations
 
+import math
 import os
 
 import numpy as np
@@ -27,7 +28,7 @@ from rsp_inertia.plant.device_config import Device, Mounting
 from rsp_inertia.plant.experiment import VIRTUAL_FILE, Experiment
 from rsp_inertia.plant.geometry import place_body, small_rotation
 from rsp_inertia.plant.reference_config import TrueBody
-from rsp_inertia.plant.transducers import drive_gains, error_coefficients
+from rsp_inertia.plant.transducers import drive_gains, encoder_reading, error_coefficients
 
 __all__ = [
     "ControllerSettings",
@@ -169,6 +170,30 @@ class Rig:
         doc="p_n of each order of ``encoder_error_amplitude`` (as many entries).",
     )
 
+    encoder_zero_deg: float = key(
+        0.0,
+        unit="deg",
+        doc="The encoder's zero offset: it reads phi + this + e(phi), phi = 0 where the body "
+        "frame's y points up (docs/method.md §1); 0 = zeroed there.",
+    )
+    encoder_reversed: bool = key(
+        False,
+        doc="The encoder counts backward: it reads minus what it should, while the torque "
+        "keeps its sign (docs/method.md §1: phi must increase where a positive torque turns "
+        "the shaft).",
+    )
+    gear_reversed: bool = key(
+        False,
+        doc="The gear turns the outer frame the other way: psi = -lambda phi where device.toml "
+        "states gear_ratio = lambda.",
+    )
+    phi_left_handed: bool = key(
+        False,
+        doc="The shaft read from its other end: the encoder and the torque both reversed, phi "
+        "left-handed about the body's z. Simulated as the rig's truth mirrored in x "
+        "(Jxy, Jxz and x_c flipped) read the stated way.",
+    )
+
     @property
     def drive_gains(self) -> tuple[float, float]:
         """(h_d, h_b): torque received per unit logged torque, driving and back-driven
@@ -182,6 +207,12 @@ class Rig:
         if self.encoder_error_amplitude is None:
             return np.zeros(0)
         return error_coefficients(self.encoder_error_amplitude, self.encoder_error_phase_deg)
+
+    def reading(self, phi, quantum: float):
+        """What this rig's encoder reads at true angle ``phi``: floor((phi + z + e(phi)) / q) q
+        (rsp_inertia.plant.transducers.encoder_reading), negated when it counts backward."""
+        read = encoder_reading(phi, quantum, self.encoder_error, math.radians(self.encoder_zero_deg))
+        return -read if self.encoder_reversed else read
 
     def true_tare(self, device: Device, stage: int, source: str = VIRTUAL_FILE) -> float:
         """The true M_tare of a stage (docs/method.md §2).

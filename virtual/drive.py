@@ -25,7 +25,7 @@ import numpy as np
 
 from rsp_inertia.plant.config import Stage
 from rsp_inertia.plant.logs import Log
-from rsp_inertia.plant.transducers import delivered_torque, encoder_reading
+from rsp_inertia.plant.transducers import delivered_torque
 from rsp_inertia.virtual.config import Virtual
 from rsp_inertia.virtual.integrate import Pair, advance
 
@@ -249,7 +249,7 @@ def logged(
     torque = command + (rng.normal(0.0, noise, len(command)) if noise > 0 else 0.0)
     log = Log(
         t=np.asarray(truth.t),
-        phi=encoder_reading(truth.phi, quantum, virtual.rig.encoder_error),
+        phi=virtual.rig.reading(truth.phi, quantum),
         torque=np.asarray(torque),
     )
     fraction = virtual.logger.dropped_fraction

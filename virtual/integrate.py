@@ -223,11 +223,16 @@ def true_parameters(
     inertia = sum((part.inertia for part in parts), np.zeros(6))
     tare = virtual.rig.true_tare(device, stage)
     friction = virtual.friction_for(direction)
+    gravity_sin = sum(part.mass * g * part.com[0] for part in parts)
+    gear_ratio = -st.gear_ratio if virtual.rig.gear_reversed else st.gear_ratio
+    if virtual.rig.phi_left_handed:  # the truth mirrored in x, read the stated way
+        inertia = inertia * np.array([1.0, 1.0, 1.0, -1.0, 1.0, -1.0])
+        gravity_sin = -gravity_sin
     return ModelParameters(
-        inertia_harmonics=inertia_harmonics(inertia, st.gear_ratio, tare),
+        inertia_harmonics=inertia_harmonics(inertia, gear_ratio, tare),
         stiffness=device.spring.stiffness,
         zero_angle=device.spring.zero_angle,
-        gravity_sin=sum(part.mass * g * part.com[0] for part in parts),
+        gravity_sin=gravity_sin,
         gravity_cos=sum(part.mass * g * part.com[1] for part in parts),
         **FRICTION.fields_of(friction),
     )

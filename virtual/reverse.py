@@ -24,7 +24,7 @@ from rsp_inertia.plant.model import (
     reduced_inertia,
     static_torque,
 )
-from rsp_inertia.plant.transducers import delivered_torque, encoder_reading, logged_torque
+from rsp_inertia.plant.transducers import delivered_torque, logged_torque
 from rsp_inertia.virtual.config import Virtual
 from rsp_inertia.virtual.drive import (
     STREAM_CLOCK,
@@ -113,7 +113,6 @@ def run_program(
     s = float(direction.sign)
     pair = true_pair(device, stage, virtual)
     gains = virtual.rig.drive_gains
-    reading_error = virtual.rig.encoder_error
     enc = device.encoder
     dt = enc.dt
     q = enc.quantum
@@ -136,7 +135,7 @@ def run_program(
     # The command that held the body at rest (a drive that holds, drives: power_flow_split).
     u_prev = held if ideal else logged_torque(held, 0.0, gains)
     observer = SpeedObserver(
-        float(encoder_reading(x[0], q, reading_error)),
+        float(virtual.rig.reading(x[0], q)),
         x[1],
         virtual.controller.speed_observer_bandwidth,
         dt,
@@ -162,7 +161,7 @@ def run_program(
     h_prev = dt
     for k in range(n):
         phi_true[k], omega_true[k] = x
-        y = float(encoder_reading(x[0], q, reading_error))
+        y = float(virtual.rig.reading(x[0], q))
         omega_hat = observer.update(y, h_prev)
         if ideal:
             y, omega_hat = x

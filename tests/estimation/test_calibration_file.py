@@ -24,6 +24,7 @@ from rsp_inertia.estimation.calibration_file import (
     write_calibration_file,
 )
 from rsp_inertia.estimation.known_terms import KnownTerms
+from rsp_inertia.estimation.layout import theta_layout
 from rsp_inertia.estimation.stiffness import StiffnessCalibration
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.config import load_device
@@ -54,7 +55,7 @@ def known_terms(orders: int, reference: bool = True, seed: int = 1) -> KnownTerm
         The terms, with a full covariance.
     """
     rng = np.random.default_rng(seed)
-    size = 2 + 5 * len(DEVICE.stages) + 2 + 2 * orders
+    size = theta_layout(len(DEVICE.stages), orders).size
     root = rng.normal(size=(size, size)) * 1e-4
     cov = root @ root.T
     gains = (0.947, 1.087) if reference else (1.0, 1.0)
@@ -69,6 +70,7 @@ def known_terms(orders: int, reference: bool = True, seed: int = 1) -> KnownTerm
         cov=cov,
         calibrated=True,
         encoder=rng.normal(size=2 * orders) * 1e-5,
+        zero=rng.normal() * 1e-3 if reference else 0.0,
     )
 
 
@@ -249,7 +251,10 @@ def test_a_file_of_the_older_format_is_read_with_a_lossless_drive_and_a_warning(
     expected[1:, 1:] = old
     expected[0, 1:] = expected[1:, 0] = old[0]
     expected[0, 0] = old[0, 0]
+    # No encoder zero in such a file: 0, exact (its row and column zero, after Gs, Gc).
+    expected = np.insert(np.insert(expected, 14, 0.0, axis=0), 14, 0.0, axis=1)
     np.testing.assert_array_equal(known.cov, expected)
+    assert known.zero == 0.0 and known.names()[14] == "zero"
     assert known.names()[:3] == ["h_d", "h_b", "M0[1]"]
     assert file.pendulum_stiffness() == (2.0099386080645836, 0.0003631198571374831)
     assert file.legacy and read_calibration_file(path) == file
@@ -348,14 +353,20 @@ BAD_FILES = [
     pytest.param(
         _last_row_dropped,
         "covariance.matrix",
-        "must have one row per parameter (16), got 15",
+        "must have one row per parameter (17), got 16",
         id="matrix one row short",
     ),
     pytest.param(
         _first_row_short,
         "covariance.matrix[2]",
-        "must have 15 entries as row 1, got 16",
+        "must have 16 entries as row 1, got 17",
         id="matrix not rectangular",
+    ),
+    pytest.param(
+        _replaced("zero_std = ", "# zero_std = "),
+        "encoder.zero_std",
+        "missing: encoder.zero is given",
+        id="a zero without its std",
     ),
     pytest.param(
         _replaced('"Gs", "Gc"', '"Gc", "Gs"'),
@@ -366,7 +377,7 @@ BAD_FILES = [
     pytest.param(
         _replaced('"c1", "s1"', '"c1", "s1", "c2"'),
         "covariance.parameters",
-        "must name the 16 parameters of 2 stage(s) and 1 encoder order(s), got 17",
+        "must name the 17 parameters of 2 stage(s) and 1 encoder order(s), got 18",
         id="a parameter too many",
     ),
     pytest.param(

@@ -46,7 +46,7 @@ def _positions(layout: Layout) -> list[int]:
 def test_the_slices_tile_theta_exactly(stages: int, orders: int) -> None:
     layout = theta_layout(stages, orders)
     assert _positions(layout) == list(range(layout.size))
-    assert layout.size == 2 + 5 * stages + 2 + 2 * orders  # the old hand count, once, here
+    assert layout.size == 2 + 5 * stages + 2 + 1 + 2 * orders  # the hand count, once, here
     names = layout.names()
     assert len(names) == layout.size == len(set(names))
     assert names[layout.slice("harmonics", stages)] == [f"{h}[{stages}]" for h in HARMONIC_NAMES]
@@ -82,6 +82,7 @@ def test_known_terms_are_laid_out_by_the_layout(stages: int, orders: int) -> Non
         rng.normal(size=2),
         np.zeros((layout.size, layout.size)),
         encoder=rng.normal(size=2 * orders),
+        zero=rng.normal(),
     )
     assert known.layout == layout and known.names() == layout.names()
     theta = known.theta
@@ -90,6 +91,7 @@ def test_known_terms_are_laid_out_by_the_layout(stages: int, orders: int) -> Non
         np.testing.assert_array_equal(theta[known.harmonics_slice(s)], known.inertia[s - 1])
     np.testing.assert_array_equal(theta[known.gravity_slice], known.gravity)
     np.testing.assert_array_equal(theta[known.encoder_slice], known.encoder)
+    assert theta[known.zero_slice] == [known.zero]
     again = known.with_theta(theta, known.cov)
     np.testing.assert_array_equal(again.theta, theta)
     groups = known.budget_groups()
