@@ -720,9 +720,10 @@ def turning_point(
     when it stops at the count's far edge). A stay at one reading longer than
     :data:`STOP_MARGIN` times that plus a sample period is a stop. The motion is the furthest
     reading so far in the pass's direction, so a reading that dithers or settles back below
-    it (or an interpolating readhead's noise) neither ends nor prolongs a stay. The turning
-    point is the first row at the furthest reading of the first stop, and the log goes on
-    after the stop when there is one. Its rows after the turning point must keep within
+    it (or an interpolating readhead's noise) neither ends nor prolongs a stay; but a last
+    stay, however short, in which the reading goes back is a stop too (the braking's reading
+    never goes back: the drive logged on). The turning point is the first row at the furthest
+    reading of the first stop, and the log goes on after the stop when there is one. Its rows after the turning point must keep within
     :func:`settle_counts` of its reading, either way; otherwise the body moved on after a
     stop or went back further than a held body settles, and which point ends the braking is
     ambiguous. (A reading that turns back inside the motion and goes on is no stop here:
@@ -781,9 +782,12 @@ def turning_point(
     delta = t[starts] - t[np.maximum(before, 0)]
     allowed = STOP_MARGIN * delta / (math.sqrt(STOP_COUNTS + 1) - 1) + 1.0 / encoder.sample_rate
     stays = np.flatnonzero(known & (t[ends] - t[starts] > allowed))
-    if not stays.size:
+    if stays.size:
+        m = int(starts[stays[0]])
+    elif np.any(c[starts[-1] :] < top[-1]):
+        m = int(starts[-1])  # the last stay goes back: short, but after the stop
+    else:
         return n - 1
-    m = int(starts[stays[0]])
     settle = settle_counts(encoder)
     off = c[m + 1 :] - c[m]
     beyond = np.flatnonzero(np.abs(off) > settle)

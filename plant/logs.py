@@ -311,7 +311,7 @@ def read_log(
         increases = direction is Direction.FORWARD
         end = turning_point(path, t, phi, increases, encoder) + 1
         if end < len(t):
-            note = _held_note(path, t, phi, end, encoder)
+            note = _held_note(path, t, (phi if increases else -phi), end, encoder)
             return Log(t=t[:end], phi=phi[:end], torque=torque[:end], notes=(note,))
     return Log(t=t, phi=phi, torque=torque)
 
@@ -319,10 +319,11 @@ def read_log(
 def _held_note(
     path: str | os.PathLike, t: np.ndarray, phi: np.ndarray, end: int, encoder: EncoderLike
 ) -> str:
-    """The one line that says a braking was cut at its turning point (row ``end - 1``)."""
+    """The one line that says a braking was cut at its turning point (row ``end - 1``),
+    ``phi`` in the pass's direction (minus the angle of a backward run)."""
     off = np.rint((phi[end:] - phi[end - 1]) / float(encoder.quantum))
     low, high = int(off.min()), int(off.max())
-    reading = "stays put" if low == high == 0 else f"moves {low:+d} to {high:+d} counts"
+    reading = "stays put" if low == high == 0 else f"keeps within {low:+d} to {high:+d} counts"
     return (
         f"{path}, lines {end + 2}-{len(t) + 1}: the drive logged on {t[-1] - t[end - 1]:.3g} s "
         f"after the braking's turning point at line {end + 1} (the reading {reading} there): "
