@@ -10,6 +10,7 @@ messages by :class:`Sources`; rsp_inertia.estimation.reading reads them from a f
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import TypeVar
@@ -103,7 +104,7 @@ def corrected_log(log: Log, encoder, zero: float = 0.0) -> Log:
     encoder = np.asarray(encoder, dtype=float)
     if (encoder.size == 0 or not np.any(encoder)) and not zero:
         return log
-    return Log(t=log.t, phi=true_angle(log.phi, encoder, zero), torque=log.torque)
+    return dataclasses.replace(log, phi=true_angle(log.phi, encoder, zero))
 
 
 def run_logs(
@@ -348,9 +349,13 @@ def balance_runs(
     prefix = "" if logs.sources.experiment is None else f"{logs.sources.experiment}: "
     balances, kept = [], []
     for k, (stage, direction) in enumerate(expected, 1):
+        # What the reader did to the logs (their notes) first; then the logs as read are
+        # checked_run's alone (popped: nothing here holds them while it estimates).
+        read = [logs.runs[stage, direction]]
+        warnings += [note for log in read[0] for note in log.notes]
         b_est, r_est = checked_run(
-            device, stage, logs.runs[stage, direction], direction, warnings,
-            logs.sources.run(stage, direction), encoder, zero,
+            device, stage, read.pop(), direction, warnings, logs.sources.run(stage, direction),
+            encoder, zero,
         )
         balances.append(stage_balance(device, stage, b_est, r_est, direction.sign))
         if keep is not None:

@@ -28,11 +28,17 @@ __all__ = [
     "JITTER_LIMIT",
     "MEAN_RATE_TOLERANCE",
     "RATE_TOLERANCE",
+    "SETTLE_ANGLE",
+    "SETTLE_COUNTS",
     "SPEED_MARGIN",
     "STEP_SLACK_COUNTS",
+    "STOP_COUNTS",
+    "STOP_MARGIN",
     "T0_TOLERANCE",
     "TORQUE_MARGIN",
+    "TORQUE_SIGNIFICANCE",
     "EncoderLike",
+    "brakes_along_the_motion",
     "check_direction",
     "check_grid",
     "check_speed",
@@ -40,6 +46,8 @@ __all__ = [
     "check_torque",
     "read_header",
     "read_table",
+    "settle_counts",
+    "turning_point",
     "unterminated_last_line",
     "unwrap_counts",
 ]
@@ -564,10 +572,21 @@ def check_grid(path: str | os.PathLike, phi: np.ndarray, encoder: EncoderLike) -
 
 
 def check_direction(
-    path: str | os.PathLike, phi: np.ndarray, kind: str, direction: Direction
+    path: str | os.PathLike,
+    phi: np.ndarray,
+    kind: str,
+    direction: Direction,
+    torque: np.ndarray | None = None,
 ) -> None:
     """A forward braking runs up from the release to rest and its reverse pass back down; a
     backward run is the other way round.
+
+    A braking log that runs the wrong way is refused with its likely cause, from its torque
+    (a motor torque is positive where it turns phi up, docs/method.md §1): a braking torque
+    against the logged motion means a run of the other direction (a backward braking in a
+    forward one's file, or a mislabelled log); a constant torque along it, beyond its noise
+    (it would speed the body up as logged, not brake it), means the encoder counts against
+    the motor's torque (:func:`brakes_along_the_motion`).
 
     Parameters
     ----------
@@ -579,6 +598,8 @@ def check_direction(
         One of rsp_inertia.plant.logs.LOG_KINDS; only a braking and a reverse are checked.
     direction : Direction
         The stage's run.
+    torque : np.ndarray, shape (n,), N m, optional
+        The log's torque column, to name the cause on a braking (None: the direction alone).
 
     Raises
     ------
@@ -591,6 +612,16 @@ def check_direction(
     increases = (kind == "braking") == (direction is Direction.FORWARD)
     if (phi[-1] > phi[0]) if increases else (phi[-1] < phi[0]):
         return
+    span = f"phi goes from {float(phi[0])!r} to {float(phi[-1])!r} rad"
+    if kind == "braking" and torque is not None and brakes_along_the_motion(phi, torque):
+        raise InputError(
+            f"{path}, line {last_line}: {span} and the braking torque (median "
+            f"{float(np.median(torque)):.4g} N m) has the sign of that motion: as logged it "
+            "would speed the body up, not brake it: the encoder counts backwards (or the "
+            "torque's sign is reversed): phi must increase where a positive motor torque "
+            "turns the shaft (docs/method.md §1); reverse the encoder's counting direction in "
+            "the drive"
+        )
     run = "a braking" if kind == "braking" else "a reverse"
     if direction is Direction.BACKWARD:
         run = f"a backward {kind}"
@@ -601,5 +632,181 @@ def check_direction(
         why = f" (phi {moves} during a backward {kind})"
     raise InputError(
         f"{path}, line {last_line}: {run} log must end at a {end} phi than it starts{why}, "
-        f"but phi goes from {float(phi[0])!r} to {float(phi[-1])!r} rad"
+        f"but {span}"
     )
+
+
+TORQUE_SIGNIFICANCE = 3.0
+"""Noise stds (of the torque's sample-to-sample scatter) by which a braking's median torque
+must differ from zero, and within which its torques must scatter about it, for
+:func:`brakes_along_the_motion` to read its sign."""
+
+
+def brakes_along_the_motion(phi: np.ndarray, torque: np.ndarray) -> bool:
+    """Whether a braking log's torque, constant as a braking's is (its robust scatter about
+    its median within :data:`TORQUE_SIGNIFICANCE` of its sample-to-sample noise; a reverse
+    pass's program is not), is of the sign of the logged motion phi[-1] - phi[0] and beyond
+    that noise from zero: as logged, it would speed the body up, not brake it.
+
+    Parameters
+    ----------
+    phi : np.ndarray, shape (n,), rad
+        The log's angle column.
+    torque : np.ndarray, shape (n,), N m
+        Its torque column.
+
+    Returns
+    -------
+    bool
+        The torque is a braking's and along the logged motion.
+
+    Examples
+    --------
+    >>> brakes_along_the_motion(np.array([0.0, -0.1, -0.2]), np.array([-0.005] * 3))
+    True
+    >>> brakes_along_the_motion(np.array([0.0, -0.1, -0.2]), np.array([0.005] * 3))
+    False
+    """
+    u = float(np.median(torque))
+    d = np.diff(torque)
+    noise = float(1.4826 * np.median(np.abs(d - np.median(d))) / math.sqrt(2.0))
+    spread = float(1.4826 * np.median(np.abs(torque - u)))
+    limit = TORQUE_SIGNIFICANCE * noise
+    return u * float(phi[-1] - phi[0]) > 0.0 and abs(u) > limit and spread <= limit
+
+
+STOP_COUNTS = 8
+"""K, the encoder counts before a stay at one reading over which :func:`turning_point`
+measures the deceleration to rest."""
+
+STOP_MARGIN = 1.5
+"""Factor on the longest stay at one reading that a constant deceleration allows
+(:func:`turning_point`): room for the deceleration's change over a few counts and the
+encoder's uneven counts."""
+
+SETTLE_COUNTS = 8
+"""Counts (at least; :data:`SETTLE_ANGLE` if more) by which a braking log's reading may move
+after its turning point, either way: a held body's reading dithers by a count and settles
+back through the drive's backlash by a few (:func:`turning_point`)."""
+
+SETTLE_ANGLE = 3e-3
+"""rad (10 arcmin, a plain gearbox's backlash): the same bound as an angle, for a fine
+encoder (:func:`settle_counts`)."""
+
+
+def settle_counts(encoder: EncoderLike) -> int:
+    """Counts a braking log's reading may move after its turning point (:func:`turning_point`):
+    the larger of :data:`SETTLE_COUNTS` and :data:`SETTLE_ANGLE` in counts (31 on a 16-bit
+    encoder, 8 on a 12-bit one)."""
+    return max(SETTLE_COUNTS, math.floor(SETTLE_ANGLE / float(encoder.quantum)))
+
+
+def turning_point(
+    path: str | os.PathLike,
+    t: np.ndarray,
+    phi: np.ndarray,
+    increases: bool,
+    encoder: EncoderLike,
+) -> int:
+    """The row at which a braking's motion in its direction ends: the log's last row when it
+    ends at the stop, else the first row at the reading where it stopped (docs/files.md, Logs).
+
+    A braking log ends at the stop (the virtual device's), or a real drive logs on while it
+    holds the body: the reading stays put, dithers by a count, or settles back through the
+    backlash a few counts and is still. Near rest the deceleration a is constant to first
+    order, so a body that enters its last count (a count of width q) comes to rest within
+    sqrt(2 q / a); having taken Delta to cover the K = :data:`STOP_COUNTS` counts before, with
+    a constant deceleration it stays at most Delta / (sqrt(K + 1) - 1) (the bound is reached
+    when it stops at the count's far edge). A stay at one reading longer than
+    :data:`STOP_MARGIN` times that plus a sample period is a stop. The motion is the furthest
+    reading so far in the pass's direction, so a reading that dithers or settles back below
+    it (or an interpolating readhead's noise) neither ends nor prolongs a stay; but a last
+    stay, however short, in which the reading goes back is a stop too (the braking's reading
+    never goes back: the drive logged on). The turning point is the first row at the furthest
+    reading of the first stop, and the log goes on after the stop when there is one. Its rows after the turning point must keep within
+    :func:`settle_counts` of its reading, either way; otherwise the body moved on after a
+    stop or went back further than a held body settles, and which point ends the braking is
+    ambiguous. (A reading that turns back inside the motion and goes on is no stop here:
+    rsp_inertia.plant.logs.check_braking_monotone refuses it.)
+
+    Parameters
+    ----------
+    path : str or path-like
+        The log, for the message.
+    t : np.ndarray, shape (n,), s
+        The log's time stamps, strictly increasing (:func:`check_time` first).
+    phi : np.ndarray, shape (n,), rad
+        Its angle, on the encoder grid (:func:`check_grid`), unwrapped.
+    increases : bool
+        The braking's direction: phi increases (a forward run) or decreases (backward).
+    encoder : encoder-like
+        ``quantum`` (rad) and ``sample_rate`` (Hz).
+
+    Returns
+    -------
+    int
+        The index of the turning point's row: ``n - 1`` when the log ends at the stop, else
+        the rows after it are the drive's logging after the stop.
+
+    Raises
+    ------
+    InputError
+        Naming the file, the turning point's line and the first line beyond
+        :func:`settle_counts` of its reading.
+
+    Examples
+    --------
+    >>> class Encoder:
+    ...     quantum, sample_rate = 1.0, 1000.0
+    >>> t = np.arange(12) * 1e-3
+    >>> phi = np.array([0, 40, 72, 96, 112, 120, 120, 119, 120, 119, 119, 119], float)
+    >>> turning_point("braking.csv", t, phi, True, Encoder())
+    5
+    >>> turning_point("braking.csv", t[:6], phi[:6], True, Encoder())
+    5
+    """
+    q = float(encoder.quantum)
+    c = np.rint(phi / q).astype(np.int64)
+    if not increases:
+        np.negative(c, out=c)
+    n = len(c)
+    # The motion in the pass's direction: the furthest reading so far, and the stays at each
+    # of its values (a reading that dithers or settles back below it does not end a stay).
+    top = np.maximum.accumulate(c)
+    starts = np.concatenate([[0], np.flatnonzero(np.diff(top)) + 1])  # first row of a value
+    ends = np.concatenate([starts[1:] - 1, [n - 1]])  # and the last row before the next
+    # A stay longer than the constant deceleration allows (docstring), measured from the
+    # first row reaching K counts less (before it: no estimate, no stop).
+    before = np.searchsorted(top, top[starts] - STOP_COUNTS, side="left") - 1
+    known = before >= 0
+    delta = t[starts] - t[np.maximum(before, 0)]
+    allowed = STOP_MARGIN * delta / (math.sqrt(STOP_COUNTS + 1) - 1) + 1.0 / encoder.sample_rate
+    stays = np.flatnonzero(known & (t[ends] - t[starts] > allowed))
+    if stays.size:
+        m = int(starts[stays[0]])
+    elif np.any(c[starts[-1] :] < top[-1]):
+        m = int(starts[-1])  # the last stay goes back: short, but after the stop
+    else:
+        return n - 1
+    settle = settle_counts(encoder)
+    off = c[m + 1 :] - c[m]
+    beyond = np.flatnonzero(np.abs(off) > settle)
+    if beyond.size:
+        j = m + 1 + int(beyond[0])
+        moved = int(off[beyond[0]])
+        if moved > 0:
+            what = (
+                f"then runs on {moved} counts past it by line {j + 2}: the speed reverses "
+                "inside the braking, or the body moved on after it stopped"
+            )
+        else:
+            what = (
+                f"then goes back {-moved} counts by line {j + 2}: the body was not held where "
+                "it stopped, or the angle jumps"
+            )
+        raise InputError(
+            f"{path}, lines {m + 2}-{j + 2}: the braking's turning point is ambiguous: its "
+            f"motion stops or turns at line {m + 2} and {what} (after its stop a held body's "
+            f"reading may dither and settle back by up to {settle} counts, docs/files.md)"
+        )
+    return m

@@ -18,7 +18,7 @@ from __future__ import annotations
 import dataclasses
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -36,6 +36,7 @@ from rsp_inertia.plant.log_checks import (
     check_torque,
     read_header,
     read_table,
+    turning_point,
     unwrap_counts,
 )
 from rsp_inertia.plant.transducers import power_flow_split
@@ -84,9 +85,9 @@ def _frozen_array(value: object, name: str) -> np.ndarray:
     return array
 
 
-def _freeze_columns(obj: object) -> None:
-    """Store every field of a frozen dataclass as a read-only float64 copy; equal lengths."""
-    names = [f.name for f in fields(obj)]
+def _freeze_columns(obj: object, names: Sequence[str]) -> None:
+    """Store the fields ``names`` of a frozen dataclass as read-only float64 copies; equal
+    lengths."""
     for name in names:
         object.__setattr__(obj, name, _frozen_array(getattr(obj, name), name))
     lengths = {name: len(getattr(obj, name)) for name in names}
@@ -110,9 +111,15 @@ class Log:
     """Encoder angle, unwrapped, a whole multiple of q = 2 pi / counts_per_rev."""
     torque: np.ndarray  # N m, shape (n,)
     """Motor torque reduced to phi as logged; row k acts over [t_k, t_k+1)."""
+    notes: tuple[str, ...] = ()
+    """What the reader did to the file's rows, one line each naming the file and the lines:
+    a braking's rows after its turning point left out (:func:`read_log`). The commands that
+    read the log say them (program, identify and calibrate as warnings, check as ok lines);
+    :func:`mirror_log` and :func:`align_counter` keep them."""
 
     def __post_init__(self) -> None:
-        _freeze_columns(self)
+        _freeze_columns(self, LOG_COLUMNS)
+        object.__setattr__(self, "notes", tuple(self.notes))
 
     def __len__(self) -> int:
         return len(self.t)
@@ -159,7 +166,7 @@ class Program:
     """Speed gain of the regulator."""
 
     def __post_init__(self) -> None:
-        _freeze_columns(self)
+        _freeze_columns(self, PROGRAM_COLUMNS)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -223,7 +230,7 @@ def align_counter(log: Log, phi: float, encoder: EncoderLike) -> Log:
     wraps = round((phi - float(log.phi[0])) / span)
     if wraps == 0:
         return log
-    return Log(t=log.t, phi=log.phi + wraps * span, torque=log.torque)
+    return dataclasses.replace(log, phi=log.phi + wraps * span)
 
 
 def read_log(
@@ -250,7 +257,9 @@ def read_log(
         counts.
     kind : {"braking", "reverse", "pendulum", "pilot"}
         Which run (``LOG_KINDS``): a forward braking must end at a larger phi than it starts,
-        its reverse at a smaller one; a pendulum or pilot run may go either way.
+        its reverse at a smaller one; a pendulum or pilot run may go either way. A braking
+        is cut at its turning point when the drive logged on after the stop
+        (rsp_inertia.plant.log_checks.turning_point), which its ``notes`` say.
     direction : Direction
         The direction of the stage's run: a backward braking must end at a smaller phi than
         it starts, its reverse at a larger one. Pendulum and pilot runs ignore it.
@@ -266,7 +275,8 @@ def read_log(
     Returns
     -------
     Log
-        The values exactly as written in the file.
+        The values exactly as written in the file; a braking's only up to its turning point,
+        with a note naming the rows left out (:attr:`Log.notes`).
 
     Raises
     ------
@@ -276,7 +286,8 @@ def read_log(
         increasing, a step shorter than half a sample period, a median or mean step off the
         sample rate (:data:`JITTER_LIMIT`), phi off the encoder grid, an angle step or a
         torque beyond what the device can do (with ``launch_speed``, ``torque_limit``), the
-        wrong direction.
+        wrong direction (with its likely cause: an encoder counting backwards), a braking
+        whose turning point is ambiguous (naming the lines).
 
     See Also
     --------
@@ -293,10 +304,31 @@ def read_log(
     check_grid(path, phi, encoder)
     if launch_speed is not None:
         check_speed(path, t, phi, launch_speed, encoder)
-    check_direction(path, phi, kind, direction)
+    check_direction(path, phi, kind, direction, torque)
     if torque_limit is not None:
         check_torque(path, torque, torque_limit)
+    if kind == "braking":
+        increases = direction is Direction.FORWARD
+        end = turning_point(path, t, phi, increases, encoder) + 1
+        if end < len(t):
+            note = _held_note(path, t, (phi if increases else -phi), end, encoder)
+            return Log(t=t[:end], phi=phi[:end], torque=torque[:end], notes=(note,))
     return Log(t=t, phi=phi, torque=torque)
+
+
+def _held_note(
+    path: str | os.PathLike, t: np.ndarray, phi: np.ndarray, end: int, encoder: EncoderLike
+) -> str:
+    """The one line that says a braking was cut at its turning point (row ``end - 1``),
+    ``phi`` in the pass's direction (minus the angle of a backward run)."""
+    off = np.rint((phi[end:] - phi[end - 1]) / float(encoder.quantum))
+    low, high = int(off.min()), int(off.max())
+    reading = "stays put" if low == high == 0 else f"keeps within {low:+d} to {high:+d} counts"
+    return (
+        f"{path}, lines {end + 2}-{len(t) + 1}: the drive logged on {t[-1] - t[end - 1]:.3g} s "
+        f"after the braking's turning point at line {end + 1} (the reading {reading} there): "
+        f"{len(t) - end} row(s) left out"
+    )
 
 
 def read_device_log(
@@ -526,7 +558,9 @@ def mirror_log(log: Log, quantum: float) -> Log:
     so the mirrored log keeps the floor convention that the smoother assumes
     (rsp_inertia.estimation.smoothing: true angle in [y, y + q)).
     """
-    return Log(t=log.t, phi=-np.asarray(log.phi) - quantum, torque=-np.asarray(log.torque))
+    return dataclasses.replace(
+        log, phi=-np.asarray(log.phi) - quantum, torque=-np.asarray(log.torque)
+    )
 
 
 def mirrored_device(device: Device) -> Device:

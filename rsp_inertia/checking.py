@@ -142,19 +142,23 @@ def _try_read(
 ) -> Log | None:
     """The log read as identify reads it (the device's encoder and torque limit), or None
     with an ``error`` line; a ``suspicious`` line when its last line has no line end (the
-    reader leaves it out)."""
+    reader leaves it out), an ``ok`` line per note of the reader (a braking's rows after its
+    turning point left out)."""
     try:
         log = read_device_log(path, device, kind, direction)
     except InputError as error:
         _add(findings, "error", str(error))
         return None
-    _check_last_line(findings, path)
+    _check_last_line(findings, path, log)
     return log
 
 
-def _check_last_line(findings: Findings, path: Path) -> None:
+def _check_last_line(findings: Findings, path: Path, log: Log) -> None:
     """A ``suspicious`` line when the log's last line has no line end (the reader leaves it
-    out)."""
+    out); an ``ok`` line per note of the reader (rsp_inertia.plant.logs.Log.notes: a braking
+    cut at its turning point, which identify warns about in the same words)."""
+    for note in log.notes:
+        _add(findings, "ok", note)
     if unterminated_last_line(path):
         _add(
             findings,
@@ -237,7 +241,7 @@ def _check_run(
         )
     elif pair is not None:
         braking = pair[0]
-        _check_last_line(findings, b_path)
+        _check_last_line(findings, b_path, braking)
     else:
         braking = _try_read(findings, b_path, device, "braking", direction)
     if braking is not None:
@@ -275,7 +279,7 @@ def _check_run(
             return
     else:
         reverse = pair[1]
-        _check_last_line(findings, r_path)
+        _check_last_line(findings, r_path, reverse)
     _check_timing(exp, stage, direction, r_path, reverse, findings, nodes=pair is None)
     if pair is not None and usable:
         warnings: list[str] = []

@@ -99,6 +99,31 @@ class LoggerSettings:
         doc="Fraction of the rows the logger loses at random (the drive still acts at those "
         "instants); the first and last rows are always kept.",
     )
+    hold_after_stop: float = key(
+        0.0,
+        unit="s",
+        bound=(">= 0", "<= 600"),
+        doc="How long the logger goes on writing a braking's rows after the body stopped, "
+        "the drive holding it (a real drive's log; the reader cuts it at the braking's "
+        "turning point, rsp_inertia.plant.log_checks.turning_point); 0: the log ends at the "
+        "last sample before the stop.",
+    )
+    hold_dither: int = key(
+        0,
+        unit="counts",
+        bound=(">= 0", "<= 100"),
+        doc="While held, each reading is off the rest's by a uniform random whole number of "
+        "counts within +- this (an encoder dithering at a count's edge, a holding loop's "
+        "hunting).",
+    )
+    backlash_counts: int = key(
+        0,
+        unit="counts",
+        bound=(">= 0", "<= 1000"),
+        doc="While held, the reading settles back against the braking's direction by this "
+        "many counts, one a sample from the stop, and stays there (the body taking up the "
+        "drive's backlash).",
+    )
     counts: bool = key(
         False,
         doc="Write ``t,counts,torque`` with integer counts of the drive's position counter "

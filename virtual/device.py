@@ -51,6 +51,7 @@ from rsp_inertia.virtual.drive import (
     SimulatedPass,
     SpeedObserver,
     braking_torque,
+    held_after_stop,
     jittered,
     logged,
     resample,
@@ -140,7 +141,8 @@ def simulate_braking(
     forward, +braking_torque backward), which the log records; the body back-drives the motor
     and receives h_b x the command (``[rig]``). The pass ends at the first instant the speed
     reaches zero (an event located inside its sample by Brent's method on the step length).
-    The log holds every sample up to that instant.
+    The log holds every sample up to that instant, and goes on while the drive holds the body
+    for virtual.toml's ``[logger] hold_after_stop`` (rsp_inertia.virtual.drive.held_after_stop).
 
     Parameters
     ----------
@@ -189,8 +191,9 @@ def simulate_braking(
     stream = STREAM_BRAKING if s > 0 else STREAM_BRAKING_BACKWARD
     pair = true_pair(device, stage, virtual)
     truth = jittered(truth, pair, virtual, (stage, stream + STREAM_CLOCK), dt)
-    command = np.full(len(truth.t), command)
-    return logged(truth, command, virtual, (stage, stream), device.encoder.quantum)
+    q = device.encoder.quantum
+    sim = logged(truth, np.full(len(truth.t), command), virtual, (stage, stream), q)
+    return held_after_stop(sim, command, virtual, (stage, stream), q, dt, s)
 
 
 def simulate_pendulum(device: Device, stage: int, virtual: Virtual, node: int) -> SimulatedPass:

@@ -34,6 +34,7 @@ __all__ = [
     "STREAM_BRAKING_BACKWARD",
     "STREAM_CLOCK",
     "STREAM_DROPS",
+    "STREAM_HOLD",
     "STREAM_PENDULUM",
     "STREAM_PILOT",
     "STREAM_REVERSE",
@@ -42,6 +43,7 @@ __all__ = [
     "SimulatedPass",
     "SpeedObserver",
     "braking_torque",
+    "held_after_stop",
     "jittered",
     "logged",
     "resample",
@@ -59,6 +61,9 @@ STREAM_CLOCK = 100
 """Added to a pass's stream for its sampling instants' jitter (``[logger] time_jitter``)."""
 STREAM_DROPS = 200
 """Added to a pass's stream for the rows its logger drops (``[logger] dropped_fraction``)."""
+STREAM_HOLD = 300
+"""Added to a braking's stream for the rows logged while the body is held after the stop
+(``[logger] hold_after_stop``: their noise and dither)."""
 
 
 def braking_torque(stage: Stage, virtual: Virtual, s: float) -> tuple[float, float]:
@@ -310,3 +315,57 @@ class SpeedObserver:
         self.omega += self.acc * dt + l2 * error
         self.acc += l3 * error
         return self.omega
+
+
+def held_after_stop(
+    sim: SimulatedPass, command: float, virtual: Virtual, seed: tuple, quantum: float,
+    dt: float, s: float,
+) -> SimulatedPass:
+    """A braking's log going on after the stop, as a real drive's does while it holds the body
+    (``[logger] hold_after_stop``, ``hold_dither``, ``backlash_counts``): rows at the sample
+    period after the last one for ``hold_after_stop`` seconds, each reading the rest's
+    reading (the true rest angle through the encoder), settled back against the braking's
+    direction by a count a sample up to ``backlash_counts``, off by a uniform random
+    +-``hold_dither`` counts, and the drive's ``command`` plus the torque channel's noise.
+
+    Parameters
+    ----------
+    sim : SimulatedPass
+        The braking up to its stop (the truth stays as it is: the body is at rest after it).
+    command : float
+        N m, the command the log goes on recording.
+    virtual : Virtual
+        The virtual device: ``[logger]``, ``[run]`` seed and noise, ``[rig]`` encoder error.
+    seed : tuple
+        The braking's random stream; the tail draws on it plus :data:`STREAM_HOLD`.
+    quantum : float
+        rad, the encoder's count.
+    dt : float
+        s, the sample period.
+    s : float
+        +1 for a forward braking, -1 for a backward one.
+
+    Returns
+    -------
+    SimulatedPass
+        ``sim`` with the held rows after its log's last (``sim`` itself without a hold).
+    """
+    logger = virtual.logger
+    n = round(logger.hold_after_stop / dt)
+    if n == 0:
+        return sim
+    rng = np.random.default_rng([virtual.run.seed, seed[0], seed[1] + STREAM_HOLD, *seed[2:]])
+    rest = encoder_reading(np.array([sim.truth.end_phi]), quantum, virtual.rig.encoder_error)[0]
+    k = np.arange(1, n + 1)
+    counts = -s * np.minimum(k, logger.backlash_counts)
+    if logger.hold_dither:
+        counts = counts + rng.integers(-logger.hold_dither, logger.hold_dither + 1, n)
+    noise = virtual.run.torque_noise
+    torque = command + (rng.normal(0.0, noise, n) if noise > 0 else np.zeros(n))
+    log = sim.log
+    held = Log(
+        t=np.concatenate([log.t, log.t[-1] + k * dt]),
+        phi=np.concatenate([log.phi, rest + counts * quantum]),
+        torque=np.concatenate([log.torque, torque]),
+    )
+    return dataclasses.replace(sim, log=held)
