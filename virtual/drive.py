@@ -361,9 +361,24 @@ class ProgramDrive:
         self.previous = previous
 
     def command(self, k: int, y: float, omega_hat: float, h: float) -> float:
-        """The command of sample ``k``, N m, from the reading ``y`` (rad) and the speed
-        estimate ``omega_hat`` (rad/s), ``h`` s after the previous command (the rate limit's
-        step); it becomes the previous command."""
+        """The command of one sample; it becomes the previous command.
+
+        Parameters
+        ----------
+        k : int
+            The sample's index in the program.
+        y : float
+            rad, the encoder reading.
+        omega_hat : float
+            rad/s, the drive's speed estimate.
+        h : float
+            s since the previous command (the rate limit's step).
+
+        Returns
+        -------
+        float
+            N m, the command, held until the next sample.
+        """
         error = y - self.phi_ref[k]
         if self.span is not None:  # a counter's position error, modulo its range
             error -= self.span * round(error / self.span)
