@@ -200,6 +200,7 @@ class GimbalEngine:
         self._psi = self.model.joint("psi").qposadr[0]
         self._phi = self.model.joint("phi").qposadr[0]
         self._phi_dof = self.model.joint("phi").dofadr[0]
+        self._eps = 0.0  # the last engine step's mean acceleration, rad/s^2 (:meth:`step`)
 
     def set_state(self, phi: float, Omega: float, torque: float = 0.0, applied: float = 0.0) -> None:
         """Put the engine at (phi, Omega) on the gear, the motor at ``torque`` (N m) and a joint
@@ -247,3 +248,352 @@ class GimbalEngine:
         d = self.data
         tau = d.qfrc_actuator + d.qfrc_passive + d.qfrc_applied
         return float(self.g @ (tau - d.qfrc_bias) / (self.g @ self.mass_matrix() @ self.g))
+
+    def step(self, torque: float, steps: int) -> None:
+        """Advance the engine by ``steps`` steps with the motor at ``torque`` (N m, held: the
+        drive's zero-order hold), the quadratic friction -a3 W |W| applied per step at the
+        step's predicted mid-speed W + eps h / 2, eps the previous step's mean acceleration
+        (module docstring)."""
+        m, d = self.model, self.data
+        h = self.gimbal.timestep
+        a3 = self.gimbal.quadratic
+        d.ctrl[0] = torque
+        for _ in range(steps):
+            W = d.qvel[self._phi_dof]
+            mid = W + self._eps * h / 2
+            d.qfrc_applied[self._phi_dof] = -a3 * mid * abs(mid)
+            mujoco.mj_step(m, d)
+            self._eps = (d.qvel[self._phi_dof] - W) / h
+
+    def release(self, phi: float, Omega: float = 0.0) -> None:
+        """Start a motion at (phi, Omega) on the gear: a launch, or rest where the drive held
+        the body between passes."""
+        self.set_state(phi, Omega)
+        self._eps = 0.0
+
+    @property
+    def phi(self) -> float:
+        """rad, the engine's true phi."""
+        return float(self.data.qpos[self._phi])
+
+    @property
+    def speed(self) -> float:
+        """rad/s, the engine's true Omega."""
+        return float(self.data.qvel[self._phi_dof])
+
+    def holding_torque(self, phi: float) -> float:
+        """N m, the motor torque that holds the body at rest at ``phi``: the engine's gravity
+        force projected on the gear, g^T qfrc_bias at zero speed."""
+        self.set_state(phi, 0.0)
+        return float(self.g @ self.data.qfrc_bias)
+
+
+# --- the engine-made rig ----------------------------------------------------------------------
+
+MAX_BRAKING_TIME = 600.0
+"""s: a braking pass that has not stopped by then is a protocol error."""
+
+
+@dataclass(frozen=True)
+class EngineRig:
+    """The engine-made rig: what is on the gimbal besides the body, its friction and its
+    logger. The drive is exact (the body receives the logged command, but for the noise) and
+    so is the encoder (floor(phi / q) q)."""
+
+    fixture: TrueBody
+    """The fixture on the shaft (hub and mounting plate), body axes."""
+    frame_inertia: float
+    """I, kg m^2: the outer frame about the vertical."""
+    friction: tuple[float, float, float]
+    """(a1, a2, a3): N m, N m s, N m s^2; the same in both directions."""
+    torque_noise: float
+    """N m, std of the logged torque's noise."""
+    release_angle_deg: float
+    """deg, where a stage without release_angle_deg in device.toml releases the body."""
+    observer_bandwidth: float = 100.0
+    """rad/s, the drive's speed observer (rsp_inertia.virtual.drive.SpeedObserver)."""
+
+    def gimbal(self, gear_ratio: float, body: TrueBody | None, gravity: float) -> Gimbal:
+        """The engine's gimbal of one stage with ``body`` on it."""
+        a1, a2, a3 = self.friction
+        return Gimbal(
+            gear_ratio, body, self.fixture, frame_inertia=self.frame_inertia, gravity=gravity,
+            coulomb=a1, viscous=a2, quadratic=a3,
+        )
+
+
+def _log(t: np.ndarray, phi: np.ndarray, command: np.ndarray, quantum: float,
+         noise: float, rng: np.random.Generator):
+    """What the logger writes: encoder readings floor(phi / q) q and the command plus noise."""
+    from rsp_inertia.plant.logs import Log
+    from rsp_inertia.plant.transducers import encoder_reading
+
+    return Log(
+        t=t,
+        phi=encoder_reading(phi, quantum),
+        torque=command + rng.normal(0.0, noise, len(command)),
+    )
+
+
+def braking_pass(engine: GimbalEngine, stage, encoder, rig: EngineRig,
+                 rng: np.random.Generator):
+    """The braking pass on the engine (docs/method.md §4, docs/files.md Logs): released at
+    the stage's release angle with its launch speed (forward), the motor applying the
+    constant braking torque against the motion, until the speed first reaches zero.
+
+    The engine runs ENGINE_STEPS steps per encoder sample; the stop is located inside its
+    engine step by the speed's linear interpolation (the acceleration is constant to
+    O(h) within 0.1 ms). The log holds every sample before the stop.
+
+    Parameters
+    ----------
+    engine : GimbalEngine
+        The stage's gimbal with the body on it.
+    stage : rsp_inertia.plant.config.Stage
+        The stage: launch speed, braking torque, release angle.
+    encoder : rsp_inertia.plant.device_config.Encoder
+        The encoder: its step and sample rate.
+    rig : EngineRig
+        The logger's noise, the default release angle.
+    rng : numpy.random.Generator
+        The log's noise.
+
+    Returns
+    -------
+    log : rsp_inertia.plant.logs.Log
+        braking.csv.
+    rest : float
+        rad, the true angle where the body stopped.
+    """
+    release = stage.release_angle_deg
+    release = rig.release_angle_deg if release is None else release
+    h = engine.gimbal.timestep
+    steps = round(encoder.dt / h)
+    command = -stage.braking_torque
+    engine.release(math.radians(release), stage.launch_speed)
+    phis = []
+    rest = None
+    while rest is None:
+        phis.append(engine.phi)
+        if len(phis) * encoder.dt > MAX_BRAKING_TIME:
+            raise RuntimeError("the braking pass does not stop")
+        for _ in range(steps):
+            phi, W = engine.phi, engine.speed
+            engine.step(command, 1)
+            if engine.speed <= 0.0:
+                tau = h * W / (W - engine.speed)
+                rest = phi + W * tau / 2
+                break
+    n = len(phis)
+    t = np.arange(n) * encoder.dt
+    log = _log(t, np.array(phis), np.full(n, command), encoder.quantum, rig.torque_noise, rng)
+    return log, rest
+
+
+def reverse_pass(engine: GimbalEngine, device, program, rest: float, rig: EngineRig,
+                 rng: np.random.Generator):
+    """The reverse pass on the engine: ``program`` (program.csv) executed in closed loop by
+    the virtual device's drive, from rest at ``rest``.
+
+    At each sample the drive reads the encoder, updates its speed observer
+    (rsp_inertia.virtual.drive.SpeedObserver) and computes the command
+    (rsp_inertia.virtual.drive.ProgramDrive: feedforward plus feedback, torque and rate
+    limits), which the motor holds over the sample while the engine runs ENGINE_STEPS steps.
+    Before the program the motor holds the body at rest (the engine's holding torque), so
+    the rate limiter starts there.
+
+    Parameters
+    ----------
+    engine : GimbalEngine
+        The stage's gimbal with the body on it.
+    device : rsp_inertia.plant.config.Device
+        The motor's limits and the encoder.
+    program : rsp_inertia.plant.logs.Program
+        The program.
+    rest : float
+        rad, the true angle where the braking stopped.
+    rig : EngineRig
+        The logger's noise and the observer's bandwidth.
+    rng : numpy.random.Generator
+        The log's noise.
+
+    Returns
+    -------
+    rsp_inertia.plant.logs.Log
+        reverse.csv, one row per program row.
+    """
+    from rsp_inertia.plant.transducers import encoder_reading
+    from rsp_inertia.virtual.drive import ProgramDrive, SpeedObserver
+
+    enc = device.encoder
+    dt, q = enc.dt, enc.quantum
+    steps = round(dt / engine.gimbal.timestep)
+    held = engine.holding_torque(rest)
+    engine.release(rest)
+    observer = SpeedObserver(float(encoder_reading(rest, q)), 0.0, rig.observer_bandwidth, dt)
+    drive = ProgramDrive(
+        program, program.t, device.motor.torque_limit, device.motor.torque_rate_limit, None, held
+    )
+    n = len(program.t)
+    phis = np.empty(n)
+    commands = np.empty(n)
+    for k in range(n):
+        phis[k] = engine.phi
+        y = float(encoder_reading(phis[k], q))
+        commands[k] = drive.command(k, y, observer.update(y, dt), dt)
+        engine.step(commands[k], steps)
+    return _log(program.t, phis, commands, q, rig.torque_noise, rng)
+
+
+# --- the calibrated route on engine-made logs -------------------------------------------------
+
+BODY = TrueBody(
+    mass=2.0,
+    inertia=np.array([0.025, 0.028, 0.022, 0.0012, -0.0009, 0.0015]),
+    com=np.array([0.003, -0.002, 0.0015]),
+)
+"""The body under test: the default experiment's (plant/defaults/virtual.toml)."""
+
+REFERENCE = TrueBody(
+    mass=3.0, inertia=np.array([0.03, 0.032, 0.02, 0.0, 0.0, 0.0]), com=np.zeros(3)
+)
+"""The reference body of the calibration (plant/defaults/rig/reference/reference.toml)."""
+
+FIXTURE = TrueBody(
+    mass=0.8,
+    inertia=np.array([0.006, 0.0065, 0.008, 0.0002, -0.0001, 0.00015]),
+    com=np.array([0.001, 0.0005, 0.0]),
+)
+"""The fixture on the shaft: the demo rig's unbalanced mounting plate
+(plant/defaults/rig/virtual.toml) with a hub of 0.002 kg m^2 about every axis (the default
+device's I1)."""
+
+FRAME_INERTIA = 0.001
+"""kg m^2, the outer frame about the vertical (the default device's I)."""
+
+FRICTION = (1e-4, 1e-4, 1e-3)
+"""The paper's friction a = [a1, a2, a3]."""
+
+TORQUE_NOISE = 1e-4
+"""N m, the logged torque's noise (the default virtual device's)."""
+
+RELEASE_ANGLE_DEG = -30.0
+"""deg, the release angle (the virtual device's default), jittered per seed."""
+
+RELEASE_JITTER_DEG = 0.5
+"""Each folder's release angle is drawn uniformly within this of RELEASE_ANGLE_DEG (seeded):
+each experiment's encoder counts fall elsewhere, so its quantization errors are its own
+(benchmarks.mountings does the same)."""
+
+FOLDERS = (("empty", None), ("reference", REFERENCE), ("body", BODY))
+"""The calibration folders and the experiment, each with the body it carries."""
+
+
+def device_text(folder: str) -> str:
+    """device.toml of one folder: the demo rig's (plant/defaults/rig/), forward runs only and
+    no pendulum runs (the engine's rig is the same both ways round)."""
+    import re
+    from importlib import resources
+
+    parts = ("rig",) if folder == "body" else ("rig", folder)
+    text = resources.files("rsp_inertia.plant").joinpath("defaults", *parts, "device.toml")
+    text = text.read_text()
+    text = re.sub(r"(?m)^directions = .*\n", "", text)
+    return re.sub(r"\[pendulum\].*", "", text, flags=re.DOTALL)
+
+
+def run_folder(root, body: TrueBody | None, rig: EngineRig, seed: tuple) -> None:
+    """One experiment folder written by the engine-made rig, as a real rig's: device.toml
+    (and reference.toml with a reference body), each stage's braking.csv, program.csv by
+    ``rsp-inertia program`` from it, and reverse.csv, the program executed on the engine.
+
+    Parameters
+    ----------
+    root : pathlib.Path
+        The folder (made).
+    body : TrueBody or None
+        What is on the fixture: None (empty), the reference body or the body under test.
+    rig : EngineRig
+        The rig.
+    seed : tuple
+        The folder's random streams (the logs' noise).
+    """
+    from rsp_inertia.api import program as make_program
+    from rsp_inertia.plant.config import load_device
+    from rsp_inertia.plant.logs import read_program, write_log
+
+    name = "empty" if body is None else "reference" if body is REFERENCE else "body"
+    root.mkdir(parents=True, exist_ok=True)
+    (root / "device.toml").write_text(device_text(name))
+    if body is REFERENCE:
+        inertia = ", ".join(repr(float(v)) for v in body.inertia)
+        (root / "reference.toml").write_text(
+            f"[body]\nmass = {body.mass!r}\ninertia = [{inertia}]\ncom = [0.0, 0.0, 0.0]\n"
+        )
+    device = load_device(root / "device.toml")
+    rests = []
+    engines = []
+    for k, stage in enumerate(device.stages, start=1):
+        engine = GimbalEngine(rig.gimbal(stage.gear_ratio, body, device.gravity))
+        log, rest = braking_pass(engine, stage, device.encoder, rig,
+                                 np.random.default_rng([*seed, k, 0]))
+        (root / f"stage{k}").mkdir(exist_ok=True)
+        write_log(root / f"stage{k}" / "braking.csv", log)
+        rests.append(rest)
+        engines.append(engine)
+    make_program(root)
+    for k, (engine, rest) in enumerate(zip(engines, rests, strict=True), start=1):
+        program = read_program(root / f"stage{k}" / "program.csv", device.encoder)
+        log = reverse_pass(engine, device, program, rest, rig,
+                           np.random.default_rng([*seed, k, 1]))
+        write_log(root / f"stage{k}" / "reverse.csv", log)
+
+
+def engine_rig(seed: int) -> EngineRig:
+    """The benchmark's rig for one seed: its release angle jittered."""
+    jitter = np.random.default_rng([seed, 99]).uniform(-1.0, 1.0) * RELEASE_JITTER_DEG
+    return EngineRig(
+        fixture=FIXTURE,
+        frame_inertia=FRAME_INERTIA,
+        friction=FRICTION,
+        torque_noise=TORQUE_NOISE,
+        release_angle_deg=RELEASE_ANGLE_DEG + jitter,
+    )
+
+
+def calibrated_route(work, seed: int) -> dict:
+    """The calibrated route on engine-made logs: the empty-fixture and reference-body
+    calibration folders and the body's, ``calibrate``, ``identify``.
+
+    Parameters
+    ----------
+    work : pathlib.Path
+        Where the three folders are made.
+    seed : int
+        The seed of the logs' noise and of the release angle.
+
+    Returns
+    -------
+    dict
+        ``entries``, ``entries_std`` (kg m^2, identify's), ``truth`` (the body's tensor
+        entries), ``seconds`` (wall time).
+    """
+    import time
+
+    from rsp_inertia.api import calibrate, identify
+
+    start = time.perf_counter()
+    rig = engine_rig(seed)
+    roots = {}
+    for index, (name, body) in enumerate(FOLDERS):
+        roots[name] = work / name
+        run_folder(roots[name], body, rig, (seed, index))
+    calibrate(roots["body"], roots["empty"], roots["reference"])
+    result = identify(roots["body"])
+    return {
+        "seed": seed,
+        "entries": np.asarray(result.entries).tolist(),
+        "entries_std": np.asarray(result.entries_std).tolist(),
+        "truth": BODY.inertia.tolist(),
+        "seconds": time.perf_counter() - start,
+    }
