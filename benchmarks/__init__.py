@@ -11,6 +11,8 @@ with the command that made it):
 - ``plan``: pilot, plan, program, closed loop, identify -> plan.md;
 - ``systematics``: rig imperfections, before and after calibration -> systematics.md;
 - ``real_logs``: jittered, lossy, wrapping logs against clean ones -> real_logs.md;
+- ``engine``: the calibrated route on logs made by MuJoCo, an independent 3-D engine (and
+  the reduced model against it) -> engine.md, engine.json;
 - ``scale``: wall time and peak memory of simulate, program and identify against braking
   length and sample rate, growth exponents (``make bench-scale``) -> scale.md, scale.png.
 

@@ -75,6 +75,20 @@ def _top_modules(path: Path) -> set[str]:
     return found
 
 
+def _requirements(distribution: str) -> set[str]:
+    """The normalised names of the distributions ``distribution`` requires (extras' too)."""
+    return {_name(r) for r in metadata.requires(distribution) or ()}
+
+
+def _top_owners(owners: list[str]) -> set[str]:
+    """Of the distributions that provide one module, those no other of them requires: a
+    package split over several distributions (mujoco 4: mujoco requires mujoco-core and
+    mujoco-studio, all three install ``mujoco``) is declared by its top one."""
+    names = {_name(owner) for owner in owners}
+    required = set().union(*(_requirements(owner) for owner in owners)) & names
+    return names - required or names
+
+
 def _distributions(paths) -> set[str]:
     """The distributions of the third-party modules that ``paths`` import."""
     owners = metadata.packages_distributions()
@@ -84,7 +98,7 @@ def _distributions(paths) -> set[str]:
             if module == "__future__":
                 continue
             assert module in owners, f"{path}: imports {module}, which no distribution provides"
-            found |= {_name(owner) for owner in owners[module]}
+            found |= _top_owners(owners[module])
     return found
 
 

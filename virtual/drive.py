@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rsp_inertia.plant.config import Stage
-from rsp_inertia.plant.logs import Log
+from rsp_inertia.plant.logs import Log, Program
 from rsp_inertia.plant.transducers import delivered_torque
 from rsp_inertia.virtual.config import Virtual
 from rsp_inertia.virtual.integrate import Pair, advance
@@ -40,6 +40,7 @@ __all__ = [
     "STREAM_REVERSE",
     "STREAM_REVERSE_BACKWARD",
     "PassTruth",
+    "ProgramDrive",
     "SimulatedPass",
     "SpeedObserver",
     "braking_torque",
@@ -355,7 +356,7 @@ def held_after_stop(
     if n == 0:
         return sim
     rng = np.random.default_rng([virtual.run.seed, seed[0], seed[1] + STREAM_HOLD, *seed[2:]])
-    rest = encoder_reading(np.array([sim.truth.end_phi]), quantum, virtual.rig.encoder_error)[0]
+    rest = virtual.rig.reading(np.array([sim.truth.end_phi]), quantum)[0]
     k = np.arange(1, n + 1)
     counts = -s * np.minimum(k, logger.backlash_counts)
     if logger.hold_dither:
@@ -369,3 +370,80 @@ def held_after_stop(
         torque=np.concatenate([log.torque, torque]),
     )
     return dataclasses.replace(sim, log=held)
+
+
+class ProgramDrive:
+    """The drive's regulator executing program.csv (docs/files.md) at its sampling instants:
+
+        u = clip(torque_ff - k_phi (phi - phi_ref) - k_omega (omega - omega_ref), +-torque_limit)
+
+    then the change from the previous command limited to torque_rate_limit times the step;
+    phi is the encoder reading, omega the drive's speed estimate (:class:`SpeedObserver`).
+    With a wrapping position counter (``span``, its range in rad) phi - phi_ref is taken
+    modulo the range. One instance runs one pass: it remembers the last command. The virtual
+    device's reverse pass (rsp_inertia.virtual.reverse.run_program) and any other plant that
+    executes a program (benchmarks.engine, the MuJoCo rig) use it.
+
+    Parameters
+    ----------
+    program : Program
+        The program.
+    instants : numpy.ndarray, shape (n,)
+        s, the drive's sampling instants, from 0; the program's columns are interpolated
+        there (taken as they are when the instants are its own ``t``).
+    torque_limit, torque_rate_limit : float
+        N m and N m/s, the motor's limits (``math.inf``: none).
+    span : float or None
+        rad, the position counter's range; None: it never wraps.
+    previous : float
+        N m, the command before the program (the one that held the body at rest).
+    """
+
+    def __init__(
+        self,
+        program: Program,
+        instants: np.ndarray,
+        torque_limit: float,
+        torque_rate_limit: float,
+        span: float | None,
+        previous: float,
+    ) -> None:
+        names = ("torque_ff", "k_phi", "k_omega", "phi_ref", "omega_ref")
+        if np.array_equal(instants, program.t):
+            columns = tuple(getattr(program, name) for name in names)
+        else:
+            columns = tuple(np.interp(instants, program.t, getattr(program, name)) for name in names)
+        self.ff, self.kp, self.kw, self.phi_ref, self.omega_ref = columns
+        self.torque_limit = torque_limit
+        self.torque_rate_limit = torque_rate_limit
+        self.span = span
+        self.previous = previous
+
+    def command(self, k: int, y: float, omega_hat: float, h: float) -> float:
+        """The command of one sample; it becomes the previous command.
+
+        Parameters
+        ----------
+        k : int
+            The sample's index in the program.
+        y : float
+            rad, the encoder reading.
+        omega_hat : float
+            rad/s, the drive's speed estimate.
+        h : float
+            s since the previous command (the rate limit's step).
+
+        Returns
+        -------
+        float
+            N m, the command, held until the next sample.
+        """
+        error = y - self.phi_ref[k]
+        if self.span is not None:  # a counter's position error, modulo its range
+            error -= self.span * round(error / self.span)
+        u = self.ff[k] - self.kp[k] * error - self.kw[k] * (omega_hat - self.omega_ref[k])
+        u = min(max(u, -self.torque_limit), self.torque_limit)
+        du_max = self.torque_rate_limit * h
+        u = min(max(u, self.previous - du_max), self.previous + du_max)
+        self.previous = u
+        return u

@@ -31,6 +31,7 @@ from rsp_inertia.virtual.drive import (
     STREAM_REVERSE,
     STREAM_REVERSE_BACKWARD,
     PassTruth,
+    ProgramDrive,
     SimulatedPass,
     SpeedObserver,
     braking_torque,
@@ -69,8 +70,8 @@ def run_program(
 
         u = clip(torque_ff - k_phi (phi - phi_ref) - k_omega (omega - omega_ref), +-torque_limit)
 
-    limits the change from the previous sample to torque_rate_limit times the step, and holds
-    u until its next instant; with a wrapping position counter (``counter_bits``) phi - phi_ref
+    limits the change from the previous sample to torque_rate_limit times the step
+    (:class:`rsp_inertia.virtual.drive.ProgramDrive`), and holds u until its next instant; with a wrapping position counter (``counter_bits``) phi - phi_ref
     is taken modulo the counter's range. The encoder reads phi + e(phi) (``[rig]``'s reading
     error): the drive regulates on what it reads. u is the drive's command: the log records it
     (plus noise), the body receives h_d u while the motor drives it and h_b u while the body
@@ -132,8 +133,6 @@ def run_program(
 
     x = np.array(start, dtype=float)
     held = float(static_torque(x[0], pair[0]))
-    # The command that held the body at rest (a drive that holds, drives: power_flow_split).
-    u_prev = held if ideal else logged_torque(held, 0.0, gains)
     observer = SpeedObserver(
         float(virtual.rig.reading(x[0], q)),
         x[1],
@@ -145,19 +144,10 @@ def run_program(
     applied = np.empty(n)
     commands = np.empty(n)
     at = instants[:-1]
-    if np.array_equal(at, program.t):
-        columns = (program.torque_ff, program.k_phi, program.k_omega)
-        ref_columns = (program.phi_ref, program.omega_ref)
-    else:
-        columns = tuple(
-            np.interp(at, program.t, c)
-            for c in (program.torque_ff, program.k_phi, program.k_omega)
-        )
-        ref_columns = tuple(
-            np.interp(at, program.t, c) for c in (program.phi_ref, program.omega_ref)
-        )
-    ff, kp, kw = columns
-    ref_phi, ref_omega = ref_columns
+    # The command that held the body at rest (a drive that holds, drives: power_flow_split).
+    drive = ProgramDrive(
+        program, at, u_max, rate_max, span, held if ideal else logged_torque(held, 0.0, gains)
+    )
     h_prev = dt
     for k in range(n):
         phi_true[k], omega_true[k] = x
@@ -165,20 +155,13 @@ def run_program(
         omega_hat = observer.update(y, h_prev)
         if ideal:
             y, omega_hat = x
-        error = y - ref_phi[k]
-        if span is not None:  # a counter's position error, modulo its range
-            error -= span * round(error / span)
-        u = ff[k] - kp[k] * error - kw[k] * (omega_hat - ref_omega[k])
-        u = min(max(u, -u_max), u_max)
-        du_max = rate_max * h_prev
-        u = min(max(u, u_prev - du_max), u_prev + du_max)
+        u = drive.command(k, y, omega_hat, h_prev)
         if ideal:  # u is the torque the body receives; the log has the command that gives it
             motion = _motion(x, u, pair)
             applied[k], commands[k] = u, logged_torque(u, motion, gains)
         else:  # u is the command
             applied[k], commands[k] = _received(x, u, gains, pair), u
         physical = applied[k]
-        u_prev = u
         h_prev = float(steps[k])
         x = advance(x, physical, h_prev, pair, coarse)
     truth = PassTruth(
