@@ -150,7 +150,22 @@ CONVENTIONS = (
 def reference_terms(reference: TrueBody, gear_ratio: float, gravity: float) -> np.ndarray:
     """The reference body's terms of one stage, :data:`REFERENCE_TERMS`: its reduced
     inertia's harmonics (no tare) and its gravity terms m g x_c, m g y_c, in rig axes
-    (docs/method.md §2-3)."""
+    (docs/method.md §2-3).
+
+    Parameters
+    ----------
+    reference : TrueBody
+        The reference as it sits on the rig (rsp_inertia.plant.config.placed_reference).
+    gear_ratio : float
+        The stage's lambda.
+    gravity : float
+        m/s^2, device.toml's.
+
+    Returns
+    -------
+    numpy.ndarray, shape (7,)
+        [M0, Mc2, Ms2, Ms1, Mc1] (kg m^2), [Gs, Gc] (N m).
+    """
     weight = reference.mass * gravity
     return np.concatenate(
         [inertia_harmonics(reference.inertia, gear_ratio, 0.0), weight * reference.com[:2]]

@@ -159,6 +159,7 @@ def identify_logs(
     *,
     pendulum_stiffness: tuple[float, float] | None = None,
     warnings: Sequence[str] = (),
+    conventions: str = "",
 ) -> Identification:
     """Identify the tensor (and centre of mass) from every run's braking and reverse logs.
 
@@ -181,6 +182,9 @@ def identify_logs(
         best-practice pendulum; device.toml's ``[pendulum]`` one without it.
     warnings : sequence of str
         Warnings found before (by the reader of the inputs): the result's list starts with them.
+    conventions : str
+        The calibration's line on the rig's conventions (calibration.toml
+        ``calibration.conventions``), carried into the result's ``calibration``.
 
     Returns
     -------
@@ -260,7 +264,7 @@ def identify_logs(
         friction_asymmetry=fit.friction_asymmetry,
         friction_asymmetry_std=fit.friction_asymmetry_std,
         model_tests=fit.tests,
-        calibration=known.summary(fit.known_after),
+        calibration=known.summary(fit.known_after, conventions),
     )
 
 

@@ -229,13 +229,16 @@ class KnownTerms:
         g[self.harmonics_slice(stage)] = inertia_basis(np.atleast_1d(phi))[0]
         return float(g @ self.cov @ g)
 
-    def summary(self, after: KnownTerms | None = None) -> CalibrationSummary | None:
+    def summary(
+        self, after: KnownTerms | None = None, conventions: str = ""
+    ) -> CalibrationSummary | None:
         """result.json's ``calibration``: what was applied (None when nothing was), and with
         ``after`` (the terms after the runs refined them) the drive's gains and the encoder's
-        error as the runs left them (``refined``)."""
+        error as the runs left them (``refined``); ``conventions``, the calibration's line on
+        the rig's conventions."""
         if not self.calibrated:
             return None
-        out = self._summary()
+        out = replace(self._summary(), conventions=conventions)
         if after is not None:
             out = replace(out, refined=after._summary().refinable())
         return out

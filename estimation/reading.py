@@ -210,14 +210,11 @@ def identify_experiment(exp: Experiment) -> Identification:
     stiffness = None
     if calibration is not None and logs.pendulum:
         stiffness = calibration.pendulum_stiffness()
-    result = identify_logs(logs, known, pendulum_stiffness=stiffness, warnings=warnings)
-    if calibration is not None and result.calibration is not None:
-        # What calibrate found of the rig's conventions goes on with the calibration.
-        summary = dataclasses.replace(
-            result.calibration, conventions=calibration.calibration.conventions
-        )
-        result = dataclasses.replace(result, calibration=summary)
-    return result
+    # What calibrate found of the rig's conventions goes on with the calibration.
+    conventions = "" if calibration is None else calibration.calibration.conventions
+    return identify_logs(
+        logs, known, pendulum_stiffness=stiffness, warnings=warnings, conventions=conventions
+    )
 
 
 def unterminated_warnings(logs: ExperimentLogs) -> list[str]:

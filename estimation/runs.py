@@ -100,6 +100,20 @@ def corrected_log(log: Log, encoder, zero: float = 0.0) -> Log:
     bounds the true one from below: the floor convention the smoother assumes holds, the
     count's width changed by the factor 1 - e' (|e'| of a few 1e-4). An empty ``encoder``
     and no zero offset return the log itself.
+
+    Parameters
+    ----------
+    log : Log
+        The log as read.
+    encoder : sequence of float
+        theta_e, rad (empty: none).
+    zero : float
+        z, rad, the encoder's zero offset.
+
+    Returns
+    -------
+    Log
+        The log with the true angle, its notes kept.
     """
     encoder = np.asarray(encoder, dtype=float)
     if (encoder.size == 0 or not np.any(encoder)) and not zero:

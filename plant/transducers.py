@@ -122,10 +122,24 @@ def encoder_reading(
 
 
 def true_angle(reading, coefficients, zero: float = 0.0) -> np.ndarray:
-    """The true angle phi whose reading is ``reading``: phi + z + e(phi) = reading (z the
-    encoder's zero offset, rad), solved by fixed-point iteration (|e'| << 1: each step gains
-    the factor |e'|, so four steps leave (|e'|)^4 of e, far below rounding for any real
-    encoder)."""
+    """The true angle phi whose reading is ``reading``: phi + z + e(phi) = reading, solved by
+    fixed-point iteration (|e'| << 1: each step gains the factor |e'|, so four steps leave
+    (|e'|)^4 of e, far below rounding for any real encoder).
+
+    Parameters
+    ----------
+    reading : float or array_like
+        rad, what the encoder read.
+    coefficients : sequence of float
+        theta_e, rad, of the reading error e (module docstring).
+    zero : float, optional
+        z, rad, the encoder's zero offset.
+
+    Returns
+    -------
+    numpy.ndarray
+        rad, the true angle.
+    """
     reading = np.asarray(reading, dtype=float) - zero
     coefficients = np.asarray(coefficients, dtype=float)
     if coefficients.size == 0 or not np.any(coefficients):

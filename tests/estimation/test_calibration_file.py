@@ -544,8 +544,9 @@ def test_identify_reads_the_calibration_once(tmp_path, monkeypatch):
     exp = open_experiment(root)
     handed = {}
 
-    def estimator(logs, known, *, pendulum_stiffness, warnings):
-        handed.update(known=known, stiffness=pendulum_stiffness, warnings=warnings)
+    def estimator(logs, known, *, pendulum_stiffness, warnings, conventions):
+        handed.update(known=known, stiffness=pendulum_stiffness, warnings=warnings,
+                      conventions=conventions)
         return "identified"
 
     monkeypatch.setattr(reading, "identify_logs", estimator)

@@ -19,6 +19,7 @@ import rsp_inertia.estimation
 from rsp_inertia.estimation import calibration
 from rsp_inertia.estimation.calibration_file import CalibrationFile
 from rsp_inertia.estimation.known_terms import KnownTerms
+from rsp_inertia.plant.config import TrueBody
 from rsp_inertia.estimation.layout import (
     SHARED_LAYOUT,
     Layout,
@@ -112,11 +113,16 @@ def test_calibration_file_names_theta_by_the_layout() -> None:
 
 
 def test_the_fits_unknowns_are_named_by_the_layouts(default_device, default_balances) -> None:
-    """The calibration fit's theta unknowns are the layout's names (its reference fit has
-    every segment), and the tensor fit's blocks have the shared layout's columns."""
+    """The calibration fit's theta unknowns are the layout's names (its fit with a reference
+    that shows the rig's orientation has every segment), and the tensor fit's blocks have the
+    shared layout's columns."""
     theta = theta_layout(len(default_device.stages), calibration.ENCODER_ORDERS)
+    turned = TrueBody(mass=3.0, inertia=[0.03, 0.032, 0.02, 0.001, -0.002, 0.0015],
+                      com=[0.0, 0.01, 0.0])
     blocks = calibration._blocks(default_device, default_balances, "empty", None, True,
-                                 calibration.ENCODER_ORDERS)
+                                 calibration.ENCODER_ORDERS, orientation=True)
+    blocks += calibration._blocks(default_device, default_balances, "reference", turned, True,
+                                  calibration.ENCODER_ORDERS, orientation=True)
     unknowns = {n for b in blocks for n in (*b.columns, *b.inertia_scaled_columns)}
     assert set(theta.names()) <= unknowns
     assert {n for n in unknowns if n in theta.names()} == set(theta.names())

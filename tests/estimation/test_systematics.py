@@ -19,6 +19,7 @@ from rsp_inertia.estimation import identify as identify_module
 from rsp_inertia.estimation.axes import axis_values
 from rsp_inertia.estimation.balance import stage_balance
 from rsp_inertia.estimation.known_terms import KnownTerms
+from rsp_inertia.estimation.layout import theta_layout
 from rsp_inertia.estimation.passes import estimate_pass
 from rsp_inertia.estimation.reading import known_terms, read_calibration
 from rsp_inertia.estimation.runs import ExperimentLogs
@@ -369,7 +370,8 @@ def test_the_pendulum_baseline_reads_the_corrected_encoder(rig, monkeypatch):
 
     monkeypatch.setattr(identify_module, "estimate_pendulum", capture)
     known = dataclasses.replace(
-        KnownTerms.from_tares([0.0, 0.0]), encoder=theta, cov=np.zeros((20, 20))
+        KnownTerms.from_tares([0.0, 0.0]), encoder=theta,
+        cov=np.zeros((theta_layout(2, theta.size // 2).size,) * 2),
     )
     logs = ExperimentLogs(device=device, runs={}, pendulum={(1, 1): log})
     with pytest.raises(RuntimeError, match="captured"):
