@@ -113,10 +113,10 @@ def check(path: str | Path, calibration: bool = False) -> CheckResult:
     try:
         calibrated = read_calibration(exp)
         known, known_warnings = known_terms(exp, calibrated)
-        encoder, fault = known.encoder, None
+        encoder, fault = (known.encoder, known.zero), None
     except InputError as error:
         calibrated, known_warnings = None, []
-        encoder, fault = (), str(error)  # a bad calibration.toml: its own line (_check_constants)
+        encoder, fault = ((), 0.0), str(error)  # a bad calibration.toml: its own line (_check_constants)
     for stage, st in enumerate(device.stages, 1):
         for direction in st.directions if protocol else ():
             _check_run(exp, stage, direction, encoder, findings)
@@ -217,8 +217,8 @@ def _check_run(
     """One stage in one direction: braking, program, reverse. The two logs are read as
     identify reads them (rsp_inertia.estimation.reading.read_run; each alone, to say which
     and why, when that fails) and checked as identify checks them before its fit
-    (rsp_inertia.estimation.runs.checked_run, with the encoder's error coefficients
-    ``encoder``)."""
+    (rsp_inertia.estimation.runs.checked_run, with ``encoder``: the encoder's error
+    coefficients and zero offset)."""
     device = exp.device
     run = f"stage {stage} {direction}"
     option = "" if direction is Direction.FORWARD else f" --direction {direction}"
@@ -285,7 +285,7 @@ def _check_run(
         warnings: list[str] = []
         try:
             checked_run(
-                device, stage, pair, direction, warnings, (str(b_path), str(r_path)), encoder
+                device, stage, pair, direction, warnings, (str(b_path), str(r_path)), *encoder
             )
         except InputError as error:
             _add(findings, "error", str(error))
@@ -387,7 +387,7 @@ def _check_regulator(exp: Experiment, path: Path, braking: Log, findings: Findin
 def _check_pendulum(exp: Experiment, encoder, findings: Findings) -> None:
     """The torsion-pendulum baseline's runs (optional), each read and reduced as identify
     reduces it (rsp_inertia.estimation.identify.reduce_pendulum_run, with the encoder's error
-    coefficients ``encoder``)."""
+    coefficients and zero offset ``encoder``)."""
     device = exp.device
     present = [
         (stage, k)
@@ -410,7 +410,7 @@ def _check_pendulum(exp: Experiment, encoder, findings: Findings) -> None:
         if log is None:
             continue
         try:
-            reduce_pendulum_run(device, log, stage, k, str(path), encoder)
+            reduce_pendulum_run(device, log, stage, k, str(path), *encoder)
         except InputError as error:
             _add(findings, "error", str(error))
             continue

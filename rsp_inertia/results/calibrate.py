@@ -53,6 +53,12 @@ class CalibrateResult(Drawn):
         e(phi) = sum c_n cos(n phi) + s_n sin(n phi).
     encoder_error_std : numpy.ndarray, shape (2 orders,)
         rad.
+    encoder_zero, encoder_zero_std : float
+        rad, the encoder's zero offset (it reads phi + zero + e(phi)) and its std: measured
+        with a reference that shows the rig's orientation, else 0 and 0.
+    conventions : str
+        One line on the rig's conventions (the gear's sense, phi's handedness, the encoder's
+        zero): verified by the reference, or not and how to verify them.
     reference : bool
         Whether a reference experiment fixed the drive's gains and the encoder's error.
     empty_inertia : numpy.ndarray, shape (stages, 5)
@@ -132,6 +138,21 @@ class CalibrateResult(Drawn):
         """rad."""
         encoder = self._file.encoder
         return _interleaved(encoder.error_cos_std, encoder.error_sin_std)
+
+    @property
+    def encoder_zero(self) -> float:
+        """rad, the encoder's zero offset."""
+        return float(self._file.encoder.zero or 0.0)
+
+    @property
+    def encoder_zero_std(self) -> float:
+        """rad, its std."""
+        return float(self._file.encoder.zero_std or 0.0)
+
+    @property
+    def conventions(self) -> str:
+        """The calibration's one line on the rig's conventions."""
+        return self._file.calibration.conventions
 
     @property
     def reference(self) -> bool:
