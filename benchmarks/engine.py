@@ -519,7 +519,7 @@ def run_folder(root, body: TrueBody | None, rig: EngineRig, seed: tuple) -> None
         The folder's random streams (the logs' noise).
     """
     from rsp_inertia.api import program as make_program
-    from rsp_inertia.plant.config import load_device
+    from rsp_inertia.plant.config import load_device, placed_reference
     from rsp_inertia.plant.logs import read_program, write_log
 
     name = "empty" if body is None else "reference" if body is REFERENCE else "body"
@@ -531,10 +531,13 @@ def run_folder(root, body: TrueBody | None, rig: EngineRig, seed: tuple) -> None
             f"[body]\nmass = {body.mass!r}\ninertia = [{inertia}]\ncom = [0.0, 0.0, 0.0]\n"
         )
     device = load_device(root / "device.toml")
+    # The body as it sits on the rig: its folder's [mounting] places it (the demo rig's
+    # reference is mounted turned), exactly as calibrate and identify place it.
+    placed = None if body is None else placed_reference(body, device.mounting)
     rests = []
     engines = []
     for k, stage in enumerate(device.stages, start=1):
-        engine = GimbalEngine(rig.gimbal(stage.gear_ratio, body, device.gravity))
+        engine = GimbalEngine(rig.gimbal(stage.gear_ratio, placed, device.gravity))
         log, rest = braking_pass(engine, stage, device.encoder, rig,
                                  np.random.default_rng([*seed, k, 0]))
         (root / f"stage{k}").mkdir(exist_ok=True)

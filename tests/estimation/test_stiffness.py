@@ -10,7 +10,7 @@ import pytest
 
 from rsp_inertia.estimation.runs import ExperimentLogs
 from rsp_inertia.estimation.stiffness import _two_period, calibrate_stiffness
-from rsp_inertia.plant.config import load_reference
+from rsp_inertia.plant.config import load_reference, placed_reference
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.logs import read_log
 from rsp_inertia.scenarios import create_rig_experiment
@@ -77,7 +77,10 @@ def test_calibrated_stiffness_recovers_the_rigs(rig):
         true_parameters(device, s, virtual).inertia_harmonics
         for s in range(1, len(device.stages) + 1)
     ])
-    body = load_reference(reference.root / "reference.toml")
+    # The reference as it sits on the rig: its folder's [mounting] turns it (calibrate's).
+    body = placed_reference(
+        load_reference(reference.root / "reference.toml"), reference.device.mounting
+    )
     cal = calibrate_stiffness(
         _pendulum_logs(empty), _pendulum_logs(reference), body, G_f, np.zeros((2, 2)), harmonics
     )
