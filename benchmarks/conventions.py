@@ -123,14 +123,14 @@ def report(rows: list[dict], command: str) -> str:
     lines = [
         "# The rig's conventions verified by calibrate",
         "",
-        f"Made by `{command}` (benchmarks/conventions.py; its docstring says what each case "
-        "is). The demo's rig, its reference mounted turned; one fault of virtual.toml `[rig]` "
-        "per case in every folder. Targets: a sign slip refused naming the convention, "
-        "nothing written; a zero offset measured within 3 stds and the tensor within 1e-4 of "
-        "the largest moment and 3 stds; a clean rig neither refused nor warned about.",
+        (f"Made by `{command}` (benchmarks/conventions.py; its docstring says what each case "
+         "is). The demo's rig, its reference mounted turned; one fault of virtual.toml `[rig]` "
+         "per case in every folder. Targets: a sign slip refused naming the convention, "
+         "nothing written; a zero offset measured within 3 stds and the tensor within 1e-4 of "
+         "the largest moment and 3 stds; a clean rig neither refused nor warned about."),
         "",
-        "| case | seed | verdict | refused with | zero measured, deg | max rel. err | "
-        "max err/std | warnings (calibrate + identify) | s |",
+        ("| case | seed | verdict | refused with | zero measured, deg | max rel. err | "
+         "max err/std | warnings (calibrate + identify) | s |"),
         "|---|---|---|---|---|---|---|---|---|",
     ]
     for row in rows:

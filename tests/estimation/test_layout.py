@@ -19,7 +19,6 @@ import rsp_inertia.estimation
 from rsp_inertia.estimation import calibration
 from rsp_inertia.estimation.calibration_file import CalibrationFile
 from rsp_inertia.estimation.known_terms import KnownTerms
-from rsp_inertia.plant.config import TrueBody
 from rsp_inertia.estimation.layout import (
     SHARED_LAYOUT,
     Layout,
@@ -28,6 +27,7 @@ from rsp_inertia.estimation.layout import (
     theta_layout,
 )
 from rsp_inertia.estimation.tensor_fit import tensor_block
+from rsp_inertia.plant.config import TrueBody
 from rsp_inertia.plant.geometry import ENTRY_KEYS, GRAVITY_NAMES, HARMONIC_NAMES
 
 SHAPES = [(stages, orders) for stages in (1, 2, 3) for orders in (0, 1, 3)]
