@@ -541,7 +541,12 @@ def encoder_figures(calibration: Calibration) -> list[tuple[str, Figure]]:
     if not calibration.known.orders:
         return []
     title = f"{calibration.device_name}: encoder reading error from the calibration"
-    return [(ENCODER_FIGURE, encoder_error_figure(calibration.known, title))]
+    k = calibration.known
+    zero_std = float(k.std[k.zero_slice][0])
+    if zero_std > 0:  # the zero offset, measured and taken off with e: a constant, not drawn
+        title += (f"\n(and a zero offset of {np.degrees(k.zero) * 3600:+.1f} +- "
+                  f"{np.degrees(zero_std) * 3600:.1f} arcsec, not drawn)")
+    return [(ENCODER_FIGURE, encoder_error_figure(k, title))]
 
 
 def calibrate_figures(result: CalibrateResult) -> list[tuple[str, Figure]]:
