@@ -11,8 +11,13 @@ with the command that made it):
 - ``plan``: pilot, plan, program, closed loop, identify -> plan.md;
 - ``systematics``: rig imperfections, before and after calibration -> systematics.md;
 - ``real_logs``: jittered, lossy, wrapping logs against clean ones -> real_logs.md;
+- ``mountings``: combining mountings, their accuracy and the misalignment test ->
+  mountings.md, mountings.json;
 - ``engine``: the calibrated route on logs made by MuJoCo, an independent 3-D engine (and
   the reduced model against it) -> engine.md, engine.json;
+- ``conventions``: a rig built against docs/method.md §1's conventions (a reversed gear, a
+  left-handed phi, an encoder counting backwards or zeroed off) and clean rigs, through
+  calibrate with a turned reference -> conventions.md, conventions.json;
 - ``scale``: wall time and peak memory of simulate, program and identify against braking
   length and sample rate, growth exponents (``make bench-scale``) -> scale.md, scale.png.
 

@@ -161,7 +161,9 @@ def report(rows: list[dict], command: str) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        prog="python -m benchmarks.conventions", description=__doc__.split("\n\n")[0]
+    )
     parser.add_argument("--seeds", type=int, default=5, help="seeds per fault (5)")
     parser.add_argument("--clean", type=int, default=20, help="seeds of the clean rig (20)")
     parser.add_argument("--jobs", type=int, default=2, help="processes (2)")

@@ -42,7 +42,10 @@ ROOT = Path(__file__).parents[1]
 PAPER = Case(friction_factor=1.0, encoder_bits=16, seed=0)
 """The cheapest case of the default grid: the paper's friction on the default encoder."""
 
-PROGRAMS = ("sweep", "identification", "program", "plan", "systematics", "real_logs", "scale")
+PROGRAMS = (
+    "sweep", "identification", "program", "plan", "systematics", "real_logs", "scale",
+    "mountings", "engine", "conventions",
+)
 
 
 def without_timings(row: dict) -> dict:
