@@ -460,7 +460,8 @@ def calibrate_logs(
     conventions = None
     for iteration in range(ENCODER_ITERATIONS if reference is not None else 1):
         warnings: list[str] = []
-        applied = () if encoder is None else encoder
+        # What the logs are corrected with: the encoder's error and zero found so far.
+        applied, zero_applied = (() if encoder is None else encoder), zero
         # The runs' lines from the first balancing only: the repetitions would repeat them.
         with lines_to(None if iteration == 0 else drop):
             empty_bal, _ = balance_runs(empty, warnings, applied, zero=zero or 0.0)
@@ -484,7 +485,7 @@ def calibrate_logs(
             )
             conventions = check_conventions(fitter, known, reference.sources.experiment)
             if not conventions.zero_measured:
-                zero = None
+                zero = zero_applied = None
                 known, fit = fit_calibration(
                     device, empty_bal, ref_bal, reference_body, encoder, scales, tests=False
                 )
@@ -501,7 +502,7 @@ def calibrate_logs(
         )
     known, fit = fit_calibration(
         device, empty_bal, ref_bal, reference_body, applied if len(applied) else None, scales,
-        zero=zero,
+        zero=zero_applied,
     )
     if conventions is None:
         conventions = unverified_conventions()
