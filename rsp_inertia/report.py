@@ -253,7 +253,9 @@ def _calibration_section(result: dict) -> list[str]:
     if not calibration:
         return ["<h2>Calibration</h2>",
                 ("<p>None applied: device.toml's tares, a torque gain of 1, a lossless drive "
-                 "and the stated encoder error, taken as exact.</p>")]
+                 "and the stated encoder error, taken as exact; the rig's conventions (the "
+                 "gear's sense, phi's handedness, the encoder's zero) were not verified: "
+                 "calibrate with a reference mounted turned verifies them.</p>")]
     refined = calibration.get("refined") or {}
     rows = []
     for key, value in calibration.items():

@@ -13,11 +13,12 @@ from __future__ import annotations
 import dataclasses
 import math
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from rsp_inertia import calibrate, identify, simulate
+from rsp_inertia import calibrate, identify, simulate, write_report
 from rsp_inertia.cli import main
 from rsp_inertia.estimation.conventions import (
     CONVENTIONS,
@@ -248,6 +249,9 @@ def test_a_zero_offset_is_measured_applied_and_the_tensor_is_true(zeroed):
     assert record.std_budget[ZERO_SOURCE]["tensor"].max() > 0
     assert record.calibration.conventions == calibration.conventions
     assert not result.warnings
+    # The report says it, in its calibration section.
+    page = Path(write_report(exp)).read_text()
+    assert "Conventions verified by the reference: the gear&#x27;s sense" in page
 
 
 @pytest.mark.parametrize(
