@@ -134,9 +134,8 @@ def report(rows: list[dict], command: str) -> str:
         "|---|---|---|---|---|---|---|---|---|",
     ]
     for row in rows:
-        refusal = row["refused"] or ""
-        if len(refusal) > 140:
-            refusal = refusal[:140] + " ..."
+        # The refusal's fault and evidence, without its folder and its fix.
+        refusal = (row["refused"] or "").split(": ", 1)[-1].split("; ")[0]
         zero = rel = ratio = warned = ""
         if not row["refused"]:
             zero = f"{row['zero_deg']:+.4f} +- {row['zero_std_deg']:.4f}"
@@ -178,7 +177,9 @@ def main(argv: list[str] | None = None) -> int:
         futures = [pool.submit(run_case, case, seed, work) for case, seed in jobs]
         rows = []
         for future in futures:
-            rows.append(future.result())
+            # Messages name the scratch folder: WORK in the files, which do not depend on it.
+            text = json.dumps(future.result()).replace(str(Path(work)) + "/", "WORK/")
+            rows.append(json.loads(text))
             row = rows[-1]
             print(f"{row['case']} seed {row['seed']}: {_verdict(row)}", file=sys.stderr)
     args.out.mkdir(parents=True, exist_ok=True)
