@@ -491,15 +491,19 @@ FOLDERS = (("empty", None), ("reference", REFERENCE), ("body", BODY))
 
 def device_text(folder: str) -> str:
     """device.toml of one folder: the demo rig's (plant/defaults/rig/), forward runs only and
-    no pendulum runs (the engine's rig is the same both ways round)."""
-    import re
+    no pendulum runs (the engine's rig is the same both ways round); every other table as
+    it is (the reference folder's ``[mounting]``, which turns the reference)."""
     from importlib import resources
+
+    import tomlkit
 
     parts = ("rig",) if folder == "body" else ("rig", folder)
     text = resources.files("rsp_inertia.plant").joinpath("defaults", *parts, "device.toml")
-    text = text.read_text()
-    text = re.sub(r"(?m)^directions = .*\n", "", text)
-    return re.sub(r"\[pendulum\].*", "", text, flags=re.DOTALL)
+    doc = tomlkit.parse(text.read_text())
+    doc.pop("pendulum", None)
+    for stage in doc["stage"]:
+        stage.pop("directions", None)
+    return tomlkit.dumps(doc)
 
 
 def run_folder(root, body: TrueBody | None, rig: EngineRig, seed: tuple) -> None:
@@ -601,6 +605,9 @@ def calibrated_route(work, seed: int) -> dict:
         "entries": np.asarray(result.entries).tolist(),
         "entries_std": np.asarray(result.entries_std).tolist(),
         "truth": BODY.inertia.tolist(),
+        "com": np.asarray(result.com).tolist(),
+        "com_std": np.asarray(result.com_std).tolist(),
+        "com_truth": BODY.com[:2].tolist(),
         "seconds": time.perf_counter() - start,
     }
 
@@ -702,7 +709,16 @@ def report(rows: list[dict], agreement: dict[str, float], command: str) -> str:
         [str(r["seed"]), *(f"{v:+.1e}" for v in er / largest), f"{np.abs(er).max() / largest:.1e}"]
         for r, er in zip(rows, err, strict=True)
     ])
-    within = bool(np.all(np.abs(z) <= 3) and np.all(np.abs(err) <= 1e-4 * largest))
+    com_z = np.array([np.subtract(r["com"], r["com_truth"]) / np.asarray(r["com_std"])
+                      for r in rows])
+    lines += ["", "## Centre of mass (x_c, y_c): err / std", ""]
+    lines += table_lines(["seed", "x_c", "y_c"], [
+        [str(r["seed"]), *(f"{v:+.2f}" for v in zc)] for r, zc in zip(rows, com_z, strict=True)
+    ])
+    within = bool(
+        np.all(np.abs(z) <= 3) and np.all(np.abs(err) <= 1e-4 * largest)
+        and np.all(np.abs(com_z) <= 3)
+    )
     lines += [
         "",
         "## Summary",
@@ -713,7 +729,9 @@ def report(rows: list[dict], agreement: dict[str, float], command: str) -> str:
         ),
         (f"- largest |err|/std: {np.abs(z).max():.2f}; largest |err| / largest moment: "
          f"{np.abs(err).max() / largest:.1e}"),
-        f"- every entry within 3 stds and within 1e-4 of the largest moment: {within}",
+        f"- centre of mass: largest |err|/std {np.abs(com_z).max():.2f}",
+        (f"- every entry within 3 stds and within 1e-4 of the largest moment, and the centre "
+         f"of mass within 3 stds: {within}"),
         "",
     ]
     return "\n".join(lines)
