@@ -272,7 +272,7 @@ def test_a_flipped_convention_is_refused_and_nothing_is_written(
     assert code == 2 and err.count("\n") == 1, err
     assert named in err and "times their certified values" in err
     # Named for what it is, never taken for a drive loss or an encoder eccentricity.
-    assert "drive" not in err and "eccentric" not in err
+    assert "drive loss" not in err and "gain" not in err and "eccentric" not in err
     assert sorted(p.name for p in exp.iterdir()) == before
 
 
