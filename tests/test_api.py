@@ -472,6 +472,8 @@ def test_demo_returns_the_calibrated_result_against_the_truth(tmp_path):
     table, written = str(result).split("\nresult -> ")
     assert "truth" in table.splitlines()[0]
     assert table in "\n".join(lines)
-    assert lines[-1] == f"result -> {written}"
+    # The identification's lines, then the second mounting's and the combination's.
+    assert f"result -> {written}" in lines
+    assert lines[-1] == f"body -> {tmp_path / 'demo' / 'body' / 'body.json'}"
     assert result.to_json() == (tmp_path / "demo" / "result.json").read_text()
     assert np.all(np.abs(result.entries - result.truth) < 5 * result.entries_std)
