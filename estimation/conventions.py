@@ -238,7 +238,7 @@ class ConventionCheck:
             if self.zero_measured
             else "the encoder's zero offset not measured"
         )
-        if not missing and self.zero_measured:
+        if not missing:
             apart = min((k + 1.0) / std for k, std in self.factors.values())
             return (
                 "conventions verified by the reference: the gear's sense, phi's handedness "
