@@ -133,8 +133,11 @@ def test_kept_conventions_are_verified_and_a_zero_beyond_the_bound_refused():
     )
     with pytest.raises(InputError, match=r"the encoder's zero is off by about \+12\.0 deg"):
         check_conventions(_fitter(factors), _known(math.radians(12.0), 1e-4), None)
-    # A zero the reference shows too weakly is not measured.
-    assert not check_conventions(_fitter(factors), _known(0.01, math.radians(2)), None).zero_measured
+    # A zero the reference shows too weakly is not measured, and the line says so.
+    weak = check_conventions(_fitter(factors), _known(0.01, math.radians(2)), None)
+    assert not weak.zero_measured
+    assert weak.statement.startswith("conventions verified by the reference")
+    assert weak.statement.endswith("the encoder's zero offset not measured)")
 
 
 def test_a_reference_that_cannot_show_a_convention_leaves_it_unverified():
