@@ -37,11 +37,12 @@ from rsp_inertia.estimation.best_practice import (
     gravity_stiffness,
     half_cycle_fit,
 )
+from rsp_inertia.estimation.conventions import reference_terms
 from rsp_inertia.estimation.pendulum import crossing_period
 from rsp_inertia.estimation.runs import ExperimentLogs
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.config import TrueBody
-from rsp_inertia.plant.model import inertia_basis, inertia_harmonics
+from rsp_inertia.plant.model import inertia_basis
 
 __all__ = ["StiffnessCalibration", "calibrate_stiffness"]
 
@@ -126,11 +127,10 @@ def calibrate_stiffness(
     device = empty.device
     if device.pendulum is None:
         return None
-    g = device.gravity
-    body_gravity = np.array([body.mass * g * body.com[0], body.mass * g * body.com[1]])
     values, variances, per_node, paths = [], [], [], []
     for stage, st in enumerate(device.stages, 1):
-        ref_harmonics = inertia_harmonics(body.inertia, st.gear_ratio, 0.0)
+        terms = reference_terms(body, st.gear_ratio, device.gravity)
+        ref_harmonics, body_gravity = terms[:5], terms[5:]
         for k, node_deg in enumerate(st.nodes_deg, 1):
             if not all((stage, k) in logs.pendulum for logs in (empty, reference)):
                 continue
@@ -147,8 +147,8 @@ def calibrate_stiffness(
             d = float(M_e[1] - M_e[0])
             M_r = float(basis[1] @ ref_harmonics)
 
-            def c_of(w_e, w_r, Gf, at=(phi_e, phi_r, d, M_r)):
-                return _two_period(w_e, w_r, Gf, body_gravity, *at)
+            def c_of(w_e, w_r, Gf, at=(phi_e, phi_r, d, M_r), Gb=body_gravity):
+                return _two_period(w_e, w_r, Gf, Gb, *at)
 
             c = c_of(w_e, w_r, fixture_gravity)
             # First-order propagation: the two frequencies and the fixture's gravity terms.

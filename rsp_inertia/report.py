@@ -240,6 +240,8 @@ def _labels(key: str, count: int) -> list[str]:
         return [f"{'cs'[i % 2]}_{i // 2 + 1} of the encoder error, rad" for i in range(count)]
     if key == "encoder_zero":
         return ["encoder zero offset, rad"]
+    if count == 1:
+        return [key.replace("_", " ")]
     return [f"{key}[{i}]" for i in range(count)]
 
 
@@ -273,8 +275,7 @@ def _calibration_section(result: dict) -> list[str]:
         stds = std if isinstance(std, list) else [std] * len(values)
         afters = after if isinstance(after, list) else [after] * len(values)
         after_stds = after_std if isinstance(after_std, list) else [after_std] * len(values)
-        names = _labels(key, len(values)) if isinstance(value, list) else (
-            _labels(key, 1) if key == "encoder_zero" else [key.replace("_", " ")])
+        names = _labels(key, len(values))
         for name, v, s, a, a_s in zip(names, values, stds, afters, after_stds):
             rows.append([name, f"{v:{VALUE}}", "-" if s is None else f"{s:.2g}",
                          "" if a is None else f"{a:{VALUE}}", "" if a_s is None else f"{a_s:.2g}"])
