@@ -742,6 +742,25 @@ RIG_FAULTS = [
         "must be >= 0, got -5e-05",
         id="negative amplitude",
     ),
+    # The conventions a rig may be built against (docs/method.md §1).
+    pytest.param(
+        RIG + 'gear_reversed = "yes"\n',
+        "rig.gear_reversed",
+        "must be a boolean, got a string ('yes')",
+        id="gear sense not a boolean",
+    ),
+    pytest.param(
+        RIG + "phi_left_handed = 1\n",
+        "rig.phi_left_handed",
+        "must be a boolean",
+        id="handedness not a boolean",
+    ),
+    pytest.param(
+        RIG + 'encoder_zero_deg = "3"\n',
+        "rig.encoder_zero_deg",
+        "must be a number, got a string ('3')",
+        id="zero offset not a number",
+    ),
 ]
 
 
