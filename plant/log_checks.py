@@ -15,6 +15,7 @@ import itertools
 import math
 import os
 from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
@@ -38,6 +39,7 @@ __all__ = [
     "TORQUE_MARGIN",
     "TORQUE_SIGNIFICANCE",
     "EncoderLike",
+    "Rows",
     "brakes_along_the_motion",
     "check_direction",
     "check_grid",
@@ -90,6 +92,35 @@ class EncoderLike(Protocol):
     def sample_rate(self) -> float:
         """Hz."""
         ...
+
+
+@dataclass(frozen=True)
+class Rows:
+    """Where a log's data rows are in its file, for messages: ``Rows(path)`` is a CSV whose
+    data row 0 is the file's line 2 (the header line 1); ``first_line`` moves it (a header
+    further down, a units row); None names rows, not lines (a binary file: TDMS, Parquet).
+
+    Examples
+    --------
+    >>> Rows("stage1/braking.csv").at(0)
+    'stage1/braking.csv, line 2'
+    >>> Rows("stage1/braking.parquet", first_line=None).at(0)
+    'stage1/braking.parquet, row 1'
+    """
+
+    path: str
+    """The file, as the messages name it."""
+    first_line: int | None = 2
+    """The file's (1-based) line of data row 0; None: a binary file, whose rows are named."""
+
+    def at(self, k: int) -> str:
+        """``"path, line N"`` (or ``"path, row N"``) of data row ``k`` (0-based)."""
+        if self.first_line is None:
+            return f"{self.path}, row {k + 1}"
+        return f"{self.path}, line {self.first_line + k}"
+
+    def __str__(self) -> str:
+        return self.path
 
 
 CHUNK_BYTES = 1 << 22
