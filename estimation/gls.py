@@ -24,6 +24,17 @@ right-hand side, and this module solves them the same way:
   work, the encoder's error through its harmonics) and the estimate's covariance holds the
   calibration's uncertainty; where the runs know nothing of theta this is the linear
   propagation K B cov(theta) B^T K^T, K the GLS gain;
+- **the torque's common scale is propagated, never estimated**: the balance equations are
+  homogeneous in the body's terms and the torque's scale (every term of 1/2 M S + Pi = W
+  scales with it, the known tares absorbed by the tensor's constant terms), so the runs
+  carry no information on a common change of the drive's gains. A fit with fixed weights
+  would still take one from them: the residuals' noise scales with the estimate while the
+  weights do not, so it shrinks the scale toward zero (stating a torque gain's std of 1%
+  without a calibration, it took the gains, and with them the tensor, 23% low). That
+  direction of theta (``consider``, the gains' own values in their slots) is left out of
+  the fitted columns and only propagated: its prior's unit variance reaches the estimate
+  through the fit's response to its column (:func:`_consider_shift`), in its group's
+  budget line, while the runs refine the rest of theta;
 - **budget**: the covariance of the estimate split by independent noise source: each torque
   log, the encoder's speed noise, and the calibration by groups of theta (S is the Cholesky
   factor in the groups' order, so each group's line is what it adds to the ones before);
@@ -358,7 +369,8 @@ class Equations:
     A: np.ndarray
     """The stacked design matrix over ``names``."""
     N: np.ndarray
-    """(len(y), q) the calibrated terms' columns -B S (module docstring, known terms)."""
+    """(len(y), q) the calibrated terms' columns -B S (module docstring, known terms), with
+    the ``consider`` direction taken out (``N (I - a a^T)``)."""
     A_all: np.ndarray
     """[A, N]: the joint fit's design matrix."""
     S: np.ndarray | None
@@ -375,6 +387,11 @@ class Equations:
     """Per block, the speed noise at scale 1."""
     priors: list[tuple[int, Prior]]
     """(block, prior) of the blocks' priors whose unknowns are all fitted."""
+    consider: np.ndarray | None = None
+    """(q,) the unit direction a of z that moves theta along the torque's common scale
+    (module docstring), propagated, not fitted; None: no such direction (the gains exact)."""
+    consider_column: np.ndarray | None = None
+    """(len(y),) its column ``N a`` (the calibrated terms' columns before it was taken out)."""
 
     @property
     def q(self) -> int:
@@ -415,6 +432,7 @@ def assemble_blocks(
     blocks: list[Block],
     known_cov: np.ndarray | None = None,
     known_groups: dict[str, list[int]] | None = None,
+    consider: np.ndarray | None = None,
 ) -> Equations:
     """The blocks' equations for the fits (module docstring): stacked, with the noise model's
     parts from a first unweighted pass and the calibrated terms as unknowns.
@@ -429,6 +447,10 @@ def assemble_blocks(
     known_groups : dict of str to list of int, optional
         Budget lines of theta: name -> its indices, in the order the budget adds them
         (default: one line, CALIBRATION_SOURCE, for all of theta).
+    consider : array, shape (p,), optional
+        A direction of theta the runs carry no information on (module docstring: the
+        torque's common scale), propagated, not estimated; None, or one the prior gives no
+        variance: every direction of theta is refined.
 
     Returns
     -------
@@ -473,8 +495,12 @@ def assemble_blocks(
         groups = known_groups or {CALIBRATION_SOURCE: list(range(p))}
         S, prior_groups = _prior_root(known_cov, groups)
         N = -B @ S  # rhs(theta_cal + S z) = rhs + B S z: on the unknowns' side, -B S z
+        direction, column = _consider_direction(S, consider, N)
+        if direction is not None:
+            N = N - np.outer(column, direction)
     else:
         S = None
+        direction = column = None
     # Each run's constant is profiled out with its last equation (class Equations).
     constant = [
         j
@@ -494,6 +520,8 @@ def assemble_blocks(
         rows=rows,
         A=A,
         N=N,
+        consider=direction,
+        consider_column=column,
         A_all=np.hstack([A, N]),
         S=S,
         prior_groups=prior_groups,
@@ -503,6 +531,20 @@ def assemble_blocks(
         speed_var=speed_var,
         priors=priors,
     )
+
+
+def _consider_direction(
+    S: np.ndarray, consider: np.ndarray | None, N: np.ndarray
+) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """The unit direction a of z with S a along ``consider`` (module docstring) and its
+    column N a; (None, None) without one or when S cannot reach it (its terms exact)."""
+    if consider is None or S.shape[1] == 0 or not np.any(consider):
+        return None, None
+    a, *_ = np.linalg.lstsq(S, consider, rcond=None)
+    if np.linalg.norm(S @ a - consider) > 1e-9 * np.linalg.norm(consider):
+        return None, None
+    a /= np.linalg.norm(a)
+    return a, N @ a
 
 
 def _own_scales(
@@ -674,6 +716,13 @@ def _balance_fit(
         rows_g = n_data + np.array([j for j, g in enumerate(eq.prior_groups) if g == name])
         P = Aw[rows_g]
         cov_parts[name] = (cov_x @ P.T @ P @ cov_x)[:n_x, :n_x]
+    z_cov = cov_x[n_x:, n_x:]
+    if eq.consider is not None:  # the common scale, propagated (module docstring)
+        shift = _consider_shift(eq, solution)
+        group = eq.prior_groups[int(np.argmax(np.abs(eq.consider)))]
+        cov_parts[group] = cov_parts[group] + np.outer(shift[:n_x], shift[:n_x])
+        z_shift = shift[n_x:] - eq.consider
+        z_cov = z_cov - np.outer(eq.consider, eq.consider) + np.outer(z_shift, z_shift)
     if with_priors:  # the blocks' priors' pseudo-equations, after the calibration's
         P = Aw[n_data + q :]
         cov_parts[PRIOR_SOURCE] = (cov_x @ P.T @ P @ cov_x)[:n_x, :n_x]
@@ -681,7 +730,7 @@ def _balance_fit(
     known_shift = known_shift_cov = None
     if eq.S is not None:
         known_shift = eq.S @ x[n_x:]
-        known_shift_cov = eq.S @ cov_x[n_x:, n_x:] @ eq.S.T
+        known_shift_cov = eq.S @ z_cov @ eq.S.T
     return BalanceFit(
         names=eq.names,
         x=x[:n_x],
@@ -697,6 +746,20 @@ def _balance_fit(
         z=x[n_x:],
         factors=factors,
     )
+
+
+def _consider_shift(eq: Equations, solution: _Solution) -> np.ndarray:
+    """What a unit step of z along ``eq.consider`` moves the joint fit's estimate by (x, then
+    z): the fit's response to the column it adds to the balances (whitened as they are; the
+    pseudo-equations unchanged). With the step itself it is the error a unit of that prior
+    leaves, whose outer product is its share of the covariance."""
+    factors, Aw = solution.factors, solution.Aw
+    column = np.zeros(Aw.shape[0])
+    column[: whitened_rows(factors)] = whiten(eq.consider_column, factors)
+    scale = np.linalg.norm(Aw, axis=0)
+    scale[scale == 0.0] = 1.0
+    step, *_ = np.linalg.lstsq(Aw / scale, column, rcond=None)
+    return step / scale
 
 
 def block_model_tests(eq: Equations, fit: BalanceFit) -> list[ModelTest]:

@@ -276,6 +276,14 @@ class KnownTerms:
         }
         return {name: indices for name, indices in groups.items() if indices}
 
+    def common_scale(self) -> np.ndarray:
+        """(p,) the direction of theta along which the logged torque's scale changes as a
+        whole: the gains' own values in their slots (a relative change of both), zero
+        elsewhere. The balances cannot measure it (rsp_inertia.estimation.gls propagates it)."""
+        out = np.zeros(self.cov.shape[0])
+        out[self.gains_slice] = self.gains
+        return out
+
     def round_trip_std(self) -> float:
         """Std of the round-trip efficiency h_d / h_b = eta_d eta_b (first order)."""
         g = np.zeros(self.cov.shape[0])

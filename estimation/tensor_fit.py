@@ -274,7 +274,10 @@ def _equations(balances: list[StageBalance], known: KnownTerms) -> Equations:
     both = both_directions(balances)
     blocks = [tensor_block(bal, str(k), known, bal.stage in both) for k, bal in enumerate(balances)]
     return assemble_blocks(
-        blocks, known.cov if known.calibrated else None, known.budget_groups()
+        blocks,
+        known.cov if known.calibrated else None,
+        known.budget_groups(),
+        consider=known.common_scale(),
     )
 
 

@@ -7,17 +7,21 @@ reported standard deviation is honest when the errors scatter like it.
 """
 
 import re
+from dataclasses import replace
 
 import numpy as np
 import pytest
 from scipy.stats import chi2
 
 from rsp_inertia.identifying import identify
+from rsp_inertia.plant.config import load_device, write_device
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.geometry import tensor_from_entries
+from rsp_inertia.plant.logs import read_log, write_log
 from rsp_inertia.scenarios import create_default_experiment
 from rsp_inertia.simulating import simulate
 from rsp_inertia.virtual.config import experiment_virtual
+from tests.conftest import copy_experiment
 
 RELEASE_JITTER_DEG = 0.5
 """Release angles are drawn uniformly within this of the default (up to ~90 counts away)."""
@@ -122,3 +126,35 @@ def test_node_formula_std_matches_the_scatter(monte_carlo):
     # number is its own square, n = 6 N_REALISATIONS, a band of [0.55, 1.65] for 60.
     lo, hi = honest_band(err.size)
     assert lo < mean_sq < hi, mean_sq
+
+
+@pytest.mark.parametrize("logged_gain", [1.0, 1.01])
+def test_a_stated_torque_gain_std_is_propagated_not_fitted(tmp_path, default_logs, logged_gain):
+    """Without a calibration, a torque gain known to 1% (device.toml's torque_gain_std, tares
+    exact): the balances are homogeneous in the tensor and the torque's scale, so the runs
+    cannot measure the gain; the tensor must come out as the logged torque says (1% high when
+    the logs read 1% high) with a std of about 1%, never pulled toward zero (a fit with fixed
+    weights took it 23% low, 22 stds, before the common scale was propagated instead)."""
+    root = copy_experiment(default_logs, tmp_path / "exp")
+    device = load_device(root / "device.toml")
+    stages = tuple(replace(st, tare_inertia_std=0.0) for st in device.stages)
+    motor = replace(device.motor, torque_gain_std=0.01)
+    write_device(root / "device.toml", replace(device, motor=motor, stages=stages))
+    for path in sorted(root.glob("stage*/*.csv")):  # the rig logs logged_gain x its torque
+        if path.name.startswith(("braking", "reverse")):
+            kind = path.stem.split("_")[0]
+            log = read_log(path, device.encoder, kind)
+            write_log(path, replace(log, torque=log.torque * logged_gain))
+    result = identify(root)
+    body = experiment_virtual(open_experiment(root)).body
+    expected = body.inertia * logged_gain
+    err = result.entries - expected
+    std = np.asarray(result.entries_std)
+    assert np.all(np.abs(err) < 3 * std), err / std
+    # The std is the gain's: 1% of each product of inertia (the noise adds a few 1e-6); a
+    # moment's a little more, as the gain scales the whole reduced inertia, the exact tare's
+    # share too, and the tare is taken off it.
+    relative = std / np.abs(expected)
+    assert np.allclose(relative[3:], 0.01, rtol=0.02), relative
+    assert np.all((relative[:3] > 0.01) & (relative[:3] < 0.013)), relative
+    assert "calibration: drive gains" in result.std_budget
