@@ -45,6 +45,14 @@ from rsp_inertia.plant.device_config import (
     require_protocol,
     write_device,
 )
+from rsp_inertia.plant.log_layout import (
+    AngleUnit,
+    LogFormat,
+    LogLayout,
+    TimeOrigin,
+    TimeUnit,
+    TorqueUnit,
+)
 from rsp_inertia.plant.reference_config import (
     TrueBody,
     load_reference,
@@ -54,6 +62,12 @@ from rsp_inertia.plant.reference_config import (
 
 __all__ = [
     "DEFAULT_GRAVITY",
+    "AngleUnit",
+    "LogFormat",
+    "LogLayout",
+    "TimeOrigin",
+    "TimeUnit",
+    "TorqueUnit",
     "PROTOCOL",
     "REQUIRED_AXES",
     "ROTATION_TOLERANCE",
