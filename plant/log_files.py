@@ -239,7 +239,8 @@ def _read_csv(path: Path, layout: LogLayout) -> _Raw:
 
 def _not_found(path: Path, what: str, name: str, where: str, names: list[str], key: str) -> str:
     shown = ", ".join(repr(n) for n in names[:12]) + (", ..." if len(names) > 12 else "")
-    return f"{path}: {what} {name!r} not found{where}; the file has {shown or 'none'}: set [log] {key}"
+    has = shown or "none"
+    return f"{path}: {what} {name!r} not found{where}; the file has {has}: set [log] {key}"
 
 
 def _read_tdms(path: Path, layout: LogLayout) -> _Raw:
