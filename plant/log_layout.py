@@ -157,6 +157,12 @@ class LogLayout:
         doc="The motor temperature's column, degrees Celsius; '' : not logged.",
     )
 
+    def __post_init__(self) -> None:
+        # A layout built in Python may name its choices as strings: they become the enums'
+        # members (a value no enum has is a ValueError), as reading device.toml makes them.
+        for name, kind in _CHOICES.items():
+            object.__setattr__(self, name, kind(getattr(self, name)))
+
     @property
     def extension(self) -> str:
         """The logs' file extension, with its dot: ``.csv``, ``.tdms`` or ``.parquet``."""
@@ -173,3 +179,13 @@ class LogLayout:
         if self.angle_unit is AngleUnit.RAD:
             return (("phi", AngleUnit.RAD), ("counts", AngleUnit.COUNTS))
         return (("phi", self.angle_unit),)
+
+
+_CHOICES = {
+    "format": LogFormat,
+    "time_unit": TimeUnit,
+    "time_origin": TimeOrigin,
+    "angle_unit": AngleUnit,
+    "torque_unit": TorqueUnit,
+}
+"""The keys of :class:`LogLayout` whose value is one of an enum's."""
