@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import dataclasses
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -433,3 +435,17 @@ def test_identify_from_every_layout_gives_the_plain_csvs_tensor(
 ):
     result = _identified(in_layout(default_logs, tmp_path / "exp", variant))
     assert _same_tensor(result, plain_result) < 1e-3
+
+
+def test_reading_a_csv_log_loads_neither_nptdms_nor_pyarrow(tmp_path):
+    path = tmp_path / "braking.csv"
+    write_log(path, a_log())
+    code = (
+        "import sys\n"
+        "from rsp_inertia.plant.config import Encoder\n"
+        "from rsp_inertia.plant.logs import read_log\n"
+        f"read_log({str(path)!r}, Encoder(counts_per_rev=65536, sample_rate=1000.0), 'braking')\n"
+        "print(sorted({m.split('.')[0] for m in sys.modules} & {'nptdms', 'pyarrow'}))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
