@@ -18,6 +18,8 @@ with the command that made it):
 - ``conventions``: a rig built against docs/method.md §1's conventions (a reversed gear, a
   left-handed phi, an encoder counting backwards or zeroed off) and clean rigs, through
   calibrate with a turned reference -> conventions.md, conventions.json;
+- ``log_reading``: rows per second of every logger's format and dialect (device.toml
+  ``[log]``), checks included -> log_reading.md;
 - ``scale``: wall time and peak memory of simulate, program and identify against braking
   length and sample rate, growth exponents (``make bench-scale``) -> scale.md, scale.png.
 

@@ -58,9 +58,10 @@ def guess_model(device: Device, stage: int) -> tuple[ModelParameters, float]:
     """
     guess = device.plan
     where = f"{device.name}: device.toml"
+    pilot = f"stage{stage}/pilot{device.log.extension}"
     if guess is None:
         raise InputError(
-            f"{where}: no [plan] table and no stage{stage}/pilot.csv: give the body's "
+            f"{where}: no [plan] table and no {pilot}: give the body's "
             "approximate principal moments (plan.inertia or plan.box) and a friction guess, "
             "or record a pilot run"
         )
@@ -69,11 +70,11 @@ def guess_model(device: Device, stage: int) -> tuple[ModelParameters, float]:
     if moments is None:
         raise InputError(
             f"{where}: plan.inertia: missing (or plan.box with [body] mass), and no "
-            f"stage{stage}/pilot.csv"
+            f"{pilot}"
         )
     if guess.torque_noise is None:
         raise InputError(
-            f"{where}: plan.torque_noise: missing, and no stage{stage}/pilot.csv to measure it"
+            f"{where}: plan.torque_noise: missing, and no {pilot} to measure it"
         )
     st = device.stages[stage - 1]
     J = float(np.mean(moments))

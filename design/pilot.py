@@ -155,7 +155,7 @@ def fit_pilot(device: Device, stage: int, log: Log, source: str | None = None) -
         of its noise: a free spin-down alone cannot tell the scale of M from that of
         friction), its coast covers less than one turn, or the fitted M0 is not positive.
     """
-    source = f"stage{stage}/pilot.csv" if source is None else source
+    source = f"stage{stage}/pilot{device.log.extension}" if source is None else source
     torque = np.asarray(log.torque, dtype=float)
     sigma = torque_noise(log)
     powered = np.nonzero(np.abs(torque) > POWERED_SIGMAS * sigma)[0]

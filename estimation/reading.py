@@ -218,15 +218,15 @@ def identify_experiment(exp: Experiment) -> Identification:
 
 
 def unterminated_warnings(logs: ExperimentLogs) -> list[str]:
-    """A warning per log of ``logs`` whose last line has no line end, which the reader left
-    out (rsp_inertia.plant.log_checks.unterminated_last_line)."""
+    """A warning per CSV log of ``logs`` whose last line has no line end, which the reader
+    left out (rsp_inertia.plant.log_checks.unterminated_last_line)."""
     paths = [p for pair in logs.sources.runs.values() for p in pair]
     paths += list(logs.sources.pendulum.values())
     return [
         f"{path}: its last line has no line end (a logger stopped while writing it?): that "
         "row was left out"
         for path in paths
-        if Path(path).is_file() and unterminated_last_line(path)
+        if Path(path).suffix == ".csv" and Path(path).is_file() and unterminated_last_line(path)
     ]
 
 

@@ -24,6 +24,7 @@ from rsp_inertia.infra.progress import report, say
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.experiment import DEVICE_FILE
+from rsp_inertia.plant.log_files import log_rows
 from rsp_inertia.plant.logs import Log, check_braking_monotone, mirror_log
 from rsp_inertia.plant.transducers import true_angle
 
@@ -238,7 +239,7 @@ def estimate_forward_run(
         The run's passes.
     """
     q = device.encoder.quantum
-    check_braking_monotone(braking, braking_source)
+    check_braking_monotone(braking, log_rows(braking_source, device.log))
     rate = device.encoder.sample_rate
     b_est = estimate_pass(
         braking, q, braking_source, constant_torque=True, smoothed=braking_smoothed,

@@ -26,6 +26,7 @@ from rsp_inertia.ocp.reference import Mirror, mirror
 from rsp_inertia.ocp.regulator import bandwidth, lqr_gains
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.direction import Direction
+from rsp_inertia.plant.log_files import log_rows
 from rsp_inertia.plant.logs import (
     Log,
     Program,
@@ -166,7 +167,7 @@ def make_program(
         )
         return dataclasses.replace(result, program=program)
     start = time.perf_counter()
-    check_braking_monotone(braking, source)
+    check_braking_monotone(braking, log_rows(source, device.log))
     sm = smooth_log(braking, device.encoder.quantum, source)
     ref = mirror(sm, device.encoder.sample_rate, device.encoder.quantum, source)
     friction_cov = None

@@ -26,6 +26,7 @@ from rsp_inertia.infra.toml_schema import (
 from rsp_inertia.infra.toml_writer import write_file
 from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.friction import FRICTION
+from rsp_inertia.plant.log_layout import LogFormat, LogLayout, TorqueUnit
 
 DEFAULT_GRAVITY = 9.80665
 """Standard gravity, m/s^2: used when ``[device]`` has no ``gravity``."""
@@ -80,6 +81,21 @@ class Motor:
         doc="Relative standard deviation of the logged torque's scale (torque constant), as "
         "the user knows it; None (not stated) makes identify warn unless a calibration.toml "
         "fixes it.",
+    )
+    torque_constant: float | None = key(
+        None,
+        unit="N m/A",
+        bound="> 0",
+        doc="The drive's torque per ampere, reduced to phi: with ``[log] torque_unit = 'A'`` "
+        "(logs of the motor current, needed then and refused otherwise) the torque is the "
+        "current times this.",
+    )
+    torque_constant_std: float | None = key(
+        None,
+        unit="N m/A",
+        bound=">= 0",
+        doc="Standard deviation of ``torque_constant``, as the user knows it (needs it); "
+        "relative to it, the logged torque's scale error without a calibration.",
     )
 
 
@@ -391,6 +407,11 @@ class Device:
         doc="The optional ``[mounting]`` table: how the body's axes sit in the rig's; None: "
         "they are the rig's (R = identity, origin 0).",
     )
+    log: LogLayout = key(
+        LogLayout(),
+        doc="The ``[log]`` table: how the rig's logger writes its logs (format, columns, "
+        "units); left out: CSV ``t,phi,torque`` (or ``t,counts,torque``) in s, rad, N m.",
+    )
 
     @property
     def n_axes(self) -> int:
@@ -507,6 +528,51 @@ def require_protocol(device: Device, path: str | os.PathLike) -> None:
                 )
 
 
+_CSV_KEYS = ("delimiter", "decimal", "header_line", "skip_after_header")
+"""``[log]`` keys that only a CSV log has."""
+
+
+def _log_rules(device: Device) -> None:
+    """The rules that join ``[log]`` to itself and to ``[motor]`` (docs/files.md, [log])."""
+    log, motor = device.log, device.motor
+    if log.format is LogFormat.CSV:
+        if log.delimiter == "," and log.decimal == ",":
+            raise ContentError(
+                "log.decimal", "',' needs another delimiter than ',' (set log.delimiter)"
+            )
+    else:
+        default = LogLayout()
+        for name in _CSV_KEYS:
+            if getattr(log, name) != getattr(default, name):
+                raise ContentError(
+                    f"log.{name}", f"a CSV key, but log.format is {log.format.value!r}"
+                )
+    if log.format is not LogFormat.TDMS and log.tdms_group:
+        raise ContentError("log.tdms_group", f"a TDMS key, but log.format is {log.format.value!r}")
+    if log.format is not LogFormat.TDMS and not log.time_column:
+        raise ContentError(
+            "log.time_column",
+            "empty (waveform timing) only with log.format = 'tdms': name the time column",
+        )
+    for name in ("torque_column", "angle_column"):
+        if getattr(log, name) == "":
+            raise ContentError(f"log.{name}", "must name a column, got ''")
+    current = log.torque_unit is TorqueUnit.A
+    if current and motor.torque_constant is None:
+        raise ContentError(
+            "log.torque_unit",
+            "'A' (the motor current) needs motor.torque_constant (N m/A) to give the torque",
+        )
+    if not current and motor.torque_constant is not None:
+        raise ContentError(
+            "motor.torque_constant",
+            f"given, but log.torque_unit is {log.torque_unit.value!r}: the logs hold no "
+            "current (set log.torque_unit = 'A', or leave torque_constant out)",
+        )
+    if motor.torque_constant_std is not None and motor.torque_constant is None:
+        raise ContentError("motor.torque_constant_std", "needs motor.torque_constant")
+
+
 def _device(doc: dict) -> Device:
     """The Device of a parsed device.toml, with the rules that join its tables."""
     device = read_table(Device, doc)
@@ -536,6 +602,7 @@ def _device(doc: dict) -> Device:
                 f"must be <= motor.torque_limit = {limit!r} (the motor applies it), "
                 f"got {stage.braking_torque!r}",
             )
+    _log_rules(device)
     if device.n_axes < REQUIRED_AXES:
         raise ContentError(
             "stage", f"the stages give {device.n_axes} distinct axes, {REQUIRED_AXES} are needed"

@@ -13,6 +13,9 @@ One folder is one experiment::
     EXP/stageN/pendulum_kK.csv  torsion-pendulum baseline run at node K (optional)
     EXP/stageN/pilot.csv     pilot run for planning: spin-up at a known torque, then a free
                              coast (optional; the log format of braking.csv, forward only)
+
+The logs' extension is device.toml ``[log] format``'s (``.csv``, ``.tdms``, ``.parquet``);
+program.csv is always CSV.
     EXP/result.json          written by ``identify``
     EXP/calibration.toml     written by ``calibrate``, applied by ``identify`` (optional)
     EXP/reference.toml       a reference body's certified data (a calibration's reference
@@ -88,30 +91,41 @@ class Experiment:
         self.check_stage(stage)
         return self.root / f"stage{stage}"
 
-    def _pass_path(self, stage: int, name: str, direction: Direction) -> Path:
-        """``stageN/name.csv`` for a forward run, ``stageN/name_backward.csv`` backward."""
+    @property
+    def log_extension(self) -> str:
+        """The logs' extension by device.toml ``[log] format``: ``.csv``, ``.tdms`` or
+        ``.parquet`` (program.csv is always ``.csv``)."""
+        return self.device.log.extension
+
+    def _pass_path(self, stage: int, name: str, direction: Direction, extension: str) -> Path:
+        """``stageN/name.ext`` for a forward run, ``stageN/name_backward.ext`` backward."""
         suffix = "" if direction is Direction.FORWARD else f"_{direction}"
-        return self.stage_dir(stage) / f"{name}{suffix}.csv"
+        return self.stage_dir(stage) / f"{name}{suffix}{extension}"
 
     def braking_path(self, stage: int, direction: Direction = Direction.FORWARD) -> Path:
-        """``stageN/braking.csv``, or ``stageN/braking_backward.csv`` backward."""
-        return self._pass_path(stage, "braking", direction)
+        """``stageN/braking.csv``, or ``stageN/braking_backward.csv`` backward (the
+        extension by ``[log] format``)."""
+        return self._pass_path(stage, "braking", direction, self.log_extension)
 
     def program_path(self, stage: int, direction: Direction = Direction.FORWARD) -> Path:
-        """``stageN/program.csv``, or ``stageN/program_backward.csv`` backward."""
-        return self._pass_path(stage, "program", direction)
+        """``stageN/program.csv``, or ``stageN/program_backward.csv`` backward (always CSV:
+        our own output, read by the drive)."""
+        return self._pass_path(stage, "program", direction, ".csv")
 
     def reverse_path(self, stage: int, direction: Direction = Direction.FORWARD) -> Path:
-        """``stageN/reverse.csv``, or ``stageN/reverse_backward.csv`` backward."""
-        return self._pass_path(stage, "reverse", direction)
+        """``stageN/reverse.csv``, or ``stageN/reverse_backward.csv`` backward (the
+        extension by ``[log] format``)."""
+        return self._pass_path(stage, "reverse", direction, self.log_extension)
 
     def pilot_path(self, stage: int) -> Path:
-        """``stageN/pilot.csv``: the pilot run of stage N (spin-up, then coast; forward only)."""
-        return self.stage_dir(stage) / "pilot.csv"
+        """``stageN/pilot.csv``: the pilot run of stage N (spin-up, then coast; forward only;
+        the extension by ``[log] format``)."""
+        return self.stage_dir(stage) / f"pilot{self.log_extension}"
 
     def pendulum_path(self, stage: int, node: int) -> Path:
-        """``stageN/pendulum_kK.csv``: torsion-pendulum run at node K (1-based) of stage N."""
-        return self.stage_dir(stage) / f"pendulum_k{node}.csv"
+        """``stageN/pendulum_kK.csv``: torsion-pendulum run at node K (1-based) of stage N
+        (the extension by ``[log] format``)."""
+        return self.stage_dir(stage) / f"pendulum_k{node}{self.log_extension}"
 
     @property
     def result_path(self) -> Path:

@@ -115,12 +115,27 @@ class Rows:
 
     def at(self, k: int) -> str:
         """``"path, line N"`` (or ``"path, row N"``) of data row ``k`` (0-based)."""
+        return f"{self.path}, {self.line(k)}"
+
+    def line(self, k: int) -> str:
+        """``"line N"`` (or ``"row N"``) of data row ``k`` (0-based), without the file."""
         if self.first_line is None:
-            return f"{self.path}, row {k + 1}"
-        return f"{self.path}, line {self.first_line + k}"
+            return f"row {k + 1}"
+        return f"line {self.first_line + k}"
+
+    def span(self, first: int, last: int) -> str:
+        """``"path, lines N-M"`` (or ``"path, rows N-M"``) of data rows ``first`` to ``last``."""
+        if self.first_line is None:
+            return f"{self.path}, rows {first + 1}-{last + 1}"
+        return f"{self.path}, lines {self.first_line + first}-{self.first_line + last}"
 
     def __str__(self) -> str:
         return self.path
+
+
+def as_rows(path: str | os.PathLike | Rows) -> Rows:
+    """``path`` as :class:`Rows`: a path names a CSV whose data start on line 2."""
+    return path if isinstance(path, Rows) else Rows(str(path))
 
 
 CHUNK_BYTES = 1 << 22
@@ -130,6 +145,39 @@ values, all the memory reading a table takes, whatever its length."""
 _NOT_SPACE_FOR_FLOAT = "\x1c\x1d\x1e\x1f"
 """Separators numpy's text reader takes for white space around a number in ASCII text and
 float() does not: a piece holding one is parsed field by field."""
+
+
+@dataclass(frozen=True)
+class CsvDialect:
+    """How a CSV table is written (device.toml ``[log]``'s CSV keys; program.csv: the
+    defaults)."""
+
+    delimiter: str = ","
+    """The field delimiter; ``" "`` is any run of blanks."""
+    decimal: str = "."
+    """The decimal mark: ``"."`` or ``","`` (then the delimiter is not ``","``)."""
+    header_line: int = 1
+    """The (1-based) line of the column names; the lines before it are skipped."""
+    skip_after_header: int = 0
+    """Lines between the header and the data, skipped (a units row)."""
+
+    @property
+    def first_line(self) -> int:
+        """The file's line of the first data row."""
+        return self.header_line + self.skip_after_header + 1
+
+
+@dataclass(frozen=True)
+class CsvTable:
+    """The columns :func:`read_columns` read, and where their rows are in the file."""
+
+    values: np.ndarray
+    """shape (n, len(columns)), float64, column-major (each column contiguous)."""
+    rows: Rows
+    """The file and the line of data row 0, for messages."""
+    integers: np.ndarray | None
+    """The ``integer`` column as int64, exactly, when every one of its fields is an integer;
+    else None."""
 
 
 def read_table(path: str | os.PathLike, columns: Sequence[str]) -> np.ndarray:
@@ -146,31 +194,105 @@ def read_table(path: str | os.PathLike, columns: Sequence[str]) -> np.ndarray:
     the file (the header is line 1); of several faults, the message names the first of the
     first kind in this order: header, field count or blank line, not a number, not finite.
     """
+    return read_columns(path, columns).values
+
+
+def read_columns(
+    path: str | os.PathLike,
+    columns: Sequence[str],
+    dialect: CsvDialect = CsvDialect(),
+    keys: Sequence[str] | None = None,
+    integer: int | None = None,
+) -> CsvTable:
+    """Parse the named columns of a CSV in ``dialect`` into float arrays.
+
+    As :func:`read_table`, in any dialect: the header on ``dialect.header_line`` (the lines
+    before it skipped), ``dialect.skip_after_header`` lines after it skipped, fields split at
+    ``dialect.delimiter`` (``" "``: any run of blanks), a decimal comma read as a point
+    (the bytes translated once the delimiter is known not to be a comma). Line numbers in
+    messages are the file's own lines.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file.
+    columns : sequence of str
+        The columns wanted, in the order of the result.
+    dialect : CsvDialect
+        How the file is written.
+    keys : sequence of str, optional
+        The device.toml key that names each column (``[log] torque_column``...): the header
+        then may hold the columns in any order with others, which are ignored (each row must
+        have the header's number of fields), names compared after stripping blanks and
+        double quotes; a column not found names its key. None: the header must be exactly
+        ``columns`` (program.csv).
+    integer : int, optional
+        The index in ``columns`` of a column also read exactly as int64 when all its fields
+        are integers (epoch time stamps in ns exceed float64's 2^53).
+
+    Returns
+    -------
+    CsvTable
+        The values, where their rows are, and the integer column.
+
+    Raises
+    ------
+    InputError
+        One line naming the file and the line: as :func:`read_table`, a column not found (the
+        header's names and the key to set), a field that is not a number (on the first data
+        row: a units row, ``skip_after_header``).
+    """
     ncol = len(columns)
+    hints = keys is not None
+    comma = dialect.decimal == ","
     try:
-        values = np.empty((ncol, _count_line_breaks(path)))
+        size = _count_line_breaks(path)
+        values = np.empty((ncol, size))
+        ints = np.empty(size, dtype=np.int64) if integer is not None else None
         pieces = _pieces_of_lines(path, unterminated_last_line(path))
-        lines, plain = next(pieces, ([""], True))
-        header_line, lines = lines[0], lines[1:]
-        if not header_line.strip() and not any(
-            line.strip() for piece, _ in itertools.chain([(lines, plain)], pieces) for line in piece
+        head, pieces = _head(pieces, dialect.first_line - 1)
+        if not any(line.strip() for line in head) and not any(
+            line.strip() for piece, _ in pieces for line in piece
         ):
-            raise InputError(f"{path}: the file is empty, expected a header {','.join(columns)!r}")
-        header = [name.strip() for name in header_line.split(",")]
-        if header != list(columns):
+            expected = "" if hints else f", expected a header {','.join(columns)!r}"
+            raise InputError(f"{path}: the file is empty{expected}")
+        if len(head) < dialect.header_line:
+            raise InputError(
+                f"{path}: {len(head)} line(s), the header is expected at line "
+                f"{dialect.header_line} (set [log] header_line)"
+            )
+        header_line = head[dialect.header_line - 1]
+        names = _split(header_line, dialect.delimiter)
+        header = [name.strip().strip('"').strip() for name in names]
+        if hints:
+            where = _find_columns(path, header, header_line, columns, keys, dialect)
+        elif header != list(columns):
             found = header_line.strip()
             shown = repr(found) if len(found) <= 80 else repr(found[:77]) + "..."
-            raise InputError(f"{path}, line 1: header is {shown}, expected {','.join(columns)!r}")
+            raise InputError(
+                f"{path}, line {dialect.header_line}: header is {shown}, expected "
+                f"{','.join(columns)!r}"
+            )
+        else:
+            where = list(range(ncol))
+        table = _Table(path, columns, where, len(header), dialect, hints)
 
         rows = 0  # data rows so far, the last of them not blank
         first_blank = None  # line of the first blank line after the last row read
         not_a_number = not_finite = None  # the first fault of each kind, raised at the end
-        for piece, fast in itertools.chain([(lines, plain)], pieces):
-            number = rows + 2  # the file's line of piece[0]
-            block = _fast_rows(piece, ncol) if fast and first_blank is None else None
+        exact = integer  # the integer column, while its fields all are integers
+        for piece, fast in pieces:
+            number = dialect.first_line + rows  # the file's line of piece[0]
+            fast_piece = _translated(piece) if comma and fast else piece
+            block = table.fast_rows(fast_piece) if fast and first_blank is None else None
             if block is None:
-                block, first_blank, fault = _careful_rows(path, columns, piece, number, first_blank)
+                block, first_blank, fault, whole = table.careful_rows(piece, number, first_blank)
                 not_a_number = not_a_number or fault
+                if exact is not None and ints is not None:
+                    column = whole[:, where[exact]] if whole is not None else None
+                    exact = _integers(column, ints, rows, exact)
+            elif exact is not None and ints is not None:
+                exact = table.fast_integers(fast_piece, exact, ints, rows)
             if not_finite is None:
                 bad = np.argwhere(~np.isfinite(block))
                 if bad.size:
@@ -192,7 +314,194 @@ def read_table(path: str | os.PathLike, columns: Sequence[str]) -> np.ndarray:
         raise InputError(not_a_number or not_finite)
     if rows < 2:
         raise InputError(f"{path}: {rows} data row(s), at least 2 are needed")
-    return values[:, :rows].T
+    integers = ints[:rows] if exact is not None and ints is not None else None
+    return CsvTable(values[:, :rows].T, Rows(str(path), dialect.first_line), integers)
+
+
+def _split(line: str, delimiter: str) -> list[str]:
+    """A line's fields: split at ``delimiter``, or at runs of blanks for ``" "``."""
+    return line.split() if delimiter == " " else line.split(delimiter)
+
+
+def _translated(lines: list[str]) -> list[str]:
+    """Lines with each decimal comma a point (no comma is a delimiter: the dialect's rule)."""
+    return "\n".join(lines).replace(",", ".").split("\n")
+
+
+def _find_columns(
+    path: str | os.PathLike,
+    header: list[str],
+    line: str,
+    columns: Sequence[str],
+    keys: Sequence[str],
+    dialect: CsvDialect,
+) -> list[int]:
+    """The header's index of each of ``columns``; a column not found, or found twice, is one
+    line naming the header's names and the key to set."""
+    where = []
+    for column, key in zip(columns, keys, strict=True):
+        found = [k for k, name in enumerate(header) if name == column]
+        if len(found) == 1:
+            where.append(found[0])
+            continue
+        at = f"{path}, line {dialect.header_line}"
+        if found:
+            raise InputError(f"{at}: column {column!r} appears {len(found)} times in the header")
+        shown = ", ".join(repr(name) for name in header[:12]) + (", ..." if len(header) > 12 else "")
+        others = [d for d in (",", ";", "\t") if d != dialect.delimiter and d in line]
+        if len(header) == 1 and others:
+            key = "delimiter"  # one field: the header is split at another character
+        raise InputError(
+            f"{at}: column {column!r} not found; the header has {shown}: set [log] {key}"
+        )
+    return where
+
+
+def _head(
+    pieces: Iterator[tuple[list[str], bool]], count: int
+) -> tuple[list[str], Iterator[tuple[list[str], bool]]]:
+    """The first ``count`` lines of the file (fewer if it is shorter), and the pieces of the
+    lines after them (the first one's ``plain`` flag found again without the head lines)."""
+    head: list[str] = []
+    for lines, plain in pieces:
+        take = count - len(head)
+        head += lines[:take]
+        rest = lines[take:]
+        if len(head) < count:
+            continue
+        if rest:
+            if not plain:
+                text = "\n".join(rest)
+                plain = text.isascii() and not any(c in text for c in _NOT_SPACE_FOR_FLOAT)
+            return head, itertools.chain([(rest, plain)], pieces)
+        return head, pieces
+    return head, iter(())
+
+
+def _integers(column: np.ndarray | None, ints: np.ndarray, start: int, index: int) -> int | None:
+    """Store a piece's integer column, ``column`` its fields as text (None: no rows), into
+    ``ints`` from ``start``; ``index`` while all are integers, else None."""
+    if column is None:
+        return index
+    try:
+        parsed = np.array([int(field) for field in column], dtype=np.int64)
+    except (ValueError, OverflowError):
+        return None
+    ints[start : start + len(parsed)] = parsed
+    return index
+
+
+@dataclass(frozen=True)
+class _Table:
+    """The layout of a CSV's data rows, for the per-piece parsers of :func:`read_columns`."""
+
+    path: str | os.PathLike
+    columns: Sequence[str]
+    where: list[int]
+    """The header's index of each wanted column."""
+    nfields: int
+    """Fields per row: the header's."""
+    dialect: CsvDialect
+    hints: bool
+    """Messages name device.toml's [log] keys."""
+
+    @property
+    def _delimiter(self) -> str | None:
+        return None if self.dialect.delimiter == " " else self.dialect.delimiter
+
+    @property
+    def _usecols(self) -> list[int] | None:
+        return None if self.where == list(range(self.nfields)) else self.where
+
+    def fast_rows(self, lines: list[str]) -> np.ndarray | None:
+        """The (len(lines), ncol) values by numpy's C reader, or None on any fault, a blank
+        line (it skips empty ones) or a row with another number of fields than the header."""
+        if not lines or not lines[0].strip():  # (none at all but blank ones: numpy warns)
+            return None
+        delimiter = self._delimiter
+        # numpy checks only the columns it reads: count every row's delimiters at once
+        fields = len(lines) * (self.nfields - 1)
+        if delimiter is not None and self._usecols and "\n".join(lines).count(delimiter) != fields:
+            return None
+        try:
+            block = np.loadtxt(
+                lines, delimiter=delimiter, comments=None, ndmin=2, usecols=self._usecols
+            )
+        except ValueError:
+            return None
+        return block if block.shape == (len(lines), len(self.columns)) else None
+
+    def fast_integers(
+        self, lines: list[str], index: int, ints: np.ndarray, start: int
+    ) -> int | None:
+        """Column ``index`` of a piece parsed as int64 into ``ints`` from ``start``;
+        ``index``, or None when a field is not an integer."""
+        try:
+            parsed = np.loadtxt(
+                lines,
+                delimiter=self._delimiter,
+                comments=None,
+                ndmin=1,
+                usecols=[self.where[index]],
+                dtype=np.int64,
+            )
+        except (ValueError, OverflowError):
+            return None
+        ints[start : start + len(parsed)] = parsed
+        return index
+
+    def careful_rows(
+        self, lines: list[str], number: int, first_blank: int | None
+    ) -> tuple[np.ndarray, int | None, str | None, np.ndarray | None]:
+        """Parse lines field by field from line ``number`` on: the rows before any blank line
+        (k, ncol), the first blank line if only blank lines follow it, the first field that
+        is not a number (its message; NaN in the rows), and the rows' fields as text (None
+        when there are none). A wrong field count, or a line after a blank one, raises at
+        once."""
+        path, columns, ncol = self.path, self.columns, len(self.columns)
+        comma = self.dialect.decimal == ","
+        numbers: list[float] = []
+        texts: list[list[str]] = []
+        fault = None
+        for index, line in enumerate(lines):
+            if not line.strip():
+                if first_blank is None:
+                    first_blank = number + index
+                continue
+            if first_blank is not None:
+                raise InputError(f"{path}, line {first_blank}: blank line inside the data")
+            fields = _split(line, self.dialect.delimiter)
+            if len(fields) != self.nfields:
+                expected = (
+                    f"{self.nfields} (the header's)"
+                    if self.hints
+                    else f"{ncol} ({','.join(columns)})"
+                )
+                raise InputError(
+                    f"{path}, line {number + index}: {len(fields)} fields, expected {expected}"
+                )
+            texts.append(fields)
+            for col, k in enumerate(self.where):
+                field = fields[k]
+                try:
+                    numbers.append(float(field.replace(",", ".") if comma else field))
+                except ValueError:
+                    numbers.append(math.nan)
+                    fault = fault or self._not_a_number(number + index, columns[col], field)
+        whole = np.array(texts, dtype=object) if texts else None
+        block = np.array(numbers, dtype=np.float64).reshape(-1, ncol)
+        return block, first_blank, fault, whole
+
+    def _not_a_number(self, line: int, column: str, field: str) -> str:
+        """The message of a field that is not a number, with the key that likely fixes it."""
+        message = f"{self.path}, line {line}: {column} = {field.strip()!r} is not a number"
+        if not self.hints:
+            return message
+        if line == self.dialect.first_line:
+            return message + " (a units row? set [log] skip_after_header)"
+        if self.dialect.decimal == "." and "," in field:
+            return message + " (a decimal comma? set [log] decimal)"
+        return message
 
 
 def _byte_pieces(path: str | os.PathLike) -> Iterator[bytes]:
@@ -284,58 +593,6 @@ def _pieces_of_lines(
             yield lines, text.isascii() and not any(c in text for c in _NOT_SPACE_FOR_FLOAT)
 
 
-def _fast_rows(lines: list[str], ncol: int) -> np.ndarray | None:
-    """The (len(lines), ncol) values by numpy's C reader, or None on any fault or a blank
-    line (it skips empty ones)."""
-    if not lines or not lines[0].strip():  # (none at all but blank ones: numpy warns)
-        return None
-    try:
-        block = np.loadtxt(lines, delimiter=",", comments=None, ndmin=2)
-    except ValueError:
-        return None
-    return block if block.shape == (len(lines), ncol) else None
-
-
-def _careful_rows(
-    path: str | os.PathLike,
-    columns: Sequence[str],
-    lines: list[str],
-    number: int,
-    first_blank: int | None,
-) -> tuple[np.ndarray, int | None, str | None]:
-    """Parse lines field by field from line ``number`` on: the rows before any blank line
-    (k, ncol), the first blank line if only blank lines follow it, the first field that is
-    not a number (its message; NaN in the rows). A wrong field count, or a line after a blank
-    one, raises at once.
-    """
-    ncol = len(columns)
-    numbers: list[float] = []
-    fault = None
-    for index, line in enumerate(lines):
-        if not line.strip():
-            if first_blank is None:
-                first_blank = number + index
-            continue
-        if first_blank is not None:
-            raise InputError(f"{path}, line {first_blank}: blank line inside the data")
-        fields = line.split(",")
-        if len(fields) != ncol:
-            raise InputError(
-                f"{path}, line {number + index}: {len(fields)} fields, expected {ncol} "
-                f"({','.join(columns)})"
-            )
-        for col, field in enumerate(fields):
-            try:
-                numbers.append(float(field))
-            except ValueError:
-                numbers.append(math.nan)
-                fault = fault or (
-                    f"{path}, line {number + index}: {columns[col]} = {field.strip()!r} "
-                    "is not a number"
-                )
-    return np.array(numbers, dtype=np.float64).reshape(-1, ncol), first_blank, fault
-
-
 TORQUE_MARGIN = 10.0
 """A logged torque beyond this many times device.toml's ``motor.torque_limit`` is refused
 (:func:`check_torque`, called by rsp_inertia.plant.logs.read_log): no drive produces it (a
@@ -343,7 +600,7 @@ short overload is a few times the limit), so it is a logging fault (a one-row sp
 or scale error) that would pass for real work."""
 
 
-def check_torque(path: str | os.PathLike, torque: np.ndarray, torque_limit: float) -> None:
+def check_torque(path: str | os.PathLike | Rows, torque: np.ndarray, torque_limit: float) -> None:
     """Refuse the first row whose torque is beyond TORQUE_MARGIN x ``torque_limit``.
 
     Parameters
@@ -364,7 +621,7 @@ def check_torque(path: str | os.PathLike, torque: np.ndarray, torque_limit: floa
     if beyond.size:
         k = int(beyond[0])
         raise InputError(
-            f"{path}, line {k + 2}: torque = {float(torque[k])!r} N m is beyond what the drive "
+            f"{as_rows(path).at(k)}: torque = {float(torque[k])!r} N m is beyond what the drive "
             f"can produce (more than {TORQUE_MARGIN:g} x device.toml's motor.torque_limit = "
             f"{torque_limit:g} N m): a logging fault"
         )
@@ -398,7 +655,7 @@ SPEED_BLOCK = 1 << 20
 
 
 def check_speed(
-    path: str | os.PathLike,
+    path: str | os.PathLike | Rows,
     t: np.ndarray,
     phi: np.ndarray,
     launch_speed: float,
@@ -436,7 +693,7 @@ def check_speed(
             k = int(beyond[0])
             step, time = float(steps[k]), float(times[k])
             raise InputError(
-                f"{path}, line {start + k + 3}: the angle jumps by {step:.3g} rad in "
+                f"{as_rows(path).at(start + k + 1)}: the angle jumps by {step:.3g} rad in "
                 f"{time:.3g} s from the row before ({step / time:.3g} rad/s), faster than any "
                 f"speed the device's runs can have (limit {limit:g} rad/s, {SPEED_MARGIN:g} x "
                 f"device.toml's fastest stage.launch_speed = {float(launch_speed):g} rad/s): "
@@ -445,7 +702,7 @@ def check_speed(
 
 
 def check_time(
-    path: str | os.PathLike, t: np.ndarray, encoder: EncoderLike, regular: bool = True
+    path: str | os.PathLike | Rows, t: np.ndarray, encoder: EncoderLike, regular: bool = True
 ) -> None:
     """t from 0, strictly increasing, at the encoder's sample rate.
 
@@ -466,15 +723,18 @@ def check_time(
     InputError
         Naming the line (or the file, for a median or mean step off the sample rate).
     """
+    rows = as_rows(path)
     if abs(t[0]) > T0_TOLERANCE:
-        raise InputError(f"{path}, line 2: t = {float(t[0])!r} s, the first row must be at t = 0")
+        raise InputError(
+            f"{rows.at(0)}: t = {float(t[0])!r} s, the first row must be at t = 0"
+        )
     steps = np.diff(t)
     not_increasing = np.flatnonzero(steps <= 0.0)
     if not_increasing.size:
         k = not_increasing[0]
         now, before = float(t[k + 1]), float(t[k])
         raise InputError(
-            f"{path}, line {k + 3}: t = {now!r} s is not after t = {before!r} s of the row before; "
+            f"{rows.at(k + 1)}: t = {now!r} s is not after t = {before!r} s of the row before; "
             "t must be strictly increasing"
         )
     rate = float(encoder.sample_rate)
@@ -489,7 +749,7 @@ def check_time(
         if short.size:
             k = short[0]
             raise InputError(
-                f"{path}, line {k + 3}: time step {steps[k]:.6g} s at t = {float(t[k + 1])!r} s "
+                f"{rows.at(k + 1)}: time step {steps[k]:.6g} s at t = {float(t[k + 1])!r} s "
                 f"is less than half the sample period {1.0 / rate:.6g} s (time stamps may be "
                 f"off the sampling grid by at most {JITTER_LIMIT:g} of a period)"
             )
@@ -505,7 +765,7 @@ def check_time(
     if off_rate.size:
         k = off_rate[0]
         raise InputError(
-            f"{path}, line {k + 3}: time step {steps[k]:.6g} s, expected {1.0 / rate:.6g} s "
+            f"{rows.at(k + 1)}: time step {steps[k]:.6g} s, expected {1.0 / rate:.6g} s "
             f"(encoder sample rate {rate:g} Hz)"
         )
 
@@ -521,7 +781,7 @@ def read_header(path: str | os.PathLike) -> list[str] | None:
 
 
 def unwrap_counts(
-    path: str | os.PathLike, counts: np.ndarray, encoder: EncoderLike
+    path: str | os.PathLike | Rows, counts: np.ndarray, encoder: EncoderLike
 ) -> np.ndarray:
     """Integer counts, a counter of ``encoder.counter_bits`` unwrapped.
 
@@ -550,10 +810,11 @@ def unwrap_counts(
         A count that is not an integer or is outside the counter, or a counter whose range
         is not a whole number of turns.
     """
+    rows = as_rows(path)
     bad = np.flatnonzero(counts != np.round(counts))
     if bad.size:
         k = int(bad[0])
-        raise InputError(f"{path}, line {k + 2}: counts = {float(counts[k])!r} is not an integer")
+        raise InputError(f"{rows.at(k)}: counts = {float(counts[k])!r} is not an integer")
     bits = getattr(encoder, "counter_bits", None)
     if bits is None:
         return counts
@@ -567,14 +828,14 @@ def unwrap_counts(
     if out_of_range.size:
         k = int(out_of_range[0])
         raise InputError(
-            f"{path}, line {k + 2}: counts = {counts[k]:.0f} is outside the {bits}-bit counter "
+            f"{rows.at(k)}: counts = {counts[k]:.0f} is outside the {bits}-bit counter "
             f"(0 to {span - 1})"
         )
     step = np.mod(np.diff(counts) + span // 2, span) - span // 2
     return counts[0] + np.concatenate([[0.0], np.cumsum(step)])
 
 
-def check_grid(path: str | os.PathLike, phi: np.ndarray, encoder: EncoderLike) -> None:
+def check_grid(path: str | os.PathLike | Rows, phi: np.ndarray, encoder: EncoderLike) -> None:
     """phi a whole number of encoder counts (within GRID_TOLERANCE).
 
     Parameters
@@ -598,12 +859,12 @@ def check_grid(path: str | os.PathLike, phi: np.ndarray, encoder: EncoderLike) -
         k = off_grid[0]
         value = float(phi[k])
         raise InputError(
-            f"{path}, line {k + 2}: phi = {value!r} is not on the encoder grid (q = {q:.4g} rad)"
+            f"{as_rows(path).at(k)}: phi = {value!r} is not on the encoder grid (q = {q:.4g} rad)"
         )
 
 
 def check_direction(
-    path: str | os.PathLike,
+    path: str | os.PathLike | Rows,
     phi: np.ndarray,
     kind: str,
     direction: Direction,
@@ -639,14 +900,14 @@ def check_direction(
     """
     if kind not in ("braking", "reverse"):
         return
-    last_line = len(phi) + 1
+    last_line = as_rows(path).at(len(phi) - 1)
     increases = (kind == "braking") == (direction is Direction.FORWARD)
     if (phi[-1] > phi[0]) if increases else (phi[-1] < phi[0]):
         return
     span = f"phi goes from {float(phi[0])!r} to {float(phi[-1])!r} rad"
     if kind == "braking" and torque is not None and brakes_along_the_motion(phi, torque):
         raise InputError(
-            f"{path}, line {last_line}: {span} and the braking torque (median "
+            f"{last_line}: {span} and the braking torque (median "
             f"{float(np.median(torque)):.4g} N m) has the sign of that motion: as logged it "
             "would speed the body up, not brake it: the encoder counts backwards (or the "
             "torque's sign is reversed): phi must increase where a positive motor torque "
@@ -662,7 +923,7 @@ def check_direction(
         moves = "increases" if increases else "decreases"
         why = f" (phi {moves} during a backward {kind})"
     raise InputError(
-        f"{path}, line {last_line}: {run} log must end at a {end} phi than it starts{why}, "
+        f"{last_line}: {run} log must end at a {end} phi than it starts{why}, "
         f"but {span}"
     )
 
@@ -733,7 +994,7 @@ def settle_counts(encoder: EncoderLike) -> int:
 
 
 def turning_point(
-    path: str | os.PathLike,
+    path: str | os.PathLike | Rows,
     t: np.ndarray,
     phi: np.ndarray,
     increases: bool,
@@ -796,6 +1057,7 @@ def turning_point(
     >>> turning_point("braking.csv", t[:6], phi[:6], True, Encoder())
     5
     """
+    rows = as_rows(path)
     q = float(encoder.quantum)
     c = np.rint(phi / q).astype(np.int64)
     if not increases:
@@ -827,17 +1089,17 @@ def turning_point(
         moved = int(off[beyond[0]])
         if moved > 0:
             what = (
-                f"then runs on {moved} counts past it by line {j + 2}: the speed reverses "
+                f"then runs on {moved} counts past it by {rows.line(j)}: the speed reverses "
                 "inside the braking, or the body moved on after it stopped"
             )
         else:
             what = (
-                f"then goes back {-moved} counts by line {j + 2}: the body was not held where "
+                f"then goes back {-moved} counts by {rows.line(j)}: the body was not held where "
                 "it stopped, or the angle jumps"
             )
         raise InputError(
-            f"{path}, lines {m + 2}-{j + 2}: the braking's turning point is ambiguous: its "
-            f"motion stops or turns at line {m + 2} and {what} (after its stop a held body's "
+            f"{rows.span(m, j)}: the braking's turning point is ambiguous: its "
+            f"motion stops or turns at {rows.line(m)} and {what} (after its stop a held body's "
             f"reading may dither and settle back by up to {settle} counts, docs/files.md)"
         )
     return m

@@ -29,16 +29,18 @@ from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.log_checks import (
     JITTER_LIMIT,
     EncoderLike,
+    Rows,
+    as_rows,
     check_direction,
     check_grid,
     check_speed,
     check_time,
     check_torque,
-    read_header,
     read_table,
     turning_point,
-    unwrap_counts,
 )
+from rsp_inertia.plant.log_files import read_log_columns, write_log_file
+from rsp_inertia.plant.log_layout import LogLayout
 from rsp_inertia.plant.transducers import power_flow_split
 
 __all__ = [
@@ -116,10 +118,27 @@ class Log:
     a braking's rows after its turning point left out (:func:`read_log`). The commands that
     read the log say them (program, identify and calibrate as warnings, check as ok lines);
     :func:`mirror_log` and :func:`align_counter` keep them."""
+    temperature: np.ndarray | None = None  # degrees C, shape (n,)
+    """The motor's temperature at each row, when the logger logs it (device.toml ``[log]
+    temperature_column``); None when it does not. ``dataclasses.replace`` keeps it; code that
+    takes some rows of a log takes the same rows of it."""
 
     def __post_init__(self) -> None:
-        _freeze_columns(self, LOG_COLUMNS)
+        names = LOG_COLUMNS if self.temperature is None else (*LOG_COLUMNS, "temperature")
+        _freeze_columns(self, names)
         object.__setattr__(self, "notes", tuple(self.notes))
+
+    def rows(self, keep: slice | np.ndarray) -> Log:
+        """The log's rows ``keep`` (a slice, a boolean mask or indices) of every column, the
+        temperature's too; the notes kept."""
+        temperature = None if self.temperature is None else self.temperature[keep]
+        return dataclasses.replace(
+            self,
+            t=self.t[keep],
+            phi=self.phi[keep],
+            torque=self.torque[keep],
+            temperature=temperature,
+        )
 
     def __len__(self) -> int:
         return len(self.t)
@@ -240,17 +259,20 @@ def read_log(
     direction: Direction = Direction.FORWARD,
     torque_limit: float | None = None,
     launch_speed: float | None = None,
+    layout: LogLayout | None = None,
+    torque_constant: float | None = None,
 ) -> Log:
-    """Read and check a log: braking.csv, reverse.csv, a pendulum run's or pilot.csv.
+    """Read and check a log: braking, reverse, a pendulum run's or a pilot's.
 
     Parameters
     ----------
     path : str or path-like
-        The CSV file, header ``t,phi,torque``, or ``t,counts,torque`` with integer encoder
-        counts (phi = counts x quantum), unwrapped when the encoder has ``counter_bits`` (a
-        counter that wraps at 2**counter_bits). A counter's position before the log began is
-        known only modulo its range: with a torsion spring, whose potential depends on the
-        absolute angle, its zero must be the spring's reference.
+        The file, in ``layout`` (docs/files.md, Logs). By default a CSV with header
+        ``t,phi,torque``, or ``t,counts,torque`` with integer encoder counts (phi = counts x
+        quantum), unwrapped when the encoder has ``counter_bits`` (a counter that wraps at
+        2**counter_bits). A counter's position before the log began is known only modulo
+        its range: with a torsion spring, whose potential depends on the absolute angle, its
+        zero must be the spring's reference.
     encoder : encoder-like
         Anything with ``quantum`` (rad, 2 pi / counts_per_rev) and ``sample_rate`` (Hz), such
         as ``rsp_inertia.plant.config.Encoder``; ``counts_per_rev`` and ``counter_bits`` for
@@ -271,53 +293,64 @@ def read_log(
         rad/s, the fastest ``stage.launch_speed`` of device.toml: a step of the angle faster
         than rsp_inertia.plant.log_checks.SPEED_MARGIN times it (over the step's time, plus
         a few counts) is refused (physically impossible: a corrupted row); None: not checked.
+    layout : LogLayout, optional
+        device.toml ``[log]``: the file's format, columns and units
+        (rsp_inertia.plant.log_files.read_log_columns); None: the default, CSV
+        ``t,phi,torque`` or ``t,counts,torque``.
+    torque_constant : float, optional
+        N m/A, device.toml ``motor.torque_constant``, for a layout that logs the current.
 
     Returns
     -------
     Log
-        The values exactly as written in the file; a braking's only up to its turning point,
-        with a note naming the rows left out (:attr:`Log.notes`).
+        The values as written in the file, in s, rad and N m (units converted; an angle in
+        degrees put on the encoder grid); a braking's only up to its turning point, with a
+        note naming the rows left out (:attr:`Log.notes`).
 
     Raises
     ------
     InputError
-        One line naming the file, the line and the fault: a missing or empty file, a wrong
-        header, a malformed or non-finite number, fewer than 2 rows, t not from 0, not strictly
-        increasing, a step shorter than half a sample period, a median or mean step off the
-        sample rate (:data:`JITTER_LIMIT`), phi off the encoder grid, an angle step or a
-        torque beyond what the device can do (with ``launch_speed``, ``torque_limit``), the
-        wrong direction (with its likely cause: an encoder counting backwards), a braking
-        whose turning point is ambiguous (naming the lines).
+        One line naming the file, the line (or row) and the fault: a missing or empty file,
+        a column not found (naming the [log] key), a malformed or non-finite number, fewer
+        than 2 rows, t not from 0, not strictly increasing, a step shorter than half a
+        sample period, a median or mean step off the sample rate (:data:`JITTER_LIMIT`), phi
+        off the encoder grid, an angle step or a torque beyond what the device can do (with
+        ``launch_speed``, ``torque_limit``), the wrong direction (with its likely cause: an
+        encoder counting backwards), a braking whose turning point is ambiguous (naming the
+        lines).
 
     See Also
     --------
-    read_device_log : with the device's torque limit and launch speeds.
+    read_device_log : with the device's layout, torque limit and launch speeds.
     """
     if kind not in LOG_KINDS:
         raise ValueError(f"kind must be one of {LOG_KINDS}, got {kind!r}")
-    if read_header(path) == list(COUNT_COLUMNS):
-        t, counts, torque = read_table(path, COUNT_COLUMNS).T
-        phi = unwrap_counts(path, counts, encoder) * float(encoder.quantum)
-    else:
-        t, phi, torque = read_table(path, LOG_COLUMNS).T
-    check_time(path, t, encoder, regular=False)
-    check_grid(path, phi, encoder)
+    layout = LogLayout() if layout is None else layout
+    columns = read_log_columns(path, layout, encoder, torque_constant)
+    rows = columns.rows
+    t, phi, torque, temperature = columns.t, columns.phi, columns.torque, columns.temperature
+    check_time(rows, t, encoder, regular=False)
+    check_grid(rows, phi, encoder)
+    # Here the columns are parsed, converted and on their grids, before the checks of the
+    # motion: what takes rows out of a log (its keep-mask on t, phi, torque and temperature
+    # alike) goes here.
     if launch_speed is not None:
-        check_speed(path, t, phi, launch_speed, encoder)
-    check_direction(path, phi, kind, direction, torque)
+        check_speed(rows, t, phi, launch_speed, encoder)
+    check_direction(rows, phi, kind, direction, torque)
     if torque_limit is not None:
-        check_torque(path, torque, torque_limit)
+        check_torque(rows, torque, torque_limit)
+    log = Log(t=t, phi=phi, torque=torque, temperature=temperature)
     if kind == "braking":
         increases = direction is Direction.FORWARD
-        end = turning_point(path, t, phi, increases, encoder) + 1
+        end = turning_point(rows, t, phi, increases, encoder) + 1
         if end < len(t):
-            note = _held_note(path, t, (phi if increases else -phi), end, encoder)
-            return Log(t=t[:end], phi=phi[:end], torque=torque[:end], notes=(note,))
-    return Log(t=t, phi=phi, torque=torque)
+            note = _held_note(rows, t, (phi if increases else -phi), end, encoder)
+            return dataclasses.replace(log.rows(slice(0, end)), notes=(note,))
+    return log
 
 
 def _held_note(
-    path: str | os.PathLike, t: np.ndarray, phi: np.ndarray, end: int, encoder: EncoderLike
+    rows: Rows, t: np.ndarray, phi: np.ndarray, end: int, encoder: EncoderLike
 ) -> str:
     """The one line that says a braking was cut at its turning point (row ``end - 1``),
     ``phi`` in the pass's direction (minus the angle of a backward run)."""
@@ -325,8 +358,8 @@ def _held_note(
     low, high = int(off.min()), int(off.max())
     reading = "stays put" if low == high == 0 else f"keeps within {low:+d} to {high:+d} counts"
     return (
-        f"{path}, lines {end + 2}-{len(t) + 1}: the drive logged on {t[-1] - t[end - 1]:.3g} s "
-        f"after the braking's turning point at line {end + 1} (the reading {reading} there): "
+        f"{rows.span(end, len(t) - 1)}: the drive logged on {t[-1] - t[end - 1]:.3g} s "
+        f"after the braking's turning point at {rows.line(end - 1)} (the reading {reading} there): "
         f"{len(t) - end} row(s) left out"
     )
 
@@ -337,8 +370,9 @@ def read_device_log(
     kind: str,
     direction: Direction = Direction.FORWARD,
 ) -> Log:
-    """:func:`read_log` with every check the device allows: its encoder, its motor's
-    ``torque_limit`` and the fastest ``launch_speed`` of its stages (what no run of it can
+    """:func:`read_log` with every check the device allows, in its ``[log]`` layout: its
+    encoder, its motor's ``torque_limit`` (and ``torque_constant`` for a logged current) and
+    the fastest ``launch_speed`` of its stages (what no run of it can
     exceed: rsp_inertia.plant.log_checks.TORQUE_MARGIN and SPEED_MARGIN). While a stage has
     no launch speed (``plan`` has not chosen it), the device's fastest run is unknown and
     the angle's steps are not checked.
@@ -346,7 +380,7 @@ def read_device_log(
     Parameters
     ----------
     path : str or path-like
-        The log (header ``t,phi,torque`` or ``t,counts,torque``).
+        The log, in device.toml's ``[log]`` layout (``device.log``).
     device : Device
         device.toml's gimbal (rsp_inertia.plant.config.Device).
     kind : str
@@ -372,6 +406,8 @@ def read_device_log(
         direction,
         torque_limit=device.motor.torque_limit,
         launch_speed=None if None in speeds else max(speeds),
+        layout=device.log,
+        torque_constant=device.motor.torque_constant,
     )
 
 
@@ -418,11 +454,21 @@ def _format_table(columns: Sequence[str], arrays: Sequence[np.ndarray]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_log(path: str | os.PathLike, log: Log, counter: EncoderLike | None = None) -> None:
-    """Write a log as braking.csv / reverse.csv (header ``t,phi,torque``), atomically.
+def write_log(
+    path: str | os.PathLike,
+    log: Log,
+    counter: EncoderLike | None = None,
+    *,
+    layout: LogLayout | None = None,
+    encoder: EncoderLike | None = None,
+    torque_constant: float | None = None,
+) -> None:
+    """Write a log as braking.csv / reverse.csv (header ``t,phi,torque``), or in a logger's
+    ``layout``, atomically.
 
     Numbers are written as Python ``repr``, so :func:`read_log` returns exactly these values
-    and the same log always gives a byte-identical file.
+    and the same log always gives a byte-identical file (in another layout the units'
+    conversions round within an ulp or two, time stamps in us or ns to whole units).
 
     Parameters
     ----------
@@ -434,8 +480,30 @@ def write_log(path: str | os.PathLike, log: Log, counter: EncoderLike | None = N
         Write ``t,counts,torque`` instead, as a drive's position counter of
         ``counter.counter_bits`` bits gives them: counts = phi / quantum modulo
         2**counter_bits (phi must be on the encoder grid). :func:`read_log` unwraps them to
-        phi up to whole ranges of the counter.
+        phi up to whole ranges of the counter. With a ``layout``: the angle in counts, in
+        its angle column.
+    layout : LogLayout, optional
+        device.toml ``[log]``: format, dialect, columns, units
+        (rsp_inertia.plant.log_files.write_log_file); the log's temperature, if any, in a
+        named temperature column. None: CSV ``t,phi,torque``.
+    encoder : encoder-like, optional
+        The encoder (``quantum``, ``counter_bits``): needed by a layout in counts.
+    torque_constant : float, optional
+        N m/A, for a layout that logs the current.
     """
+    if layout is not None:
+        write_log_file(
+            path,
+            log.t,
+            log.phi,
+            log.torque,
+            layout,
+            counter if counter is not None else encoder,
+            temperature=log.temperature,
+            torque_constant=torque_constant,
+            counts=counter is not None,
+        )
+        return
     if counter is None:
         write_atomic(path, _format_table(LOG_COLUMNS, [log.t, log.phi, log.torque]))
         return
@@ -540,13 +608,15 @@ def torque_noise(log: Log) -> float:
     return float(1.4826 * mad / np.sqrt(2.0))
 
 
-def check_braking_monotone(log: Log, source: str) -> None:
-    """The braking speed never reverses: encoder readings never decrease (docs/files.md)."""
+def check_braking_monotone(log: Log, source: str | Rows) -> None:
+    """The braking speed never reverses: encoder readings never decrease (docs/files.md).
+    ``source`` names the log's file, with where its rows are (a path: a CSV whose data
+    start on line 2; rsp_inertia.plant.log_files.log_rows of a layout)."""
     back = np.nonzero(np.diff(log.phi) < 0)[0]
     if back.size:
-        line = int(back[0]) + 3  # row k+1 of the data is line k+3 (header is line 1)
         raise InputError(
-            f"{source}, line {line}: the angle decreases: the speed reverses inside the braking"
+            f"{as_rows(source).at(int(back[0]) + 1)}: the angle decreases: the speed reverses "
+            "inside the braking"
         )
 
 

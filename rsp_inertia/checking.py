@@ -56,6 +56,7 @@ from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.experiment import Experiment, open_experiment
 from rsp_inertia.plant.geometry import turns_past_last_node
 from rsp_inertia.plant.log_checks import unterminated_last_line
+from rsp_inertia.plant.log_files import log_rows
 from rsp_inertia.plant.logs import (
     Log,
     check_braking_monotone,
@@ -154,12 +155,16 @@ def _try_read(
 
 
 def _check_last_line(findings: Findings, path: Path, log: Log) -> None:
-    """A ``suspicious`` line when the log's last line has no line end (the reader leaves it
+    """A ``suspicious`` line when a CSV log's last line has no line end (the reader leaves it
     out); an ``ok`` line per note of the reader (rsp_inertia.plant.logs.Log.notes: a braking
-    cut at its turning point, which identify warns about in the same words)."""
+    cut at its turning point, which identify warns about in the same words), and one with
+    the motor temperature's range over the pass when the logger logs it."""
     for note in log.notes:
         _add(findings, "ok", note)
-    if unterminated_last_line(path):
+    if log.temperature is not None:
+        low, high = float(np.min(log.temperature)), float(np.max(log.temperature))
+        _add(findings, "ok", f"{path}: motor temperature {low:.1f} to {high:.1f} C")
+    if path.suffix == ".csv" and unterminated_last_line(path):
         _add(
             findings,
             "suspicious",
@@ -326,7 +331,7 @@ def _check_braking(
     forward = braking if direction is Direction.FORWARD else mirror_log(braking, q)
     usable = True
     try:
-        check_braking_monotone(forward, str(path))
+        check_braking_monotone(forward, log_rows(path, device.log))
     except InputError as error:
         _add(findings, "error", str(error))
         usable = False

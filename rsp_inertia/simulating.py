@@ -15,6 +15,7 @@ import numpy as np
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.infra.files import check_writable
 from rsp_inertia.infra.progress import say
+from rsp_inertia.plant.config import AngleUnit
 from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.experiment import Experiment, open_experiment
 from rsp_inertia.plant.geometry import turns_past_last_node
@@ -82,18 +83,38 @@ def _check_simulate_outputs(
 
 
 def _write_log(exp: Experiment, virtual: Virtual, path: Path, log: Log) -> None:
-    """A simulated log as the virtual rig's logger writes it: ``t,counts,torque`` with
-    virtual.toml ``[logger] counts`` (device.toml's ``[encoder] counter_bits`` wide), else
-    ``t,phi,torque``."""
-    if not virtual.logger.counts:
-        write_log(path, log)
-        return
-    if exp.device.encoder.counter_bits is None:
+    """A simulated log as the virtual rig's logger writes it: in device.toml's ``[log]``
+    layout (format, dialect, columns, units; a named temperature column at
+    rsp_inertia.plant.log_files.TEMPERATURE), its angle as counts with virtual.toml
+    ``[logger] counts`` (device.toml's ``[encoder] counter_bits`` wide). A waveform-timed
+    TDMS (no ``[log] time_column``) needs a regular log: no jitter, no dropped rows."""
+    device = exp.device
+    if virtual.logger.counts and device.encoder.counter_bits is None:
         raise InputError(
             f"{exp.virtual_path}: logger.counts: the logger writes a counter's counts, "
             "but device.toml's [encoder] has no counter_bits (the counter's width)"
         )
-    write_log(path, log, counter=exp.device.encoder)
+    if virtual.logger.counts and device.log.angle_unit is AngleUnit.DEG:
+        raise InputError(
+            f"{exp.virtual_path}: logger.counts: the logger writes counts, but device.toml's "
+            "[log] angle_unit is 'deg'"
+        )
+    if not device.log.time_column and (
+        virtual.logger.time_jitter > 0 or virtual.logger.dropped_fraction > 0
+    ):
+        raise InputError(
+            f"{exp.virtual_path}: logger.time_jitter, dropped_fraction: a TDMS log without a "
+            "time channel (device.toml [log] time_column = '') has waveform timing, which "
+            "holds no jitter or dropped rows: turn them off, or name a time_column"
+        )
+    write_log(
+        path,
+        log,
+        counter=device.encoder if virtual.logger.counts else None,
+        layout=device.log,
+        encoder=device.encoder,
+        torque_constant=device.motor.torque_constant,
+    )
 
 
 def _braking_truth(
@@ -117,8 +138,10 @@ def _braking_truth(
     q = exp.device.encoder.quantum
     same = (
         len(on_disk) == len(braking.log)
-        and np.array_equal(on_disk.t, braking.log.t)
-        and np.array_equal(on_disk.torque, braking.log.torque)
+        # within the [log] layout's conversions: stamps rounded to whole us at worst (TDMS
+        # dates), a unit's scale within ulps (mN m, A); any other braking differs by far more
+        and np.allclose(on_disk.t, braking.log.t, rtol=0.0, atol=1e-6)
+        and np.allclose(on_disk.torque, braking.log.torque, rtol=1e-12, atol=0.0)
         # in counts: a counts log's angle is rebuilt from the counter, not bit for bit
         and np.array_equal(np.rint(on_disk.phi / q), np.rint(braking.log.phi / q))
     )

@@ -17,6 +17,7 @@ from rsp_inertia.plant.logs import read_device_log, read_log
 from rsp_inertia.scenarios import create_default_experiment
 from rsp_inertia.simulating import simulate
 from rsp_inertia.virtual.config import LoggerSettings
+from tests.conftest import copy_experiment
 
 
 def test_an_angle_jump_in_a_log_is_refused_by_check_identify_and_program(tmp_path, capsys):
@@ -114,3 +115,91 @@ def test_genuine_logs_at_1_and_10_khz_stay_far_from_the_speed_bound(
         log = read_device_log(path, device, kind)
         assert np.diff(log.t).max() * rate > 1.5, path  # rows were dropped
         assert len(read_log(path, device.encoder, kind, launch_speed=fastest / 5)) == len(log)
+
+
+# --- logs in the rig's logger's layout (device.toml [log]) --------------------------------
+
+SEMICOLON_LAYOUT = """
+[log]
+delimiter = ";"
+decimal = ","
+skip_after_header = 1
+time_column = "Time [ms]"
+time_unit = "ms"
+angle_column = "Angle [deg]"
+angle_unit = "deg"
+torque_column = "Torque [mN m]"
+torque_unit = "mN m"
+temperature_column = "Motor temperature [C]"
+"""
+
+
+def _with_layout(root: Path, layout: str) -> Path:
+    (root / "device.toml").write_text((root / "device.toml").read_text() + layout)
+    return root
+
+
+def test_a_layout_is_simulated_checked_programmed_and_identified(tmp_path, capsys):
+    """The virtual device's logger writes device.toml's layout; check reads it (the motor's
+    temperature over each pass an ok line), program and the closed-loop reverse run on it."""
+    root = _with_layout(create_default_experiment(tmp_path / "exp"), SEMICOLON_LAYOUT)
+    assert main(["simulate", str(root), "--stage", "1"]) == 0
+    text = (root / "stage1" / "braking.csv").read_text()
+    assert text.startswith("Time [ms];Angle [deg];Torque [mN m];Motor temperature [C]\n")
+    assert text.splitlines()[1] == "ms;deg;mN m;C"
+    assert main(["program", str(root), "--stage", "1"]) == 0
+    assert main(["simulate", str(root), "--stage", "1", "--part", "reverse"]) == 0
+    capsys.readouterr()
+    main(["check", str(root)])
+    out = capsys.readouterr().out
+    for name in ("braking", "reverse"):
+        line = f"ok: {root / 'stage1' / name}.csv: motor temperature 25.0 to 25.0 C"
+        assert line in out.splitlines(), out
+
+
+LAYOUT_FAULTS = {
+    # name: (added to device.toml, the message's words)
+    "a column not found": (
+        '[log]\ntorque_column = "Torque [N m]"\n',
+        (
+            "braking.csv, line 1: column 'Torque [N m]' not found; the header has 't', "
+            "'phi', 'torque': set [log] torque_column"
+        ),
+    ),
+    "the logs in another format": (
+        '[log]\nformat = "parquet"\n',
+        "braking.parquet: no such file, but braking.csv is there",
+    ),
+    "an unknown unit": ('[log]\nangle_unit = "grad"\n', "log.angle_unit: must be one of"),
+}
+
+
+@pytest.mark.parametrize("case", LAYOUT_FAULTS)
+def test_a_layout_that_does_not_fit_the_logs_is_one_line_and_nothing_written(
+    default_logs, tmp_path, capsys, case
+):
+    added, words = LAYOUT_FAULTS[case]
+    root = _with_layout(copy_experiment(default_logs, tmp_path / "exp"), added)
+    program = root / "stage1" / "program.csv"
+    assert not program.exists()  # the ideal reverse needs none
+    capsys.readouterr()
+    for command in (["identify", str(root)], ["program", str(root), "--stage", "1"]):
+        assert main(command) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and words in err, err
+    assert not (root / "result.json").exists() and not program.exists()
+
+
+def test_a_waveform_tdms_of_a_jittered_logger_is_refused_before_anything_is_written(
+    tmp_path, capsys
+):
+    root = _with_layout(
+        create_default_experiment(tmp_path / "exp"), '[log]\nformat = "tdms"\ntime_column = ""\n'
+    )
+    virtual = root / "virtual.toml"
+    virtual.write_text(virtual.read_text() + "\n[logger]\ntime_jitter = 0.1\n")
+    capsys.readouterr()
+    assert main(["simulate", str(root), "--stage", "1"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "waveform timing" in err, err
+    assert not list(root.glob("stage1/*"))

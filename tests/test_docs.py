@@ -354,18 +354,21 @@ def _plain(value):
 
 
 TOGETHER = (
-    ("encoder", {"error_cos", "error_sin", "error_std"}),
-    ("rig", {"encoder_error_amplitude", "encoder_error_phase_deg"}),
+    {"encoder.error_cos", "encoder.error_sin", "encoder.error_std"},
+    {"rig.encoder_error_amplitude", "rig.encoder_error_phase_deg"},
+    {"motor.torque_constant", "motor.torque_constant_std", "log.torque_unit"},
+    {"log.delimiter", "log.decimal"},
 )
-"""Optional keys that a file gives together or not at all (an encoder's error series)."""
+"""Optional keys (dotted) that a file gives together or not at all: an encoder's error series,
+a torque constant and logs of the current, a decimal comma and its delimiter."""
 
 
 def _together(table: str, key: str) -> set[str]:
-    """The keys left out with ``key``: itself, and the keys it only comes with."""
-    for group_table, keys in TOGETHER:
-        if table == group_table and key in keys:
+    """The dotted keys left out with ``table.key``: itself, and the keys it only comes with."""
+    for keys in TOGETHER:
+        if f"{table}.{key}" in keys:
             return keys
-    return {key}
+    return {f"{table}.{key}"}
 
 
 @pytest.mark.parametrize("file", list(LOADERS))
@@ -381,9 +384,11 @@ def test_documented_requirements_and_defaults_hold(file, tmp_path):
             faults.append(f"{dotted}: in no '# {file}' example of the docs")
             continue
         block = json.loads(json.dumps(holders[0]))
-        entry = block[table][0] if isinstance(block[table], list) else block[table]
         for other in _together(table, key):
-            entry.pop(other, None)
+            other_table, other_key = other.split(".", 1)
+            holder = block.get(other_table, {})
+            entry = holder[0] if isinstance(holder, list) else holder
+            entry.pop(other_key, None)
         path = _merged(file, block, tmp_path, dotted)
         spec = row[1].strip()
         if spec == "required":

@@ -93,6 +93,8 @@ def test_log_round_trip_is_exact(
 ):
     encoder = Encoder(counts_per_rev, sample_rate)
     sign = 1 if kind == "braking" else -1
+    if kind == "braking":  # a braking that stays at one reading stopped: the reader cuts it
+        steps = [step + 1 for step in steps]
     counts = start + sign * np.cumsum([0, steps[0] + 1, *steps[1:]])  # the pass must move
     n = len(counts)
     log = Log(
@@ -308,10 +310,16 @@ BAD_LOGS = {
     "missing file": ("braking", None, None, ["no such file"]),
     "empty file": ("braking", "", None, ["empty"]),
     "blank lines only": ("braking", "\n \n\r\n", None, ["empty"]),
-    "header with a column missing": ("braking", text("t,phi", log_rows()), 1, ["'t,phi'"]),
+    "header with a column missing": (
+        "braking", text("t,phi", log_rows()), 1,
+        ["column 'torque' not found; the header has 't', 'phi': set [log] torque_column"],
+    ),
     "header with other names": ("braking", text("time,phi,torque", log_rows()), 1, ["time"]),
-    "header with an extra column": ("braking", text("t,phi,torque,x", log_rows()), 1, []),
-    "no header": ("braking", "\n".join(log_rows()), 1, ["expected 't,phi,torque'"]),
+    # columns are found by name: an extra one is read past, but every row must have it
+    "header with an extra column": (
+        "braking", text("t,phi,torque,x", log_rows()), 2, ["3 fields, expected 4"]
+    ),
+    "no header": ("braking", "\n".join(log_rows()), 1, ["column 't' not found", "'0.0'"]),
     "too few fields": ("braking", log_with(2, "0.002,0.0"), 4, ["2 fields"]),
     "too many fields": ("braking", log_with(3, "0.003,0,0,0"), 5, ["4 fields"]),
     "blank line inside": ("braking", log_with(1, ""), 3, ["blank"]),
