@@ -626,7 +626,9 @@ def device_known_terms(
     lossless drive and the encoder's error as device.toml states it (none: exact).
 
     The tares and the torque gain are taken as exact unless device.toml states their
-    uncertainty (``tare_inertia_std`` of every stage and ``torque_gain_std``); the warning,
+    uncertainty (``tare_inertia_std`` of every stage and ``torque_gain_std``, or for logs of
+    the motor current ``torque_constant_std``: rsp_inertia.plant.config.Motor.torque_scale_std);
+    the warning,
     naming the missing calibration ``calibration_source``, says when it does not. The
     encoder's stated error carries ``[encoder] error_std`` (exact without it, and a warning).
     """
@@ -648,7 +650,7 @@ def device_known_terms(
             cov[known.encoder_slice, known.encoder_slice] = np.diag(std**2)
             stated = bool(np.any(std > 0))
     tare_std = [st.tare_inertia_std for st in device.stages]
-    gain_std = device.motor.torque_gain_std
+    gain_std = device.motor.torque_scale_std()
     if all(v is not None for v in tare_std) and gain_std is not None:
         # h_d = h_b = 1/gain ~ 1 - (gain - 1): the same std to first order, for both gains.
         gains = known.gains_slice

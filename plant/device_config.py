@@ -99,6 +99,18 @@ class Motor:
     )
 
 
+    def torque_scale_std(self) -> float | None:
+        """The relative std of the logged torque's scale as stated: ``torque_gain_std`` and,
+        for logs of the motor current, ``torque_constant_std / torque_constant``, in
+        quadrature (independent: the current's measurement and the constant); None when
+        neither is stated."""
+        parts = [self.torque_gain_std]
+        if self.torque_constant is not None and self.torque_constant_std is not None:
+            parts.append(self.torque_constant_std / self.torque_constant)
+        stated = [v for v in parts if v is not None]
+        return math.hypot(*stated) if stated else None
+
+
 @config_class
 class Encoder:
     """Angle encoder on phi (``[encoder]``)."""

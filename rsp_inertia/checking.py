@@ -465,8 +465,9 @@ def _check_constants(
             for k, st in enumerate(device.stages, 1)
             if st.tare_inertia_std is None
         ]
-        if device.motor.torque_gain_std is None:
-            unstated.append("motor.torque_gain_std")
+        if device.motor.torque_scale_std() is None:
+            current = device.motor.torque_constant is not None
+            unstated.append("motor.torque_constant_std" if current else "motor.torque_gain_std")
         if unstated:
             _add(
                 findings,

@@ -128,23 +128,37 @@ def test_node_formula_std_matches_the_scatter(monte_carlo):
     assert lo < mean_sq < hi, mean_sq
 
 
-@pytest.mark.parametrize("logged_gain", [1.0, 1.01])
-def test_a_stated_torque_gain_std_is_propagated_not_fitted(tmp_path, default_logs, logged_gain):
+@pytest.mark.parametrize("logged_gain, current", [(1.0, False), (1.01, False), (1.01, True)])
+def test_a_stated_torque_gain_std_is_propagated_not_fitted(
+    tmp_path, default_logs, logged_gain, current
+):
     """Without a calibration, a torque gain known to 1% (device.toml's torque_gain_std, tares
     exact): the balances are homogeneous in the tensor and the torque's scale, so the runs
     cannot measure the gain; the tensor must come out as the logged torque says (1% high when
     the logs read 1% high) with a std of about 1%, never pulled toward zero (a fit with fixed
-    weights took it 23% low, 22 stds, before the common scale was propagated instead)."""
+    weights took it 23% low, 22 stds, before the common scale was propagated instead). With
+    ``current``, the drive logs its current and device.toml states the torque constant 1%
+    high with a std of 1% of it (torque_constant_std), and no torque_gain_std."""
     root = copy_experiment(default_logs, tmp_path / "exp")
     device = load_device(root / "device.toml")
     stages = tuple(replace(st, tare_inertia_std=0.0) for st in device.stages)
     motor = replace(device.motor, torque_gain_std=0.01)
+    constant = 0.05  # N m/A
+    if current:
+        motor = replace(
+            device.motor, torque_constant=constant * logged_gain, torque_constant_std=0.01 * constant
+        )
+        device = replace(device, log=replace(device.log, torque_unit="A"))
     write_device(root / "device.toml", replace(device, motor=motor, stages=stages))
     for path in sorted(root.glob("stage*/*.csv")):  # the rig logs logged_gain x its torque
         if path.name.startswith(("braking", "reverse")):
             kind = path.stem.split("_")[0]
             log = read_log(path, device.encoder, kind)
-            write_log(path, replace(log, torque=log.torque * logged_gain))
+            if current:  # the true current; read with the stated constant, logged_gain x it
+                write_log(path, replace(log, torque=log.torque / constant),
+                          layout=device.log, encoder=device.encoder, torque_constant=1.0)
+            else:
+                write_log(path, replace(log, torque=log.torque * logged_gain))
     result = identify(root)
     body = experiment_virtual(open_experiment(root)).body
     expected = body.inertia * logged_gain
