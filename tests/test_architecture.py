@@ -42,12 +42,17 @@ nominal model), nothing else of estimation; experiment design sits above them (i
 runs the virtual device); the command layer (the modules of rsp_inertia/ itself) above
 everything."""
 
-LAZY_BOUNDARY = {"rsp_inertia", "rsp_inertia.api", "rsp_inertia.plant.log_files"}
+LAZY_BOUNDARY = {
+    "rsp_inertia",
+    "rsp_inertia.api",
+    "rsp_inertia.plant.log_files",
+    "rsp_inertia.plant.log_checks",
+}
 """The modules whose functions may import: ``rsp_inertia.__getattr__`` loads the API on first use,
 and each API function loads its command's modules, so that ``rsp-inertia --help`` and the light
 commands do not pay for casadi, matplotlib and the estimation stack; the loggers' files load
-nptdms and pyarrow only to read or write a TDMS or Parquet log, so that a CSV log does not pay
-for them."""
+nptdms only to read or write a TDMS log, and pyarrow only to read a log (a CSV's fast path,
+a Parquet file) or write a Parquet one, so that importing the package does not pay for them."""
 
 
 def _modules() -> dict[str, Path]:

@@ -430,7 +430,7 @@ def test_identify_from_every_layout_gives_the_plain_csvs_tensor(
     assert _same_tensor(result, plain_result) < 1e-3
 
 
-def test_reading_a_csv_log_loads_neither_nptdms_nor_pyarrow(tmp_path):
+def test_reading_a_csv_log_loads_pyarrows_csv_reader_but_not_nptdms(tmp_path):
     path = tmp_path / "braking.csv"
     write_log(path, a_log())
     code = (
@@ -441,4 +441,59 @@ def test_reading_a_csv_log_loads_neither_nptdms_nor_pyarrow(tmp_path):
         "print(sorted({m.split('.')[0] for m in sys.modules} & {'nptdms', 'pyarrow'}))\n"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "['pyarrow']"
+    # Importing the readers loads neither.
+    code = code.splitlines()
+    code = "\n".join([*code[:3], code[-1]])
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+@pytest.mark.parametrize(
+    "dialect, text",
+    [
+        (",", "t,phi,torque\n{rows}"),
+        (";", "Zeit;Winkel;Moment\n[s];[rad];[N m]\n{rows}"),
+        ("\t", "# logger v2\nt\tphi\ttorque\n{rows}"),
+    ],
+)
+def test_the_fast_csv_reader_reads_what_the_careful_one_reads(tmp_path, monkeypatch, dialect, text):
+    """pyarrow's reader (log_checks._arrow_columns) and the numpy one give the same numbers
+    to the bit, in any dialect, whatever the decimal digits (``float()`` of every field), the
+    time stamps' integers exactly; and every file pyarrow cannot read as plain numbers goes
+    to the careful reader, which names the line (the faults' tests)."""
+    from rsp_inertia.plant import log_checks
+    from rsp_inertia.plant.log_checks import CsvDialect, read_columns
+
+    rng = np.random.default_rng(3)
+    n = 3000
+    t = np.cumsum(rng.integers(900, 1100, n))  # integer stamps (us)
+    phi = rng.standard_normal(n) * 10.0 ** rng.integers(-8, 8, n)
+    torque = [f"{v:.{d}g}" for v, d in zip(rng.standard_normal(n), rng.integers(1, 25, n))]
+    comma = dialect == ";"
+    fields = [
+        [str(a), repr(float(b)), c] for a, b, c in zip(t.tolist(), phi.tolist(), torque)
+    ]
+    rows = "".join(
+        dialect.join(f.replace(".", ",") if comma else f for f in row) + "\n" for row in fields
+    )
+    path = tmp_path / "log.csv"
+    path.write_text(text.format(rows=rows))
+    header = 2 if dialect == "\t" else 1
+    csv = CsvDialect(
+        delimiter=dialect,
+        decimal="," if comma else ".",
+        header_line=header,
+        skip_after_header=1 if comma else 0,
+    )
+    names = ("Zeit", "Winkel", "Moment") if comma else ("t", "phi", "torque")
+    keys = ("time_column", "angle_column", "torque_column")
+    fast = read_columns(path, names, csv, keys, integer=0)
+    called = []
+    monkeypatch.setattr(log_checks, "_arrow_columns", lambda *a: called.append(a))
+    careful = read_columns(path, names, csv, keys, integer=0)
+    assert called  # the second read went the careful way
+    assert np.array_equal(fast.values, careful.values)
+    assert np.array_equal(fast.integers, careful.integers) and fast.integers.dtype == np.int64
+    assert fast.rows == careful.rows
+    assert np.array_equal(fast.values[:, 2], [float(v) for v in torque])
