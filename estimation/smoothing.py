@@ -58,12 +58,20 @@ Hence q_j = r (2 BANDWIDTH_FACTOR Omega_max)^6, set from the log itself.
 
 Irregular time stamps. A log's time stamps are the drive's sampling instants
 (rsp_inertia.plant.logs.JITTER_LIMIT): they may jitter about the regular grid and skip
-dropped samples. Blocks are B consecutive readings whatever their times; the state lives at
-the mid-time of a block's first and last readings, each reading enters with its own offset
-from there, and each step between block states has its own transition F(T_k) and process
-noise Q(T_k), in the filter and in the RTS pass. On a regular log this is the block smoother
-above. r keeps the median step: jitter of a fraction of a
-period and one sample dropped in a thousand change the readings' density by less than that.
+dropped samples. Block k holds the readings of sample numbers k B to (k + 1) B - 1 whatever
+their jitter (:func:`block_starts`), so that no block spans a gap: one that did would stretch
+its quadratic Taylor form over n + B periods, and its speed bias grows steeply with w_c T (the
+block length above: on a 2 % speed harmonic at 2 Omega, a 20-sample gap inside a block of the
+default stage 1 biased the speed at the gap by 4 times the smoother's own error); and a gap
+leaves every block away from it as it would be without it (a log's estimates there do not
+move with it). The state
+lives at the mid-time of a block's first and last readings, each reading enters with its own
+offset from there, and each step between block states has its own transition F(T_k) and
+process noise Q(T_k), in the filter and in the RTS pass: across a gap the model's motion
+carries the state from one side to the other (:func:`gap_speed_covariance` gives what that
+costs the speed). On a regular log this is the block smoother above. r keeps the median step:
+jitter of a fraction of a period and one sample dropped in a thousand change the readings'
+density by less than that.
 
 The smoother's output is returned at every sample of the log by cubic Hermite interpolation
 between block states (phi with its derivative Omega, Omega with its derivative eps).
@@ -136,6 +144,9 @@ __all__ = [
     "BANDWIDTH_FACTOR",
     "BLOCK",
     "BLOCK_BANDWIDTH",
+    "GAP_GRID",
+    "GAP_REACH",
+    "GAP_WINDOW",
     "KERNEL_SPAN",
     "LINE_AVERAGE",
     "QUANTIZATION_LINES",
@@ -143,8 +154,12 @@ __all__ = [
     "angle_error_autocovariance",
     "block_length",
     "block_speed_bias",
+    "block_starts",
+    "gap_speed_covariance",
+    "gap_speed_excess",
     "hermite",
     "jerk_density",
+    "largest_bridged_gap",
     "median_step",
     "noise_density",
     "quantization_error_variance",
@@ -251,7 +266,9 @@ class Smoothed:
         ramp = self.omega_std[rows] / self._steady_omega_std * self.line_scale("speed", rows)
         return stationary * ramp**2
 
-    def speed_error_band(self, t: np.ndarray, omega_std: np.ndarray) -> np.ndarray:
+    def speed_error_band(
+        self, t: np.ndarray, omega_std: np.ndarray, plain: np.ndarray | None = None
+    ) -> np.ndarray:
         """(w, n) lower band of the covariance of the speed's errors at monotone times ``t``
         (module docstring, R): band[d, i] = cov(t_{i+d}, t_i), zero beyond the span, so that
         w - 1 is the widest offset still within w_c |tau| < KERNEL_SPAN.
@@ -263,6 +280,9 @@ class Smoothed:
         by up to 10x either way, but their resonances' places are known too roughly for
         weights (tried: more false alarms of the closure test at 12 and 14 bits); each run's
         speed-noise scale (rsp_inertia.estimation.gls) takes its level from its residuals.
+        ``plain`` (bool, like ``t``): instants left unscaled, where the smoother's own
+        covariance rises for a gap of dropped samples, whose added covariance is counted on
+        its own (:func:`gap_speed_covariance`).
 
         Raises
         ------
@@ -281,6 +301,8 @@ class Smoothed:
         while width < n and np.min(np.abs(t[width:] - t[: n - width])) < span:
             width += 1
         ramp = np.asarray(omega_std) / self._steady_omega_std
+        if plain is not None:
+            ramp = np.where(plain, 1.0, ramp)
         band = np.zeros((width, n))
         for d in range(width):
             tau = t[d:] - t[: n - d]
@@ -352,6 +374,51 @@ def block_length(bandwidth: float, dt: float) -> int:
     """
     fit = math.floor(BLOCK_BANDWIDTH / (bandwidth * dt) * (1 + 1e-12))
     return max(1, min(BLOCK, fit))
+
+
+def block_starts(t: np.ndarray, block: int, dt: float) -> np.ndarray:
+    """The first row of each filter block: the rows whose sample number (periods from the
+    first row, each step rounded to whole periods) falls in [k B, (k + 1) B) make block k, so that a gap of
+    dropped samples leaves its own blocks shorter, or empty (left out), and every other block
+    where it would be without it (module docstring: irregular time stamps).
+
+    Parameters
+    ----------
+    t : np.ndarray, shape (n,), s
+        The log's time stamps.
+    block : int
+        B, rows per block (:func:`block_length`).
+    dt : float
+        s, the sample period.
+
+    Returns
+    -------
+    np.ndarray, int
+        Ascending row indices, from 0; block k holds rows starts[k] to starts[k + 1] - 1, at
+        most B of them.
+
+    Examples
+    --------
+    >>> block_starts(np.array([0.0, 1, 2, 3, 4, 8, 9, 10]) * 1e-3, 3, 1e-3)
+    array([0, 3, 5, 6])
+    """
+    n = t.size
+    # Sample numbers step by step (a step of about m periods: m - 1 dropped samples, as
+    # rsp_inertia.plant.logs.dropped_samples counts them), not from t - t[0]: the median step
+    # of a jittered log is off the period by a little, which would add up along it.
+    number = np.zeros(n, dtype=np.int64)
+    np.cumsum(np.maximum(np.rint(np.diff(t) / dt), 1).astype(np.int64), out=number[1:])
+    number //= block
+    stretch = np.append(0, np.flatnonzero(np.diff(number)) + 1)
+    del number
+    # At most B rows per block even where jitter rounds two stamps to one sample number.
+    lengths = np.diff(np.append(stretch, n))
+    if np.all(lengths <= block):
+        return stretch
+    counts = -(-lengths // block)
+    first = np.repeat(stretch, counts)
+    within = np.arange(first.size) - np.repeat(np.cumsum(counts) - counts, counts)
+    return first + block * within
 
 
 def block_speed_bias(block: int, bandwidth: float, dt: float) -> float:
@@ -587,13 +654,14 @@ def smooth_log(log: Log, quantum: float, source: str = "log") -> Smoothed:
     dt = median_step(t)
     q_j, bandwidth = jerk_density(log, quantum)
     block = block_length(bandwidth, dt)
+    starts = block_starts(t, block, dt)
     # State k lives at the mid-time of block k's span: of its first and last readings' time
-    # stamps (jittered or with dropped samples: the true instants), and for a last, shorter
-    # block of ``block`` nominal periods from its first reading.
-    first = t[::block]
-    last = t[block - 1 :: block]
-    centres = first + (block - 1) / 2 * dt
-    centres[: last.size] = (first[: last.size] + last) / 2
+    # stamps (jittered: the true instants), and for the log's last block, when shorter, of
+    # ``block`` nominal periods from its first reading.
+    ends = np.append(starts[1:], n) - 1
+    centres = (t[starts] + t[ends]) / 2
+    if ends[-1] - starts[-1] + 1 < block:
+        centres[-1] = t[starts[-1]] + (block - 1) / 2 * dt
     steps = np.diff(centres)
     variance = quantum * quantum / 12.0
     z = np.asarray(log.phi) + quantum / 2
@@ -613,7 +681,7 @@ def smooth_log(log: Log, quantum: float, source: str = "log") -> Smoothed:
     lengths, which = np.unique(steps, return_inverse=True)
     F_of = np.stack([_transition(T) for T in lengths])  # indexed per step, not stacked per step
     Q_of = [_process_noise(T, q_j) for T in lengths]
-    readings = functools.partial(_block_readings, t, z, centres, block, variance)
+    readings = functools.partial(_block_readings, t, z, centres, starts, block, variance)
     task = f"{source}: smoothing"
     means, covs, predicted = _kalman_filter(x0, P0, F_of, Q_of, which, readings, task)
     xs, speed_var = _rts_smoother(means, covs, predicted, F_of, which)
@@ -647,7 +715,13 @@ _ROWS_CHUNK = 1 << 16
 
 
 def _block_readings(
-    t: np.ndarray, z: np.ndarray, centres: np.ndarray, block: int, variance: float, blocks: slice
+    t: np.ndarray,
+    z: np.ndarray,
+    centres: np.ndarray,
+    starts: np.ndarray,
+    block: int,
+    variance: float,
+    blocks: slice,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """What the readings of ``blocks`` tell about their block states, summed over each block.
 
@@ -655,20 +729,20 @@ def _block_readings(
     H x), the information A = H^T H / variance, (k, 3, 3), and b = H^T (z - z_ref) / variance,
     (k, 3), taken about the block's first reading z_ref (returned, (k,)): the update then
     works on differences of a few counts, not of whole angles, and loses no digits to them.
+    Block k holds the rows from ``starts[k]`` to the next block's start (at most ``block``);
+    a shorter block is padded with weight 0.
     """
     k0, k1 = blocks.start, blocks.stop
-    r0, r1 = k0 * block, min(k1 * block, t.size)
-    size = (k1 - k0) * block
-    tau = np.zeros(size)
-    dz = np.zeros(size)
-    weight = np.zeros(size)
-    tau[: r1 - r0] = t[r0:r1]
-    dz[: r1 - r0] = z[r0:r1]
-    weight[: r1 - r0] = 1.0 / variance  # a last, shorter block is padded with weight 0
-    tau = tau.reshape(-1, block) - centres[k0:k1, None]
-    reference = z[r0:r1:block]
-    dz = dz.reshape(-1, block) - reference[:, None]
-    weight = weight.reshape(-1, block)
+    first = starts[k0:k1]
+    stop = starts[k1] if k1 < starts.size else t.size
+    lengths = np.diff(np.append(first, stop))
+    rows = first[:, None] + np.arange(block)
+    inside = np.arange(block) < lengths[:, None]
+    rows = np.where(inside, rows, first[:, None])
+    tau = t[rows] - centres[k0:k1, None]
+    reference = z[first]
+    dz = z[rows] - reference[:, None]
+    weight = np.where(inside, 1.0 / variance, 0.0)
     moments = [weight.sum(axis=1)]
     power = weight
     for _ in range(4):
@@ -787,3 +861,231 @@ def _block_states_at(centres: np.ndarray, xs: np.ndarray, t: np.ndarray):
         omega[outside] = xs[j, 1] + xs[j, 2] * tau
         eps[outside] = xs[j, 2]
     return phi, omega, eps
+
+
+# ---------------------------------------------------------------------------------------------
+# Gaps of dropped samples: what bridging them costs the smoothed speed
+
+GAP_REACH = 12.0
+"""w_c x the time beyond a gap's rows within which its added covariance of the smoothed speed
+is kept (:func:`gap_speed_covariance`): the added variance is back below 1e-3 of the stationary
+one 8 / w_c out of a 20-sample gap on the default stage 1."""
+
+GAP_WINDOW = 20.0
+"""w_c x the time of readings beyond the reach on either side in a gap's chain
+(:func:`gap_speed_covariance`): the chain's own ends' start-up has died out by e^-10 there
+(the smoother's errors decay like exp(-w_c tau / 2))."""
+
+GAP_GRID = 0.25
+"""w_c x the spacing of the instants where :func:`gap_speed_excess` looks for the smoother's
+largest added variance (its profile changes over about 1 / w_c)."""
+
+
+@dataclass(frozen=True)
+class _GapChain:
+    """The smoother's model on a regular grid of h = w_c dt about one gap (or none), in units
+    of 1/w_c, the reading noise r = 1 and the jerk density q_j = 1 (r w_c^6 in the smoother:
+    its model in these units, whatever the log), the states scaled to (phi, Omega h, eps h^2)
+    so that the information matrix's entries share their magnitude."""
+
+    offsets: np.ndarray
+    """Sample instants of the chain's nodes, in periods from the row before the gap."""
+    factor: np.ndarray
+    """Upper banded Cholesky factor of the information matrix (scipy.linalg.cholesky_banded,
+    3 states per node, 5 diagonals above the main one)."""
+    h: float
+    """w_c dt."""
+
+
+@functools.lru_cache(maxsize=16)
+def _gap_chain(missing: int, h: float, whole: bool) -> _GapChain:
+    """The chain of :class:`_GapChain` for a gap of ``missing`` samples after the node at
+    offset 0 (``whole``: the same grid with nothing missing), GAP_REACH + GAP_WINDOW time
+    constants of readings on either side.
+
+    The information matrix is the batch form of the Kalman filter and RTS smoother: with
+    D_k = [-F(T_k), I] on the states of nodes k, k + 1 and the readings' information e_phi
+    e_phi^T / var per node (var = q^2/12 = r / dt, 1 / h in these units), Lambda = sum_k
+    D_k^T Q(T_k)^-1 D_k + sum_k e_phi e_phi^T / var; its inverse is the smoother's covariance.
+    """
+    import scipy.linalg
+
+    side = math.ceil((GAP_REACH + GAP_WINDOW) / h)
+    offsets = np.arange(-side, missing + 2 + side)
+    if not whole:
+        offsets = offsets[(offsets <= 0) | (offsets > missing)]
+    m = offsets.size
+    band = np.zeros((6, 3 * m))  # upper form: band[5 + i - j, j] = Lambda[i, j], i <= j
+    scale = np.array([1.0, h, h * h])
+    for step in np.unique(np.diff(offsets)).tolist():
+        T = step * h
+        F = scale[:, None] * _transition(T) / scale[None, :]
+        Qi = np.linalg.inv(scale[:, None] * _process_noise(T, 1.0) * scale[None, :])
+        D = np.hstack([-F, np.eye(3)])
+        block = D.T @ Qi @ D
+        k = np.flatnonzero(np.diff(offsets) == step)
+        for i in range(6):
+            for j in range(i, 6):
+                band[5 + i - j, 3 * k + j] += block[i, j]
+    band[5, 0::3] += h  # the readings' information 1 / var
+    return _GapChain(offsets=offsets, factor=scipy.linalg.cholesky_banded(band), h=h)
+
+
+def _speed_functionals(chain: _GapChain, offsets: np.ndarray):
+    """(k, 3 m) sparse: the smoothed speed at ``offsets`` (periods from the row before the
+    gap) as a combination of the chain's scaled states: cubic Hermite between the
+    neighbouring nodes with their speeds and accelerations, as the estimates take it between
+    a log's rows (rsp_inertia.estimation.passes.PassEstimate.sample_at; across a gap, between
+    its rows)."""
+    import scipy.sparse
+
+    nodes = chain.offsets
+    u = np.asarray(offsets, dtype=float)
+    a = np.clip(np.searchsorted(nodes, u, side="right") - 1, 0, nodes.size - 2)
+    span = (nodes[a + 1] - nodes[a]).astype(float)
+    s = (u - nodes[a]) / span
+    H = span * chain.h  # the interval in units of 1 / w_c
+    h = chain.h
+    # omega = y1 / h, eps = y2 / h^2 (the chain's scaled states).
+    weights = np.column_stack(
+        [
+            (2 * s**3 - 3 * s**2 + 1) / h,
+            (s**3 - 2 * s**2 + s) * H / h**2,
+            (-2 * s**3 + 3 * s**2) / h,
+            (s**3 - s**2) * H / h**2,
+        ]
+    )
+    columns = np.column_stack([3 * a + 1, 3 * a + 2, 3 * a + 4, 3 * a + 5])
+    rows = np.repeat(np.arange(u.size), 4)
+    return scipy.sparse.csr_array(
+        (weights.ravel(), (rows, columns.ravel())), shape=(u.size, 3 * nodes.size)
+    )
+
+
+def _chain_speed_covariance(
+    chain: _GapChain, offsets: np.ndarray, model_only: bool = False
+) -> tuple[np.ndarray | None, np.ndarray]:
+    """(noise, model): the covariance of the smoothed speed's error at ``offsets`` from the
+    readings' white noise alone, L Lambda^-1 A Lambda^-1 L^T (A the readings' information),
+    and the model's own, L Lambda^-1 L^T, in units of r w_c^3; ``model_only``: (None, the
+    model's variances alone)."""
+    import scipy.linalg
+
+    L = _speed_functionals(chain, offsets)
+    Y = scipy.linalg.cho_solve_banded((chain.factor, False), L.T.toarray())
+    if model_only:
+        return None, np.asarray((L.multiply(Y.T)).sum(axis=1)).ravel()
+    phi = Y[0::3]
+    return chain.h * (phi.T @ phi), np.asarray(L @ Y)
+
+
+def gap_speed_covariance(
+    missing: int, h: float, offsets: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """What a gap of ``missing`` dropped samples adds to the covariance of the smoothed
+    speed's error at given instants near it, in units of r w_c^3.
+
+    The smoother's model (module docstring) on a regular grid of samples about the gap,
+    GAP_REACH + GAP_WINDOW time constants of readings on either side, in its batch form: its
+    information matrix Lambda (the Kalman filter and RTS pass compute its inverse's blocks),
+    A its readings' part. Over the gap the smoother carries its state from the readings on
+    either side, and the speed at an instant there is the cubic Hermite between the gap's two
+    rows (rsp_inertia.estimation.passes.PassEstimate.sample_at). Two covariances, each that
+    of the grid with the gap minus that of the same grid whole:
+
+    - noise: the readings' white noise passed through the smoother, L Lambda^-1 A Lambda^-1
+      L^T, L the speed's rows at the instants: what the speed's error actually is for a
+      smooth motion (r w_c^3 / 12 stationary: the derived R(0)); the balances take it
+      (rsp_inertia.estimation.balance);
+    - model: the smoother's own covariance L Lambda^-1 L^T, which adds a random jerk's
+      motion over the gap (r w_c^3 / 6 stationary): its own uncertainty of what the motion
+      did where it has no reading, the measure of whether to bridge the gap at all
+      (:func:`gap_speed_excess`).
+
+    Parameters
+    ----------
+    missing : int
+        Samples dropped in a row (>= 1).
+    h : float
+        w_c dt, the smoother's bandwidth times the sample period.
+    offsets : np.ndarray, shape (k,)
+        The instants, in periods from the row before the gap (the row after it is at
+        missing + 1).
+
+    Returns
+    -------
+    noise, model : np.ndarray, shape (k, k)
+        The added covariances, r w_c^3 (rsp_inertia.estimation.smoothing.noise_density r).
+
+    Examples
+    --------
+    Five samples dropped on the default stage 1 (w_c = 240 rad/s at 1 kHz): the speed's
+    error an instant past the gap grows by about a fifth of its stationary variance 1/12:
+
+    >>> noise, model = gap_speed_covariance(5, 0.24, np.array([-100.0, 10.0]))
+    >>> bool(abs(noise[0, 0]) < 1e-6), bool(0.005 < noise[1, 1] < 0.03)
+    (True, True)
+    """
+    offsets = np.asarray(offsets, dtype=float)
+    gap = _chain_speed_covariance(_gap_chain(missing, h, False), offsets)
+    whole = _chain_speed_covariance(_gap_chain(missing, h, True), offsets)
+    return gap[0] - whole[0], gap[1] - whole[1]
+
+
+@functools.lru_cache(maxsize=64)
+def gap_speed_excess(missing: int, h: float) -> float:
+    """The smoother's own largest added variance of the speed over a gap of ``missing``
+    dropped samples (:func:`gap_speed_covariance`, model), over its stationary variance
+    r w_c^3 / 6: at instants GAP_GRID / w_c apart from GAP_REACH / w_c before the gap to as
+    far after it.
+
+    Parameters
+    ----------
+    missing : int
+        Samples dropped in a row (>= 1).
+    h : float
+        w_c dt.
+
+    Returns
+    -------
+    float
+        The ratio (0 for no gap).
+    """
+    if missing < 1:
+        return 0.0
+    reach = GAP_REACH / h
+    offsets = np.arange(-reach, missing + 1 + reach, GAP_GRID / h)
+    _, gap = _chain_speed_covariance(_gap_chain(missing, h, False), offsets, model_only=True)
+    _, whole = _chain_speed_covariance(_gap_chain(missing, h, True), offsets, model_only=True)
+    return float(np.max(gap - whole)) * 6.0
+
+
+def largest_bridged_gap(h: float, allowance: float, limit: int = 10_000) -> int:
+    """The most samples a gap may miss in a row for :func:`gap_speed_excess` to stay within
+    ``allowance`` (it grows with the gap).
+
+    Parameters
+    ----------
+    h : float
+        w_c dt.
+    allowance : float
+        The largest ratio accepted.
+    limit : int
+        Searched up to this many samples.
+
+    Returns
+    -------
+    int
+        Samples, 0 when not even one may be missing.
+    """
+    if gap_speed_excess(1, h) > allowance:
+        return 0
+    lo, hi = 1, 2
+    while hi <= limit and gap_speed_excess(hi, h) <= allowance:
+        lo, hi = hi, 2 * hi
+    if hi > limit:
+        return limit
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        lo, hi = (mid, hi) if gap_speed_excess(mid, h) <= allowance else (lo, mid)
+    return lo
