@@ -115,15 +115,15 @@ CONSTANCY_TAIL = 1e-3
 this (a false alarm once in a thousand honest logs, which only costs some accuracy)."""
 
 
-GAP_NEGLIGIBLE = 0.05
+GAP_NEGLIGIBLE = 0.1
 """A gap of dropped samples counts for the speed (:attr:`PassEstimate.gaps`) when the
 smoother's own added variance of the speed exceeds this fraction of its stationary one
-somewhere (rsp_inertia.estimation.smoothing.gap_speed_excess): below it, its added variance
-is a few percent of the speed noise's over a few 1 / w_c, less than the noise model's own
-approximations (the quantization lines move the speed noise's level by 0.1 to 10 times along
-a coarse pass), and the pass is taken as if nothing were missing there. On the default
-stage 1 (w_c dt = 0.24) a single dropped sample stays below it (0.034) and two count (0.074);
-at 10 kHz up to 15 samples in a row stay below it."""
+somewhere (rsp_inertia.estimation.smoothing.gap_speed_excess): below it, the readings' noise
+adds a few percent of the speed noise's variance over a few 1 / w_c, less than the noise
+model's own approximations (the quantization lines move the speed noise's level by 0.1 to 10
+times along a coarse pass), and the pass is taken as if nothing were missing there. On the
+default stage 1 (w_c dt = 0.24) a single dropped sample stays below it (0.051) and two count
+(0.106); on stage 2 (0.07) up to 8 in a row stay below it, at 10 kHz on stage 1 up to 26."""
 
 
 @dataclass(frozen=True)
@@ -132,6 +132,10 @@ class Gap:
 
     row: int
     """The log's row before the gap (0-based)."""
+    number: int
+    """That row's sample number (periods from the first row: rows and dropped samples
+    before it), which places the gap in the smoother's blocks
+    (rsp_inertia.estimation.smoothing.block_starts)."""
     missing: int
     """Samples dropped in a row."""
     excess: float
@@ -300,11 +304,13 @@ class PassEstimate:
         """The pass's gaps of dropped samples that count for its speed: the smoother's own
         added variance above GAP_NEGLIGIBLE of its stationary one (module docstring)."""
         rows = np.flatnonzero(self.dropped)
+        missing = self.dropped[rows]
+        numbers = rows + np.cumsum(missing) - missing
         found = []
-        for k, n in zip(rows.tolist(), self.dropped[rows].tolist()):
+        for k, number, n in zip(rows.tolist(), numbers.tolist(), missing.tolist()):
             excess = gap_speed_excess(int(n), self.h)
             if excess > GAP_NEGLIGIBLE:
-                found.append(Gap(row=k, missing=int(n), excess=excess))
+                found.append(Gap(row=k, number=int(number), missing=int(n), excess=excess))
         return found
 
     def near_gaps(self, times: np.ndarray) -> np.ndarray | None:
@@ -330,7 +336,7 @@ class PassEstimate:
         (the smoother's weights on the readings move), which a source of the uncertainty
         budget cannot carry as a negative variance. At the balances' spacing (one 1 / w_c)
         the clipped part's largest variance is within 10 % of the exact one and its trace
-        1.2 to 1.5 times the exact trace (default stage 1, 3 to 18 samples): conservative.
+        1.2 to 1.5 times the exact trace (default stage 1, 3 to 14 samples): conservative.
 
         An instant's place is counted in periods from the row before the gap, on the log's
         own time stamps: periods before it, the gap's rows' interval in proportion, periods
@@ -358,7 +364,7 @@ class PassEstimate:
                     (tau - t0) / (t1 - t0) * (gap.missing + 1),
                 ),
             )
-            added, _ = gap_speed_covariance(gap.missing, self.h, offsets)
+            added, _ = gap_speed_covariance(gap.missing, self.h, offsets, gap.number)
             values, vectors = np.linalg.eigh(added)
             found.append((inside, unit * (vectors * np.maximum(values, 0.0)) @ vectors.T))
         if not found:

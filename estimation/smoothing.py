@@ -62,7 +62,8 @@ dropped samples. Block k holds the readings of sample numbers k B to (k + 1) B -
 their jitter (:func:`block_starts`), so that no block spans a gap: one that did would stretch
 its quadratic Taylor form over n + B periods, and its speed bias grows steeply with w_c T (the
 block length above: on a 2 % speed harmonic at 2 Omega, a 20-sample gap inside a block of the
-default stage 1 biased the speed at the gap by 4 times the smoother's own error); and a gap
+default stage 1 biased the speed there by 1.3 times the smoother's own error std, a 40-sample
+one by 5 times; with the blocks cut at the gap, 0.13 at the 14 samples it bridges); and a gap
 leaves every block away from it as it would be without it (a log's estimates there do not
 move with it). The state
 lives at the mid-time of a block's first and last readings, each reading enters with its own
@@ -868,8 +869,8 @@ def _block_states_at(centres: np.ndarray, xs: np.ndarray, t: np.ndarray):
 
 GAP_REACH = 12.0
 """w_c x the time beyond a gap's rows within which its added covariance of the smoothed speed
-is kept (:func:`gap_speed_covariance`): the added variance is back below 1e-3 of the stationary
-one 8 / w_c out of a 20-sample gap on the default stage 1."""
+is kept (:func:`gap_speed_covariance`): 8 / w_c out of a 20-sample gap on the default stage 1
+the added variance is 2e-3 of the stationary one, 10 / w_c out 1e-4."""
 
 GAP_WINDOW = 20.0
 """w_c x the time of readings beyond the reach on either side in a gap's chain
@@ -883,83 +884,136 @@ largest added variance (its profile changes over about 1 / w_c)."""
 
 @dataclass(frozen=True)
 class _GapChain:
-    """The smoother's model on a regular grid of h = w_c dt about one gap (or none), in units
-    of 1/w_c, the reading noise r = 1 and the jerk density q_j = 1 (r w_c^6 in the smoother:
-    its model in these units, whatever the log), the states scaled to (phi, Omega h, eps h^2)
-    so that the information matrix's entries share their magnitude."""
+    """The block smoother's model about one gap (or none) on a regular grid of samples, in
+    units of 1/w_c for time, the reading noise's density r = 1 and the jerk's q_j = 1 (r w_c^6
+    in the smoother: its model in these units, whatever the log); block states scaled to
+    (phi, Omega T, eps T^2), T the block's nominal step, so that the information matrix's
+    entries share their magnitude."""
 
-    offsets: np.ndarray
-    """Sample instants of the chain's nodes, in periods from the row before the gap."""
+    centres: np.ndarray
+    """The block states' times."""
     factor: np.ndarray
     """Upper banded Cholesky factor of the information matrix (scipy.linalg.cholesky_banded,
-    3 states per node, 5 diagonals above the main one)."""
+    3 states per block, 5 diagonals above the main one)."""
+    readings: np.ndarray
+    """(blocks, 3, 3) each block's readings' information H^T H / var (the noise part's A)."""
+    scale: np.ndarray
+    """(3,) the states' scales (1, T, T^2)."""
     h: float
     """w_c dt."""
+    missing: int
+    """Samples dropped after the sample at offset 0 (0: none)."""
 
 
-@functools.lru_cache(maxsize=16)
-def _gap_chain(missing: int, h: float, whole: bool) -> _GapChain:
-    """The chain of :class:`_GapChain` for a gap of ``missing`` samples after the node at
+@functools.lru_cache(maxsize=256)
+def _gap_chain(missing: int, h: float, phase: int, whole: bool) -> _GapChain:
+    """The chain of :class:`_GapChain` for a gap of ``missing`` samples after the sample at
     offset 0 (``whole``: the same grid with nothing missing), GAP_REACH + GAP_WINDOW time
-    constants of readings on either side.
+    constants of readings on either side, its samples in blocks of B = block_length as
+    :func:`block_starts` groups a log's (``phase``: the sample number of the row before the
+    gap, modulo B).
 
-    The information matrix is the batch form of the Kalman filter and RTS smoother: with
-    D_k = [-F(T_k), I] on the states of nodes k, k + 1 and the readings' information e_phi
-    e_phi^T / var per node (var = q^2/12 = r / dt, 1 / h in these units), Lambda = sum_k
-    D_k^T Q(T_k)^-1 D_k + sum_k e_phi e_phi^T / var; its inverse is the smoother's covariance.
+    The information matrix is the batch form of :func:`smooth_log`'s Kalman filter and RTS
+    pass: with D_k = [-F(T_k), I] on the states of blocks k, k + 1 and the readings'
+    information A_k = H_k^T H_k / var per block (H_k the readings' Taylor rows about the
+    block's centre, var = q^2/12 = r / dt, 1 / h in these units), Lambda = sum_k D_k^T
+    Q(T_k)^-1 D_k + sum_k A_k; its inverse is the smoother's covariance.
     """
     import scipy.linalg
 
+    block = block_length(1.0, h)
     side = math.ceil((GAP_REACH + GAP_WINDOW) / h)
     offsets = np.arange(-side, missing + 2 + side)
     if not whole:
         offsets = offsets[(offsets <= 0) | (offsets > missing)]
-    m = offsets.size
+    group = (offsets + phase + block * (side // block + 1)) // block
+    starts = np.append(0, np.flatnonzero(np.diff(group)) + 1)
+    stops = np.append(starts[1:], offsets.size)
+    times = offsets * h
+    centres = (times[starts] + times[stops - 1]) / 2
+    m = centres.size
+    T = block * h
+    scale = np.array([1.0, T, T * T])
+    # Each block's readings' information H^T H / var (1 / var = h), from the moments of
+    # their offsets tau from its centre (in units of T), as smooth_log's _block_readings.
+    which = np.repeat(np.arange(m), stops - starts)
+    tau = (times - centres[which]) / T
+    m0, m1, m2, m3, m4 = (h * np.bincount(which, tau**p, minlength=m) for p in range(5))
+    readings = np.empty((m, 3, 3))
+    readings[:, 0] = np.column_stack([m0, m1, m2 / 2])
+    readings[:, 1] = np.column_stack([m1, m2, m3 / 2])
+    readings[:, 2] = np.column_stack([m2 / 2, m3 / 2, m4 / 4])
     band = np.zeros((6, 3 * m))  # upper form: band[5 + i - j, j] = Lambda[i, j], i <= j
-    scale = np.array([1.0, h, h * h])
-    for step in np.unique(np.diff(offsets)).tolist():
-        T = step * h
-        F = scale[:, None] * _transition(T) / scale[None, :]
-        Qi = np.linalg.inv(scale[:, None] * _process_noise(T, 1.0) * scale[None, :])
+    for j in range(3):
+        for i in range(j + 1):
+            band[5 + i - j, j::3] += readings[:, i, j]
+    steps = np.diff(centres)
+    for step in np.unique(np.round(steps / h, 6)).tolist():
+        dT = step * h
+        F = scale[:, None] * _transition(dT) / scale[None, :]
+        Qi = np.linalg.inv(scale[:, None] * _process_noise(dT, 1.0) * scale[None, :])
         D = np.hstack([-F, np.eye(3)])
-        block = D.T @ Qi @ D
-        k = np.flatnonzero(np.diff(offsets) == step)
+        B = D.T @ Qi @ D
+        k = np.flatnonzero(np.isclose(steps / h, step, rtol=0.0, atol=1e-6))
         for i in range(6):
             for j in range(i, 6):
-                band[5 + i - j, 3 * k + j] += block[i, j]
-    band[5, 0::3] += h  # the readings' information 1 / var
-    return _GapChain(offsets=offsets, factor=scipy.linalg.cholesky_banded(band), h=h)
+                band[5 + i - j, 3 * k + j] += B[i, j]
+    return _GapChain(
+        centres=centres,
+        factor=scipy.linalg.cholesky_banded(band),
+        readings=readings,
+        scale=scale,
+        h=h,
+        missing=0 if whole else missing,
+    )
 
 
-def _speed_functionals(chain: _GapChain, offsets: np.ndarray):
-    """(k, 3 m) sparse: the smoothed speed at ``offsets`` (periods from the row before the
-    gap) as a combination of the chain's scaled states: cubic Hermite between the
-    neighbouring nodes with their speeds and accelerations, as the estimates take it between
-    a log's rows (rsp_inertia.estimation.passes.PassEstimate.sample_at; across a gap, between
-    its rows)."""
-    import scipy.sparse
+def _state_rows(chain: _GapChain, x: np.ndarray, part: str):
+    """(k, 3 m) dense: the smoothed speed (``part`` "omega") or acceleration ("eps") at
+    times ``x`` (units of 1 / w_c) as combinations of the chain's scaled block states, as
+    :func:`smooth_log` gives them at a row (cubic Hermite of Omega with eps between the
+    neighbouring block states; eps linear)."""
+    c = chain.centres
+    a = np.clip(np.searchsorted(c, x, side="right") - 1, 0, c.size - 2)
+    span = c[a + 1] - c[a]
+    s = (x - c[a]) / span
+    T = chain.scale[1]
+    L = np.zeros((x.size, 3 * c.size))
+    rows = np.arange(x.size)
+    if part == "omega":
+        L[rows, 3 * a + 1] = (2 * s**3 - 3 * s**2 + 1) / T
+        L[rows, 3 * a + 2] = (s**3 - 2 * s**2 + s) * span / T**2
+        L[rows, 3 * a + 4] = (-2 * s**3 + 3 * s**2) / T
+        L[rows, 3 * a + 5] = (s**3 - s**2) * span / T**2
+    else:
+        L[rows, 3 * a + 2] = (1 - s) / T**2
+        L[rows, 3 * a + 5] = s / T**2
+    return L
 
-    nodes = chain.offsets
+
+def _speed_functionals(chain: _GapChain, offsets: np.ndarray) -> np.ndarray:
+    """(k, 3 m): the smoothed speed at ``offsets`` (periods from the row before the gap) as
+    a combination of the chain's scaled block states, as the estimates take it
+    (rsp_inertia.estimation.passes.PassEstimate.sample_at): between rows, which are as dense
+    as the samples, the block states' Hermite itself; across the gap, the cubic Hermite
+    between the gap's two rows with their speeds and accelerations."""
+    h, n = chain.h, chain.missing
     u = np.asarray(offsets, dtype=float)
-    a = np.clip(np.searchsorted(nodes, u, side="right") - 1, 0, nodes.size - 2)
-    span = (nodes[a + 1] - nodes[a]).astype(float)
-    s = (u - nodes[a]) / span
-    H = span * chain.h  # the interval in units of 1 / w_c
-    h = chain.h
-    # omega = y1 / h, eps = y2 / h^2 (the chain's scaled states).
-    weights = np.column_stack(
-        [
-            (2 * s**3 - 3 * s**2 + 1) / h,
-            (s**3 - 2 * s**2 + s) * H / h**2,
-            (-2 * s**3 + 3 * s**2) / h,
-            (s**3 - s**2) * H / h**2,
-        ]
-    )
-    columns = np.column_stack([3 * a + 1, 3 * a + 2, 3 * a + 4, 3 * a + 5])
-    rows = np.repeat(np.arange(u.size), 4)
-    return scipy.sparse.csr_array(
-        (weights.ravel(), (rows, columns.ravel())), shape=(u.size, 3 * nodes.size)
-    )
+    L = _state_rows(chain, u * h, "omega")
+    inside = (u > 0) & (u < n + 1) if n else np.zeros(u.size, dtype=bool)
+    if np.any(inside):
+        edges = np.array([0.0, (n + 1) * h])
+        omega = _state_rows(chain, edges, "omega")
+        eps = _state_rows(chain, edges, "eps")
+        s = u[inside] / (n + 1)
+        G = (n + 1) * h
+        L[inside] = (
+            np.outer(2 * s**3 - 3 * s**2 + 1, omega[0])
+            + np.outer((s**3 - 2 * s**2 + s) * G, eps[0])
+            + np.outer(-2 * s**3 + 3 * s**2, omega[1])
+            + np.outer((s**3 - s**2) * G, eps[1])
+        )
+    return L
 
 
 def _chain_speed_covariance(
@@ -972,26 +1026,28 @@ def _chain_speed_covariance(
     import scipy.linalg
 
     L = _speed_functionals(chain, offsets)
-    Y = scipy.linalg.cho_solve_banded((chain.factor, False), L.T.toarray())
+    Y = scipy.linalg.cho_solve_banded((chain.factor, False), L.T)
     if model_only:
-        return None, np.asarray((L.multiply(Y.T)).sum(axis=1)).ravel()
-    phi = Y[0::3]
-    return chain.h * (phi.T @ phi), np.asarray(L @ Y)
+        return None, np.einsum("ij,ji->i", L, Y)
+    m = chain.centres.size
+    AY = np.einsum("kab,kbj->kaj", chain.readings, Y.reshape(m, 3, -1)).reshape(3 * m, -1)
+    return Y.T @ AY, L @ Y
 
 
 def gap_speed_covariance(
-    missing: int, h: float, offsets: np.ndarray
+    missing: int, h: float, offsets: np.ndarray, phase: int = 0
 ) -> tuple[np.ndarray, np.ndarray]:
     """What a gap of ``missing`` dropped samples adds to the covariance of the smoothed
     speed's error at given instants near it, in units of r w_c^3.
 
-    The smoother's model (module docstring) on a regular grid of samples about the gap,
-    GAP_REACH + GAP_WINDOW time constants of readings on either side, in its batch form: its
-    information matrix Lambda (the Kalman filter and RTS pass compute its inverse's blocks),
-    A its readings' part. Over the gap the smoother carries its state from the readings on
-    either side, and the speed at an instant there is the cubic Hermite between the gap's two
-    rows (rsp_inertia.estimation.passes.PassEstimate.sample_at). Two covariances, each that
-    of the grid with the gap minus that of the same grid whole:
+    The smoother's model (module docstring) over a regular grid of samples about the gap,
+    GAP_REACH + GAP_WINDOW time constants of readings on either side, in blocks as
+    :func:`smooth_log` takes a log's, in its batch form: its information matrix Lambda (the
+    Kalman filter and RTS pass compute its inverse's blocks), A its readings' part. Over the
+    gap the smoother carries its state from the readings on either side, and the speed at an
+    instant there is the cubic Hermite between the gap's two rows
+    (rsp_inertia.estimation.passes.PassEstimate.sample_at). Two covariances, each that of
+    the grid with the gap minus that of the same grid whole:
 
     - noise: the readings' white noise passed through the smoother, L Lambda^-1 A Lambda^-1
       L^T, L the speed's rows at the instants: what the speed's error actually is for a
@@ -1011,6 +1067,9 @@ def gap_speed_covariance(
     offsets : np.ndarray, shape (k,)
         The instants, in periods from the row before the gap (the row after it is at
         missing + 1).
+    phase : int
+        The sample number of the row before the gap modulo the smoother's block length
+        (:func:`block_starts`; 0 to B - 1).
 
     Returns
     -------
@@ -1020,15 +1079,16 @@ def gap_speed_covariance(
     Examples
     --------
     Five samples dropped on the default stage 1 (w_c = 240 rad/s at 1 kHz): the speed's
-    error an instant past the gap grows by about a fifth of its stationary variance 1/12:
+    error 2 / w_c past the gap grows by about a fifth of its stationary variance 1/12:
 
-    >>> noise, model = gap_speed_covariance(5, 0.24, np.array([-100.0, 10.0]))
+    >>> noise, model = gap_speed_covariance(5, 0.24, np.array([-100.0, 14.0]))
     >>> bool(abs(noise[0, 0]) < 1e-6), bool(0.005 < noise[1, 1] < 0.03)
     (True, True)
     """
     offsets = np.asarray(offsets, dtype=float)
-    gap = _chain_speed_covariance(_gap_chain(missing, h, False), offsets)
-    whole = _chain_speed_covariance(_gap_chain(missing, h, True), offsets)
+    phase %= block_length(1.0, h)
+    gap = _chain_speed_covariance(_gap_chain(missing, h, phase, False), offsets)
+    whole = _chain_speed_covariance(_gap_chain(missing, h, phase, True), offsets)
     return gap[0] - whole[0], gap[1] - whole[1]
 
 
@@ -1037,7 +1097,7 @@ def gap_speed_excess(missing: int, h: float) -> float:
     """The smoother's own largest added variance of the speed over a gap of ``missing``
     dropped samples (:func:`gap_speed_covariance`, model), over its stationary variance
     r w_c^3 / 6: at instants GAP_GRID / w_c apart from GAP_REACH / w_c before the gap to as
-    far after it.
+    far after it, the largest over the gap's places in the smoother's blocks.
 
     Parameters
     ----------
@@ -1055,9 +1115,12 @@ def gap_speed_excess(missing: int, h: float) -> float:
         return 0.0
     reach = GAP_REACH / h
     offsets = np.arange(-reach, missing + 1 + reach, GAP_GRID / h)
-    _, gap = _chain_speed_covariance(_gap_chain(missing, h, False), offsets, model_only=True)
-    _, whole = _chain_speed_covariance(_gap_chain(missing, h, True), offsets, model_only=True)
-    return float(np.max(gap - whole)) * 6.0
+    worst = 0.0
+    for phase in range(block_length(1.0, h)):
+        _, gap = _chain_speed_covariance(_gap_chain(missing, h, phase, False), offsets, True)
+        _, whole = _chain_speed_covariance(_gap_chain(missing, h, phase, True), offsets, True)
+        worst = max(worst, float(np.max(gap - whole)) * 6.0)
+    return worst
 
 
 def largest_bridged_gap(h: float, allowance: float, limit: int = 10_000) -> int:

@@ -207,7 +207,7 @@ def _drop_at_node(root, rows: int):
 
 def _gap_at_a_node(root):
     """Five rows of stage 1's reverse dropped at node 120 deg: the smoother bridges them (up
-    to 18 on the default stage 1, rsp_inertia.estimation.balance.check_node_gaps)."""
+    to 14 on the default stage 1, rsp_inertia.estimation.balance.check_node_gaps)."""
     _drop_at_node(root, 5)
 
 

@@ -147,7 +147,7 @@ def _cut(path, rows: slice, encoder, kind):
 
 def test_a_long_gap_near_a_node_is_refused_with_its_line_and_time(experiments, tmp_path):
     """Thirty rows missing where the braking passes node 120 deg in its second turn, more
-    than the smoother bridges there (18 on the default stage 1): identify refuses the log,
+    than the smoother bridges there (14 on the default stage 1): identify refuses the log,
     naming the line after the gap, its size and times and the most it would bridge; the same
     gap half a turn away is accepted, and the balance angles inside it are left out."""
     source, _ = experiments["clean"]
