@@ -281,9 +281,22 @@ class Smoothed:
         by up to 10x either way, but their resonances' places are known too roughly for
         weights (tried: more false alarms of the closure test at 12 and 14 bits); each run's
         speed-noise scale (rsp_inertia.estimation.gls) takes its level from its residuals.
-        ``plain`` (bool, like ``t``): instants left unscaled, where the smoother's own
-        covariance rises for a gap of dropped samples, whose added covariance is counted on
-        its own (:func:`gap_speed_covariance`).
+
+        Parameters
+        ----------
+        t : np.ndarray, shape (n,)
+            s, the instants, strictly monotone.
+        omega_std : np.ndarray, shape (n,)
+            rad/s, the smoother's own std of the speed there (its ramp at a pass's ends).
+        plain : np.ndarray, shape (n,), bool, optional
+            Instants left unscaled by ``omega_std``, where the smoother's own covariance
+            rises for a gap of dropped samples whose added covariance is counted on its own
+            (:func:`gap_speed_covariance`).
+
+        Returns
+        -------
+        np.ndarray, shape (w, n)
+            rad^2/s^2, the lower band.
 
         Raises
         ------
