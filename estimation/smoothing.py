@@ -135,6 +135,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg
 from scipy.integrate import trapezoid
 
 from rsp_inertia.infra.errors import InputError
@@ -932,8 +933,6 @@ def _gap_chain(missing: int, h: float, phase: int, whole: bool) -> _GapChain:
     block's centre, var = q^2/12 = r / dt, 1 / h in these units), Lambda = sum_k D_k^T
     Q(T_k)^-1 D_k + sum_k A_k; its inverse is the smoother's covariance.
     """
-    import scipy.linalg
-
     block = block_length(1.0, h)
     side = math.ceil((GAP_REACH + GAP_WINDOW) / h)
     offsets = np.arange(-side, missing + 2 + side)
@@ -1036,8 +1035,6 @@ def _chain_speed_covariance(
     readings' white noise alone, L Lambda^-1 A Lambda^-1 L^T (A the readings' information),
     and the model's own, L Lambda^-1 L^T, in units of r w_c^3; ``model_only``: (None, the
     model's variances alone)."""
-    import scipy.linalg
-
     L = _speed_functionals(chain, offsets)
     Y = scipy.linalg.cho_solve_banded((chain.factor, False), L.T)
     if model_only:
