@@ -54,8 +54,14 @@ import numpy as np
 from scipy.integrate import cumulative_trapezoid
 
 from rsp_inertia.estimation.modulated import MODEL_UNKNOWNS, fit_modulated
-from rsp_inertia.estimation.passes import PassEstimate, angle_work_noise
-from rsp_inertia.estimation.smoothing import median_step
+from rsp_inertia.estimation.passes import GAP_NEGLIGIBLE, PassEstimate, angle_work_noise
+from rsp_inertia.estimation.smoothing import (
+    gap_speed_excess,
+    largest_bridged_gap,
+    median_step,
+    smoother_bandwidth,
+    top_speed,
+)
 from rsp_inertia.estimation.whitening import Noise, add_bands, scaled_band
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.config import Device, Stage
@@ -67,16 +73,17 @@ __all__ = [
     "EDGE_MARGIN",
     "FRICTION_PRIOR_ALLOWANCE",
     "MIN_SPEED_FRACTION",
-    "NODE_GAP_SAMPLES",
     "NODE_GAP_WINDOW_DEG",
     "POSITION_SPACING_BANDWIDTHS",
     "HarmonicReach",
+    "NodeGap",
     "StageBalance",
     "balance_range",
     "balance_spacing",
     "check_node_gaps",
     "friction_shape",
     "friction_slope_prior",
+    "gap_allowance",
     "harmonic_reach",
     "mismatch_regressors",
     "short_overlap",
@@ -120,25 +127,74 @@ Measured on the default experiment (speed noise alone): spacing 3/w_c leaves J_k
 ~1e-5, 1/w_c ~1e-6, 0.3/w_c no better (the smoother's errors are correlated over ~1/w_c)."""
 
 
-NODE_GAP_SAMPLES = 2
-"""Dropped samples in a row that a log may miss near a node (rsp_inertia.plant.logs: a log's
-time stamps are the drive's sampling instants, and a logger may lose rows). A longer gap
-within ``NODE_GAP_WINDOW_DEG`` of a node's passage is refused (:func:`check_node_gaps`): the
-node formula takes the speed there, and over a gap the smoother has only the readings on
-either side. Elsewhere, balance angles within such a gap (widened by one smoother time
-constant 1 / w_c on each side) are left out of the least squares."""
-
 NODE_GAP_WINDOW_DEG = 5.0
-"""deg, how near a node's passage a gap of more than ``NODE_GAP_SAMPLES`` is refused: about
-one smoother time constant's travel at the default stages' top speeds (12 rad/s / 240 rad/s
-= 2.9 deg on stage 1), plus margin."""
+"""deg, how near a node's passage a gap of dropped samples too long to bridge is refused
+(:func:`check_node_gaps`): about one smoother time constant's travel at the default stages'
+top speeds (12 rad/s / 240 rad/s = 2.9 deg on stage 1), plus margin."""
 
 
-def _long_gaps(dropped: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Rows k of a log after which more than NODE_GAP_SAMPLES samples are missing, and how
-    many, from its ``dropped`` samples after each row (rsp_inertia.plant.logs.dropped_samples)."""
-    rows = np.flatnonzero(dropped > NODE_GAP_SAMPLES)
-    return rows, dropped[rows]
+def gap_allowance(est: PassEstimate, other: PassEstimate) -> float:
+    """The most the smoother's own variance of a pass's speed may grow over a gap, in units of
+    its stationary one, for the gap to be bridged: the balance's own variance of S there
+    (docs/method.md §5, the gap section).
+
+    A balance takes S = Omega^2 + Omega'^2; a gap in one pass adds 4 Omega^2 dvar to var S,
+    whose stationary value is 4 Omega^2 (v + v'), v = r w_c^3 / 6 each pass's smoother's own
+    stationary variance (rsp_inertia.estimation.smoothing.gap_speed_excess), the speeds equal
+    in magnitude at a common angle. The gap is bridged while dvar <= v + v': its added std
+    at most the balance's own, which is 1 + v' / v of the pass's own (2 for passes of the same
+    top speed, as a braking and its mirror are).
+
+    Parameters
+    ----------
+    est : PassEstimate
+        The pass with the gap.
+    other : PassEstimate
+        The run's other pass.
+
+    Returns
+    -------
+    float
+        The allowance, in units of ``est``'s stationary variance.
+    """
+
+    def level(p: PassEstimate) -> float:
+        return p.smoothed.noise_density * p.smoothed.bandwidth**3
+
+    own = level(est)
+    return 1.0 + level(other) / own if own > 0.0 else math.inf
+
+
+@dataclass(frozen=True)
+class NodeGap:
+    """A gap of dropped samples near a node's passage that the smoother bridges
+    (:func:`check_node_gaps`)."""
+
+    source: str
+    """The log's file."""
+    row: int
+    """The log's row before the gap (0-based)."""
+    missing: int
+    """Samples dropped in a row."""
+    stage: int
+    """Stage number, from 1."""
+    node_deg: float
+    """The node, deg."""
+    ratio: float
+    """The smoother's own added variance of the speed at worst over the balance's own
+    variance of S there (:func:`gap_allowance`): at most 1."""
+    largest: int
+    """The most samples in a row bridged there."""
+
+    def line(self) -> str:
+        """One line saying so, for check."""
+        return (
+            f"{self.source}, line {self.row + 3}: {self.missing} samples dropped within "
+            f"{NODE_GAP_WINDOW_DEG:g} deg of node {self.node_deg:g} deg (stage {self.stage}): "
+            "bridged by the smoother, adding at most "
+            f"{math.sqrt(self.ratio):.2f} of the balance's own speed std there (up to "
+            f"{self.largest} samples in a row are bridged there)"
+        )
 
 
 def check_node_gaps(
@@ -150,9 +206,14 @@ def check_node_gaps(
     hi: float = math.inf,
     direction: int = 1,
     dropped: np.ndarray | None = None,
-) -> None:
-    """Refuse a gap of more than NODE_GAP_SAMPLES dropped samples within NODE_GAP_WINDOW_DEG
-    of a node's passage in the balanced range [lo, hi].
+    h: float | None = None,
+    allowance: float = 2.0,
+) -> list[NodeGap]:
+    """Refuse a gap of dropped samples within NODE_GAP_WINDOW_DEG of a node's passage in the
+    balanced range [lo, hi] that is too long for the smoother to bridge: its own added
+    variance of the speed (rsp_inertia.estimation.smoothing.gap_speed_excess) beyond
+    ``allowance`` (:func:`gap_allowance`); the node formula takes the speed there, and the
+    balances about the node are kept with the gap's added variance only when it is bridged.
 
     Parameters
     ----------
@@ -173,45 +234,76 @@ def check_node_gaps(
         (n - 1,) int, the log's dropped samples after each row when already found
         (:attr:`rsp_inertia.estimation.passes.PassEstimate.dropped`); None: found here at the
         encoder's sample rate (rsp_inertia.plant.logs.dropped_samples).
+    h : float, optional
+        w_c dt of the pass's smoother (:attr:`rsp_inertia.estimation.passes.PassEstimate.h`);
+        None: from the log's top speed (rsp_inertia.estimation.smoothing.smoother_bandwidth)
+        at the encoder's sample rate.
+    allowance : float
+        :func:`gap_allowance`; by default 2, a run's other pass mirroring this one.
+
+    Returns
+    -------
+    list of NodeGap
+        The gaps near a node that count (rsp_inertia.estimation.passes.GAP_NEGLIGIBLE) and
+        are bridged.
 
     Raises
     ------
     InputError
-        Naming ``source`` (the log's file), the line after the gap, its times and the node.
+        Naming ``source`` (the log's file), the line after the gap, its size and times, the
+        node and the most samples in a row bridged there.
     """
+    rate = device.encoder.sample_rate
     if dropped is None:
-        dropped = dropped_samples(log.t, device.encoder.sample_rate)
-    rows, missing = _long_gaps(dropped)
+        dropped = dropped_samples(log.t, rate)
+    rows = np.flatnonzero(dropped)
     if rows.size == 0:
-        return
+        return []
+    if h is None:
+        h = smoother_bandwidth(top_speed(log)) / rate
     st = device.stages[stage - 1]
     window = math.radians(NODE_GAP_WINDOW_DEG)
     phi, t = log.phi, log.t
-    for k, n in zip(rows.tolist(), missing.tolist()):
+    bridged = []
+    for k, n in zip(rows.tolist(), dropped[rows].tolist()):
+        excess = gap_speed_excess(int(n), h)
+        if excess <= GAP_NEGLIGIBLE:
+            continue
         a = min(phi[k], phi[k + 1]) - window
         b = max(phi[k], phi[k + 1]) + window
         if b < lo or a > hi:
             continue
         for node_deg, node in zip(st.nodes_deg, direction * st.nodes):
             passage = node + 2 * math.pi * math.ceil((a - node) / (2 * math.pi))
-            if passage <= b:
+            if passage > b:
+                continue
+            largest = largest_bridged_gap(h, allowance)
+            if excess > allowance:
                 raise InputError(
                     f"{source}, line {k + 3}: {n} samples dropped between t = "
                     f"{float(t[k]):.6g} s and t = {float(t[k + 1]):.6g} s, within "
-                    f"{NODE_GAP_WINDOW_DEG:g} deg of node {node_deg:g} deg (stage {stage}); "
-                    f"near a node at most {NODE_GAP_SAMPLES} samples in a row may be missing"
+                    f"{NODE_GAP_WINDOW_DEG:g} deg of node {node_deg:g} deg (stage {stage}): "
+                    "too long for the smoother to bridge (its own variance of the speed "
+                    f"would grow by {excess / allowance:.3g} times the balance's there); at "
+                    f"most {largest} samples in a row may be missing there"
                 )
+            bridged.append(
+                NodeGap(source, k, int(n), stage, float(node_deg), excess / allowance, largest)
+            )
+    return bridged
 
 
-def _outside_gaps(est: PassEstimate, times: np.ndarray) -> np.ndarray:
-    """Which of ``times`` lie outside every gap of more than NODE_GAP_SAMPLES dropped samples
-    of the pass (:attr:`PassEstimate.dropped`), each widened by one smoother time constant on
-    either side (NODE_GAP_SAMPLES)."""
-    rows, _ = _long_gaps(est.dropped)
+def _outside_gaps(est: PassEstimate, times: np.ndarray, allowance: float) -> np.ndarray:
+    """Which of ``times`` lie outside every gap of the pass too long to bridge (its
+    smoother's own added variance of the speed beyond ``allowance``, :func:`gap_allowance`),
+    each widened by one smoother time constant on either side: the balances there are left
+    out (away from the nodes; near one :func:`check_node_gaps` refuses the gap)."""
     keep = np.ones(times.shape, dtype=bool)
     margin = 1.0 / est.smoothed.bandwidth
-    for k in rows.tolist():
-        keep &= (times < est.log.t[k] - margin) | (times > est.log.t[k + 1] + margin)
+    t = est.log.t
+    for gap in est.gaps:
+        if gap.excess > allowance:
+            keep &= (times < t[gap.row] - margin) | (times > t[gap.row + 1] + margin)
     return keep
 
 
@@ -326,10 +418,12 @@ def balance_range(
     braking: PassEstimate,
     reverse: PassEstimate,
     direction: int = 1,
+    bridged: list[NodeGap] | None = None,
 ) -> tuple[float, float]:
     """The range [lo, hi] where a run is balanced, checked: :func:`usable_range` (the passes
     share MIN_TURNS turns at useful speed), and no gap of dropped samples near a node's
-    passage in it (:func:`check_node_gaps`, both logs, with the gaps each pass estimate found).
+    passage in it too long to bridge (:func:`check_node_gaps`, both logs, with the gaps each
+    pass estimate found, each pass's allowance against the other, :func:`gap_allowance`).
 
     Parameters
     ----------
@@ -341,6 +435,8 @@ def balance_range(
         The run's two passes.
     direction : int
         -1: a backward run's mirrored passes.
+    bridged : list of NodeGap, optional
+        Gets the gaps near a node that the smoother bridges.
 
     Returns
     -------
@@ -353,8 +449,13 @@ def balance_range(
         Naming the log at fault.
     """
     lo, hi = usable_range(braking, reverse, stage)
-    for est in (braking, reverse):
-        check_node_gaps(device, stage, est.log, est.source, lo, hi, direction, est.dropped)
+    for est, other in ((braking, reverse), (reverse, braking)):
+        found = check_node_gaps(
+            device, stage, est.log, est.source, lo, hi, direction, est.dropped, est.h,
+            gap_allowance(est, other),
+        )
+        if bridged is not None:
+            bridged.extend(found)
     return lo, hi
 
 
@@ -420,6 +521,10 @@ class StageBalance:
     slope_prior: tuple[np.ndarray, np.ndarray] | None = None
     """(mean (2,), covariance (2, 2)) of the friction slopes [d1, d2] from the passes' own
     dynamics (:func:`friction_slope_prior`); None: not made (a planned run) or not possible."""
+    speed_sq_gap_band: np.ndarray | None = None
+    """(w, n) lower band of what the passes' gaps of dropped samples add to the covariance of
+    S (rsp_inertia.estimation.passes.PassEstimate.gap_speed_band, scaled as ``speed_sq_band``);
+    None: no gap counts (rsp_inertia.estimation.passes.GAP_NEGLIGIBLE)."""
 
     @property
     def work_noise(self) -> Noise:
@@ -518,8 +623,10 @@ def stage_balance(
     phi = np.arange(lo, hi, balance_spacing(braking, reverse))
     b = braking.sample_at(phi)
     r = reverse.sample_at(phi)
-    keep = _outside_gaps(braking, b.time) & _outside_gaps(reverse, r.time)
-    if not keep.all():  # a logger's longer gaps, away from the nodes: left out
+    keep = _outside_gaps(braking, b.time, gap_allowance(braking, reverse)) & _outside_gaps(
+        reverse, r.time, gap_allowance(reverse, braking)
+    )
+    if not keep.all():  # gaps too long to bridge, away from the nodes: left out
         phi = phi[keep]
         b = braking.sample_at(phi)
         r = reverse.sample_at(phi)
@@ -529,6 +636,11 @@ def stage_balance(
         scaled_band(braking.speed_error_band(b), 2 * b.omega),
         scaled_band(reverse.speed_error_band(r), 2 * r.omega),
     )
+    gap_bands = [
+        scaled_band(band, 2 * a.omega)
+        for band, a in ((braking.gap_speed_band(b), b), (reverse.gap_speed_band(r), r))
+        if band is not None
+    ]
     spring = 2 * spring_potential(direction * phi, device)
     work = b.work + r.work - spring
     mismatch = mismatch_regressors(phi, b.omega, r.omega)
@@ -539,6 +651,7 @@ def stage_balance(
         phi=direction * phi,
         speed_sq=S,
         speed_sq_band=S_band,
+        speed_sq_gap_band=add_bands(*gap_bands) if gap_bands else None,
         mismatch=mismatch,
         work=work,
         braking_work_noise=braking.work_noise(b),

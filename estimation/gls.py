@@ -83,6 +83,7 @@ from rsp_inertia.infra.progress import report
 
 __all__ = [
     "CALIBRATION_SOURCE",
+    "GAP_SOURCE",
     "NOISE_SOURCES",
     "PRIOR_ALPHA",
     "PRIOR_SOURCE",
@@ -102,6 +103,11 @@ NOISE_SOURCES = ("braking torque log", "reverse torque log", "encoder (speed)", 
 
 CALIBRATION_SOURCE = "calibration"
 """Budget line of the calibrated terms (tare, fixture, torque gain)."""
+
+GAP_SOURCE = "dropped samples (speed)"
+"""Budget line of what the logs' gaps of dropped samples add to the smoothed speeds' noise
+where the smoother bridges them (rsp_inertia.estimation.balance.StageBalance
+.speed_sq_gap_band); present when a run has such a gap."""
 
 PRIOR_SOURCE = "friction slopes"
 """Budget line of the blocks' priors (the runs' friction slopes from their passes' dynamics)."""
@@ -384,9 +390,12 @@ class Equations:
     work_cov: list[Noise]
     """Per block, the work's noise: the sum of ``work_parts``."""
     speed_var: list[Noise]
-    """Per block, the speed noise at scale 1."""
+    """Per block, the speed noise at scale 1: the sum of ``speed_parts``."""
     priors: list[tuple[int, Prior]]
     """(block, prior) of the blocks' priors whose unknowns are all fitted."""
+    speed_parts: list[tuple[Noise, Noise]] = field(default_factory=list)
+    """Per block, the speed noise's stationary part and its gaps' (GAP_SOURCE; empty without
+    gaps), at scale 1."""
     consider: np.ndarray | None = None
     """(q,) the unit direction a of z that moves theta along the torque's common scale
     (module docstring), propagated, not fitted; None: no such direction (the gains exact)."""
@@ -470,10 +479,16 @@ def assemble_blocks(
     # First pass, unweighted: the reduced inertia at each angle for the speed-noise weights.
     x0, *_ = np.linalg.lstsq(A, y, rcond=None)
     inertia = _inertia(blocks, names, x0)
-    speed_var, work_parts = [], []
+    speed_var, speed_parts, work_parts = [], [], []
     for block, M in zip(blocks, inertia):
         n = len(block.rhs)
-        speed_var.append(Noise(n, band=scaled_band(block.balance.speed_sq_band, 0.5 * M)))
+        gap_band = block.balance.speed_sq_gap_band
+        parts = (
+            Noise(n, band=scaled_band(block.balance.speed_sq_band, 0.5 * M)),
+            Noise(n) if gap_band is None else Noise(n, band=scaled_band(gap_band, 0.5 * M)),
+        )
+        speed_parts.append(parts)
+        speed_var.append(parts[0] + parts[1])
         hb2, hr2 = (scale**2 for scale in block.work_scales)
         work_parts.append(
             (
@@ -529,6 +544,7 @@ def assemble_blocks(
         work_parts=work_parts,
         work_cov=work_cov,
         speed_var=speed_var,
+        speed_parts=speed_parts,
         priors=priors,
     )
 
@@ -704,6 +720,9 @@ def _balance_fit(
         NOISE_SOURCES[2]: [v.times(s) for s, v in zip(scales, eq.speed_var)],
         NOISE_SOURCES[3]: [parts[2] for parts in work_parts],
     }
+    if any(gap.band is not None for _, gap in eq.speed_parts):
+        sources[NOISE_SOURCES[2]] = [v.times(s) for s, (v, _) in zip(scales, eq.speed_parts)]
+        sources[GAP_SOURCE] = [g.times(s) for s, (_, g) in zip(scales, eq.speed_parts)]
     # Whatever the noise model leaves unexplained in the joint fit inflates the covariance
     # (of the runs' noise: the calibration's prior is what it is).
     inflation = 1.0 if predicted else max(chi2_dof, 1.0)

@@ -224,7 +224,8 @@ def node_passages(
         num_cov = step @ (scale_b**2 * cov_b + scale_r**2 * cov_r) @ step.T
         R = _mismatch_at(braking, reverse, lo, passages)
         wb2, wr2 = b.omega**2, r.omega**2
-        # Passages a turn apart: their speed errors are independent (R decays in ~40 / w_c).
+        # Passages a turn apart: their speed errors are independent (R decays in ~40 / w_c,
+        # a gap's added covariance within GAP_REACH / w_c of it).
         found.append(
             NodePassages(
                 stage=stage,
@@ -235,8 +236,8 @@ def node_passages(
                 mismatch=R[a_] - R[b_],
                 speed_sq=(wb2, wr2),
                 speed_sq_var=(
-                    4 * wb2 * braking.speed_error_band(b)[0],
-                    4 * wr2 * reverse.speed_error_band(r)[0],
+                    4 * wb2 * _speed_error_variance(braking, b),
+                    4 * wr2 * _speed_error_variance(reverse, r),
                 ),
             )
         )
@@ -299,6 +300,16 @@ def node_estimates(
             )
         )
     return estimates
+
+
+def _speed_error_variance(est: PassEstimate, a) -> np.ndarray:
+    """rad^2/s^2, the variance of a pass's smoothed speed at the passages ``a`` (its
+    :meth:`~rsp_inertia.estimation.passes.PassEstimate.sample_at`): the stationary error's and
+    what the pass's gaps of dropped samples add there (a gap near a node that the smoother
+    bridges, rsp_inertia.estimation.balance.check_node_gaps)."""
+    variance = est.speed_error_band(a)[0]
+    gaps = est.gap_speed_band(a)
+    return variance if gaps is None else variance + gaps[0]
 
 
 def _mismatch_at(braking: PassEstimate, reverse: PassEstimate, lo: float, at: np.ndarray):

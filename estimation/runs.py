@@ -17,7 +17,7 @@ from typing import TypeVar
 
 import numpy as np
 
-from rsp_inertia.estimation.balance import StageBalance, balance_range, stage_balance
+from rsp_inertia.estimation.balance import NodeGap, StageBalance, balance_range, stage_balance
 from rsp_inertia.estimation.passes import PassEstimate, estimate_pass
 from rsp_inertia.estimation.smoothing import Smoothed
 from rsp_inertia.infra.progress import report, say
@@ -268,12 +268,14 @@ def checked_run(
     sources: tuple[str, str] = ("braking", "reverse"),
     encoder=(),
     zero: float = 0.0,
+    bridged: list[NodeGap] | None = None,
 ) -> tuple[PassEstimate, PassEstimate]:
     """One run's passes, estimated as :func:`balance_runs` estimates them, and checked for
     every reason identify and calibrate refuse a run before they fit: :func:`run_logs`,
     :func:`estimate_forward_run` (a braking whose speed reverses, a log too short to smooth)
     and rsp_inertia.estimation.balance.balance_range (passes that share too few turns at
-    useful speed, naming the log at fault; a gap of dropped samples near a node).
+    useful speed, naming the log at fault; a gap of dropped samples near a node too long for
+    the smoother to bridge).
     ``rsp-inertia check`` runs it on every run whose two logs it could read.
 
     Parameters
@@ -294,6 +296,9 @@ def checked_run(
         The encoder's error coefficients (:func:`corrected_log`).
     zero : float
         rad, the encoder's zero offset (:func:`corrected_log`).
+    bridged : list of NodeGap, optional
+        Gets the gaps near a node that the smoother bridges
+        (rsp_inertia.estimation.balance.check_node_gaps).
 
     Returns
     -------
@@ -310,7 +315,7 @@ def checked_run(
     # are not kept through the estimation, only the ones estimated (mirrored, corrected).
     del pair
     b_est, r_est = estimate_forward_run(device, braking, reverse, warnings, *sources)
-    balance_range(device, stage, b_est, r_est, direction.sign)
+    balance_range(device, stage, b_est, r_est, direction.sign, bridged)
     return b_est, r_est
 
 

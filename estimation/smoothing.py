@@ -58,12 +58,21 @@ Hence q_j = r (2 BANDWIDTH_FACTOR Omega_max)^6, set from the log itself.
 
 Irregular time stamps. A log's time stamps are the drive's sampling instants
 (rsp_inertia.plant.logs.JITTER_LIMIT): they may jitter about the regular grid and skip
-dropped samples. Blocks are B consecutive readings whatever their times; the state lives at
-the mid-time of a block's first and last readings, each reading enters with its own offset
-from there, and each step between block states has its own transition F(T_k) and process
-noise Q(T_k), in the filter and in the RTS pass. On a regular log this is the block smoother
-above. r keeps the median step: jitter of a fraction of a
-period and one sample dropped in a thousand change the readings' density by less than that.
+dropped samples. Block k holds the readings of sample numbers k B to (k + 1) B - 1 whatever
+their jitter (:func:`block_starts`), so that no block spans a gap: one that did would stretch
+its quadratic Taylor form over n + B periods, and its speed bias grows steeply with w_c T (the
+block length above: on a 2 % speed harmonic at 2 Omega, a 20-sample gap inside a block of the
+default stage 1 biased the speed there by 1.3 times the smoother's own error std, a 40-sample
+one by 5 times; with the blocks cut at the gap, 0.13 at the 14 samples it bridges); and a gap
+leaves every block away from it as it would be without it (a log's estimates there do not
+move with it). The state
+lives at the mid-time of a block's first and last readings, each reading enters with its own
+offset from there, and each step between block states has its own transition F(T_k) and
+process noise Q(T_k), in the filter and in the RTS pass: across a gap the model's motion
+carries the state from one side to the other (:func:`gap_speed_covariance` gives what that
+costs the speed). On a regular log this is the block smoother above. r keeps the median step:
+jitter of a fraction of a period and one sample dropped in a thousand change the readings'
+density by less than that.
 
 The smoother's output is returned at every sample of the log by cubic Hermite interpolation
 between block states (phi with its derivative Omega, Omega with its derivative eps).
@@ -126,6 +135,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg
 from scipy.integrate import trapezoid
 
 from rsp_inertia.infra.errors import InputError
@@ -136,6 +146,9 @@ __all__ = [
     "BANDWIDTH_FACTOR",
     "BLOCK",
     "BLOCK_BANDWIDTH",
+    "GAP_GRID",
+    "GAP_REACH",
+    "GAP_WINDOW",
     "KERNEL_SPAN",
     "LINE_AVERAGE",
     "QUANTIZATION_LINES",
@@ -143,8 +156,12 @@ __all__ = [
     "angle_error_autocovariance",
     "block_length",
     "block_speed_bias",
+    "block_starts",
+    "gap_speed_covariance",
+    "gap_speed_excess",
     "hermite",
     "jerk_density",
+    "largest_bridged_gap",
     "median_step",
     "noise_density",
     "quantization_error_variance",
@@ -251,7 +268,9 @@ class Smoothed:
         ramp = self.omega_std[rows] / self._steady_omega_std * self.line_scale("speed", rows)
         return stationary * ramp**2
 
-    def speed_error_band(self, t: np.ndarray, omega_std: np.ndarray) -> np.ndarray:
+    def speed_error_band(
+        self, t: np.ndarray, omega_std: np.ndarray, plain: np.ndarray | None = None
+    ) -> np.ndarray:
         """(w, n) lower band of the covariance of the speed's errors at monotone times ``t``
         (module docstring, R): band[d, i] = cov(t_{i+d}, t_i), zero beyond the span, so that
         w - 1 is the widest offset still within w_c |tau| < KERNEL_SPAN.
@@ -263,6 +282,22 @@ class Smoothed:
         by up to 10x either way, but their resonances' places are known too roughly for
         weights (tried: more false alarms of the closure test at 12 and 14 bits); each run's
         speed-noise scale (rsp_inertia.estimation.gls) takes its level from its residuals.
+
+        Parameters
+        ----------
+        t : np.ndarray, shape (n,)
+            s, the instants, strictly monotone.
+        omega_std : np.ndarray, shape (n,)
+            rad/s, the smoother's own std of the speed there (its ramp at a pass's ends).
+        plain : np.ndarray, shape (n,), bool, optional
+            Instants left unscaled by ``omega_std``, where the smoother's own covariance
+            rises for a gap of dropped samples whose added covariance is counted on its own
+            (:func:`gap_speed_covariance`).
+
+        Returns
+        -------
+        np.ndarray, shape (w, n)
+            rad^2/s^2, the lower band.
 
         Raises
         ------
@@ -281,6 +316,8 @@ class Smoothed:
         while width < n and np.min(np.abs(t[width:] - t[: n - width])) < span:
             width += 1
         ramp = np.asarray(omega_std) / self._steady_omega_std
+        if plain is not None:
+            ramp = np.where(plain, 1.0, ramp)
         band = np.zeros((width, n))
         for d in range(width):
             tau = t[d:] - t[: n - d]
@@ -352,6 +389,51 @@ def block_length(bandwidth: float, dt: float) -> int:
     """
     fit = math.floor(BLOCK_BANDWIDTH / (bandwidth * dt) * (1 + 1e-12))
     return max(1, min(BLOCK, fit))
+
+
+def block_starts(t: np.ndarray, block: int, dt: float) -> np.ndarray:
+    """The first row of each filter block: the rows whose sample number (periods from the
+    first row, each step rounded to whole periods) falls in [k B, (k + 1) B) make block k, so that a gap of
+    dropped samples leaves its own blocks shorter, or empty (left out), and every other block
+    where it would be without it (module docstring: irregular time stamps).
+
+    Parameters
+    ----------
+    t : np.ndarray, shape (n,), s
+        The log's time stamps.
+    block : int
+        B, rows per block (:func:`block_length`).
+    dt : float
+        s, the sample period.
+
+    Returns
+    -------
+    np.ndarray, int
+        Ascending row indices, from 0; block k holds rows starts[k] to starts[k + 1] - 1, at
+        most B of them.
+
+    Examples
+    --------
+    >>> block_starts(np.array([0.0, 1, 2, 3, 4, 8, 9, 10]) * 1e-3, 3, 1e-3)
+    array([0, 3, 5, 6])
+    """
+    n = t.size
+    # Sample numbers step by step (a step of about m periods: m - 1 dropped samples, as
+    # rsp_inertia.plant.logs.dropped_samples counts them), not from t - t[0]: the median step
+    # of a jittered log is off the period by a little, which would add up along it.
+    number = np.zeros(n, dtype=np.int64)
+    np.cumsum(np.maximum(np.rint(np.diff(t) / dt), 1).astype(np.int64), out=number[1:])
+    number //= block
+    stretch = np.append(0, np.flatnonzero(np.diff(number)) + 1)
+    del number
+    # At most B rows per block even where jitter rounds two stamps to one sample number.
+    lengths = np.diff(np.append(stretch, n))
+    if np.all(lengths <= block):
+        return stretch
+    counts = -(-lengths // block)
+    first = np.repeat(stretch, counts)
+    within = np.arange(first.size) - np.repeat(np.cumsum(counts) - counts, counts)
+    return first + block * within
 
 
 def block_speed_bias(block: int, bandwidth: float, dt: float) -> float:
@@ -587,13 +669,14 @@ def smooth_log(log: Log, quantum: float, source: str = "log") -> Smoothed:
     dt = median_step(t)
     q_j, bandwidth = jerk_density(log, quantum)
     block = block_length(bandwidth, dt)
+    starts = block_starts(t, block, dt)
     # State k lives at the mid-time of block k's span: of its first and last readings' time
-    # stamps (jittered or with dropped samples: the true instants), and for a last, shorter
-    # block of ``block`` nominal periods from its first reading.
-    first = t[::block]
-    last = t[block - 1 :: block]
-    centres = first + (block - 1) / 2 * dt
-    centres[: last.size] = (first[: last.size] + last) / 2
+    # stamps (jittered: the true instants), and for the log's last block, when shorter, of
+    # ``block`` nominal periods from its first reading.
+    ends = np.append(starts[1:], n) - 1
+    centres = (t[starts] + t[ends]) / 2
+    if ends[-1] - starts[-1] + 1 < block:
+        centres[-1] = t[starts[-1]] + (block - 1) / 2 * dt
     steps = np.diff(centres)
     variance = quantum * quantum / 12.0
     z = np.asarray(log.phi) + quantum / 2
@@ -613,7 +696,7 @@ def smooth_log(log: Log, quantum: float, source: str = "log") -> Smoothed:
     lengths, which = np.unique(steps, return_inverse=True)
     F_of = np.stack([_transition(T) for T in lengths])  # indexed per step, not stacked per step
     Q_of = [_process_noise(T, q_j) for T in lengths]
-    readings = functools.partial(_block_readings, t, z, centres, block, variance)
+    readings = functools.partial(_block_readings, t, z, centres, starts, block, variance)
     task = f"{source}: smoothing"
     means, covs, predicted = _kalman_filter(x0, P0, F_of, Q_of, which, readings, task)
     xs, speed_var = _rts_smoother(means, covs, predicted, F_of, which)
@@ -647,7 +730,13 @@ _ROWS_CHUNK = 1 << 16
 
 
 def _block_readings(
-    t: np.ndarray, z: np.ndarray, centres: np.ndarray, block: int, variance: float, blocks: slice
+    t: np.ndarray,
+    z: np.ndarray,
+    centres: np.ndarray,
+    starts: np.ndarray,
+    block: int,
+    variance: float,
+    blocks: slice,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """What the readings of ``blocks`` tell about their block states, summed over each block.
 
@@ -655,20 +744,20 @@ def _block_readings(
     H x), the information A = H^T H / variance, (k, 3, 3), and b = H^T (z - z_ref) / variance,
     (k, 3), taken about the block's first reading z_ref (returned, (k,)): the update then
     works on differences of a few counts, not of whole angles, and loses no digits to them.
+    Block k holds the rows from ``starts[k]`` to the next block's start (at most ``block``);
+    a shorter block is padded with weight 0.
     """
     k0, k1 = blocks.start, blocks.stop
-    r0, r1 = k0 * block, min(k1 * block, t.size)
-    size = (k1 - k0) * block
-    tau = np.zeros(size)
-    dz = np.zeros(size)
-    weight = np.zeros(size)
-    tau[: r1 - r0] = t[r0:r1]
-    dz[: r1 - r0] = z[r0:r1]
-    weight[: r1 - r0] = 1.0 / variance  # a last, shorter block is padded with weight 0
-    tau = tau.reshape(-1, block) - centres[k0:k1, None]
-    reference = z[r0:r1:block]
-    dz = dz.reshape(-1, block) - reference[:, None]
-    weight = weight.reshape(-1, block)
+    first = starts[k0:k1]
+    stop = starts[k1] if k1 < starts.size else t.size
+    lengths = np.diff(np.append(first, stop))
+    rows = first[:, None] + np.arange(block)
+    inside = np.arange(block) < lengths[:, None]
+    rows = np.where(inside, rows, first[:, None])
+    tau = t[rows] - centres[k0:k1, None]
+    reference = z[first]
+    dz = z[rows] - reference[:, None]
+    weight = np.where(inside, 1.0 / variance, 0.0)
     moments = [weight.sum(axis=1)]
     power = weight
     for _ in range(4):
@@ -787,3 +876,289 @@ def _block_states_at(centres: np.ndarray, xs: np.ndarray, t: np.ndarray):
         omega[outside] = xs[j, 1] + xs[j, 2] * tau
         eps[outside] = xs[j, 2]
     return phi, omega, eps
+
+
+# ---------------------------------------------------------------------------------------------
+# Gaps of dropped samples: what bridging them costs the smoothed speed
+
+GAP_REACH = 12.0
+"""w_c x the time beyond a gap's rows within which its added covariance of the smoothed speed
+is kept (:func:`gap_speed_covariance`): 8 / w_c out of a 20-sample gap on the default stage 1
+the added variance is 2e-3 of the stationary one, 10 / w_c out 1e-4."""
+
+GAP_WINDOW = 20.0
+"""w_c x the time of readings beyond the reach on either side in a gap's chain
+(:func:`gap_speed_covariance`): the chain's own ends' start-up has died out by e^-10 there
+(the smoother's errors decay like exp(-w_c tau / 2))."""
+
+GAP_GRID = 0.25
+"""w_c x the spacing of the instants where :func:`gap_speed_excess` looks for the smoother's
+largest added variance (its profile changes over about 1 / w_c)."""
+
+
+@dataclass(frozen=True)
+class _GapChain:
+    """The block smoother's model about one gap (or none) on a regular grid of samples, in
+    units of 1/w_c for time, the reading noise's density r = 1 and the jerk's q_j = 1 (r w_c^6
+    in the smoother: its model in these units, whatever the log); block states scaled to
+    (phi, Omega T, eps T^2), T the block's nominal step, so that the information matrix's
+    entries share their magnitude."""
+
+    centres: np.ndarray
+    """The block states' times."""
+    factor: np.ndarray
+    """Upper banded Cholesky factor of the information matrix (scipy.linalg.cholesky_banded,
+    3 states per block, 5 diagonals above the main one)."""
+    readings: np.ndarray
+    """(blocks, 3, 3) each block's readings' information H^T H / var (the noise part's A)."""
+    scale: np.ndarray
+    """(3,) the states' scales (1, T, T^2)."""
+    h: float
+    """w_c dt."""
+    missing: int
+    """Samples dropped after the sample at offset 0 (0: none)."""
+
+
+@functools.lru_cache(maxsize=256)
+def _gap_chain(missing: int, h: float, phase: int, whole: bool) -> _GapChain:
+    """The chain of :class:`_GapChain` for a gap of ``missing`` samples after the sample at
+    offset 0 (``whole``: the same grid with nothing missing), GAP_REACH + GAP_WINDOW time
+    constants of readings on either side, its samples in blocks of B = block_length as
+    :func:`block_starts` groups a log's (``phase``: the sample number of the row before the
+    gap, modulo B).
+
+    The information matrix is the batch form of :func:`smooth_log`'s Kalman filter and RTS
+    pass: with D_k = [-F(T_k), I] on the states of blocks k, k + 1 and the readings'
+    information A_k = H_k^T H_k / var per block (H_k the readings' Taylor rows about the
+    block's centre, var = q^2/12 = r / dt, 1 / h in these units), Lambda = sum_k D_k^T
+    Q(T_k)^-1 D_k + sum_k A_k; its inverse is the smoother's covariance.
+    """
+    block = block_length(1.0, h)
+    side = math.ceil((GAP_REACH + GAP_WINDOW) / h)
+    offsets = np.arange(-side, missing + 2 + side)
+    if not whole:
+        offsets = offsets[(offsets <= 0) | (offsets > missing)]
+    group = (offsets + phase + block * (side // block + 1)) // block
+    starts = np.append(0, np.flatnonzero(np.diff(group)) + 1)
+    stops = np.append(starts[1:], offsets.size)
+    times = offsets * h
+    centres = (times[starts] + times[stops - 1]) / 2
+    m = centres.size
+    T = block * h
+    scale = np.array([1.0, T, T * T])
+    # Each block's readings' information H^T H / var (1 / var = h), from the moments of
+    # their offsets tau from its centre (in units of T), as smooth_log's _block_readings.
+    which = np.repeat(np.arange(m), stops - starts)
+    tau = (times - centres[which]) / T
+    m0, m1, m2, m3, m4 = (h * np.bincount(which, tau**p, minlength=m) for p in range(5))
+    readings = np.empty((m, 3, 3))
+    readings[:, 0] = np.column_stack([m0, m1, m2 / 2])
+    readings[:, 1] = np.column_stack([m1, m2, m3 / 2])
+    readings[:, 2] = np.column_stack([m2 / 2, m3 / 2, m4 / 4])
+    band = np.zeros((6, 3 * m))  # upper form: band[5 + i - j, j] = Lambda[i, j], i <= j
+    for j in range(3):
+        for i in range(j + 1):
+            band[5 + i - j, j::3] += readings[:, i, j]
+    steps = np.diff(centres)
+    for step in np.unique(np.round(steps / h, 6)).tolist():
+        dT = step * h
+        F = scale[:, None] * _transition(dT) / scale[None, :]
+        Qi = np.linalg.inv(scale[:, None] * _process_noise(dT, 1.0) * scale[None, :])
+        D = np.hstack([-F, np.eye(3)])
+        B = D.T @ Qi @ D
+        k = np.flatnonzero(np.isclose(steps / h, step, rtol=0.0, atol=1e-6))
+        for i in range(6):
+            for j in range(i, 6):
+                band[5 + i - j, 3 * k + j] += B[i, j]
+    return _GapChain(
+        centres=centres,
+        factor=scipy.linalg.cholesky_banded(band),
+        readings=readings,
+        scale=scale,
+        h=h,
+        missing=0 if whole else missing,
+    )
+
+
+def _state_rows(chain: _GapChain, x: np.ndarray, part: str):
+    """(k, 3 m) dense: the smoothed speed (``part`` "omega") or acceleration ("eps") at
+    times ``x`` (units of 1 / w_c) as combinations of the chain's scaled block states, as
+    :func:`smooth_log` gives them at a row (cubic Hermite of Omega with eps between the
+    neighbouring block states; eps linear)."""
+    c = chain.centres
+    a = np.clip(np.searchsorted(c, x, side="right") - 1, 0, c.size - 2)
+    span = c[a + 1] - c[a]
+    s = (x - c[a]) / span
+    T = chain.scale[1]
+    L = np.zeros((x.size, 3 * c.size))
+    rows = np.arange(x.size)
+    if part == "omega":
+        L[rows, 3 * a + 1] = (2 * s**3 - 3 * s**2 + 1) / T
+        L[rows, 3 * a + 2] = (s**3 - 2 * s**2 + s) * span / T**2
+        L[rows, 3 * a + 4] = (-2 * s**3 + 3 * s**2) / T
+        L[rows, 3 * a + 5] = (s**3 - s**2) * span / T**2
+    else:
+        L[rows, 3 * a + 2] = (1 - s) / T**2
+        L[rows, 3 * a + 5] = s / T**2
+    return L
+
+
+def _speed_functionals(chain: _GapChain, offsets: np.ndarray) -> np.ndarray:
+    """(k, 3 m): the smoothed speed at ``offsets`` (periods from the row before the gap) as
+    a combination of the chain's scaled block states, as the estimates take it
+    (rsp_inertia.estimation.passes.PassEstimate.sample_at): between rows, which are as dense
+    as the samples, the block states' Hermite itself; across the gap, the cubic Hermite
+    between the gap's two rows with their speeds and accelerations."""
+    h, n = chain.h, chain.missing
+    u = np.asarray(offsets, dtype=float)
+    L = _state_rows(chain, u * h, "omega")
+    inside = (u > 0) & (u < n + 1) if n else np.zeros(u.size, dtype=bool)
+    if np.any(inside):
+        edges = np.array([0.0, (n + 1) * h])
+        omega = _state_rows(chain, edges, "omega")
+        eps = _state_rows(chain, edges, "eps")
+        s = u[inside] / (n + 1)
+        G = (n + 1) * h
+        L[inside] = (
+            np.outer(2 * s**3 - 3 * s**2 + 1, omega[0])
+            + np.outer((s**3 - 2 * s**2 + s) * G, eps[0])
+            + np.outer(-2 * s**3 + 3 * s**2, omega[1])
+            + np.outer((s**3 - s**2) * G, eps[1])
+        )
+    return L
+
+
+def _chain_speed_covariance(
+    chain: _GapChain, offsets: np.ndarray, model_only: bool = False
+) -> tuple[np.ndarray | None, np.ndarray]:
+    """(noise, model): the covariance of the smoothed speed's error at ``offsets`` from the
+    readings' white noise alone, L Lambda^-1 A Lambda^-1 L^T (A the readings' information),
+    and the model's own, L Lambda^-1 L^T, in units of r w_c^3; ``model_only``: (None, the
+    model's variances alone)."""
+    L = _speed_functionals(chain, offsets)
+    Y = scipy.linalg.cho_solve_banded((chain.factor, False), L.T)
+    if model_only:
+        return None, np.einsum("ij,ji->i", L, Y)
+    m = chain.centres.size
+    AY = np.einsum("kab,kbj->kaj", chain.readings, Y.reshape(m, 3, -1)).reshape(3 * m, -1)
+    return Y.T @ AY, L @ Y
+
+
+def gap_speed_covariance(
+    missing: int, h: float, offsets: np.ndarray, phase: int = 0
+) -> tuple[np.ndarray, np.ndarray]:
+    """What a gap of ``missing`` dropped samples adds to the covariance of the smoothed
+    speed's error at given instants near it, in units of r w_c^3.
+
+    The smoother's model (module docstring) over a regular grid of samples about the gap,
+    GAP_REACH + GAP_WINDOW time constants of readings on either side, in blocks as
+    :func:`smooth_log` takes a log's, in its batch form: its information matrix Lambda (the
+    Kalman filter and RTS pass compute its inverse's blocks), A its readings' part. Over the
+    gap the smoother carries its state from the readings on either side, and the speed at an
+    instant there is the cubic Hermite between the gap's two rows
+    (rsp_inertia.estimation.passes.PassEstimate.sample_at). Two covariances, each that of
+    the grid with the gap minus that of the same grid whole:
+
+    - noise: the readings' white noise passed through the smoother, L Lambda^-1 A Lambda^-1
+      L^T, L the speed's rows at the instants: what the speed's error actually is for a
+      smooth motion (r w_c^3 / 12 stationary: the derived R(0)); the balances take it
+      (rsp_inertia.estimation.balance);
+    - model: the smoother's own covariance L Lambda^-1 L^T, which adds a random jerk's
+      motion over the gap (r w_c^3 / 6 stationary): its own uncertainty of what the motion
+      did where it has no reading, the measure of whether to bridge the gap at all
+      (:func:`gap_speed_excess`).
+
+    Parameters
+    ----------
+    missing : int
+        Samples dropped in a row (>= 1).
+    h : float
+        w_c dt, the smoother's bandwidth times the sample period.
+    offsets : np.ndarray, shape (k,)
+        The instants, in periods from the row before the gap (the row after it is at
+        missing + 1).
+    phase : int
+        The sample number of the row before the gap modulo the smoother's block length
+        (:func:`block_starts`; 0 to B - 1).
+
+    Returns
+    -------
+    noise, model : np.ndarray, shape (k, k)
+        The added covariances, r w_c^3 (rsp_inertia.estimation.smoothing.noise_density r).
+
+    Examples
+    --------
+    Five samples dropped on the default stage 1 (w_c = 240 rad/s at 1 kHz): the speed's
+    error 2 / w_c past the gap grows by about a fifth of its stationary variance 1/12:
+
+    >>> noise, model = gap_speed_covariance(5, 0.24, np.array([-100.0, 14.0]))
+    >>> bool(abs(noise[0, 0]) < 1e-6), bool(0.005 < noise[1, 1] < 0.03)
+    (True, True)
+    """
+    offsets = np.asarray(offsets, dtype=float)
+    phase %= block_length(1.0, h)
+    gap = _chain_speed_covariance(_gap_chain(missing, h, phase, False), offsets)
+    whole = _chain_speed_covariance(_gap_chain(missing, h, phase, True), offsets)
+    return gap[0] - whole[0], gap[1] - whole[1]
+
+
+@functools.lru_cache(maxsize=64)
+def gap_speed_excess(missing: int, h: float) -> float:
+    """The smoother's own largest added variance of the speed over a gap of ``missing``
+    dropped samples (:func:`gap_speed_covariance`, model), over its stationary variance
+    r w_c^3 / 6: at instants GAP_GRID / w_c apart from GAP_REACH / w_c before the gap to as
+    far after it, the largest over the gap's places in the smoother's blocks.
+
+    Parameters
+    ----------
+    missing : int
+        Samples dropped in a row (>= 1).
+    h : float
+        w_c dt.
+
+    Returns
+    -------
+    float
+        The ratio (0 for no gap).
+    """
+    if missing < 1:
+        return 0.0
+    reach = GAP_REACH / h
+    offsets = np.arange(-reach, missing + 1 + reach, GAP_GRID / h)
+    worst = 0.0
+    for phase in range(block_length(1.0, h)):
+        _, gap = _chain_speed_covariance(_gap_chain(missing, h, phase, False), offsets, True)
+        _, whole = _chain_speed_covariance(_gap_chain(missing, h, phase, True), offsets, True)
+        worst = max(worst, float(np.max(gap - whole)) * 6.0)
+    return worst
+
+
+def largest_bridged_gap(h: float, allowance: float, limit: int = 10_000) -> int:
+    """The most samples a gap may miss in a row for :func:`gap_speed_excess` to stay within
+    ``allowance`` (it grows with the gap).
+
+    Parameters
+    ----------
+    h : float
+        w_c dt.
+    allowance : float
+        The largest ratio accepted.
+    limit : int
+        Searched up to this many samples.
+
+    Returns
+    -------
+    int
+        Samples, 0 when not even one may be missing.
+    """
+    if gap_speed_excess(1, h) > allowance:
+        return 0
+    lo, hi = 1, 2
+    while hi <= limit and gap_speed_excess(hi, h) <= allowance:
+        lo, hi = hi, 2 * hi
+    if hi > limit:
+        return limit
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        lo, hi = (mid, hi) if gap_speed_excess(mid, h) <= allowance else (lo, mid)
+    return lo

@@ -341,10 +341,9 @@ def _arrow_columns(
     every row with the header's ``nfields`` fields (an empty line is a row of one), every
     value finite and at least two rows; each column parsed as int64 (every field an integer)
     or float64, which pyarrow rounds correctly, as ``float()`` does. A delimiter of any run
-    of blanks (``" "``) is the careful reader's alone.
+    of blanks (``" "``) is tried as a single space: a file with runs of blanks or tabs has
+    rows of other field counts, or empty fields, and goes the careful way.
     """
-    if dialect.delimiter == " ":
-        return None
     # pyarrow takes a few hundred ms to load: only when a log is read
     import pyarrow as pa
     import pyarrow.csv as pa_csv

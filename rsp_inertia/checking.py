@@ -8,7 +8,8 @@ missing for the next step and what looks wrong, without stopping at the first pr
   message, found by identify's own checks, everything short of the fit: the logs read by its
   reader (rsp_inertia.estimation.reading.read_run), each run's passes smoothed and checked
   (rsp_inertia.estimation.runs.checked_run: a braking whose speed reverses, passes that share
-  too few turns at useful speed, naming the log at fault, a gap near a node), the pendulum
+  too few turns at useful speed, naming the log at fault, a gap of dropped samples near a
+  node too long for the smoother to bridge, with the size it would bridge), the pendulum
   runs reduced (rsp_inertia.estimation.identify.reduce_pendulum_run), the axis design
   (rsp_inertia.estimation.identify.checked_design) and calibration.toml.
 - ``missing``: what identify needs and does not find (a braking or reverse log), with the
@@ -18,11 +19,14 @@ missing for the next step and what looks wrong, without stopping at the first pr
   not device.toml's, what identify warns about a run's passes (a braking torque that is not
   constant within its noise), a program older than the braking it mirrors, a reverse much
   shorter or longer than its braking, constants that identify will take as exact and warn
-  about, a gap of dropped samples near a node in a log check cannot pair with its run's other
-  (identify refuses it if the node's passage is in the range it balances), a program whose
+  about, a gap of dropped samples near a node too long to bridge in a log check cannot pair
+  with its run's other (identify refuses it if the node's passage is in the range it
+  balances), a program whose
   regulator the encoder holds too slow to follow the braking's speed harmonics (a coarse
   encoder: the closed loop then tracks on its feedforward alone, and identify's stds grow).
-- ``ok``: what is in place.
+- ``ok``: what is in place, and a gap of dropped samples near a node that identify bridges,
+  with the share of the balance's speed std it adds there
+  (rsp_inertia.estimation.balance.NodeGap).
 
 The folder is ready for identify when no line is ``error`` or ``missing``. A calibration
 folder (``calibration=True``, or one with reference.toml) is checked alike, but is ready for
@@ -37,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from rsp_inertia.estimation.balance import (
-    NODE_GAP_SAMPLES,
+    NodeGap,
     check_node_gaps,
     harmonic_reach,
 )
@@ -183,10 +187,11 @@ def _check_timing(
     nodes: bool,
 ) -> None:
     """A log's sampling: dropped samples and jitter (a line when there are any); with
-    ``nodes``, a gap near a node that identify would refuse
-    (rsp_inertia.estimation.balance.check_node_gaps), ``suspicious``: for a log that check
-    cannot pair with its run's other log, whose range identify balances is unknown (a paired
-    run's gaps are checked in that range, by checked_run)."""
+    ``nodes``, a gap near a node too long to bridge that identify would refuse
+    (rsp_inertia.estimation.balance.check_node_gaps, its other pass taken as this one's
+    mirror), ``suspicious``: for a log that check cannot pair with its run's other log, whose
+    range identify balances is unknown (a paired run's gaps are checked in that range, by
+    checked_run)."""
     rate = exp.device.encoder.sample_rate
     periods = np.diff(log.t) * rate
     missing = dropped_samples(log.t, rate)
@@ -200,7 +205,7 @@ def _check_timing(
             f"{int(missing.max())}); time steps off whole periods by up to {jitter:.2f} of a "
             "period",
         )
-    if not nodes or missing.max(initial=0) <= NODE_GAP_SAMPLES:
+    if not nodes or not missing.any():
         return
     q = exp.device.encoder.quantum
     forward = log if direction is Direction.FORWARD else mirror_log(log, q)
@@ -288,15 +293,19 @@ def _check_run(
     _check_timing(exp, stage, direction, r_path, reverse, findings, nodes=pair is None)
     if pair is not None and usable:
         warnings: list[str] = []
+        bridged: list[NodeGap] = []
         try:
             checked_run(
-                device, stage, pair, direction, warnings, (str(b_path), str(r_path)), *encoder
+                device, stage, pair, direction, warnings, (str(b_path), str(r_path)), *encoder,
+                bridged=bridged,
             )
         except InputError as error:
             _add(findings, "error", str(error))
             return
         for warning in warnings:
             _add(findings, "suspicious", warning)
+        for gap in bridged:
+            _add(findings, "ok", gap.line())
     duration = float(reverse.t[-1] - reverse.t[0])
     if braking is not None:
         b_duration = float(braking.t[-1] - braking.t[0])

@@ -195,14 +195,25 @@ def _reversing_braking(root):
     path.write_text("\n".join([header, *data]) + "\n")
 
 
-def _gap_at_a_node(root):
-    """Five rows of stage 1's reverse dropped where it passes node 120 deg, 3 turns on."""
+def _drop_at_node(root, rows: int):
+    """``rows`` rows of stage 1's reverse dropped where it passes node 120 deg, 3 turns on."""
     path = root / "stage1" / "reverse.csv"
     header, *data = path.read_text().splitlines()
     phi = np.array([float(row.split(",")[1]) for row in data])
     k = int(np.argmin(np.abs(phi - math.radians(120.0 + 3 * 360.0))))
-    del data[k : k + 5]
+    del data[k : k + rows]
     path.write_text("\n".join([header, *data]) + "\n")
+
+
+def _gap_at_a_node(root):
+    """Five rows of stage 1's reverse dropped at node 120 deg: the smoother bridges them (up
+    to 14 on the default stage 1, rsp_inertia.estimation.balance.check_node_gaps)."""
+    _drop_at_node(root, 5)
+
+
+def _long_gap_at_a_node(root):
+    """Forty rows dropped there: beyond what the smoother bridges."""
+    _drop_at_node(root, 40)
 
 
 def _pendulum_without_its_table(root):
@@ -235,7 +246,8 @@ def _clustered_nodes(root):
         (_cut_braking, False),
         (_stub_braking, True),
         (_reversing_braking, True),
-        (_gap_at_a_node, True),
+        (_gap_at_a_node, False),
+        (_long_gap_at_a_node, True),
         (_pendulum_without_its_table, True),
         (_short_pendulum, True),
         (_clustered_nodes, True),
@@ -262,6 +274,21 @@ def test_check_is_ready_exactly_when_identify_accepts(ready, tmp_path, capsys, c
     assert f"error: {message}" in lines or any(
         line.startswith(f"missing: {named}: ") for line in lines
     ), (message, lines)
+
+
+def test_a_bridged_gap_at_a_node_is_an_ok_line_with_its_added_std(ready, tmp_path, capsys):
+    """Five rows dropped at a node's passage: check says the smoother bridges them, with the
+    share of the balance's speed std they add and the most it would bridge there, as an
+    ``ok`` line (identify accepts the folder)."""
+    root = _copy(ready, tmp_path)
+    _gap_at_a_node(root)
+    assert main(["check", str(root)]) == 0
+    lines = [line for line in _lines(capsys) if "bridged by the smoother" in line]
+    assert len(lines) == 1, lines
+    assert lines[0].startswith("ok: ") and "stage1/reverse.csv, line " in lines[0]
+    assert "5 samples dropped within 5 deg of node 120 deg (stage 1)" in lines[0]
+    share = float(lines[0].split("adding at most ")[1].split()[0])
+    assert 0.0 < share <= 1.0
 
 
 # (formula, home module, function, consumer modules) as tests/one_home.py takes them:

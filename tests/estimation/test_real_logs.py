@@ -2,8 +2,8 @@
 
 The time stamps are the drive's sampling instants (rsp_inertia.plant.logs.JITTER_LIMIT): the
 smoother and the work sums use them as they are, a gap's missing torques are interpolated
-with their uncertainty (rsp_inertia.estimation.passes.gap_work), and a longer gap near a
-node is refused (rsp_inertia.estimation.balance.check_node_gaps). Against the virtual truth,
+with their uncertainty (rsp_inertia.estimation.passes.gap_work), and a gap near a node too
+long for the smoother to bridge is refused (rsp_inertia.estimation.balance.check_node_gaps). Against the virtual truth,
 never against an earlier run's numbers.
 """
 
@@ -16,9 +16,14 @@ import pytest
 import tomlkit
 from scipy.stats import chi2
 
-from rsp_inertia.estimation.balance import NODE_GAP_SAMPLES, check_node_gaps
+from rsp_inertia.estimation.balance import check_node_gaps
 from rsp_inertia.estimation.passes import gap_work
-from rsp_inertia.estimation.smoothing import Smoothed
+from rsp_inertia.estimation.smoothing import (
+    Smoothed,
+    gap_speed_excess,
+    largest_bridged_gap,
+    smoother_bandwidth,
+)
 from rsp_inertia.identifying import identify
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.logs import Log, dropped_samples, motor_work, read_log, write_log
@@ -141,9 +146,10 @@ def _cut(path, rows: slice, encoder, kind):
 
 
 def test_a_long_gap_near_a_node_is_refused_with_its_line_and_time(experiments, tmp_path):
-    """Three rows missing where the braking passes node 120 deg in its second turn: identify
-    refuses the log, naming the line after the gap and its times; the same gap half a turn
-    away is accepted, and the balance angles inside it are left out."""
+    """Thirty rows missing where the braking passes node 120 deg in its second turn, more
+    than the smoother bridges there (14 on the default stage 1): identify refuses the log,
+    naming the line after the gap, its size and times and the most it would bridge; the same
+    gap half a turn away is accepted, and the balance angles inside it are left out."""
     source, _ = experiments["clean"]
     root = tmp_path / "exp"
     root.mkdir()
@@ -158,37 +164,48 @@ def test_a_long_gap_near_a_node_is_refused_with_its_line_and_time(experiments, t
     log = read_log(path, encoder, "braking")
     node = math.radians(120.0) + 2 * math.pi
     k = int(np.searchsorted(log.phi, node))
-    gap = slice(k - 1, k - 1 + NODE_GAP_SAMPLES + 1)
+    gap = slice(k - 15, k + 15)
     _cut(path, gap, encoder, "braking")
     with pytest.raises(InputError) as error:
         identify(root)
     message = str(error.value)
-    assert message.startswith(f"{path}, line {k + 1}: {NODE_GAP_SAMPLES + 1} samples dropped")
-    assert f"t = {log.t[k - 2]:.6g} s and t = {log.t[gap.stop]:.6g} s" in message
+    assert message.startswith(f"{path}, line {gap.start + 2}: 30 samples dropped")
+    assert f"t = {log.t[gap.start - 1]:.6g} s and t = {log.t[gap.stop]:.6g} s" in message
     assert "node 120 deg" in message
+    accepted = int(message.split("at most ")[1].split()[0])
+    assert 10 < accepted < 30
     # Half a turn later the gap is far from every node (they are 120 deg apart).
     write_log(path, log)
     k = int(np.searchsorted(log.phi, node + math.pi / 3))
-    _cut(path, slice(k, k + 5), encoder, "braking")
+    _cut(path, slice(k, k + 30), encoder, "braking")
     result = identify(root)
     assert result.warnings == []
 
 
-def test_check_node_gaps_refuses_only_long_gaps_at_balanced_nodes(default_device):
-    """A gap of NODE_GAP_SAMPLES + 1 missing rows at a node's passage is refused; not when
-    the passage lies outside the balanced range [lo, hi] (the slow end of a braking, say),
-    nor a gap of NODE_GAP_SAMPLES rows."""
+def test_check_node_gaps_refuses_only_gaps_too_long_to_bridge_at_balanced_nodes(default_device):
+    """A gap at a node's passage one sample longer than the smoother bridges there is refused,
+    saying how many it bridges; not when the passage lies outside the balanced range [lo, hi]
+    (the slow end of a braking, say: the gap itself spans 0.24 rad); and a gap of that many is bridged, with its share of
+    the balance's speed variance at most 1."""
     node = default_device.stages[0].nodes[1] + 2 * math.pi
 
     def log_without(missing: int) -> Log:
-        k = np.arange(200)
-        k = k[(k < 100) | (k >= 100 + missing)]
+        k = np.arange(400)
+        k = k[(k < 200) | (k >= 200 + missing)]
         t = k * 1e-3
-        return Log(t=t, phi=node + 20.0 * (t - 0.1), torque=np.zeros(t.size))
+        return Log(t=t, phi=node + 20.0 * (t - 0.2), torque=np.zeros(t.size))
 
-    long_gap = log_without(NODE_GAP_SAMPLES + 1)
-    with pytest.raises(InputError, match=rf"b\.csv, line 102: {NODE_GAP_SAMPLES + 1} samples"):
+    h = smoother_bandwidth(20.0) * 1e-3  # the log's top speed, 1 kHz
+    largest = largest_bridged_gap(h, 2.0)
+    assert gap_speed_excess(largest, h) <= 2.0 < gap_speed_excess(largest + 1, h)
+    long_gap = log_without(largest + 1)
+    with pytest.raises(
+        InputError,
+        match=rf"b\.csv, line 202: {largest + 1} samples .* at most {largest} samples in a row",
+    ):
         check_node_gaps(default_device, 1, long_gap, "b.csv")
-    check_node_gaps(default_device, 1, long_gap, "b.csv", lo=node + 0.2)
-    check_node_gaps(default_device, 1, long_gap, "b.csv", hi=node - 0.2)
-    check_node_gaps(default_device, 1, log_without(NODE_GAP_SAMPLES), "b.csv")
+    assert check_node_gaps(default_device, 1, long_gap, "b.csv", lo=node + 0.4) == []
+    assert check_node_gaps(default_device, 1, long_gap, "b.csv", hi=node - 0.2) == []
+    (bridged,) = check_node_gaps(default_device, 1, log_without(largest), "b.csv")
+    assert (bridged.missing, bridged.node_deg, bridged.largest) == (largest, 120.0, largest)
+    assert 0.5 < bridged.ratio <= 1.0

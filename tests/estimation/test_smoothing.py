@@ -198,7 +198,8 @@ def test_the_kalman_smoother_solves_the_least_squares_of_its_model():
     F = np.stack([_transition(T) for T in steps])
     Q = [_process_noise(T, q_j) for T in steps]
     x0, P0 = np.array([z[0], 5.0, -4.0]), np.diag([q * q, 1.0, 100.0])
-    readings = functools.partial(_block_readings, t, z, centres, block, q * q / 12)
+    starts = np.arange(n) * block
+    readings = functools.partial(_block_readings, t, z, centres, starts, block, q * q / 12)
     which = np.arange(n - 1)  # every step its own transition
     means, covs, predicted = _kalman_filter(x0, P0, F, Q, which, readings, "smoothing")
     xs, speed_var = _rts_smoother(means, covs, predicted, F, which)

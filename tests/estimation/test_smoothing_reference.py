@@ -9,8 +9,6 @@ the block states, and both must give the same angle, speed and speed std at ever
 filterpy is a test dependency for this comparison only.
 """
 
-import math
-
 import numpy as np
 import pytest
 from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter, rts_smoother
@@ -19,6 +17,7 @@ from rsp_inertia.estimation.smoothing import (
     _process_noise,
     _transition,
     block_length,
+    block_starts,
     hermite,
     jerk_density,
     smooth_log,
@@ -45,15 +44,18 @@ def _filterpy_reference(log: Log, quantum: float):
     q_j, bandwidth = jerk_density(log, quantum)
     block = block_length(bandwidth, dt)
     z_all = log.phi + quantum / 2
-    n_blocks = math.ceil(n / block)
-    first, last = t[::block], t[block - 1 :: block]
-    centres = first + (block - 1) / 2 * dt
-    centres[: last.size] = (first[: last.size] + last) / 2
+    # The blocks as the smoother groups the rows (a dropped sample shortens its block).
+    starts = block_starts(t, block, dt)
+    stops = np.append(starts[1:], n)
+    n_blocks = starts.size
+    centres = (t[starts] + t[stops - 1]) / 2
+    if stops[-1] - starts[-1] < block:
+        centres[-1] = t[starts[-1]] + (block - 1) / 2 * dt
     steps = np.diff(centres)
     variance = quantum * quantum / 12.0
 
     def hx_for(k: int):
-        tau = t[k * block : (k + 1) * block] - centres[k]
+        tau = t[starts[k] : stops[k]] - centres[k]
         H = np.column_stack([np.ones(tau.size), tau, tau**2 / 2])
         return lambda x: H @ x
 
@@ -69,7 +71,7 @@ def _filterpy_reference(log: Log, quantum: float):
     ukf.P = 100.0 * variance * np.linalg.inv(H.T @ H)
     means, covs = np.empty((n_blocks, 3)), np.empty((n_blocks, 3, 3))
     for k in range(n_blocks):
-        z = z_all[k * block : (k + 1) * block]
+        z = z_all[starts[k] : stops[k]]
         if k > 0:
             ukf.Q = _process_noise(steps[k - 1], q_j)
             ukf.predict(dt=steps[k - 1])

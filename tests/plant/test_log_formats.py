@@ -455,6 +455,8 @@ def test_reading_a_csv_log_loads_pyarrows_csv_reader_but_not_nptdms(tmp_path):
         (",", "t,phi,torque\n{rows}"),
         (";", "Zeit;Winkel;Moment\n[s];[rad];[N m]\n{rows}"),
         ("\t", "# logger v2\nt\tphi\ttorque\n{rows}"),
+        (" ", "t phi torque\n{rows}"),
+        (" ", "  t   phi\ttorque\n{rows}"),
     ],
 )
 def test_the_fast_csv_reader_reads_what_the_careful_one_reads(tmp_path, monkeypatch, dialect, text):
@@ -474,8 +476,12 @@ def test_the_fast_csv_reader_reads_what_the_careful_one_reads(tmp_path, monkeypa
     fields = [
         [str(a), repr(float(b)), c] for a, b, c in zip(t.tolist(), phi.tolist(), torque)
     ]
+    runs = "  " in text  # blanks and tabs of any run between the fields
     rows = "".join(
-        dialect.join(f.replace(".", ",") if comma else f for f in row) + "\n" for row in fields
+        (" \t " if runs and k % 7 == 0 else dialect).join(
+            f.replace(".", ",") if comma else f for f in row
+        ) + "\n"
+        for k, row in enumerate(fields)
     )
     path = tmp_path / "log.csv"
     path.write_text(text.format(rows=rows))
@@ -488,11 +494,14 @@ def test_the_fast_csv_reader_reads_what_the_careful_one_reads(tmp_path, monkeypa
     )
     names = ("Zeit", "Winkel", "Moment") if comma else ("t", "phi", "torque")
     keys = ("time_column", "angle_column", "torque_column")
+    _arrow = log_checks._arrow_columns
     fast = read_columns(path, names, csv, keys, integer=0)
     called = []
     monkeypatch.setattr(log_checks, "_arrow_columns", lambda *a: called.append(a))
     careful = read_columns(path, names, csv, keys, integer=0)
     assert called  # the second read went the careful way
+    # pyarrow read the first, but for runs of blanks, which it cannot split.
+    assert (_arrow(path, [0, 1, 2], 3, csv, 0) is None) == runs
     assert np.array_equal(fast.values, careful.values)
     assert np.array_equal(fast.integers, careful.integers) and fast.integers.dtype == np.int64
     assert fast.rows == careful.rows
