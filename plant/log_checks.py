@@ -99,6 +99,8 @@ class Rows:
     """Where a log's data rows are in its file, for messages: ``Rows(path)`` is a CSV whose
     data row 0 is the file's line 2 (the header line 1); ``first_line`` moves it (a header
     further down, a units row); None names rows, not lines (a binary file: TDMS, Parquet).
+    ``left_out`` are the file's data rows the reader left out of the arrays it checks
+    (glitches, rsp_inertia.plant.log_glitches): array row k names the k-th of the others.
 
     Examples
     --------
@@ -106,21 +108,55 @@ class Rows:
     'stage1/braking.csv, line 2'
     >>> Rows("stage1/braking.parquet", first_line=None).at(0)
     'stage1/braking.parquet, row 1'
+    >>> Rows("stage1/braking.csv").without([1]).at(1)
+    'stage1/braking.csv, line 4'
     """
 
     path: str
     """The file, as the messages name it."""
     first_line: int | None = 2
     """The file's (1-based) line of data row 0; None: a binary file, whose rows are named."""
+    left_out: tuple[int, ...] = ()
+    """The file's data rows (0-based, increasing) missing from the arrays the rows of the
+    messages index."""
 
     def at(self, k: int) -> str:
         """``"path, line N"`` (or ``"path, row N"``) of data row ``k`` (0-based)."""
+        return f"{self.path}, {self.line(k)}"
+
+    def line(self, k: int) -> str:
+        """``"line N"`` (or ``"row N"``) of data row ``k`` (0-based), without the file."""
+        k = self._file_row(k)
         if self.first_line is None:
-            return f"{self.path}, row {k + 1}"
-        return f"{self.path}, line {self.first_line + k}"
+            return f"row {k + 1}"
+        return f"line {self.first_line + k}"
+
+    def span(self, first: int, last: int) -> str:
+        """``"path, lines N-M"`` (or ``"path, rows N-M"``) of data rows ``first`` to ``last``."""
+        first, last = self._file_row(first), self._file_row(last)
+        if self.first_line is None:
+            return f"{self.path}, rows {first + 1}-{last + 1}"
+        return f"{self.path}, lines {self.first_line + first}-{self.first_line + last}"
+
+    def without(self, rows: Sequence[int]) -> Rows:
+        """These rows after the arrays' ``rows`` (indices into them) are left out too."""
+        dropped = sorted({self._file_row(int(k)) for k in rows} | set(self.left_out))
+        return Rows(self.path, self.first_line, tuple(dropped))
+
+    def _file_row(self, k: int) -> int:
+        """The file's data row of array row ``k``."""
+        for skipped in self.left_out:
+            if skipped <= k:
+                k += 1
+        return k
 
     def __str__(self) -> str:
         return self.path
+
+
+def as_rows(path: str | os.PathLike | Rows) -> Rows:
+    """``path`` as :class:`Rows`: a path names a CSV whose data start on line 2."""
+    return path if isinstance(path, Rows) else Rows(str(path))
 
 
 CHUNK_BYTES = 1 << 22
@@ -343,7 +379,7 @@ short overload is a few times the limit), so it is a logging fault (a one-row sp
 or scale error) that would pass for real work."""
 
 
-def check_torque(path: str | os.PathLike, torque: np.ndarray, torque_limit: float) -> None:
+def check_torque(path: str | os.PathLike | Rows, torque: np.ndarray, torque_limit: float) -> None:
     """Refuse the first row whose torque is beyond TORQUE_MARGIN x ``torque_limit``.
 
     Parameters
@@ -364,7 +400,7 @@ def check_torque(path: str | os.PathLike, torque: np.ndarray, torque_limit: floa
     if beyond.size:
         k = int(beyond[0])
         raise InputError(
-            f"{path}, line {k + 2}: torque = {float(torque[k])!r} N m is beyond what the drive "
+            f"{as_rows(path).at(k)}: torque = {float(torque[k])!r} N m is beyond what the drive "
             f"can produce (more than {TORQUE_MARGIN:g} x device.toml's motor.torque_limit = "
             f"{torque_limit:g} N m): a logging fault"
         )
@@ -398,7 +434,7 @@ SPEED_BLOCK = 1 << 20
 
 
 def check_speed(
-    path: str | os.PathLike,
+    path: str | os.PathLike | Rows,
     t: np.ndarray,
     phi: np.ndarray,
     launch_speed: float,
@@ -436,7 +472,7 @@ def check_speed(
             k = int(beyond[0])
             step, time = float(steps[k]), float(times[k])
             raise InputError(
-                f"{path}, line {start + k + 3}: the angle jumps by {step:.3g} rad in "
+                f"{as_rows(path).at(start + k + 1)}: the angle jumps by {step:.3g} rad in "
                 f"{time:.3g} s from the row before ({step / time:.3g} rad/s), faster than any "
                 f"speed the device's runs can have (limit {limit:g} rad/s, {SPEED_MARGIN:g} x "
                 f"device.toml's fastest stage.launch_speed = {float(launch_speed):g} rad/s): "
@@ -603,7 +639,7 @@ def check_grid(path: str | os.PathLike, phi: np.ndarray, encoder: EncoderLike) -
 
 
 def check_direction(
-    path: str | os.PathLike,
+    path: str | os.PathLike | Rows,
     phi: np.ndarray,
     kind: str,
     direction: Direction,
@@ -639,14 +675,14 @@ def check_direction(
     """
     if kind not in ("braking", "reverse"):
         return
-    last_line = len(phi) + 1
+    last_line = as_rows(path).at(len(phi) - 1)
     increases = (kind == "braking") == (direction is Direction.FORWARD)
     if (phi[-1] > phi[0]) if increases else (phi[-1] < phi[0]):
         return
     span = f"phi goes from {float(phi[0])!r} to {float(phi[-1])!r} rad"
     if kind == "braking" and torque is not None and brakes_along_the_motion(phi, torque):
         raise InputError(
-            f"{path}, line {last_line}: {span} and the braking torque (median "
+            f"{last_line}: {span} and the braking torque (median "
             f"{float(np.median(torque)):.4g} N m) has the sign of that motion: as logged it "
             "would speed the body up, not brake it: the encoder counts backwards (or the "
             "torque's sign is reversed): phi must increase where a positive motor torque "
@@ -662,7 +698,7 @@ def check_direction(
         moves = "increases" if increases else "decreases"
         why = f" (phi {moves} during a backward {kind})"
     raise InputError(
-        f"{path}, line {last_line}: {run} log must end at a {end} phi than it starts{why}, "
+        f"{last_line}: {run} log must end at a {end} phi than it starts{why}, "
         f"but {span}"
     )
 
@@ -733,7 +769,7 @@ def settle_counts(encoder: EncoderLike) -> int:
 
 
 def turning_point(
-    path: str | os.PathLike,
+    path: str | os.PathLike | Rows,
     t: np.ndarray,
     phi: np.ndarray,
     increases: bool,
@@ -796,6 +832,7 @@ def turning_point(
     >>> turning_point("braking.csv", t[:6], phi[:6], True, Encoder())
     5
     """
+    rows = as_rows(path)
     q = float(encoder.quantum)
     c = np.rint(phi / q).astype(np.int64)
     if not increases:
@@ -827,17 +864,17 @@ def turning_point(
         moved = int(off[beyond[0]])
         if moved > 0:
             what = (
-                f"then runs on {moved} counts past it by line {j + 2}: the speed reverses "
+                f"then runs on {moved} counts past it by {rows.line(j)}: the speed reverses "
                 "inside the braking, or the body moved on after it stopped"
             )
         else:
             what = (
-                f"then goes back {-moved} counts by line {j + 2}: the body was not held where "
+                f"then goes back {-moved} counts by {rows.line(j)}: the body was not held where "
                 "it stopped, or the angle jumps"
             )
         raise InputError(
-            f"{path}, lines {m + 2}-{j + 2}: the braking's turning point is ambiguous: its "
-            f"motion stops or turns at line {m + 2} and {what} (after its stop a held body's "
+            f"{rows.span(m, j)}: the braking's turning point is ambiguous: its "
+            f"motion stops or turns at {rows.line(m)} and {what} (after its stop a held body's "
             f"reading may dither and settle back by up to {settle} counts, docs/files.md)"
         )
     return m

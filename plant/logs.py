@@ -29,6 +29,7 @@ from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.log_checks import (
     JITTER_LIMIT,
     EncoderLike,
+    Rows,
     check_direction,
     check_grid,
     check_speed,
@@ -39,6 +40,7 @@ from rsp_inertia.plant.log_checks import (
     turning_point,
     unwrap_counts,
 )
+from rsp_inertia.plant.log_glitches import find_glitches
 from rsp_inertia.plant.transducers import power_flow_split
 
 __all__ = [
@@ -116,10 +118,17 @@ class Log:
     a braking's rows after its turning point left out (:func:`read_log`). The commands that
     read the log say them (program, identify and calibrate as warnings, check as ok lines);
     :func:`mirror_log` and :func:`align_counter` keep them."""
+    warnings: tuple[str, ...] = ()
+    """What the reader left out because it looked wrong, one line each naming the file and
+    the line: a glitch, a row whose angle or torque disagrees with its neighbours
+    (rsp_inertia.plant.log_glitches), left out as a dropped sample. The commands that read
+    the log say them as warnings (check: suspicious); :func:`mirror_log` and
+    :func:`align_counter` keep them."""
 
     def __post_init__(self) -> None:
         _freeze_columns(self, LOG_COLUMNS)
         object.__setattr__(self, "notes", tuple(self.notes))
+        object.__setattr__(self, "warnings", tuple(self.warnings))
 
     def __len__(self) -> int:
         return len(self.t)
@@ -295,6 +304,7 @@ def read_log(
     """
     if kind not in LOG_KINDS:
         raise ValueError(f"kind must be one of {LOG_KINDS}, got {kind!r}")
+    rows = Rows(str(path))
     if read_header(path) == list(COUNT_COLUMNS):
         t, counts, torque = read_table(path, COUNT_COLUMNS).T
         phi = unwrap_counts(path, counts, encoder) * float(encoder.quantum)
@@ -302,32 +312,40 @@ def read_log(
         t, phi, torque = read_table(path, LOG_COLUMNS).T
     check_time(path, t, encoder, regular=False)
     check_grid(path, phi, encoder)
+    # Isolated corrupted rows left out (dropped samples) before anything reads the motion;
+    # the checks after this name the file's lines through ``rows``.
+    glitches = find_glitches(rows, t, phi, torque, encoder)
+    if glitches.rows.size:
+        keep = glitches.keep(len(t))
+        t, phi, torque = t[keep], phi[keep], torque[keep]
+        rows = rows.without(glitches.rows)
     if launch_speed is not None:
-        check_speed(path, t, phi, launch_speed, encoder)
-    check_direction(path, phi, kind, direction, torque)
+        check_speed(rows, t, phi, launch_speed, encoder)
+    check_direction(rows, phi, kind, direction, torque)
     if torque_limit is not None:
-        check_torque(path, torque, torque_limit)
+        check_torque(rows, torque, torque_limit)
     if kind == "braking":
         increases = direction is Direction.FORWARD
-        end = turning_point(path, t, phi, increases, encoder) + 1
+        end = turning_point(rows, t, phi, increases, encoder) + 1
         if end < len(t):
-            note = _held_note(path, t, (phi if increases else -phi), end, encoder)
-            return Log(t=t[:end], phi=phi[:end], torque=torque[:end], notes=(note,))
-    return Log(t=t, phi=phi, torque=torque)
+            note = _held_note(rows, t, (phi if increases else -phi), end, encoder)
+            return Log(
+                t=t[:end], phi=phi[:end], torque=torque[:end], notes=(note,),
+                warnings=glitches.warnings,
+            )
+    return Log(t=t, phi=phi, torque=torque, warnings=glitches.warnings)
 
 
-def _held_note(
-    path: str | os.PathLike, t: np.ndarray, phi: np.ndarray, end: int, encoder: EncoderLike
-) -> str:
+def _held_note(rows: Rows, t: np.ndarray, phi: np.ndarray, end: int, encoder: EncoderLike) -> str:
     """The one line that says a braking was cut at its turning point (row ``end - 1``),
     ``phi`` in the pass's direction (minus the angle of a backward run)."""
     off = np.rint((phi[end:] - phi[end - 1]) / float(encoder.quantum))
     low, high = int(off.min()), int(off.max())
     reading = "stays put" if low == high == 0 else f"keeps within {low:+d} to {high:+d} counts"
     return (
-        f"{path}, lines {end + 2}-{len(t) + 1}: the drive logged on {t[-1] - t[end - 1]:.3g} s "
-        f"after the braking's turning point at line {end + 1} (the reading {reading} there): "
-        f"{len(t) - end} row(s) left out"
+        f"{rows.span(end, len(t) - 1)}: the drive logged on {t[-1] - t[end - 1]:.3g} s "
+        f"after the braking's turning point at {rows.line(end - 1)} (the reading {reading} "
+        f"there): {len(t) - end} row(s) left out"
     )
 
 

@@ -142,8 +142,8 @@ def _try_read(
 ) -> Log | None:
     """The log read as identify reads it (the device's encoder and torque limit), or None
     with an ``error`` line; a ``suspicious`` line when its last line has no line end (the
-    reader leaves it out), an ``ok`` line per note of the reader (a braking's rows after its
-    turning point left out)."""
+    reader leaves it out) and per glitch the reader left out, an ``ok`` line per note of the
+    reader (a braking's rows after its turning point left out)."""
     try:
         log = read_device_log(path, device, kind, direction)
     except InputError as error:
@@ -155,10 +155,13 @@ def _try_read(
 
 def _check_last_line(findings: Findings, path: Path, log: Log) -> None:
     """A ``suspicious`` line when the log's last line has no line end (the reader leaves it
+    out) and per warning of the reader (rsp_inertia.plant.logs.Log.warnings: a glitch left
     out); an ``ok`` line per note of the reader (rsp_inertia.plant.logs.Log.notes: a braking
-    cut at its turning point, which identify warns about in the same words)."""
+    cut at its turning point). identify warns about both in the same words."""
     for note in log.notes:
         _add(findings, "ok", note)
+    for warning in log.warnings:
+        _add(findings, "suspicious", warning)
     if unterminated_last_line(path):
         _add(
             findings,
