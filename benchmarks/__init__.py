@@ -18,6 +18,9 @@ with the command that made it):
 - ``conventions``: a rig built against docs/method.md §1's conventions (a reversed gear, a
   left-handed phi, an encoder counting backwards or zeroed off) and clean rigs, through
   calibrate with a turned reference -> conventions.md, conventions.json;
+- ``glitches``: one corrupted row (a torque x 20, an angle 40 counts off) at a random place
+  of a braking or reverse log, per seed: named by file and line, left out, the tensor
+  unchanged within its std -> glitches.md, glitches.json;
 - ``scale``: wall time and peak memory of simulate, program and identify against braking
   length and sample rate, growth exponents (``make bench-scale``) -> scale.md, scale.png.
 

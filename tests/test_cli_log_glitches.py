@@ -1,6 +1,7 @@
 """A corrupted row in a log (a glitch): check marks it suspicious and identify warns, both
-naming the file and the line; identify leaves it out and its tensor stays within 3 stds of
-the truth. A few are left out, many refused in one line; the default logs have none."""
+naming the file and the line; identify leaves it out and its tensor is the clean logs'
+within 1 std (a dropped sample), near the truth. A few are left out, many refused in one
+line; the default logs have none."""
 
 from __future__ import annotations
 
@@ -66,7 +67,13 @@ def test_check_marks_each_glitch_suspicious(glitched, capsys):
     )
 
 
-def test_identify_warns_and_leaves_the_glitches_out(glitched, capsys):
+def _entries(root: Path) -> tuple[np.ndarray, np.ndarray]:
+    """The tensor's entries and stds of result.json."""
+    result = json.loads((root / "result.json").read_text())
+    return tuple(np.array([result[key][k] for k in ENTRY_KEYS]) for key in ("tensor", "tensor_std"))
+
+
+def test_identify_warns_and_leaves_the_glitches_out(glitched, default_logs, tmp_path, capsys):
     root, named = glitched
     capsys.readouterr()
     assert main(["identify", str(root)]) == 0
@@ -76,11 +83,17 @@ def test_identify_warns_and_leaves_the_glitches_out(glitched, capsys):
     assert len([w for w in result["warnings"] if "a glitch" in w]) == len(named)
     # the braking torque constant again once its glitch is out: no such warning
     assert not any("not constant" in w for w in result["warnings"]), result["warnings"]
+    entries, std = _entries(root)
+    clean = copy_experiment(default_logs, tmp_path / "clean")
+    assert main(["identify", str(clean)]) == 0
+    assert "a glitch" not in capsys.readouterr().out
+    # Three rows left out are three dropped samples: the result moves well within its std
+    # (benchmarks/glitches.py: at most 0.22 std over 20 seeds, against 90 std as logged).
+    assert np.all(np.abs(entries - _entries(clean)[0]) < std)
+    # Against the truth, as tests/test_api.py: the default noise draw's Jxy is 3.0 stds off.
     exp = open_experiment(root)
     truth = placed_body(exp.device, experiment_virtual(exp)).inertia
-    entries = np.array([result["tensor"][k] for k in ENTRY_KEYS])
-    std = np.array([result["tensor_std"][k] for k in ENTRY_KEYS])
-    assert np.all(np.abs(entries - truth) < 3 * std), (entries - truth) / std
+    assert np.all(np.abs(entries - truth) < 5 * std), (entries - truth) / std
 
 
 def test_many_glitches_in_one_log_are_refused_in_one_line(default_logs, tmp_path, capsys):
