@@ -375,8 +375,9 @@ def _careful_rows(
 TORQUE_MARGIN = 10.0
 """A logged torque beyond this many times device.toml's ``motor.torque_limit`` is refused
 (:func:`check_torque`, called by rsp_inertia.plant.logs.read_log): no drive produces it (a
-short overload is a few times the limit), so it is a logging fault (a one-row spike, a unit
-or scale error) that would pass for real work."""
+short overload is a few times the limit), so it is a logging fault (a unit or scale error)
+that would pass for real work. A one-row spike among neighbours that agree is a glitch,
+left out before this check (rsp_inertia.plant.log_glitches)."""
 
 
 def check_torque(path: str | os.PathLike | Rows, torque: np.ndarray, torque_limit: float) -> None:
@@ -409,8 +410,9 @@ def check_torque(path: str | os.PathLike | Rows, torque: np.ndarray, torque_limi
 SPEED_MARGIN = 20.0
 """A step of the angle between two rows faster than this many times the fastest
 ``stage.launch_speed`` of device.toml is refused (:func:`check_speed`, called by
-rsp_inertia.plant.logs.read_log): a logging fault (a corrupted row, a glitch of the counter)
-that would pass for a real turn and its work.
+rsp_inertia.plant.logs.read_log): a logging fault (a counter that skips) that would pass for
+a real turn and its work. A single row off and back is a glitch, left out before this check
+(rsp_inertia.plant.log_glitches).
 
 Every run of the device is slower than about its stage's launch speed: a braking starts at
 it and slows down, its reverse mirrors it, a pilot spins up to about it, a pendulum run

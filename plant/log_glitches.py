@@ -177,18 +177,20 @@ def find_glitches(
             f"their neighbours ({lines}, ...): more than {MAX_GLITCHES} glitches in one log "
             "is a faulty logger or channel, not isolated corruptions (docs/files.md, Logs)"
         )
+    digits = max(0, math.ceil(-math.log10(q / 10)))  # angles to a tenth of a count
     warnings = []
     for k in found.tolist():
         what = []
         if bad_angle[k]:
             what.append(
-                f"phi {float(phi[k]):.6g} rad where its neighbours give {level[k] * q:.6g} "
-                f"+- {s_angle[k] * q:.2g} ({r_angle[k]:+.0f} counts)"
+                f"phi {float(phi[k]):.{digits}f} rad where its neighbours give "
+                f"{level[k] * q:.{digits}f} +- {s_angle[k] * q:.2g} rad "
+                f"({r_angle[k]:+.0f} counts)"
             )
         if bad_torque[k]:
             what.append(
                 f"torque {float(torque[k]):.4g} N m where its neighbours give "
-                f"{_interval(low[k], high[k])} +- {s_torque[k]:.2g}"
+                f"{_interval(low[k], high[k])} +- {s_torque[k]:.2g} N m"
             )
         warnings.append(
             f"{rows.at(k)}: a glitch, {' and '.join(what)}: the row is left out (a dropped "

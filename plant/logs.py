@@ -5,8 +5,9 @@ logs its position counter; the torque program of a reverse pass is
 ``t,phi_ref,omega_ref,torque_ff,k_phi,k_omega`` (a :class:`Program`). Reading checks
 everything the rest of the package relies on (:mod:`rsp_inertia.plant.log_checks`: finite
 numbers, t from 0 at the encoder's sample rate, phi on the encoder grid, the direction of the
-pass) and turns every fault into one :class:`~rsp_inertia.infra.errors.InputError` line
-naming the file and the line. Writing is exact (``repr`` round-trips every float64),
+pass), leaves out isolated corrupted rows (:mod:`rsp_inertia.plant.log_glitches`) and turns
+every fault into one :class:`~rsp_inertia.infra.errors.InputError` line naming the file and
+the line. Writing is exact (``repr`` round-trips every float64),
 deterministic and atomic.
 
 ``JITTER_LIMIT`` and ``EncoderLike`` are defined in :mod:`rsp_inertia.plant.log_checks` and
@@ -285,7 +286,11 @@ def read_log(
     -------
     Log
         The values exactly as written in the file; a braking's only up to its turning point,
-        with a note naming the rows left out (:attr:`Log.notes`).
+        with a note naming the rows left out (:attr:`Log.notes`); without its glitches, rows
+        whose angle or torque disagrees with their neighbours
+        (rsp_inertia.plant.log_glitches.find_glitches, after the time stamps, the grid and the
+        counter are checked and before anything reads the motion), each left out as a
+        dropped sample with a warning naming its line (:attr:`Log.warnings`).
 
     Raises
     ------
@@ -293,7 +298,8 @@ def read_log(
         One line naming the file, the line and the fault: a missing or empty file, a wrong
         header, a malformed or non-finite number, fewer than 2 rows, t not from 0, not strictly
         increasing, a step shorter than half a sample period, a median or mean step off the
-        sample rate (:data:`JITTER_LIMIT`), phi off the encoder grid, an angle step or a
+        sample rate (:data:`JITTER_LIMIT`), phi off the encoder grid, more than
+        rsp_inertia.plant.log_glitches.MAX_GLITCHES glitches, an angle step or a
         torque beyond what the device can do (with ``launch_speed``, ``torque_limit``), the
         wrong direction (with its likely cause: an encoder counting backwards), a braking
         whose turning point is ambiguous (naming the lines).
