@@ -223,12 +223,15 @@ def report(rows: list[dict], command: str, seconds: float) -> str:
         not r["detected"]["refused"] and float(_worst(r["detected"])) <= 3.0 for r in seeded
     )
     undetected = [shift(r["undetected"], clean) for r in seeded]
+    taken = [s for s in undetected if s != float("inf")]
     lines += [
         "",
         f"{passed} of {len(seeded)} seeds met the target; {found} of {len(seeded)} named the "
         f"corrupted row's file and line (and no other); largest shift with the detector "
-        f"{max(shifts):.2f} std, without it {max(undetected):.1f} std (median "
-        f"{float(np.median(undetected)):.2f}). Against the truth: largest |err|/std with the "
+        f"{max(shifts):.2f} std. Without it, {len(undetected) - len(taken)} seeds refused "
+        "(an angle glitch in a braking: refused as a speed that reverses) "
+        f"and the others shifted by up to {max(taken, default=0.0):.1f} std (median "
+        f"{float(np.median(taken)) if taken else 0.0:.2f}). Against the truth: largest |err|/std with the "
         f"detector {worst:.2f}, {within} of {len(seeded)} seeds within 3; the clean copy "
         f"{_worst(clean)}. The clean copy: "
         + ("no glitch." if named(rows[0]) else "GLITCHES FOUND (false alarm)."),
