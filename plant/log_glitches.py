@@ -165,8 +165,8 @@ def find_glitches(
         return Glitches(rows=np.zeros(0, dtype=np.int64), warnings=())
     q = float(encoder.quantum)
     rate = float(encoder.sample_rate)
-    r_angle, s_angle, level = angle_residuals(t, phi, q, rate)
-    r_torque, s_torque, low, high = torque_residuals(torque)
+    r_angle, s_angle = angle_residuals(t, phi, q, rate)
+    r_torque, s_torque = torque_residuals(torque)
     bad_angle = np.abs(r_angle) > ANGLE_THRESHOLD * s_angle
     bad_torque = r_torque > TORQUE_THRESHOLD * s_torque
     found = np.flatnonzero(bad_angle | bad_torque)
@@ -184,13 +184,13 @@ def find_glitches(
         if bad_angle[k]:
             what.append(
                 f"phi {float(phi[k]):.{digits}f} rad where its neighbours give "
-                f"{level[k] * q:.{digits}f} +- {s_angle[k] * q:.2g} rad "
+                f"{float(phi[k]) - r_angle[k] * q:.{digits}f} +- {s_angle[k] * q:.2g} rad "
                 f"({r_angle[k]:+.0f} counts)"
             )
         if bad_torque[k]:
             what.append(
                 f"torque {float(torque[k]):.4g} N m where its neighbours give "
-                f"{_interval(low[k], high[k])} +- {s_torque[k]:.2g} N m"
+                f"{_interval(torque[k - 1], torque[k + 1])} +- {s_torque[k]:.2g} N m"
             )
         warnings.append(
             f"{rows.at(k)}: a glitch, {' and '.join(what)}: the row is left out (a dropped "
@@ -199,15 +199,15 @@ def find_glitches(
     return Glitches(rows=found, warnings=tuple(warnings))
 
 
-def _interval(low: float, high: float) -> str:
-    """The neighbours' torques, one number when they agree to 4 digits."""
-    a, b = f"{low:.4g}", f"{high:.4g}"
+def _interval(before: float, after: float) -> str:
+    """The neighbours' torques, low to high, one number when they agree to 4 digits."""
+    a, b = f"{min(before, after):.4g}", f"{max(before, after):.4g}"
     return a if a == b else f"{a} to {b}"
 
 
 def angle_residuals(
     t: np.ndarray, phi: np.ndarray, quantum: float, sample_rate: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray]:
     """Each row's angle against a cubic in time through its :data:`ANGLE_NEIGHBOURS` rows on
     either side, in counts, and the scale it is tested against (module docstring).
 
@@ -229,16 +229,13 @@ def angle_residuals(
     scale : np.ndarray, shape (n,)
         Counts, the largest of the quantization's std of r, the neighbours' scatter about
         their cubic and the block's robust scale of r; inf where untested.
-    level : np.ndarray, shape (n,)
-        Counts, the neighbours' cubic at the row's time (the angle they give, over q).
     """
     n = len(t)
     m = ANGLE_NEIGHBOURS
     r = np.zeros(n)
     scale = np.full(n, np.inf)
-    level = phi / quantum
     if n < 2 * m + 1:
-        return r, scale, level
+        return r, scale
     offsets = np.concatenate([np.arange(-m, 0), np.arange(1, m + 1)])
     rows = np.arange(m, n - m)
     own = np.empty(rows.size)
@@ -258,7 +255,6 @@ def angle_residuals(
         fit = np.einsum("bjk,bk->bj", a, coef)
         at_row = coef[:, 0]
         r[k] = -at_row  # row k's reading is 0 counts from itself
-        level[k] = phi[k] / quantum + at_row
         own[start : start + k.size] = np.sqrt((1.0 + np.sum(weights**2, axis=1)) / 12.0)
         scatter[start : start + k.size] = np.sqrt(
             np.sum((y - fit) ** 2, axis=1) / (2 * m - 4)
@@ -266,12 +262,10 @@ def angle_residuals(
     tested = r[rows]
     local = _block_scale(1.4826 * np.abs(tested))
     scale[rows] = np.maximum(np.maximum(own, scatter), local)
-    return r, scale, level
+    return r, scale
 
 
-def torque_residuals(
-    torque: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def torque_residuals(torque: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Each row's torque outside the interval its two neighbours span, and the local scale it
     is tested against (module docstring).
 
@@ -288,26 +282,26 @@ def torque_residuals(
     scale : np.ndarray, shape (n,), N m
         The block's robust scale of the sample-to-sample changes over sqrt 2, at least
         :data:`TORQUE_RESOLUTION` of the largest |torque|; inf at the first and last rows.
-    low, high : np.ndarray, shape (n,), N m
-        The neighbours' interval.
     """
     n = len(torque)
     r = np.zeros(n)
     scale = np.full(n, np.inf)
-    low = high = torque
     if n < 3:
-        return r, scale, low, high
-    before, after = torque[:-2], torque[2:]
-    low = np.concatenate([[torque[0]], np.minimum(before, after), [torque[-1]]])
-    high = np.concatenate([[torque[0]], np.maximum(before, after), [torque[-1]]])
-    r = np.maximum(low - torque, 0.0) + np.maximum(torque - high, 0.0)
+        return r, scale
+    before, after, own = torque[:-2], torque[2:], torque[1:-1]
+    low = np.minimum(before, after)
+    np.subtract(low, own, out=low)  # below both neighbours by this
+    high = np.maximum(before, after)
+    np.subtract(own, high, out=high)  # above both by this
+    r[1:-1] = np.maximum(np.maximum(low, high), 0.0)
+    del low, high
     changes = np.abs(np.diff(torque))
     local = _block_scale(1.4826 / math.sqrt(2.0) * changes)
     floor = TORQUE_RESOLUTION * float(np.max(np.abs(torque)))
     # the change into row k and out of it both belong to row k's blocks: take the larger
     inner = np.maximum(local[:-1], local[1:])
     scale[1:-1] = np.maximum(inner, floor)
-    return r, scale, low, high
+    return r, scale
 
 
 _BLOCK = 1 << 14

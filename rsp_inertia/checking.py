@@ -15,7 +15,8 @@ missing for the next step and what looks wrong, without stopping at the first pr
   command that makes it.
 - ``suspicious``: what identify accepts but a test engineer would want to know before the
   run: a braking that covers few turns past its last node, a logged braking torque that is
-  not device.toml's, what identify warns about a run's passes (a braking torque that is not
+  not device.toml's, a glitch the reader left out (rsp_inertia.plant.log_glitches: a row
+  whose angle or torque disagrees with its neighbours), what identify warns about a run's passes (a braking torque that is not
   constant within its noise), a program older than the braking it mirrors, a reverse much
   shorter or longer than its braking, constants that identify will take as exact and warn
   about, a gap of dropped samples near a node in a log check cannot pair with its run's other

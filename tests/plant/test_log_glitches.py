@@ -111,7 +111,7 @@ def test_genuine_brakings_have_no_glitch(bits, rate, speed, readhead, seed):
     t, phi, torque = braking(
         encoder, 4000, speed, seed=seed, jitter=JITTER_LIMIT, dropped=0.02, readhead=readhead
     )
-    r, scale, _ = angle_residuals(t, phi, encoder.quantum, rate)
+    r, scale = angle_residuals(t, phi, encoder.quantum, rate)
     assert np.max(np.abs(r) / scale) < ANGLE_THRESHOLD / 2
     assert find_glitches(Rows("b.csv"), t, phi, torque, encoder).rows.size == 0
 
