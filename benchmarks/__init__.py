@@ -20,6 +20,9 @@ with the command that made it):
   calibrate with a turned reference -> conventions.md, conventions.json;
 - ``log_reading``: rows per second of every logger's format and dialect (device.toml
   ``[log]``), checks included -> log_reading.md;
+- ``glitches``: one corrupted row (a torque x 20, an angle 40 counts off) at a random place
+  of a braking or reverse log, per seed: named by file and line, left out, the tensor
+  unchanged within its std -> glitches.md, glitches.json;
 - ``scale``: wall time and peak memory of simulate, program and identify against braking
   length and sample rate, growth exponents (``make bench-scale``) -> scale.md, scale.png.
 

@@ -17,6 +17,7 @@ from rsp_inertia.design.candidates import StageModel
 from rsp_inertia.design.pilot import fit_pilot
 from rsp_inertia.design.plan import map_stages
 from rsp_inertia.infra.errors import InputError
+from rsp_inertia.infra.progress import say
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.friction import FRICTION
@@ -112,6 +113,8 @@ def stage_models(root: str | Path) -> list[StageModel]:
     for stage in exp.stages(None):
         path = exp.pilot_path(stage)
         log = read_device_log(path, exp.device, "pilot") if path.is_file() else None
+        for warning in () if log is None else log.warnings:
+            say(f"warning: {warning}")  # a glitch the reader left out
         jobs.append((exp.device, stage, path, log))
     return map_stages(_stage_model, jobs)
 

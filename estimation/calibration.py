@@ -519,8 +519,8 @@ def calibrate_logs(
     stiffness = None
     if reference is not None:
         stiffness = calibrate_stiffness(
-            _corrected_pendulum(empty, known.encoder, known.zero),
-            _corrected_pendulum(reference, known.encoder, known.zero),
+            _corrected_pendulum(empty, known.encoder, known.zero, warnings),
+            _corrected_pendulum(reference, known.encoder, known.zero, warnings),
             reference_body,
             known.gravity,
             known.cov[known.gravity_slice, known.gravity_slice],
@@ -547,13 +547,16 @@ def calibrate_logs(
 
 
 def _corrected_pendulum(
-    logs: ExperimentLogs, encoder: np.ndarray, zero: float
+    logs: ExperimentLogs, encoder: np.ndarray, zero: float, warnings: list[str]
 ) -> ExperimentLogs:
     """``logs`` with its pendulum logs' readings taken back to the true angle: the pendulum
-    reads the same encoder (rsp_inertia.estimation.runs.corrected_log)."""
-    pendulum = {
-        key: corrected_log(logs.pendulum[key], encoder, zero) for key in logs.pendulum
-    }
+    reads the same encoder (rsp_inertia.estimation.runs.corrected_log); the glitches their
+    reader left out (rsp_inertia.plant.logs.Log.warnings) go to ``warnings``."""
+    pendulum = {}
+    for key in logs.pendulum:
+        log = logs.pendulum[key]  # read from its file at every lookup: once here
+        warnings.extend(log.warnings)
+        pendulum[key] = corrected_log(log, encoder, zero)
     return dataclasses.replace(logs, pendulum=pendulum)
 
 

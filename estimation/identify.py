@@ -465,7 +465,8 @@ def pendulum_baseline(
         without it.
     warnings : list of str, optional
         A run the best-practice reduction cannot take (too few half cycles) gets None there
-        and a line here.
+        and a line here, as does each glitch the reader left out of a run
+        (rsp_inertia.plant.logs.Log.warnings).
 
     Returns
     -------
@@ -493,9 +494,11 @@ def pendulum_baseline(
     pendulum_logs, runs, directions = {}, [], []
     for stage, k in found:
         st = device.stages[stage - 1]
+        log = logs.pendulum[stage, k]
+        if warnings is not None:
+            warnings.extend(log.warnings)  # glitches the reader left out
         pendulum_logs[stage, k], run = reduce_pendulum_run(
-            device, logs.pendulum[stage, k], stage, k, logs.sources.pendulum_log(stage, k),
-            encoder, zero,
+            device, log, stage, k, logs.sources.pendulum_log(stage, k), encoder, zero
         )
         runs.append(run)
         directions.append(axis_direction(st.nodes[k - 1], st.gear_ratio))

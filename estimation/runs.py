@@ -369,10 +369,10 @@ def balance_runs(
     prefix = "" if logs.sources.experiment is None else f"{logs.sources.experiment}: "
     balances, kept = [], []
     for k, (stage, direction) in enumerate(expected, 1):
-        # What the reader did to the logs (their notes) first; then the logs as read are
+        # What the reader did to the logs (their notes and warnings) first; then the logs as read are
         # checked_run's alone (popped: nothing here holds them while it estimates).
         read = [logs.runs[stage, direction]]
-        warnings += [note for log in read[0] for note in log.notes]
+        warnings += [line for log in read[0] for line in (*log.notes, *log.warnings)]
         b_est, r_est = checked_run(
             device, stage, read.pop(), direction, warnings, logs.sources.run(stage, direction),
             encoder, zero,

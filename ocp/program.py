@@ -57,8 +57,9 @@ class TorqueProgram:
     seconds: float
     """Wall time of the whole generation."""
     warnings: tuple[str, ...] = ()
-    """What the program's checks found: the braking log's notes (rows the reader left out
-    after its turning point, rsp_inertia.plant.logs.Log.notes), a mirror that leaves the
+    """What the program's checks found: the braking log's notes and warnings (rows the reader
+    left out after its turning point, rsp_inertia.plant.logs.Log.notes, and glitches,
+    rsp_inertia.plant.logs.Log.warnings), a mirror that leaves the
     regulator little of the motor's limits (rsp_inertia.ocp.feedforward.check_mirror)."""
 
 
@@ -180,8 +181,11 @@ def make_program(
     sigma = torque_noise(braking)
     u_b = float(np.mean(braking.torque))
     need, need_std = mirror_torque(ref, model, u_b, friction_cov, sigma**2 / len(braking))
-    # What the reader did to the braking log (its notes) first, then the mirror's warnings.
-    warnings = [*braking.notes, *check_mirror(device, stage, ref, need, need_std, u_b)]
+    # What the reader did to the braking log (its notes and warnings) first, then the
+    # mirror's warnings.
+    warnings = [
+        *braking.notes, *braking.warnings, *check_mirror(device, stage, ref, need, need_std, u_b)
+    ]
     sol = solve_program_ocp(device, stage, ref, model)
     torque = np.interp(ref.t, sol.t, sol.torque)  # u is linear between grid points
     phi_ref, omega_ref = start_reference(device, ref, sol, model)

@@ -99,6 +99,8 @@ class Rows:
     """Where a log's data rows are in its file, for messages: ``Rows(path)`` is a CSV whose
     data row 0 is the file's line 2 (the header line 1); ``first_line`` moves it (a header
     further down, a units row); None names rows, not lines (a binary file: TDMS, Parquet).
+    ``left_out`` are the file's data rows the reader left out of the arrays it checks
+    (glitches, rsp_inertia.plant.log_glitches): array row k names the k-th of the others.
 
     Examples
     --------
@@ -106,12 +108,17 @@ class Rows:
     'stage1/braking.csv, line 2'
     >>> Rows("stage1/braking.parquet", first_line=None).at(0)
     'stage1/braking.parquet, row 1'
+    >>> Rows("stage1/braking.csv").without([1]).at(1)
+    'stage1/braking.csv, line 4'
     """
 
     path: str
     """The file, as the messages name it."""
     first_line: int | None = 2
     """The file's (1-based) line of data row 0; None: a binary file, whose rows are named."""
+    left_out: tuple[int, ...] = ()
+    """The file's data rows (0-based, increasing) missing from the arrays the rows of the
+    messages index."""
 
     def at(self, k: int) -> str:
         """``"path, line N"`` (or ``"path, row N"``) of data row ``k`` (0-based)."""
@@ -119,15 +126,29 @@ class Rows:
 
     def line(self, k: int) -> str:
         """``"line N"`` (or ``"row N"``) of data row ``k`` (0-based), without the file."""
+        k = self._file_row(k)
         if self.first_line is None:
             return f"row {k + 1}"
         return f"line {self.first_line + k}"
 
     def span(self, first: int, last: int) -> str:
         """``"path, lines N-M"`` (or ``"path, rows N-M"``) of data rows ``first`` to ``last``."""
+        first, last = self._file_row(first), self._file_row(last)
         if self.first_line is None:
             return f"{self.path}, rows {first + 1}-{last + 1}"
         return f"{self.path}, lines {self.first_line + first}-{self.first_line + last}"
+
+    def without(self, rows: Sequence[int]) -> Rows:
+        """These rows after the arrays' ``rows`` (indices into them) are left out too."""
+        dropped = sorted({self._file_row(int(k)) for k in rows} | set(self.left_out))
+        return Rows(self.path, self.first_line, tuple(dropped))
+
+    def _file_row(self, k: int) -> int:
+        """The file's data row of array row ``k``."""
+        for skipped in self.left_out:
+            if skipped <= k:
+                k += 1
+        return k
 
     def __str__(self) -> str:
         return self.path
@@ -670,8 +691,9 @@ def _pieces_of_lines(
 TORQUE_MARGIN = 10.0
 """A logged torque beyond this many times device.toml's ``motor.torque_limit`` is refused
 (:func:`check_torque`, called by rsp_inertia.plant.logs.read_log): no drive produces it (a
-short overload is a few times the limit), so it is a logging fault (a one-row spike, a unit
-or scale error) that would pass for real work."""
+short overload is a few times the limit), so it is a logging fault (a unit or scale error)
+that would pass for real work. A one-row spike among neighbours that agree is a glitch,
+left out before this check (rsp_inertia.plant.log_glitches)."""
 
 
 def check_torque(path: str | os.PathLike | Rows, torque: np.ndarray, torque_limit: float) -> None:
@@ -704,8 +726,9 @@ def check_torque(path: str | os.PathLike | Rows, torque: np.ndarray, torque_limi
 SPEED_MARGIN = 20.0
 """A step of the angle between two rows faster than this many times the fastest
 ``stage.launch_speed`` of device.toml is refused (:func:`check_speed`, called by
-rsp_inertia.plant.logs.read_log): a logging fault (a corrupted row, a glitch of the counter)
-that would pass for a real turn and its work.
+rsp_inertia.plant.logs.read_log): a logging fault (a counter that skips) that would pass for
+a real turn and its work. A single row off and back is a glitch, left out before this check
+(rsp_inertia.plant.log_glitches).
 
 Every run of the device is slower than about its stage's launch speed: a braking starts at
 it and slows down, its reverse mirrors it, a pilot spins up to about it, a pendulum run

@@ -5,8 +5,9 @@ logs its position counter; the torque program of a reverse pass is
 ``t,phi_ref,omega_ref,torque_ff,k_phi,k_omega`` (a :class:`Program`). Reading checks
 everything the rest of the package relies on (:mod:`rsp_inertia.plant.log_checks`: finite
 numbers, t from 0 at the encoder's sample rate, phi on the encoder grid, the direction of the
-pass) and turns every fault into one :class:`~rsp_inertia.infra.errors.InputError` line
-naming the file and the line. Writing is exact (``repr`` round-trips every float64),
+pass), leaves out isolated corrupted rows (:mod:`rsp_inertia.plant.log_glitches`) and turns
+every fault into one :class:`~rsp_inertia.infra.errors.InputError` line naming the file and
+the line. Writing is exact (``repr`` round-trips every float64),
 deterministic and atomic.
 
 ``JITTER_LIMIT`` and ``EncoderLike`` are defined in :mod:`rsp_inertia.plant.log_checks` and
@@ -40,6 +41,7 @@ from rsp_inertia.plant.log_checks import (
     turning_point,
 )
 from rsp_inertia.plant.log_files import read_log_columns, write_log_file
+from rsp_inertia.plant.log_glitches import find_glitches
 from rsp_inertia.plant.log_layout import LogLayout
 from rsp_inertia.plant.transducers import power_flow_split
 
@@ -122,11 +124,18 @@ class Log:
     """The motor's temperature at each row, when the logger logs it (device.toml ``[log]
     temperature_column``); None when it does not. ``dataclasses.replace`` keeps it; code that
     takes some rows of a log takes the same rows of it."""
+    warnings: tuple[str, ...] = ()
+    """What the reader left out because it looked wrong, one line each naming the file and
+    the line: a glitch, a row whose angle or torque disagrees with its neighbours
+    (rsp_inertia.plant.log_glitches), left out as a dropped sample. The commands that read
+    the log say them as warnings (check: suspicious); :func:`mirror_log` and
+    :func:`align_counter` keep them."""
 
     def __post_init__(self) -> None:
         names = LOG_COLUMNS if self.temperature is None else (*LOG_COLUMNS, "temperature")
         _freeze_columns(self, names)
         object.__setattr__(self, "notes", tuple(self.notes))
+        object.__setattr__(self, "warnings", tuple(self.warnings))
 
     def rows(self, keep: slice | np.ndarray) -> Log:
         """The log's rows ``keep`` (a slice, a boolean mask or indices) of every column, the
@@ -305,7 +314,11 @@ def read_log(
     Log
         The values as written in the file, in s, rad and N m (units converted; an angle in
         degrees put on the encoder grid); a braking's only up to its turning point, with a
-        note naming the rows left out (:attr:`Log.notes`).
+        note naming the rows left out (:attr:`Log.notes`); without its glitches, rows whose
+        angle or torque disagrees with their neighbours
+        (rsp_inertia.plant.log_glitches.find_glitches, after the time stamps, the grid and the
+        counter are checked and before anything reads the motion), each left out as a
+        dropped sample with a warning naming its line (:attr:`Log.warnings`).
 
     Raises
     ------
@@ -314,7 +327,8 @@ def read_log(
         a column not found (naming the [log] key), a malformed or non-finite number, fewer
         than 2 rows, t not from 0, not strictly increasing, a step shorter than half a
         sample period, a median or mean step off the sample rate (:data:`JITTER_LIMIT`), phi
-        off the encoder grid, an angle step or a torque beyond what the device can do (with
+        off the encoder grid, more than rsp_inertia.plant.log_glitches.MAX_GLITCHES
+        glitches, an angle step or a torque beyond what the device can do (with
         ``launch_speed``, ``torque_limit``), the wrong direction (with its likely cause: an
         encoder counting backwards), a braking whose turning point is ambiguous (naming the
         lines).
@@ -331,15 +345,20 @@ def read_log(
     t, phi, torque, temperature = columns.t, columns.phi, columns.torque, columns.temperature
     check_time(rows, t, encoder, regular=False)
     check_grid(rows, phi, encoder)
-    # Here the columns are parsed, converted and on their grids, before the checks of the
-    # motion: what takes rows out of a log (its keep-mask on t, phi, torque and temperature
-    # alike) goes here.
+    # Isolated corrupted rows left out (dropped samples) before anything reads the motion,
+    # of every column alike; the checks after this name the file's lines through ``rows``.
+    glitches = find_glitches(rows, t, phi, torque, encoder)
+    if glitches.rows.size:
+        keep = glitches.keep(len(t))
+        t, phi, torque = t[keep], phi[keep], torque[keep]
+        temperature = None if temperature is None else temperature[keep]
+        rows = rows.without(glitches.rows)
     if launch_speed is not None:
         check_speed(rows, t, phi, launch_speed, encoder)
     check_direction(rows, phi, kind, direction, torque)
     if torque_limit is not None:
         check_torque(rows, torque, torque_limit)
-    log = Log(t=t, phi=phi, torque=torque, temperature=temperature)
+    log = Log(t=t, phi=phi, torque=torque, temperature=temperature, warnings=glitches.warnings)
     if kind == "braking":
         increases = direction is Direction.FORWARD
         end = turning_point(rows, t, phi, increases, encoder) + 1
@@ -349,9 +368,7 @@ def read_log(
     return log
 
 
-def _held_note(
-    rows: Rows, t: np.ndarray, phi: np.ndarray, end: int, encoder: EncoderLike
-) -> str:
+def _held_note(rows: Rows, t: np.ndarray, phi: np.ndarray, end: int, encoder: EncoderLike) -> str:
     """The one line that says a braking was cut at its turning point (row ``end - 1``),
     ``phi`` in the pass's direction (minus the angle of a backward run)."""
     off = np.rint((phi[end:] - phi[end - 1]) / float(encoder.quantum))
@@ -359,8 +376,8 @@ def _held_note(
     reading = "stays put" if low == high == 0 else f"keeps within {low:+d} to {high:+d} counts"
     return (
         f"{rows.span(end, len(t) - 1)}: the drive logged on {t[-1] - t[end - 1]:.3g} s "
-        f"after the braking's turning point at {rows.line(end - 1)} (the reading {reading} there): "
-        f"{len(t) - end} row(s) left out"
+        f"after the braking's turning point at {rows.line(end - 1)} (the reading {reading} "
+        f"there): {len(t) - end} row(s) left out"
     )
 
 

@@ -16,8 +16,9 @@ missing for the next step and what looks wrong, without stopping at the first pr
   command that makes it.
 - ``suspicious``: what identify accepts but a test engineer would want to know before the
   run: a braking that covers few turns past its last node, a logged braking torque that is
-  not device.toml's, what identify warns about a run's passes (a braking torque that is not
-  constant within its noise), a program older than the braking it mirrors, a reverse much
+  not device.toml's, a glitch the reader left out (rsp_inertia.plant.log_glitches: a row
+  whose angle or torque disagrees with its neighbours), what identify warns about a run's
+  passes (a braking torque that is not constant within its noise), a program older than the braking it mirrors, a reverse much
   shorter or longer than its braking, constants that identify will take as exact and warn
   about, a gap of dropped samples near a node too long to bridge in a log check cannot pair
   with its run's other (identify refuses it if the node's passage is in the range it
@@ -147,8 +148,8 @@ def _try_read(
 ) -> Log | None:
     """The log read as identify reads it (the device's encoder and torque limit), or None
     with an ``error`` line; a ``suspicious`` line when its last line has no line end (the
-    reader leaves it out), an ``ok`` line per note of the reader (a braking's rows after its
-    turning point left out)."""
+    reader leaves it out) and per glitch the reader left out, an ``ok`` line per note of the
+    reader (a braking's rows after its turning point left out)."""
     try:
         log = read_device_log(path, device, kind, direction)
     except InputError as error:
@@ -160,11 +161,14 @@ def _try_read(
 
 def _check_last_line(findings: Findings, path: Path, log: Log) -> None:
     """A ``suspicious`` line when a CSV log's last line has no line end (the reader leaves it
+    out) and per warning of the reader (rsp_inertia.plant.logs.Log.warnings: a glitch left
     out); an ``ok`` line per note of the reader (rsp_inertia.plant.logs.Log.notes: a braking
-    cut at its turning point, which identify warns about in the same words), and one with
-    the motor temperature's range over the pass when the logger logs it."""
+    cut at its turning point; identify warns about both in the same words), and one with the
+    motor temperature's range over the pass when the logger logs it."""
     for note in log.notes:
         _add(findings, "ok", note)
+    for warning in log.warnings:
+        _add(findings, "suspicious", warning)
     if log.temperature is not None:
         low, high = float(np.min(log.temperature)), float(np.max(log.temperature))
         _add(findings, "ok", f"{path}: motor temperature {low:.1f} to {high:.1f} C")

@@ -44,7 +44,7 @@ PAPER = Case(friction_factor=1.0, encoder_bits=16, seed=0)
 
 PROGRAMS = (
     "sweep", "identification", "program", "plan", "systematics", "real_logs", "scale",
-    "mountings", "engine", "conventions", "log_reading",
+    "mountings", "engine", "conventions", "log_reading", "glitches",
 )
 
 

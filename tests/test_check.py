@@ -186,12 +186,14 @@ def _stub_braking(root):
 
 
 def _reversing_braking(root):
-    """A row of stage 1's braking one count back: the speed reverses inside the braking."""
+    """Ten rows of stage 1's braking one count back: the speed reverses inside the braking
+    (one such row would be a glitch, left out: rsp_inertia.plant.log_glitches)."""
     path = root / "stage1" / "braking.csv"
     header, *data = path.read_text().splitlines()
-    t, _, torque = data[1000].split(",")
     phi = float(data[999].split(",")[1]) - 2 * math.pi / 65536
-    data[1000] = f"{t},{phi!r},{torque}"
+    for k in range(1000, 1010):
+        t, _, torque = data[k].split(",")
+        data[k] = f"{t},{phi!r},{torque}"
     path.write_text("\n".join([header, *data]) + "\n")
 
 

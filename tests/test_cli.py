@@ -289,11 +289,14 @@ def test_a_log_cut_while_writing_is_identified_without_its_last_row_and_says_so(
 def test_a_torque_spike_in_a_log_is_refused_by_check_identify_and_program(experiment, capsys):
     # 1000 N m against a 0.5 N m motor: check said "ready", identify gave Jz 41% off, and a
     # 1e300 N m row made program ask for 1.3e297 N m; now each names the file and the line.
+    # (Over a few rows: a single such row among neighbours that agree is a glitch, left out
+    # with a warning, tests/test_cli_log_glitches.py.)
     assert main(["simulate", str(experiment), "--stage", "1"]) == 0
     path = experiment / "stage1" / "braking.csv"
     lines = path.read_text().splitlines(keepends=True)
-    t, phi, _ = lines[100].split(",")
-    lines[100] = f"{t},{phi},1000.0\n"
+    for k in range(100, 104):
+        t, phi, _ = lines[k].split(",")
+        lines[k] = f"{t},{phi},1000.0\n"
     path.write_text("".join(lines))
     capsys.readouterr()
     assert main(["check", str(experiment)]) == 1

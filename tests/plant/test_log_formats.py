@@ -257,7 +257,7 @@ def test_a_current_without_a_torque_constant_is_refused(tmp_path):
 def test_faults_past_the_header_name_binary_rows(tmp_path):
     log = a_log(temperature=False)
     torque = log.torque.copy()
-    torque[41] = 50.0  # beyond 10 x the torque limit
+    torque[41:45] = 50.0  # beyond 10 x the torque limit, four rows (one alone is a glitch)
     path = tmp_path / "braking.parquet"
     write_log(path, dataclasses.replace(log, torque=torque), layout=LogLayout(format="parquet"),
               encoder=ENCODER)

@@ -1,0 +1,329 @@
+"""Glitches in a log: isolated rows whose angle or torque disagrees with their neighbours
+(docs/files.md, Logs, *A glitch*).
+
+A logger may corrupt a single row (a bit flipped on a serial link, a framing error, a torque
+read in the middle of its update): its angle a few tens of counts off, or its torque many
+times the braking's. Such a row passes every check of the file's format, yet the balances
+take it as real motion or real work (one braking torque x20 moves the default Jx by 1.8 of
+its std). :func:`find_glitches` finds them, each by one of two tests on the row against its
+neighbours, each with a local robust scale, so that no genuine log trips them:
+
+- **angle**: the reading against a cubic in time fitted to the 4 rows on each side
+  (leave-one-out, the true time stamps: jitter and dropped rows are taken as they are).
+  Its residual r is compared with T_ANGLE = :data:`ANGLE_THRESHOLD` times the largest of:
+  the quantization's own std of that residual, (1 + sum w_j^2)^(1/2) q / sqrt(12) (w the
+  fit's weights), the neighbours' scatter about their own fit (a row among neighbours that
+  disagree with each other, such as a held body's dithering reading, is no isolated
+  glitch), and the residuals' robust scale (1.4826 x their median absolute value) over the
+  :data:`SCALE_BLOCK` rows around it (an interpolating readhead's noise). An encoder whose
+  readings are floor(phi / q) q puts at most (1 + sum |w_j|) q / 2 into r, which is below
+  10 x that std for any weights (sum |w_j| <= sqrt(8) |w|): quantization alone never
+  trips the test, whatever the speed, the jitter or the gaps.
+- **torque**: the torque against the interval its two neighbours span. A row between them
+  is no glitch (a step, a ramp: a pilot's switch-off, the hold torque, the rate-limited
+  start of a reverse, the regulator's step at each count); a glitch lies outside it by r.
+  r is compared with T_TORQUE = :data:`TORQUE_THRESHOLD` times the torque's robust
+  sample-to-sample scale (1.4826 x the median absolute change over sqrt 2) over the
+  :data:`SCALE_BLOCK` rows around it: the logging noise on a braking, the regulator's
+  response to the counts on a closed-loop reverse (k_phi q, hundreds of times the noise on
+  a coarse encoder). For white Gaussian noise of std sigma, r > T sigma needs the row to
+  exceed both neighbours by T sigma, probability at most 2 Q(T / sqrt 2) = 1.5e-12 per row
+  at T = 10: under 1e-6 per log of 300,000 rows (30 s at 10 kHz, the longest logs).
+
+The scales are the largest over the row's block and the blocks on either side (a row near
+a noisier stretch takes its scale), so a scale that happens to come out low needs all three
+blocks low (about 1e-3 each for 30% low from 128 rows; 1e-9 together). Rows without
+neighbours on both sides (the first and last :data:`ANGLE_NEIGHBOURS` rows for the angle,
+the first and last row for the torque) are not tested: a glitch there is not told from the
+start or the end of the motion. Nor is a log shorter than :data:`MIN_ROWS`, too short to set
+its scales.
+
+Measured on the virtual device's logs (docs/method.md §5, *Glitches*): every kind of log
+(braking, ideal and closed-loop reverse, pilot, pendulum), 10- to 16-bit encoders at 1 and
+10 kHz, jittered, with dropped rows, a held braking's dither (up to 30 counts) and
+backlash, up to 416,000 rows: no glitch; the largest statistic r / scale was 3.3 for the
+angle and 5.2 for the torque (the Gaussian maximum over 10^5 rows), against 10. One
+corrupted row in the default logs (benchmarks/glitches.py): named in 20 of 20 seeds.
+
+Too many: more than :data:`MAX_GLITCHES` in one log is refused (InputError), naming the
+first few lines: isolated corruptions are rare events; a log with many has a faulty logger
+or channel, whose other rows cannot be trusted either.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from rsp_inertia.infra.errors import InputError
+from rsp_inertia.plant.log_checks import EncoderLike, Rows
+
+__all__ = [
+    "ANGLE_NEIGHBOURS",
+    "ANGLE_THRESHOLD",
+    "MAX_GLITCHES",
+    "MIN_ROWS",
+    "SCALE_BLOCK",
+    "TORQUE_RESOLUTION",
+    "TORQUE_THRESHOLD",
+    "Glitches",
+    "angle_residuals",
+    "find_glitches",
+    "torque_residuals",
+]
+
+ANGLE_NEIGHBOURS = 4
+"""Rows on each side of a row to which its angle test fits a cubic in time (4 parameters,
+8 rows: 4 degrees of freedom for the neighbours' own scatter)."""
+
+ANGLE_THRESHOLD = 10.0
+"""T_ANGLE: a row's angle is a glitch when it is off the neighbours' cubic by more than this
+many times its scale (module docstring): quantization alone stays below (1 + sqrt(8) |w|) / 2
+counts, under 10 x its std for any weights."""
+
+TORQUE_THRESHOLD = 10.0
+"""T_TORQUE: a row's torque is a glitch when it lies outside its neighbours' interval by more
+than this many times the torque's local scale: 2 Q(T / sqrt 2) = 1.5e-12 per row for white
+Gaussian noise (module docstring)."""
+
+SCALE_BLOCK = 128
+"""Rows per block of the local robust scales (the largest over a row's block and the two
+next to it is its scale): long enough for a median of 30% precision at worst 1e-3, short
+enough to follow a reverse whose regulator works harder where it goes faster."""
+
+TORQUE_RESOLUTION = 1e-9
+"""The torque scale's floor, relative to the log's largest |torque|: below any drive's
+resolution and far above the rounding of a printed float, so that a torque computed
+exactly (a noise-free simulation) is no glitch where it wiggles by the last digit."""
+
+MAX_GLITCHES = 5
+"""Glitches one log may have; more are refused. A healthy logger corrupts a row rarely
+(a serial link's bit errors: one in 10^5 rows would be a bad link): a few per log are
+isolated events, left out at the cost of a dropped sample each; more mean a faulty logger
+or channel, whose other rows are suspect too."""
+
+MIN_ROWS = 2 * SCALE_BLOCK
+"""Rows a log needs for its glitches to be looked for (a quarter second at 1 kHz; every
+pass of a rig is longer): the scales are medians over blocks of :data:`SCALE_BLOCK`."""
+
+NAMED = 3
+"""Lines named when too many glitches are refused."""
+
+
+@dataclass(frozen=True)
+class Glitches:
+    """The rows of a log that :func:`find_glitches` found inconsistent with their
+    neighbours."""
+
+    rows: np.ndarray
+    """int, shape (g,), 0-based data rows of the log, increasing."""
+    warnings: tuple[str, ...]
+    """One line per glitch naming the file, its line and what was wrong."""
+
+    def keep(self, n: int) -> np.ndarray:
+        """bool, shape (n,): the rows of an ``n``-row log to keep (False at a glitch)."""
+        mask = np.ones(n, dtype=bool)
+        mask[self.rows] = False
+        return mask
+
+
+def find_glitches(
+    rows: Rows,
+    t: np.ndarray,
+    phi: np.ndarray,
+    torque: np.ndarray,
+    encoder: EncoderLike,
+) -> Glitches:
+    """The isolated rows whose angle or torque is inconsistent with their neighbours beyond
+    the encoder's quantization and noise and the torque's noise (module docstring).
+
+    Parameters
+    ----------
+    rows : Rows
+        Where the log's data rows are in its file, for the messages.
+    t : np.ndarray, shape (n,), s
+        Time stamps, strictly increasing (rsp_inertia.plant.log_checks.check_time first).
+    phi : np.ndarray, shape (n,), rad
+        The angle on the encoder grid, unwrapped.
+    torque : np.ndarray, shape (n,), N m
+        The logged torque.
+    encoder : encoder-like
+        ``quantum`` (rad) and ``sample_rate`` (Hz).
+
+    Returns
+    -------
+    Glitches
+        The rows to leave out and a warning for each (none in a log shorter than
+        :data:`MIN_ROWS`).
+
+    Raises
+    ------
+    InputError
+        More than :data:`MAX_GLITCHES`, naming the first :data:`NAMED` lines.
+    """
+    if len(t) < MIN_ROWS:
+        return Glitches(rows=np.zeros(0, dtype=np.int64), warnings=())
+    q = float(encoder.quantum)
+    rate = float(encoder.sample_rate)
+    with np.errstate(over="ignore", invalid="ignore"):  # torques near 1e308 overflow a change
+        r_angle, s_angle = angle_residuals(t, phi, q, rate)
+        r_torque, s_torque = torque_residuals(torque)
+    bad_angle = np.abs(r_angle) > ANGLE_THRESHOLD * s_angle
+    bad_torque = r_torque > TORQUE_THRESHOLD * s_torque
+    found = np.flatnonzero(bad_angle | bad_torque)
+    if found.size > MAX_GLITCHES:
+        lines = ", ".join(rows.at(int(k)).rpartition(", ")[2] for k in found[:NAMED])
+        raise InputError(
+            f"{rows.at(int(found[0]))}: {found.size} rows whose angle or torque disagrees with "
+            f"their neighbours ({lines}, ...): more than {MAX_GLITCHES} glitches in one log "
+            "is a faulty logger or channel, not isolated corruptions (docs/files.md, Logs)"
+        )
+    digits = max(0, math.ceil(-math.log10(q / 10)))  # angles to a tenth of a count
+    warnings = []
+    for k in found.tolist():
+        what = []
+        if bad_angle[k]:
+            what.append(
+                f"phi {float(phi[k]):.{digits}f} rad where its neighbours give "
+                f"{float(phi[k]) - r_angle[k] * q:.{digits}f} +- {s_angle[k] * q:.2g} rad "
+                f"({r_angle[k]:+.0f} counts)"
+            )
+        if bad_torque[k]:
+            what.append(
+                f"torque {float(torque[k]):.4g} N m where its neighbours give "
+                f"{_interval(torque[k - 1], torque[k + 1])} +- {s_torque[k]:.2g} N m"
+            )
+        warnings.append(
+            f"{rows.at(k)}: a glitch, {' and '.join(what)}: the row is left out (a dropped "
+            "sample)"
+        )
+    return Glitches(rows=found, warnings=tuple(warnings))
+
+
+def _interval(before: float, after: float) -> str:
+    """The neighbours' torques, low to high, one number when they agree to 4 digits."""
+    a, b = f"{min(before, after):.4g}", f"{max(before, after):.4g}"
+    return a if a == b else f"{a} to {b}"
+
+
+def angle_residuals(
+    t: np.ndarray, phi: np.ndarray, quantum: float, sample_rate: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Each row's angle against a cubic in time through its :data:`ANGLE_NEIGHBOURS` rows on
+    either side, in counts, and the scale it is tested against (module docstring).
+
+    Parameters
+    ----------
+    t : np.ndarray, shape (n,), s
+        Time stamps, strictly increasing.
+    phi : np.ndarray, shape (n,), rad
+        Angle on the encoder grid.
+    quantum : float
+        rad, one count.
+    sample_rate : float
+        Hz.
+
+    Returns
+    -------
+    r : np.ndarray, shape (n,)
+        Counts, the reading minus the neighbours' cubic at its time; 0 where untested.
+    scale : np.ndarray, shape (n,)
+        Counts, the largest of the quantization's std of r, the neighbours' scatter about
+        their cubic and the block's robust scale of r; inf where untested.
+    """
+    n = len(t)
+    m = ANGLE_NEIGHBOURS
+    r = np.zeros(n)
+    scale = np.full(n, np.inf)
+    if n < 2 * m + 1:
+        return r, scale
+    offsets = np.concatenate([np.arange(-m, 0), np.arange(1, m + 1)])
+    rows = np.arange(m, n - m)
+    own = np.empty(rows.size)
+    scatter = np.empty(rows.size)
+    for start in range(0, rows.size, _BLOCK):
+        k = rows[start : start + _BLOCK]
+        j = k[:, None] + offsets
+        tau = (t[j] - t[k][:, None]) * sample_rate  # sample periods, k's at 0
+        span = np.max(np.abs(tau), axis=1, keepdims=True)
+        x = tau / span  # within [-1, 1]: a well-conditioned cubic
+        y = (phi[j] - phi[k][:, None]) / quantum  # counts from row k's reading
+        a = np.stack([np.ones_like(x), x, x * x, x * x * x], axis=2)  # (b, 2m, 4)
+        gram = np.einsum("bji,bjk->bik", a, a)
+        inverse = np.linalg.inv(gram)
+        weights = np.einsum("bi,bji->bj", inverse[:, 0, :], a)  # the cubic's value at tau = 0
+        coef = np.einsum("bik,bjk,bj->bi", inverse, a, y)
+        fit = np.einsum("bjk,bk->bj", a, coef)
+        at_row = coef[:, 0]
+        r[k] = -at_row  # row k's reading is 0 counts from itself
+        own[start : start + k.size] = np.sqrt((1.0 + np.sum(weights**2, axis=1)) / 12.0)
+        scatter[start : start + k.size] = np.sqrt(
+            np.sum((y - fit) ** 2, axis=1) / (2 * m - 4)
+        )
+    tested = r[rows]
+    local = _block_scale(1.4826 * np.abs(tested))
+    scale[rows] = np.maximum(np.maximum(own, scatter), local)
+    return r, scale
+
+
+def torque_residuals(torque: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each row's torque outside the interval its two neighbours span, and the local scale it
+    is tested against (module docstring).
+
+    Parameters
+    ----------
+    torque : np.ndarray, shape (n,), N m
+        The logged torque.
+
+    Returns
+    -------
+    r : np.ndarray, shape (n,), N m
+        The distance from the neighbours' interval (0 inside it, and at the first and last
+        rows).
+    scale : np.ndarray, shape (n,), N m
+        The block's robust scale of the sample-to-sample changes over sqrt 2, at least
+        :data:`TORQUE_RESOLUTION` of the largest |torque|; inf at the first and last rows.
+    """
+    n = len(torque)
+    r = np.zeros(n)
+    scale = np.full(n, np.inf)
+    if n < 3:
+        return r, scale
+    before, after, own = torque[:-2], torque[2:], torque[1:-1]
+    low = np.minimum(before, after)
+    np.subtract(low, own, out=low)  # below both neighbours by this
+    high = np.maximum(before, after)
+    np.subtract(own, high, out=high)  # above both by this
+    r[1:-1] = np.maximum(np.maximum(low, high), 0.0)
+    del low, high
+    changes = np.abs(np.diff(torque))
+    local = _block_scale(1.4826 / math.sqrt(2.0) * changes)
+    floor = TORQUE_RESOLUTION * float(np.max(np.abs(torque)))
+    # the change into row k and out of it both belong to row k's blocks: take the larger
+    inner = np.maximum(local[:-1], local[1:])
+    scale[1:-1] = np.maximum(inner, floor)
+    return r, scale
+
+
+_BLOCK = 1 << 14
+"""Rows fitted at a time by :func:`angle_residuals`: its memory does not grow with the log."""
+
+
+def _block_scale(values: np.ndarray) -> np.ndarray:
+    """The median of ``values`` over blocks of :data:`SCALE_BLOCK`, the largest of a block's
+    and its two neighbours', at each entry (one block for a short array)."""
+    n = values.size
+    if n == 0:
+        return values.copy()
+    whole = n // SCALE_BLOCK
+    medians = np.median(values[: whole * SCALE_BLOCK].reshape(whole, SCALE_BLOCK), axis=1)
+    if n % SCALE_BLOCK:
+        medians = np.append(medians, np.median(values[whole * SCALE_BLOCK :]))
+    blocks = medians.size
+    if blocks > 1 and n % SCALE_BLOCK and n % SCALE_BLOCK < SCALE_BLOCK // 2:
+        medians[-1] = max(medians[-1], medians[-2])  # a short last block: its neighbour's too
+    padded = np.concatenate([medians[:1], medians, medians[-1:]])
+    widest = np.maximum(np.maximum(padded[:-2], padded[1:-1]), padded[2:])
+    return np.repeat(widest, SCALE_BLOCK)[:n]
