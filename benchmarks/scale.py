@@ -13,7 +13,9 @@ taken as an empty fixture's), each in its own process:
   take three hundredths. The torques (BRAKINGS in benchmarks/scale.py) were found by a
   bisection on the simulated braking alone (``--find-torques`` repeats it);
 - sample rate: the default experiment logged at 1, 2, 5 and 10 kHz (device.toml [encoder]
-  sample_rate).
+  sample_rate);
+- logger's format (issue 35): the default experiment at 10 kHz logged as NI TDMS and as
+  Parquet (device.toml [log] format), against the CSV point of the sample-rate series.
 
 Per command: its wall time and its peak resident memory (the child's ``ru_maxrss`` from
 ``os.wait4``, taken by a small launcher process so that the benchmark's own memory does not
@@ -76,6 +78,12 @@ brakings of 10.0, 20.1, 29.9, 59.8, 119.8, 170.5, 298.5 and 588.9 s)."""
 RATES = (1000.0, 2000.0, 5000.0, 10000.0)
 """Hz: the sample-rate series, on the default experiment."""
 
+FORMATS = ("tdms", "parquet")
+"""device.toml ``[log] format`` of the format series, at ``FORMAT_RATE``."""
+
+FORMAT_RATE = 10000.0
+"""Hz: the format series' sample rate (the sample-rate series' last point is its CSV)."""
+
 QUICK_BRAKING = 30.0
 """s: ``--quick`` keeps the brakings up to this long and the rates up to 2 kHz."""
 
@@ -121,6 +129,11 @@ def scaled_friction(virtual: Virtual, factor: float) -> Virtual:
 def at_rate(device: Device, rate: float) -> Device:
     """The encoder logging at ``rate`` Hz."""
     return replace(device, encoder=replace(device.encoder, sample_rate=rate))
+
+
+def in_format(device: Device, log_format: str) -> Device:
+    """The rig's logger writing ``log_format`` (device.toml ``[log] format``)."""
+    return replace(device, log=replace(device.log, format=log_format))
 
 
 def braking_experiment(root: Path, friction: float, torque: float, rate: float = 1000.0) -> Path:
@@ -229,14 +242,14 @@ def log_sizes(root: Path) -> dict:
     reverse pass, and stage 1's braking alone."""
     from rsp_inertia.estimation.runs import runs
     from rsp_inertia.plant.experiment import open_experiment
-    from rsp_inertia.plant.logs import read_log
+    from rsp_inertia.plant.logs import read_device_log
 
     exp = open_experiment(root)
     sizes = {"duration": 0.0, "turns": 0.0, "rows": 0}
     for stage, direction in runs(exp.device):
         for kind, path in (("braking", exp.braking_path(stage, direction)),
                            ("reverse", exp.reverse_path(stage, direction))):
-            log = read_log(path, exp.device.encoder, kind, direction)
+            log = read_device_log(path, exp.device, kind, direction)
             duration = float(log.t[-1] - log.t[0])
             turns = float(abs(log.phi[-1] - log.phi[0]) / (2 * math.pi))
             sizes["duration"] += duration
@@ -273,12 +286,13 @@ def measure(root: Path) -> dict:
     return row
 
 
-def run_series(brakings, rates, long_fast: bool) -> dict[str, list[dict]]:
-    """The measured points: {"braking": [...], "rate": [...], "long": [...]}."""
-    points: dict[str, list[dict]] = {"braking": [], "rate": [], "long": []}
+def run_series(brakings, rates, long_fast: bool, formats=FORMATS) -> dict[str, list[dict]]:
+    """The measured points: {"braking": [...], "rate": [...], "long": [...], "format": [...]}."""
+    points: dict[str, list[dict]] = {"braking": [], "rate": [], "long": [], "format": []}
     todo = [("braking", {"target": t, "friction": f, "torque": q, "rate": 1000.0})
             for t, f, q in brakings]
     todo += [("rate", {"rate": r}) for r in rates]
+    todo += [("format", {"rate": FORMAT_RATE, "format": f}) for f in formats]
     if long_fast:
         target, friction, torque = BRAKINGS[-1]
         todo.append(("long", {"target": target, "friction": friction, "torque": torque,
@@ -289,6 +303,10 @@ def run_series(brakings, rates, long_fast: bool) -> dict[str, list[dict]]:
             root = Path(tmp) / "exp"
             if series == "rate":
                 default_experiment(root, lambda d, r=spec["rate"]: at_rate(d, r))
+            elif series == "format":
+                default_experiment(
+                    root, lambda d, r=spec["rate"], f=spec["format"]: in_format(at_rate(d, r), f)
+                )
             else:
                 braking_experiment(root, spec["friction"], spec["torque"], spec["rate"])
             points[series].append(spec | measure(root))
@@ -441,6 +459,15 @@ def write_report(points: dict[str, list[dict]], command: str, seconds: float, ou
                       lambda p: [f"{p['rate'] / 1000:g}"]),
         "",
     ]
+    if points.get("format"):
+        csv = [p for p in points["rate"] if p["rate"] == FORMAT_RATE]
+        lines += [
+            f"## The logger's format (the default experiment at {FORMAT_RATE / 1000:g} kHz)",
+            "",
+            *series_table([{**p, "format": "csv"} for p in csv] + points["format"],
+                          ["[log] format"], lambda p: [p["format"]]),
+            "",
+        ]
     if points.get("long"):
         lines += [
             f"## The longest braking at {LONG_FAST_RATE / 1000:g} kHz",
@@ -470,7 +497,8 @@ def write_report(points: dict[str, list[dict]], command: str, seconds: float, ou
     failures = [(s, p) for s, ps in points.items() for p in ps if "error" in p]
     if failures:
         lines += ["## Failures", ""]
-        lines += [f"- {s} {p.get('target', p['rate'])}: `{p['error']}`" for s, p in failures]
+        lines += [f"- {s} {p.get('target', p.get('format', p['rate']))}: `{p['error']}`"
+                  for s, p in failures]
         lines.append("")
     out.write_text("\n".join(lines))
     plot(points, out.with_suffix(".png"))
@@ -561,7 +589,7 @@ def main(argv: list[str] | None = None) -> None:
     brakings = [b for b in BRAKINGS if b[0] <= longest]
     rates = [r for r in RATES if not args.quick or r <= 2000.0]
     t0 = time.perf_counter()
-    points = run_series(brakings, rates, args.long_fast)
+    points = run_series(brakings, rates, args.long_fast, () if args.quick else FORMATS)
     seconds = time.perf_counter() - t0
     command = command_line("scale", argv)
     saved = {"command": command, "seconds": seconds, "points": points}

@@ -239,33 +239,74 @@ def angle_residuals(
     scale = np.full(n, np.inf)
     if n < 2 * m + 1:
         return r, scale
-    offsets = np.concatenate([np.arange(-m, 0), np.arange(1, m + 1)])
-    rows = np.arange(m, n - m)
-    own = np.empty(rows.size)
-    scatter = np.empty(rows.size)
-    for start in range(0, rows.size, _BLOCK):
-        k = rows[start : start + _BLOCK]
-        j = k[:, None] + offsets
-        tau = (t[j] - t[k][:, None]) * sample_rate  # sample periods, k's at 0
-        span = np.max(np.abs(tau), axis=1, keepdims=True)
-        x = tau / span  # within [-1, 1]: a well-conditioned cubic
-        y = (phi[j] - phi[k][:, None]) / quantum  # counts from row k's reading
-        a = np.stack([np.ones_like(x), x, x * x, x * x * x], axis=2)  # (b, 2m, 4)
-        gram = np.einsum("bji,bjk->bik", a, a)
-        inverse = np.linalg.inv(gram)
-        weights = np.einsum("bi,bji->bj", inverse[:, 0, :], a)  # the cubic's value at tau = 0
-        coef = np.einsum("bik,bjk,bj->bi", inverse, a, y)
-        fit = np.einsum("bjk,bk->bj", a, coef)
-        at_row = coef[:, 0]
-        r[k] = -at_row  # row k's reading is 0 counts from itself
-        own[start : start + k.size] = np.sqrt((1.0 + np.sum(weights**2, axis=1)) / 12.0)
-        scatter[start : start + k.size] = np.sqrt(
-            np.sum((y - fit) ** 2, axis=1) / (2 * m - 4)
-        )
-    tested = r[rows]
-    local = _block_scale(1.4826 * np.abs(tested))
-    scale[rows] = np.maximum(np.maximum(own, scatter), local)
+    offsets = [*range(-m, 0), *range(1, m + 1)]
+    own = np.empty(n - 2 * m)
+    scatter = np.empty(n - 2 * m)
+    for start in range(m, n - m, _BLOCK):
+        stop = min(start + _BLOCK, n - m)
+        fit = _loo_cubic(t, phi, start, stop, offsets, quantum, sample_rate)
+        r[start:stop] = -fit[0]  # row k's reading is 0 counts from itself
+        own[start - m : stop - m] = np.sqrt((1.0 + fit[1]) / 12.0)
+        scatter[start - m : stop - m] = np.sqrt(fit[2] / (2 * m - 4))
+    local = _block_scale(1.4826 * np.abs(r[m : n - m]))
+    scale[m : n - m] = np.maximum(np.maximum(own, scatter), local)
     return r, scale
+
+
+def _loo_cubic(
+    t: np.ndarray,
+    phi: np.ndarray,
+    start: int,
+    stop: int,
+    offsets: list[int],
+    quantum: float,
+    sample_rate: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For rows ``start`` to ``stop``: the cubic in time through the rows at ``offsets`` from
+    each, evaluated at the row (counts from its own reading), the sum of its weights' squares
+    and the neighbours' squared residuals about it.
+
+    Least squares by its normal equations G c = b, G = sum a_j a_j^T, a_j = (1, x, x^2, x^3)
+    at x_j = tau_j / max |tau| (in [-1, 1]: well conditioned), b = sum a_j y_j, each row's 4 x
+    4 Cholesky factor L written out over the arrays (no per-row solve). With v = L^-1 e_0 and
+    z = L^-1 b: the value at x = 0 is c_0 = v . z, the weights' squares sum to
+    e_0^T G^-1 e_0 = |v|^2, and the residuals' squares to sum y^2 - |z|^2.
+    """
+    tk, pk = t[start:stop], phi[start:stop]
+    taus = [(t[start + o : stop + o] - tk) * sample_rate for o in offsets]
+    span = np.maximum(np.abs(taus[0]), np.abs(taus[-1]))  # the farthest neighbours
+    S = [np.zeros(stop - start) for _ in range(7)]  # sum x^p, p = 0..6
+    b = [np.zeros(stop - start) for _ in range(4)]  # sum x^p y, p = 0..3
+    yy = np.zeros(stop - start)
+    for o, tau in zip(offsets, taus):
+        x = tau / span
+        y = (phi[start + o : stop + o] - pk) / quantum
+        power = np.ones_like(x)
+        for d in range(7):
+            S[d] += power
+            if d < 4:
+                b[d] += power * y
+            power *= x
+        yy += y * y
+    l00 = np.sqrt(S[0])
+    l10, l20, l30 = S[1] / l00, S[2] / l00, S[3] / l00
+    l11 = np.sqrt(S[2] - l10**2)
+    l21, l31 = (S[3] - l20 * l10) / l11, (S[4] - l30 * l10) / l11
+    l22 = np.sqrt(S[4] - l20**2 - l21**2)
+    l32 = (S[5] - l30 * l20 - l31 * l21) / l22
+    l33 = np.sqrt(S[6] - l30**2 - l31**2 - l32**2)
+    v0 = 1.0 / l00
+    v1 = -l10 * v0 / l11
+    v2 = -(l20 * v0 + l21 * v1) / l22
+    v3 = -(l30 * v0 + l31 * v1 + l32 * v2) / l33
+    z0 = b[0] / l00
+    z1 = (b[1] - l10 * z0) / l11
+    z2 = (b[2] - l20 * z0 - l21 * z1) / l22
+    z3 = (b[3] - l30 * z0 - l31 * z1 - l32 * z2) / l33
+    value = v0 * z0 + v1 * z1 + v2 * z2 + v3 * z3
+    squares = v0**2 + v1**2 + v2**2 + v3**2
+    residual = np.maximum(yy - z0**2 - z1**2 - z2**2 - z3**2, 0.0)
+    return value, squares, residual
 
 
 def torque_residuals(torque: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
