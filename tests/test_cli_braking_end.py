@@ -74,3 +74,18 @@ def test_an_ambiguous_end_is_refused_in_one_line(default_logs, tmp_path, capsys)
         assert len(err.splitlines()) == 1, err
         assert f"{path}, lines " in err and "turning point is ambiguous" in err, err
         assert f"-{last + 300 + 32}: " in err, err  # the first row 32 counts on
+
+
+def test_the_virtual_drive_holding_after_the_stop_simulates_its_reverse(tmp_path, capsys):
+    """virtual.toml [logger] hold_after_stop: simulate's braking goes on after the stop, and
+    its reverse is simulated from it (the braking on disk, cut by the reader at its turning
+    point, is recognised as the simulator's own)."""
+    from rsp_inertia.scenarios import create_default_experiment
+
+    root = create_default_experiment(tmp_path / "held")
+    with open(root / "virtual.toml", "a") as file:
+        file.write("\n[logger]\nhold_after_stop = 0.2\n")
+    assert main(["simulate", str(root), "--part", "braking", "--stage", "1"]) == 0
+    assert main(["simulate", str(root), "--part", "reverse", "--stage", "1", "--ideal"]) == 0
+    out = capsys.readouterr().out
+    assert "stage 1: ideal reverse" in out, out
