@@ -185,16 +185,26 @@ class NodeGap:
     variance of S there (:func:`gap_allowance`): at most 1."""
     largest: int
     """The most samples in a row bridged there."""
+    where: str = ""
+    """The file and its line (or row) after the gap; empty: the file and ``row + 3``."""
 
     def line(self) -> str:
         """One line saying so, for check."""
         return (
-            f"{self.source}, line {self.row + 3}: {self.missing} samples dropped within "
+            f"{self.where or f'{self.source}, line {self.row + 3}'}: {self.missing} samples "
+            "dropped within "
             f"{NODE_GAP_WINDOW_DEG:g} deg of node {self.node_deg:g} deg (stage {self.stage}): "
             "bridged by the smoother, adding at most "
             f"{math.sqrt(self.ratio):.2f} of the balance's own speed std there (up to "
             f"{self.largest} samples in a row are bridged there)"
         )
+
+
+def _line_after(log: Log, source: str, k: int) -> str:
+    """The file and the line (or row) of row ``k + 1`` of ``log``: through its own
+    :attr:`~rsp_inertia.plant.logs.Log.where` (a layout's lines, glitches left out), else a
+    CSV of ``source`` whose data start on line 2."""
+    return log.where.at(k + 1) if log.where is not None else f"{source}, line {k + 3}"
 
 
 def check_node_gaps(
@@ -280,7 +290,7 @@ def check_node_gaps(
             largest = largest_bridged_gap(h, allowance)
             if excess > allowance:
                 raise InputError(
-                    f"{source}, line {k + 3}: {n} samples dropped between t = "
+                    f"{_line_after(log, source, k)}: {n} samples dropped between t = "
                     f"{float(t[k]):.6g} s and t = {float(t[k + 1]):.6g} s, within "
                     f"{NODE_GAP_WINDOW_DEG:g} deg of node {node_deg:g} deg (stage {stage}): "
                     "too long for the smoother to bridge (its own variance of the speed "
@@ -288,7 +298,10 @@ def check_node_gaps(
                     f"most {largest} samples in a row may be missing there"
                 )
             bridged.append(
-                NodeGap(source, k, int(n), stage, float(node_deg), excess / allowance, largest)
+                NodeGap(
+                    source, k, int(n), stage, float(node_deg), excess / allowance, largest,
+                    _line_after(log, source, k),
+                )
             )
     return bridged
 

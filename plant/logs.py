@@ -130,6 +130,11 @@ class Log:
     (rsp_inertia.plant.log_glitches), left out as a dropped sample. The commands that read
     the log say them as warnings (check: suspicious); :func:`mirror_log` and
     :func:`align_counter` keep them."""
+    where: Rows | None = None
+    """Where its rows are in its file, for messages: the file, the line (or row) of row 0 and
+    the rows the reader left out (glitches), so that ``where.at(k)`` names row k's line
+    (:func:`read_log`); None for a log not read from a file. Taking rows off its end keeps it
+    right; a message about a log made otherwise names its file alone."""
 
     def __post_init__(self) -> None:
         names = LOG_COLUMNS if self.temperature is None else (*LOG_COLUMNS, "temperature")
@@ -358,7 +363,10 @@ def read_log(
     check_direction(rows, phi, kind, direction, torque)
     if torque_limit is not None:
         check_torque(rows, torque, torque_limit)
-    log = Log(t=t, phi=phi, torque=torque, temperature=temperature, warnings=glitches.warnings)
+    log = Log(
+        t=t, phi=phi, torque=torque, temperature=temperature, warnings=glitches.warnings,
+        where=rows,
+    )
     if kind == "braking":
         increases = direction is Direction.FORWARD
         end = turning_point(rows, t, phi, increases, encoder) + 1
@@ -627,12 +635,14 @@ def torque_noise(log: Log) -> float:
 
 def check_braking_monotone(log: Log, source: str | Rows) -> None:
     """The braking speed never reverses: encoder readings never decrease (docs/files.md).
-    ``source`` names the log's file, with where its rows are (a path: a CSV whose data
-    start on line 2; rsp_inertia.plant.log_files.log_rows of a layout)."""
+    The message names the line through the log's own :attr:`Log.where`, else ``source`` (a
+    path: a CSV whose data start on line 2; rsp_inertia.plant.log_files.log_rows of a
+    layout)."""
     back = np.nonzero(np.diff(log.phi) < 0)[0]
     if back.size:
+        rows = log.where or as_rows(source)
         raise InputError(
-            f"{as_rows(source).at(int(back[0]) + 1)}: the angle decreases: the speed reverses "
+            f"{rows.at(int(back[0]) + 1)}: the angle decreases: the speed reverses "
             "inside the braking"
         )
 

@@ -4,6 +4,7 @@ jittered, with gaps, steps of torque and a held body's dither) have none."""
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,7 +21,7 @@ from rsp_inertia.plant.log_glitches import (
     angle_residuals,
     find_glitches,
 )
-from rsp_inertia.plant.logs import Log, read_log, write_log
+from rsp_inertia.plant.logs import Log, check_braking_monotone, read_log, write_log
 
 
 @dataclass(frozen=True)
@@ -177,6 +178,15 @@ def test_the_reader_leaves_a_glitch_out_and_names_the_file_lines_after_it(tmp_pa
     (warning,) = log.warnings
     assert warning.startswith(f"{path}, line 502: a glitch, torque -0.1 N m")
     assert log.notes == clean.notes and f"turning point at line {len(clean) + 1} " in log.notes[0]
+    # The log knows where its rows are: later messages (a speed that reverses, a gap near a
+    # node) name the file's lines past the glitch through Log.where.
+    assert log.where.at(499) == f"{path}, line 501" and log.where.at(500) == f"{path}, line 503"
+    assert clean.where.at(500) == f"{path}, line 502"
+    phi = log.phi.copy()
+    phi[1200:] -= 100 * encoder.quantum  # the reading goes back at array row 1200
+    back = dataclasses.replace(log, phi=phi)
+    with pytest.raises(InputError, match=rf"line {1200 + 3}: the angle decreases"):
+        check_braking_monotone(back, str(path))
 
 
 @pytest.mark.parametrize("column", ["phi", "torque"])
