@@ -369,12 +369,16 @@ def _arrow_columns(
     import pyarrow as pa
     import pyarrow.csv as pa_csv
 
+    names = [f"c{k}" for k in range(nfields)]
     try:
-        names = [f"c{k}" for k in range(nfields)]
-        table = pa_csv.read_csv(
+        size = _count_line_breaks(path)  # at least the data rows (the encoding checked)
+        reader = pa_csv.open_csv(
             path,
             read_options=pa_csv.ReadOptions(
-                use_threads=False, skip_rows=dialect.first_line - 1, column_names=names
+                use_threads=False,
+                skip_rows=dialect.first_line - 1,
+                column_names=names,
+                block_size=CHUNK_BYTES,
             ),
             parse_options=pa_csv.ParseOptions(
                 delimiter=dialect.delimiter,
@@ -393,24 +397,38 @@ def _arrow_columns(
                 timestamp_parsers=[],
                 decimal_point=dialect.decimal,
             ),
+            # malloc's, as numpy's: what a block held is reused by the arrays after it (an
+            # arena of pyarrow's own would keep it from them, its peak on top of theirs)
+            memory_pool=pa.system_memory_pool(),
         )
+        # A block at a time into the arrays (the memory of reading: theirs and one block's).
+        values = np.empty((len(where), size))
+        ints = np.empty(size, dtype=np.int64) if integer is not None else None
+        rows = 0
+        for batch in reader:
+            m = batch.num_rows
+            if rows + m > size or any(
+                not (pa.types.is_float64(c.type) or pa.types.is_int64(c.type)) or c.null_count
+                for c in batch.columns
+            ):
+                return None
+            for k, column in enumerate(batch.columns):
+                values[k, rows : rows + m] = column.to_numpy()
+            if ints is not None:
+                column = batch.columns[integer]
+                if pa.types.is_int64(column.type):
+                    ints[rows : rows + m] = column.to_numpy()
+                else:
+                    ints = None
+            if not np.isfinite(values[:, rows : rows + m]).all():
+                return None
+            rows += m
     except (pa.ArrowException, OSError, ValueError):  # the careful reader names the fault
         return None
-    n = table.num_rows
-    if n < 2 or any(
-        not (pa.types.is_float64(c.type) or pa.types.is_int64(c.type)) or c.null_count
-        for c in table.columns
-    ):
+    if rows < 2:
         return None
-    values = np.empty((len(where), n))
-    for k, column in enumerate(table.columns):
-        values[k] = column.to_numpy()
-    if not np.isfinite(values).all():
-        return None
-    integers = None
-    if integer is not None and pa.types.is_int64(table.columns[integer].type):
-        integers = table.columns[integer].to_numpy().astype(np.int64, copy=True)
-    return CsvTable(values.T, Rows(str(path), dialect.first_line), integers)
+    integers = None if ints is None else ints[:rows]
+    return CsvTable(values[:, :rows].T, Rows(str(path), dialect.first_line), integers)
 
 
 def _split(line: str, delimiter: str) -> list[str]:

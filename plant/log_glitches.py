@@ -53,6 +53,7 @@ or channel, whose other rows cannot be trusted either.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -168,11 +169,16 @@ def find_glitches(
     q = float(encoder.quantum)
     rate = float(encoder.sample_rate)
     with np.errstate(over="ignore", invalid="ignore"):  # torques near 1e308 overflow a change
-        r_angle, s_angle = angle_residuals(t, phi, q, rate)
-        r_torque, s_torque = torque_residuals(torque)
-    bad_angle = np.abs(r_angle) > ANGLE_THRESHOLD * s_angle
-    bad_torque = r_torque > TORQUE_THRESHOLD * s_torque
-    found = np.flatnonzero(bad_angle | bad_torque)
+        angle = _AngleTest(t, phi, q, rate)
+        torque_test = _TorqueTest(torque)
+        bad = np.zeros(len(t), dtype=bool)
+        for start in range(0, len(t), _BLOCK):  # a block of rows at a time: bounded memory
+            stop = min(start + _BLOCK, len(t))
+            r, scale = angle.at(start, stop)
+            bad[start:stop] = np.abs(r) > ANGLE_THRESHOLD * scale
+            r, scale = torque_test.at(start, stop)
+            bad[start:stop] |= r > TORQUE_THRESHOLD * scale
+    found = np.flatnonzero(bad)
     if found.size > MAX_GLITCHES:
         lines = ", ".join(rows.at(int(k)).rpartition(", ")[2] for k in found[:NAMED])
         raise InputError(
@@ -184,16 +190,18 @@ def find_glitches(
     warnings = []
     for k in found.tolist():
         what = []
-        if bad_angle[k]:
+        r_a, s_a = (float(v[0]) for v in angle.at(k, k + 1))
+        r_t, s_t = (float(v[0]) for v in torque_test.at(k, k + 1))
+        if abs(r_a) > ANGLE_THRESHOLD * s_a:
             what.append(
                 f"phi {float(phi[k]):.{digits}f} rad where its neighbours give "
-                f"{float(phi[k]) - r_angle[k] * q:.{digits}f} +- {s_angle[k] * q:.2g} rad "
-                f"({r_angle[k]:+.0f} counts)"
+                f"{float(phi[k]) - r_a * q:.{digits}f} +- {s_a * q:.2g} rad "
+                f"({r_a:+.0f} counts)"
             )
-        if bad_torque[k]:
+        if r_t > TORQUE_THRESHOLD * s_t:
             what.append(
                 f"torque {float(torque[k]):.4g} N m where its neighbours give "
-                f"{_interval(torque[k - 1], torque[k + 1])} +- {s_torque[k]:.2g} N m"
+                f"{_interval(torque[k - 1], torque[k + 1])} +- {s_t:.2g} N m"
             )
         warnings.append(
             f"{rows.at(k)}: a glitch, {' and '.join(what)}: the row is left out (a dropped "
@@ -233,24 +241,7 @@ def angle_residuals(
         Counts, the largest of the quantization's std of r, the neighbours' scatter about
         their cubic and the block's robust scale of r; inf where untested.
     """
-    n = len(t)
-    m = ANGLE_NEIGHBOURS
-    r = np.zeros(n)
-    scale = np.full(n, np.inf)
-    if n < 2 * m + 1:
-        return r, scale
-    offsets = [*range(-m, 0), *range(1, m + 1)]
-    own = np.empty(n - 2 * m)
-    scatter = np.empty(n - 2 * m)
-    for start in range(m, n - m, _BLOCK):
-        stop = min(start + _BLOCK, n - m)
-        fit = _loo_cubic(t, phi, start, stop, offsets, quantum, sample_rate)
-        r[start:stop] = -fit[0]  # row k's reading is 0 counts from itself
-        own[start - m : stop - m] = np.sqrt((1.0 + fit[1]) / 12.0)
-        scatter[start - m : stop - m] = np.sqrt(fit[2] / (2 * m - 4))
-    local = _block_scale(1.4826 * np.abs(r[m : n - m]))
-    scale[m : n - m] = np.maximum(np.maximum(own, scatter), local)
-    return r, scale
+    return _AngleTest(t, phi, quantum, sample_rate).at(0, len(t))
 
 
 def _loo_cubic(
@@ -327,44 +318,116 @@ def torque_residuals(torque: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         The block's robust scale of the sample-to-sample changes over sqrt 2, at least
         :data:`TORQUE_RESOLUTION` of the largest |torque|; inf at the first and last rows.
     """
-    n = len(torque)
-    r = np.zeros(n)
-    scale = np.full(n, np.inf)
-    if n < 3:
+    return _TorqueTest(np.asarray(torque, dtype=float)).at(0, len(torque))
+
+
+class _AngleTest:
+    """:func:`angle_residuals` kept lean for a long log: each tested row's residual and the
+    larger of its own two scales (quantization, the neighbours' scatter), 16 bytes a row, and
+    the blocks' robust scales; :meth:`at` gives any rows' residual and scale."""
+
+    def __init__(self, t: np.ndarray, phi: np.ndarray, quantum: float, sample_rate: float):
+        n = len(t)
+        m = ANGLE_NEIGHBOURS
+        self.n, self.m = n, m
+        self.r = np.zeros(n)
+        self.own = np.full(n, np.inf)
+        self.widest = np.zeros(0)
+        if n < 2 * m + 1:
+            return
+        offsets = [*range(-m, 0), *range(1, m + 1)]
+        for start in range(m, n - m, _BLOCK):
+            stop = min(start + _BLOCK, n - m)
+            value, squares, residual = _loo_cubic(t, phi, start, stop, offsets, quantum,
+                                                  sample_rate)
+            self.r[start:stop] = -value  # row k's reading is 0 counts from itself
+            np.maximum(np.sqrt((1.0 + squares) / 12.0), np.sqrt(residual / (2 * m - 4)),
+                       out=self.own[start:stop])
+        tested = self.r[m : n - m]
+        size = n - 2 * m
+        self.widest = _widest(_medians(lambda a, b: 1.4826 * np.abs(tested[a:b]), size), size)
+
+    def at(self, start: int, stop: int) -> tuple[np.ndarray, np.ndarray]:
+        """Rows ``start`` to ``stop``: the residual (counts; 0 where untested) and its scale
+        (inf where untested)."""
+        r = self.r[start:stop].copy()
+        scale = self.own[start:stop].copy()
+        k = np.arange(start, stop)
+        tested = (k >= self.m) & (k < self.n - self.m)
+        local = self.widest[(k[tested] - self.m) // SCALE_BLOCK]
+        scale[tested] = np.maximum(scale[tested], local)
         return r, scale
-    before, after, own = torque[:-2], torque[2:], torque[1:-1]
-    low = np.minimum(before, after)
-    np.subtract(low, own, out=low)  # below both neighbours by this
-    high = np.maximum(before, after)
-    np.subtract(own, high, out=high)  # above both by this
-    r[1:-1] = np.maximum(np.maximum(low, high), 0.0)
-    del low, high
-    changes = np.abs(np.diff(torque))
-    local = _block_scale(1.4826 / math.sqrt(2.0) * changes)
-    floor = TORQUE_RESOLUTION * float(np.max(np.abs(torque)))
-    # the change into row k and out of it both belong to row k's blocks: take the larger
-    inner = np.maximum(local[:-1], local[1:])
-    scale[1:-1] = np.maximum(inner, floor)
-    return r, scale
+
+
+class _TorqueTest:
+    """:func:`torque_residuals` kept lean for a long log: the blocks' robust scales of the
+    sample-to-sample changes and the floor; :meth:`at` gives any rows' distance from their
+    neighbours' interval and its scale from the torque itself."""
+
+    def __init__(self, torque: np.ndarray):
+        self.torque = torque
+        n = len(torque)
+        self.n = n
+        self.widest = np.zeros(0)
+        self.floor = 0.0
+        if n < 3:
+            return
+
+        def changes(a: int, b: int) -> np.ndarray:  # the robust scale's entries a to b
+            return 1.4826 / math.sqrt(2.0) * np.abs(np.diff(torque[a : b + 1]))
+
+        self.widest = _widest(_medians(changes, n - 1), n - 1)
+        self.floor = TORQUE_RESOLUTION * float(np.max(np.abs(torque)))
+
+    def at(self, start: int, stop: int) -> tuple[np.ndarray, np.ndarray]:
+        """Rows ``start`` to ``stop``: the distance from the neighbours' interval (N m; 0
+        at the first and last rows) and its scale (inf there)."""
+        u, n = self.torque, self.n
+        r = np.zeros(stop - start)
+        scale = np.full(stop - start, np.inf)
+        a, b = max(start, 1), min(stop, n - 1)  # the rows with both neighbours
+        if a >= b:
+            return r, scale
+        before, after, own = u[a - 1 : b - 1], u[a + 1 : b + 1], u[a:b]
+        low = np.minimum(before, after) - own  # below both neighbours by this
+        high = own - np.maximum(before, after)  # above both by this
+        r[a - start : b - start] = np.maximum(np.maximum(low, high), 0.0)
+        # the change into row k (index k - 1) and out of it (k) both belong to its blocks
+        k = np.arange(a, b)
+        inner = np.maximum(self.widest[(k - 1) // SCALE_BLOCK], self.widest[k // SCALE_BLOCK])
+        scale[a - start : b - start] = np.maximum(inner, self.floor)
+        return r, scale
+
+
+def _medians(values: Callable[[int, int], np.ndarray], size: int) -> np.ndarray:
+    """The median over each block of :data:`SCALE_BLOCK` entries of an array of ``size``
+    entries, ``values(a, b)`` giving entries a to b: whole blocks a chunk at a time, the last
+    block possibly short."""
+    whole = size // SCALE_BLOCK
+    out = np.empty(whole + (1 if size % SCALE_BLOCK else 0))
+    chunk = _BLOCK // SCALE_BLOCK * SCALE_BLOCK
+    for a in range(0, whole * SCALE_BLOCK, chunk):
+        b = min(a + chunk, whole * SCALE_BLOCK)
+        block = values(a, b).reshape(-1, SCALE_BLOCK)
+        out[a // SCALE_BLOCK : b // SCALE_BLOCK] = np.median(block, axis=1)
+    if size % SCALE_BLOCK:
+        out[-1] = np.median(values(whole * SCALE_BLOCK, size))
+    return out
+
+
+def _widest(medians: np.ndarray, size: int) -> np.ndarray:
+    """Per block of an array of ``size`` entries, the largest of its median and its
+    neighbours' (a short last block, under half a block, takes its neighbour's too)."""
+    medians = medians.copy()
+    if medians.size == 0:
+        return medians
+    short = size % SCALE_BLOCK
+    if medians.size > 1 and short and short < SCALE_BLOCK // 2:
+        medians[-1] = max(medians[-1], medians[-2])
+    padded = np.concatenate([medians[:1], medians, medians[-1:]])
+    return np.maximum(np.maximum(padded[:-2], padded[1:-1]), padded[2:])
 
 
 _BLOCK = 1 << 14
-"""Rows fitted at a time by :func:`angle_residuals`: its memory does not grow with the log."""
-
-
-def _block_scale(values: np.ndarray) -> np.ndarray:
-    """The median of ``values`` over blocks of :data:`SCALE_BLOCK`, the largest of a block's
-    and its two neighbours', at each entry (one block for a short array)."""
-    n = values.size
-    if n == 0:
-        return values.copy()
-    whole = n // SCALE_BLOCK
-    medians = np.median(values[: whole * SCALE_BLOCK].reshape(whole, SCALE_BLOCK), axis=1)
-    if n % SCALE_BLOCK:
-        medians = np.append(medians, np.median(values[whole * SCALE_BLOCK :]))
-    blocks = medians.size
-    if blocks > 1 and n % SCALE_BLOCK and n % SCALE_BLOCK < SCALE_BLOCK // 2:
-        medians[-1] = max(medians[-1], medians[-2])  # a short last block: its neighbour's too
-    padded = np.concatenate([medians[:1], medians, medians[-1:]])
-    widest = np.maximum(np.maximum(padded[:-2], padded[1:-1]), padded[2:])
-    return np.repeat(widest, SCALE_BLOCK)[:n]
+"""Rows fitted or tested at a time (a whole number of :data:`SCALE_BLOCK`): the memory of the
+search does not grow with the log beyond 16 bytes a row."""
