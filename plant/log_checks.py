@@ -397,9 +397,6 @@ def _arrow_columns(
                 timestamp_parsers=[],
                 decimal_point=dialect.decimal,
             ),
-            # malloc's, as numpy's: what a block held is reused by the arrays after it (an
-            # arena of pyarrow's own would keep it from them, its peak on top of theirs)
-            memory_pool=pa.system_memory_pool(),
         )
         # A block at a time into the arrays (the memory of reading: theirs and one block's).
         values = np.empty((len(where), size))
@@ -425,6 +422,8 @@ def _arrow_columns(
             rows += m
     except (pa.ArrowException, OSError, ValueError):  # the careful reader names the fault
         return None
+    finally:  # its arena's blocks back to the system, not kept beside the arrays after it
+        pa.default_memory_pool().release_unused()
     if rows < 2:
         return None
     integers = None if ints is None else ints[:rows]
