@@ -11,6 +11,7 @@ import glob
 import hashlib
 import os
 import secrets
+from collections.abc import Iterable
 from pathlib import Path
 
 from rsp_inertia.infra.errors import InputError
@@ -18,9 +19,10 @@ from rsp_inertia.infra.errors import InputError
 __all__ = ["check_writable", "file_sha256", "write_atomic"]
 
 
-def write_atomic(path: str | os.PathLike, text: str | bytes) -> None:
+def write_atomic(path: str | os.PathLike, text: str | bytes | Iterable[str]) -> None:
     """Replace ``path`` by a file holding ``text`` (UTF-8, newlines as given; bytes as they
-    are), all or nothing.
+    are; pieces of text one after the other, so that a long log is never whole in memory),
+    all or nothing.
 
     The text goes to a temporary file in the same folder, is flushed to disk and renamed over
     ``path`` with ``os.replace``; a reader sees the old file or the new one, never a part. If
@@ -30,8 +32,9 @@ def write_atomic(path: str | os.PathLike, text: str | bytes) -> None:
     ----------
     path : str or path-like
         Target file; its folder must exist.
-    text : str or bytes
-        The whole content: text (a TOML, CSV or JSON file) or bytes (a PNG).
+    text : str, bytes or iterable of str
+        The whole content: text (a TOML, CSV or JSON file), bytes (a PNG), or its text in
+        pieces (a long CSV log, made as it is written).
     """
     target = Path(path)
     _remove_stale_temporaries(target)
@@ -44,7 +47,11 @@ def write_atomic(path: str | os.PathLike, text: str | bytes) -> None:
         else:
             file = os.fdopen(fd, "w", encoding="utf-8", newline="")
         with file:
-            file.write(text)
+            if isinstance(text, (str, bytes)):
+                file.write(text)
+            else:
+                for piece in text:
+                    file.write(piece)
             file.flush()
             os.fsync(file.fileno())
         os.replace(temp, target)

@@ -18,6 +18,7 @@ from __future__ import annotations
 import io
 import math
 import os
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -529,23 +530,31 @@ def write_log_file(
         write_atomic(path, _parquet_bytes(columns, layout))
 
 
-def _csv_text(columns: dict[str, np.ndarray], units: dict[str, str], layout: LogLayout) -> str:
-    """CSV text in ``layout``'s dialect: preamble lines before the header, a units row in
-    the lines skipped after it, every float as its shortest exact ``repr`` (a decimal comma
-    for ``decimal = ","``), '\\n' line ends."""
+def _csv_text(
+    columns: dict[str, np.ndarray], units: dict[str, str], layout: LogLayout
+) -> Iterator[str]:
+    """CSV text in ``layout``'s dialect, in pieces of :data:`CSV_PIECE` rows (its memory
+    does not grow with the log): preamble lines before the header, a units row in the lines
+    skipped after it, every float as its shortest exact ``repr`` (a decimal comma for
+    ``decimal = ","``), '\\n' line ends."""
     delimiter = layout.delimiter
     lines = [f"rsp-inertia virtual logger, line {k}" for k in range(1, layout.header_line)]
     lines.append(delimiter.join(columns))
     lines += [delimiter.join(units[name] for name in columns)] * layout.skip_after_header
-    texts = [
-        list(map(str, values.tolist())) if values.dtype.kind in "iu"
-        else list(map(repr, values.tolist()))
-        for values in columns.values()
-    ]
-    body = [delimiter.join(row) for row in zip(*texts, strict=True)]
-    if layout.decimal == ",":
-        body = [line.replace(".", ",") for line in body]
-    return "\n".join(lines + body) + "\n"
+    yield "\n".join(lines) + "\n"
+    n = len(next(iter(columns.values())))
+    for start in range(0, n, CSV_PIECE):
+        texts = [
+            list(map(str, piece.tolist())) if piece.dtype.kind in "iu"
+            else list(map(repr, piece.tolist()))
+            for piece in (values[start : start + CSV_PIECE] for values in columns.values())
+        ]
+        body = "\n".join(delimiter.join(row) for row in zip(*texts, strict=True)) + "\n"
+        yield body.replace(".", ",") if layout.decimal == "," else body
+
+
+CSV_PIECE = 1 << 16
+"""Rows of a CSV log made at a time (:func:`_csv_text`)."""
 
 
 def _tdms_bytes(columns: dict[str, np.ndarray], t: np.ndarray, layout: LogLayout) -> bytes:
