@@ -20,6 +20,7 @@ from rsp_inertia.scenarios import create_default_experiment
 from rsp_inertia.simulating import simulate
 from rsp_inertia.virtual.config import LoggerSettings
 from tests.conftest import copy_experiment
+from tests.plant.test_log_formats import VARIANTS
 
 
 def test_an_angle_jump_in_a_log_is_refused_by_check_identify_and_program(tmp_path, capsys):
@@ -125,19 +126,8 @@ def test_genuine_logs_at_1_and_10_khz_stay_far_from_the_speed_bound(
 
 # --- logs in the rig's logger's layout (device.toml [log]) --------------------------------
 
-SEMICOLON_LAYOUT = """
-[log]
-delimiter = ";"
-decimal = ","
-skip_after_header = 1
-time_column = "Time [ms]"
-time_unit = "ms"
-angle_column = "Angle [deg]"
-angle_unit = "deg"
-torque_column = "Torque [mN m]"
-torque_unit = "mN m"
-temperature_column = "Motor temperature [C]"
-"""
+SEMICOLON_LAYOUT = VARIANTS["b semicolon, decimal comma, units row, named columns"]
+"""A logger's European export: the [log] table of tests/plant/test_log_formats.py's variant b."""
 
 
 def _with_layout(root: Path, layout: str) -> Path:
