@@ -33,7 +33,7 @@ from rsp_inertia.estimation.results import Identification
 from rsp_inertia.estimation.runs import ExperimentLogs, Sources, runs
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.infra.files import file_sha256
-from rsp_inertia.plant.config import load_reference, placed_reference
+from rsp_inertia.plant.config import load_reference
 from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.experiment import Experiment
 from rsp_inertia.plant.log_checks import unterminated_last_line
@@ -310,15 +310,15 @@ def calibrate_experiment(
         reference.toml, bad logs.
     """
     check_same_stages(exp, empty, "empty")
-    body = None
+    certificate = None
     if reference is not None:
         check_same_stages(exp, reference, "reference")
-        body = placed_reference(
-            load_reference(reference.reference_path), reference.device.mounting
+        certificate = dataclasses.replace(
+            load_reference(reference.reference_path), mounting=reference.device.mounting
         )
     empty_logs = read_experiment(empty)
     reference_logs = None if reference is None else read_experiment(reference)
-    result = calibrate_logs(exp.device, empty_logs, reference_logs, body)
+    result = calibrate_logs(exp.device, empty_logs, reference_logs, certificate)
     cut = unterminated_warnings(empty_logs)
     if reference_logs is not None:
         cut += unterminated_warnings(reference_logs)

@@ -132,10 +132,21 @@ def check(path: str | Path, calibration: bool = False) -> CheckResult:
     _check_constants(exp, findings, calibration_folder, calibrated, known_warnings, fault)
     if reference.is_file():
         try:
-            load_reference(reference)
-            _add(findings, "ok", f"{reference}: the reference body's data")
+            certified = load_reference(reference)
         except InputError as error:
             _add(findings, "error", str(error))
+        else:
+            named = certified.certificate
+            which = "" if named is None else f" (certificate {named.id})"
+            if certified.stated:
+                _add(findings, "ok", f"{reference}: the reference body's data and stds{which}")
+            else:
+                _add(
+                    findings, "suspicious",
+                    f"{reference}: the reference body's data{which} without stds: the "
+                    "certificate's uncertainty would be left out of every std (state "
+                    "body.mass_std, body.inertia_std or body.inertia_cov, body.com_std)",
+                )
     return CheckResult(tuple(findings), exp.root, calibration_folder)
 
 
