@@ -149,6 +149,9 @@ class Calibration:
     conventions: str = ""
     """One line on the rig's conventions: verified by the reference, or not and how to
     (rsp_inertia.estimation.conventions)."""
+    date: str | None = None
+    """The day of the calibration, ``YYYY-MM-DD`` in UTC (set by the calibrate command;
+    calibration.toml ``[calibration] date``)."""
 
     def to_file(self) -> CalibrationFile:
         """The calibration as calibration.toml holds it

@@ -16,6 +16,7 @@ exact encoder (:meth:`CalibrationFile.known_terms`).
 
 from __future__ import annotations
 
+import datetime
 import os
 import re
 from typing import TYPE_CHECKING, Any
@@ -51,6 +52,7 @@ __all__ = [
     "PendulumStiffness",
     "calibration_file",
     "calibration_text",
+    "iso_date",
     "read_calibration_file",
     "write_calibration_file",
 ]
@@ -69,6 +71,16 @@ calibration folders' pendulum runs; [inputs]: the sha256 of every file used."""
 SHA256 = Bound(
     "a sha256 digest (64 hex digits)", lambda digest: re.fullmatch("[0-9a-f]{64}", digest)
 )
+
+
+def iso_date(value: str, key: str) -> None:
+    """Refuse a date that is not ISO 8601 ``YYYY-MM-DD``."""
+    try:
+        ok = len(value) == 10 and datetime.date.fromisoformat(value).isoformat() == value
+    except ValueError:
+        ok = False
+    if not ok:
+        raise ContentError(key, f"must be a date YYYY-MM-DD, got {value!r}")
 
 
 @config_class
@@ -92,6 +104,14 @@ class Head:
         doc="One line on the rig's conventions (the gear's sense, phi's handedness, the "
         "encoder's zero, docs/method.md §1): verified by the reference, or not and how to "
         "verify them. Empty in files of older rsp-inertia.",
+    )
+    date: str | None = key(
+        None,
+        check=iso_date,
+        doc="The day of the calibration (UTC), ISO 8601 ``YYYY-MM-DD``, as calibrate wrote "
+        "the file; with device.toml's ``[device] calibration_interval_days`` it gives the "
+        "calibration's due date (result.json ``record.calibration``). Absent in files of "
+        "older rsp-inertia (no due date).",
     )
     torque_gain: float | None = key(
         None,
@@ -299,6 +319,7 @@ def calibration_file(calibration: Calibration) -> CalibrationFile:
             reference=bool(calibration.reference),
             chi2_dof=float(calibration.chi2_dof),
             conventions=calibration.conventions,
+            date=calibration.date,
         ),
         drive=Drive(
             gain_driving=k.gains[0],
