@@ -230,7 +230,7 @@ class Calibration:
             )
         if self.conventions:
             out.append(self.conventions)
-        out += [f"warning: {w}" for w in self.warnings]
+        # The warnings are not in the text: the command line prints them on stderr.
         return "\n".join(out)
 
 
