@@ -478,6 +478,25 @@ def test_a_com_limit_needs_the_bodys_mass(default_logs, tmp_path, capsys):
     assert status == 2 and "com.x" in err and "[body] mass" in err
 
 
+def test_check_reads_the_record_and_the_spec_as_identify_does(default_logs, tmp_path, capsys):
+    root = copy_experiment(default_logs, tmp_path / "exp")
+    (root / "record.toml").write_text(RECORD)
+    (root / "spec.toml").write_text('[decision]\nrule = "simple"\n[com]\nx = [-0.01, 0.01]\n')
+    _device_keys(root, "calibration_interval_days = 180\n")
+    _exact_calibration(root, "2026-05-20")  # due 2026-11-16: overdue on the tests' day
+    status, out, _ = cli(capsys, "check", root)
+    assert status == 0
+    lines = out.splitlines()
+    assert f"ok: {root / 'record.toml'}: the record (part DWG-1234 rev. B)" in lines
+    assert f"ok: {root / 'spec.toml'}: 1 limit(s), simple rule" in lines
+    (overdue,) = [line for line in lines if "overdue" in line]
+    assert overdue.startswith("suspicious: ") and "2026-11-16" in overdue
+    (root / "spec.toml").write_text('[decision]\nrule = "simple"\n[com]\nz = [-0.01, 0.01]\n')
+    status, out, _ = cli(capsys, "check", root)
+    assert status == 1
+    assert f"error: {root / 'spec.toml'}: com.z: one mounting does not measure z_c" in out
+
+
 # --- --strict and the output streams ----------------------------------------------------------
 
 
