@@ -229,11 +229,11 @@ def expanded_for_decision(
 ) -> dict[str, tuple[float, float]]:
     """Each quantity of an identification with the expanded uncertainty U the decision uses.
 
-    U = k std with ``k`` (2): the entries' and the centre of mass's stds, and the principal
-    moments' linearised stds (rsp_inertia.plant.geometry.principal_uncertainty). This is the
-    one place the decision takes its U from: where the result states its own expanded
-    uncertainty (the GUM statement, result.json ``expanded_uncertainty``), this function
-    is to return that instead.
+    The one place the decision takes its U from. Where the identification states its own
+    expanded uncertainty (its ``expanded_uncertainty``, result.json's: ``tensor`` {entry: U},
+    ``com`` {axis: U}, ``principal_moments`` [U, U, U]), that U; else U = k std with ``k``
+    (2): the entries' and the centre of mass's stds, and the principal moments' linearised
+    stds (rsp_inertia.plant.geometry.principal_uncertainty).
 
     Parameters
     ----------
@@ -250,15 +250,30 @@ def expanded_for_decision(
     """
     entries = np.asarray(identification.entries, dtype=float)
     std = np.sqrt(np.diag(np.asarray(identification.entries_cov, dtype=float)))
-    out = {
-        f"tensor.{name}": (float(v), float(k * s))
-        for name, v, s in zip(ENTRY_KEYS, entries, std, strict=True)
-    }
     moments, _ = principal(entries)
     moments_std, _ = principal_uncertainty(entries, identification.entries_cov)
-    for i, (m, s) in enumerate(zip(moments, moments_std, strict=True), 1):
-        out[f"principal.moments[{i}]"] = (float(m), float(k * s))
+    U = {f"tensor.{name}": k * s for name, s in zip(ENTRY_KEYS, std, strict=True)}
+    U |= {f"principal.moments[{i}]": k * s for i, s in enumerate(moments_std, 1)}
+    values = dict(zip(U, [*entries, *moments], strict=True))
     if identification.com is not None:
         for axis, v, s in zip("xy", identification.com, identification.com_std, strict=True):
-            out[f"com.{axis}"] = (float(v), float(k * s))
-    return out
+            values[f"com.{axis}"], U[f"com.{axis}"] = v, k * s
+    U |= _stated_expanded(identification)
+    return {name: (float(values[name]), float(U[name])) for name in values}
+
+
+def _stated_expanded(identification: Identification) -> dict[str, float]:
+    """The expanded uncertainties the identification states itself (its
+    ``expanded_uncertainty``, as a document or an object with ``to_dict()``), by quantity;
+    empty when it states none."""
+    stated = getattr(identification, "expanded_uncertainty", None)
+    if stated is None:
+        return {}
+    doc = stated.to_dict() if hasattr(stated, "to_dict") else dict(stated)
+    out = {f"tensor.{name}": U for name, U in (doc.get("tensor") or {}).items()}
+    out |= {f"com.{axis}": U for axis, U in (doc.get("com") or {}).items()}
+    out |= {
+        f"principal.moments[{i}]": U
+        for i, U in enumerate(doc.get("principal_moments") or (), 1)
+    }
+    return {name: float(U) for name, U in out.items() if U is not None}

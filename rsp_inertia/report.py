@@ -190,7 +190,7 @@ def _decision_section(result: dict) -> list[str]:
         low, high = decision["limits"][name]
         value = values.get(name) or {}
         rows.append([name, f"{value.get('value', float('nan')):{VALUE}}",
-                     f"{value.get('U', float('nan')):.2g}", f"[{low:g}, {high:g}]", verdict])
+                     f"{value.get('U', float('nan')):.2g}", f"[{low:{VALUE}}, {high:{VALUE}}]", verdict])
     head = f"Part verdict against spec.toml: {html.escape(decision['part'])}"
     return [
         f"<div class='part verdict {level}'><h2>{head}</h2>",

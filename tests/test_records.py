@@ -31,6 +31,7 @@ from rsp_inertia.estimation.decision import (
     INDETERMINATE,
     PASS,
     decide_quantity,
+    expanded_for_decision,
     part_verdict,
 )
 from rsp_inertia.estimation.known_terms import KnownTerms
@@ -41,6 +42,7 @@ from rsp_inertia.infra.toml_schema import REQUIRED, accepted_keys, is_table, lay
 from rsp_inertia.plant.config import load_device
 from rsp_inertia.plant.geometry import ENTRY_KEYS
 from rsp_inertia.plant.record_config import RecordFile, Rule, SpecFile, load_record, load_spec
+from rsp_inertia.report import _decision_section
 from tests.conftest import copy_experiment
 from tests.test_combine_cli import TURNED_X90, _mounting
 from tests.test_docs import FILES, _documented, _examples, _section, _text
@@ -188,11 +190,11 @@ def test_the_record_goes_into_result_json_and_an_overdue_calibration_warns(
     assert level == "warn"
     assert "The calibration was overdue" in box and "2026-11-16" in box
 
-    # The same result with its warning deleted by hand is still amber.
+    # The same result with its warning deleted by hand is still amber (the verdict the report
+    # leads with, without drawing it again).
     result["warnings"] = []
     (root / "result.json").write_text(json.dumps(result))
-    assert cli(capsys, "report", root)[0] == 0
-    assert _verdict((root / "report.html").read_text())[0] == "warn"
+    assert rsp_inertia.api.report_verdict(root) == ("warn", None)
 
 
 def test_a_calibration_within_its_interval_does_not_warn(default_logs, tmp_path, capsys):
@@ -298,6 +300,30 @@ def test_the_part_fails_if_any_fails_else_is_indeterminate_if_any_is():
     assert part_verdict([PASS, PASS]) == PASS
     assert part_verdict([PASS, INDETERMINATE]) == INDETERMINATE
     assert part_verdict([INDETERMINATE, FAIL, PASS]) == FAIL
+
+
+def test_the_decision_takes_the_expanded_uncertainty_the_result_states():
+    """U is the result's own expanded uncertainty where it states one (the GUM statement),
+    else 2 std; a stand-in identification with a diagonal covariance keeps the truth plain."""
+    entries = np.array([0.025, 0.028, 0.022, 0.0, 0.0, 0.0])
+    std = np.array([1e-6, 2e-6, 3e-6, 1e-7, 1e-7, 1e-7])
+    found = SimpleNamespace(
+        entries=entries, entries_cov=np.diag(std**2), com=np.array([0.003, -0.002]),
+        com_std=np.array([1e-6, 2e-6]),
+    )
+    values = expanded_for_decision(found)
+    assert values["tensor.Jy"] == (0.028, pytest.approx(4e-6))
+    assert values["com.y"] == (-0.002, pytest.approx(4e-6))
+    # A diagonal tensor: the principal moments are the diagonal, ascending, with its stds.
+    assert values["principal.moments[1]"] == (pytest.approx(0.022), pytest.approx(6e-6))
+    assert values["principal.moments[3]"] == (pytest.approx(0.028), pytest.approx(4e-6))
+    found.expanded_uncertainty = {
+        "k": 2.0, "tensor": {"Jy": 5e-6}, "com": {"y": 7e-6}, "principal_moments": [8e-6, 9e-6, 1e-5]
+    }
+    values = expanded_for_decision(found)
+    assert values["tensor.Jy"] == (0.028, 5e-6) and values["com.y"] == (-0.002, 7e-6)
+    assert values["principal.moments[1]"][1] == 8e-6
+    assert values["tensor.Jx"][1] == pytest.approx(2e-6)  # not stated: 2 std
 
 
 def _values(result: dict) -> dict[str, tuple[float, float]]:
@@ -416,9 +442,8 @@ def test_a_part_within_its_limits_passes_and_an_indeterminate_one_is_not_strict_
     status, out, err = cli(capsys, "identify", root, "--strict")
     assert status == STRICT and err == ""
     assert _result(root)["decision"]["part"] == INDETERMINATE
-    status, _, _ = cli(capsys, "report", root, "--strict")
-    assert status == STRICT and _verdict((root / "report.html").read_text())[0] == "ok"
-    assert _part((root / "report.html").read_text())[0] == "warn"
+    assert rsp_inertia.api.report_verdict(root) == ("ok", INDETERMINATE)
+    assert _part("".join(_decision_section(_result(root))))[0] == "warn"  # amber
     # The simple rule passes it: the value is inside.
     (root / "spec.toml").write_text(_spec("simple", {"tensor.Jx": (jx - 3 * u, jx + u / 2)}))
     assert cli(capsys, "identify", root, "--strict")[0] == 0
