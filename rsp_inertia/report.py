@@ -189,8 +189,10 @@ def _decision_section(result: dict) -> list[str]:
     for name, verdict in decision["quantities"].items():
         low, high = decision["limits"][name]
         value = values.get(name) or {}
-        rows.append([name, f"{value.get('value', float('nan')):{VALUE}}",
-                     f"{value.get('U', float('nan')):.2g}", f"[{low:{VALUE}}, {high:{VALUE}}]", verdict])
+        rows.append([
+            name, f"{value.get('value', math.nan):{VALUE}}", f"{value.get('U', math.nan):.2g}",
+            f"[{low:{VALUE}}, {high:{VALUE}}]", verdict,
+        ])
     head = f"Part verdict against spec.toml: {html.escape(decision['part'])}"
     return [
         f"<div class='part verdict {level}'><h2>{head}</h2>",
@@ -221,13 +223,17 @@ def report_verdict(root: str | Path) -> tuple[str, str | None]:
     """
     exp = open_experiment(root)
     result = _read_result(exp)
-    provenance = result.get("provenance") or {}
-    status = (
-        None if "inputs" not in provenance
-        else input_status(exp.root, provenance["inputs"], exp.identify_inputs())
-    )
     decision = result.get("decision") or {}
-    return verdict_level(result, status), decision.get("part")
+    return verdict_level(result, _input_status(exp, result)), decision.get("part")
+
+
+def _input_status(exp: Experiment, result: dict) -> dict[str, str] | None:
+    """Each input result.json records, as the folder holds it now
+    (rsp_inertia.provenance.input_status); None when it records none."""
+    provenance = result.get("provenance") or {}
+    if "inputs" not in provenance:
+        return None
+    return input_status(exp.root, provenance["inputs"], exp.identify_inputs())
 
 
 def _tensor_sections(result: dict) -> list[str]:
@@ -485,10 +491,7 @@ def write_report(root: str | Path) -> Path:
     out = exp.report_path
     check_writable(out)
     provenance = result.get("provenance") or {}
-    status = (
-        None if "inputs" not in provenance
-        else input_status(exp.root, provenance["inputs"], exp.identify_inputs())
-    )
+    status = _input_status(exp, result)
     name = html.escape(exp.device.name)
     made = provenance.get("created", "at an unrecorded time")
     version = (provenance.get("software") or {}).get("rsp-inertia", "an unrecorded version")
