@@ -236,6 +236,8 @@ def identify_experiment(exp: Experiment, made: str | None = None) -> Identificat
     found = identify_logs(
         logs, known, pendulum_stiffness=stiffness, warnings=warnings, conventions=conventions
     )
+    if record is None and spec is None:  # identify_logs' result as it is
+        return found
     decision = None if spec is None else decide(
         spec, expanded_for_decision(found), str(exp.spec_path)
     )
