@@ -170,6 +170,9 @@ class Calibration:
     (rsp_inertia.estimation.conventions)."""
     certificate: Certificate | None = None
     """The reference body's certificate (reference.toml ``[certificate]``), for the records."""
+    date: str | None = None
+    """The day of the calibration, ``YYYY-MM-DD`` in UTC (set by the calibrate command;
+    calibration.toml ``[calibration] date``)."""
 
     def to_file(self) -> CalibrationFile:
         """The calibration as calibration.toml holds it
@@ -248,7 +251,7 @@ class Calibration:
             )
         if self.conventions:
             out.append(self.conventions)
-        out += [f"warning: {w}" for w in self.warnings]
+        # The warnings are not in the text: the command line prints them on stderr.
         return "\n".join(out)
 
 

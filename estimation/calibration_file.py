@@ -29,6 +29,7 @@ from rsp_inertia.infra.toml_schema import (
     Bound,
     ContentError,
     config_class,
+    iso_date,
     key,
     read_file,
     read_table,
@@ -93,6 +94,14 @@ class Head:
         doc="One line on the rig's conventions (the gear's sense, phi's handedness, the "
         "encoder's zero, docs/method.md §1): verified by the reference, or not and how to "
         "verify them. Empty in files of older rsp-inertia.",
+    )
+    date: str | None = key(
+        None,
+        check=iso_date,
+        doc="The day of the calibration (UTC), ISO 8601 ``YYYY-MM-DD``, as calibrate wrote "
+        "the file; with device.toml's ``[device] calibration_interval_days`` it gives the "
+        "calibration's due date (result.json ``record.calibration``). Absent in files of "
+        "older rsp-inertia (no due date).",
     )
     torque_gain: float | None = key(
         None,
@@ -314,6 +323,7 @@ def calibration_file(calibration: Calibration) -> CalibrationFile:
             reference=bool(calibration.reference),
             chi2_dof=float(calibration.chi2_dof),
             conventions=calibration.conventions,
+            date=calibration.date,
         ),
         drive=Drive(
             gain_driving=k.gains[0],

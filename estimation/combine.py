@@ -315,7 +315,7 @@ class Combination:
             f"consistency: chi^2 = {self.chi2:.4g} on {self.dof} dof, {_p_text(self.p)}"
             f" (warns below p = {CONSISTENCY_P})"
         )
-        lines += [f"warning: {w}" for w in self.warnings]
+        # The warnings are not in the text: the command line prints them on stderr.
         return "\n".join(lines)
 
 

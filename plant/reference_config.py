@@ -12,7 +12,6 @@ the config classes below declare them (rsp_inertia.infra.toml_schema).
 
 from __future__ import annotations
 
-import datetime
 import os
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -20,7 +19,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rsp_inertia.infra.errors import InputError
-from rsp_inertia.infra.toml_schema import ContentError, config_class, key, read_file, read_table
+from rsp_inertia.infra.toml_schema import (
+    ContentError,
+    config_class,
+    iso_date,
+    key,
+    read_file,
+    read_table,
+)
 from rsp_inertia.infra.toml_writer import write_file
 from rsp_inertia.plant.geometry import physical_margins, place_body, tensor_from_entries
 
@@ -125,13 +131,10 @@ def _covariance_6(rows: tuple[tuple[float, ...], ...], key: str) -> None:
         )
 
 
-def _iso_date(text: str, key: str) -> None:
-    """Refuse a date that is not an ISO date ``YYYY-MM-DD`` (or empty: not stated)."""
+def _issued(text: str, key: str) -> None:
+    """Refuse a date of issue that is not an ISO date ``YYYY-MM-DD`` (or empty: not stated)."""
     if text:
-        try:
-            datetime.date.fromisoformat(text)
-        except ValueError:
-            raise ContentError(key, f"must be a date YYYY-MM-DD, got {text!r}") from None
+        iso_date(text, key)
 
 
 @config_class
@@ -178,7 +181,7 @@ class Certificate:
 
     id: str = key(doc="The certificate's number.")
     issuer: str = key("", doc="The laboratory that issued it.")
-    date: str = key("", check=_iso_date, doc="Its date of issue, YYYY-MM-DD.")
+    date: str = key("", check=_issued, doc="Its date of issue, YYYY-MM-DD.")
 
 
 @config_class

@@ -528,6 +528,40 @@ def combine(paths: list[str | Path], out: str | Path) -> CombineResult:
     return CombineResult(combination, path)
 
 
+# --- the report's verdicts (the command line's --strict; not in __all__) ---------------------
+
+
+def report_verdict(path: str | Path) -> tuple[str, str | None]:
+    """The verdicts ``rsp-inertia report EXP`` leads with, for ``report --strict``.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The experiment folder, with the result.json of :func:`identify`.
+
+    Returns
+    -------
+    (str, str or None)
+        The software's verdict, 'ok' (green), 'warn' (amber: warnings, an overdue
+        calibration) or 'stale' (red: inputs changed since identify, or not recorded); the
+        part's against spec.toml, 'pass', 'fail', 'indeterminate', or None without one.
+
+    Raises
+    ------
+    InputError
+        No result.json (run identify first), or one that identify did not write.
+
+    Examples
+    --------
+    >>> rsp_inertia.api.report_verdict("bench-A")    # doctest: +SKIP
+    ('ok', 'pass')
+    """
+    # the report's module (matplotlib, the estimation stack): only report --strict asks
+    from rsp_inertia.report import report_verdict as run
+
+    return run(path)
+
+
 # --- design (the command line's; not in __all__) --------------------------------------------
 
 

@@ -41,7 +41,15 @@ from rsp_inertia.plots import (
 )
 from rsp_inertia.provenance import created_now, input_changes, input_status, package_versions
 
-__all__ = ["FIGURES", "REPORT_FILE", "VALUE", "Z95", "write_report"]
+__all__ = [
+    "FIGURES",
+    "REPORT_FILE",
+    "VALUE",
+    "Z95",
+    "report_verdict",
+    "verdict_level",
+    "write_report",
+]
 
 FIGURES = (PLAN_FIGURE, AXIS_DESIGN_FIGURE, ENCODER_FIGURE, ERRORS_FIGURE)
 """Figures of other commands inlined when present (plan, design or demo, calibrate, demo);
@@ -109,11 +117,10 @@ def _verdict(exp: Experiment, result: dict, status: dict[str, str] | None) -> st
     rsp_inertia.provenance.input_status, None when result.json records none), and its
     warnings."""
     warnings = result.get("warnings") or []
-    items, level = [], "ok"
+    items, level = [], verdict_level(result, status)
     if status is not None:
         changes = input_changes(status)
         if changes:
-            level = "stale"
             items.append(
                 "<p><b>The inputs changed since identify made this result</b>: the numbers "
                 "below describe the files as they were, not as they are. Run "
@@ -122,14 +129,12 @@ def _verdict(exp: Experiment, result: dict, status: dict[str, str] | None) -> st
             items.append("<ul>" + "".join(f"<li>{html.escape(c)}</li>" for c in changes)
                          + "</ul>")
     else:
-        level = "stale"
         items.append(
             "<p><b>result.json records no provenance</b> (made by an older rsp-inertia): "
             "whether the folder still holds the inputs it was made from cannot be checked. "
             "Run identify again.</p>"
         )
     if warnings:
-        level = "stale" if level == "stale" else "warn"
         items.append(
             f"<p><b>{len(warnings)} warning{'s' if len(warnings) > 1 else ''}</b>: each says "
             "what may move the result beyond its stds; read them before using the numbers.</p>"
@@ -137,9 +142,98 @@ def _verdict(exp: Experiment, result: dict, status: dict[str, str] | None) -> st
         items.append("<ul>" + "".join(f"<li>{html.escape(w)}</li>" for w in warnings) + "</ul>")
     else:
         items.append("<p><b>No warnings</b>: identify found nothing questionable.</p>")
+    due = (result.get("record") or {}).get("calibration") or {}
+    if due.get("overdue"):
+        items.append(
+            f"<p><b>The calibration was overdue</b>: made {html.escape(str(due.get('date')))}, "
+            f"due {html.escape(str(due.get('due')))}.</p>"
+        )
     title = {"ok": "Verdict: no warnings", "warn": "Verdict: read the warnings",
              "stale": "Verdict: do not use as it stands"}[level]
     return f"<div class='verdict {level}'><h2>{title}</h2>" + "".join(items) + "</div>"
+
+
+def verdict_level(result: dict, status: dict[str, str] | None) -> str:
+    """The colour of the report's verdict: 'stale' (red) when the inputs changed since
+    identify or cannot be checked (``status`` None), else 'warn' (amber) when result.json
+    has a warning or an overdue calibration, else 'ok' (green).
+
+    Parameters
+    ----------
+    result : dict
+        result.json's document.
+    status : dict or None
+        Each recorded input's status now (rsp_inertia.provenance.input_status); None when
+        result.json records no inputs.
+
+    Returns
+    -------
+    str
+        'ok', 'warn' or 'stale'.
+    """
+    if status is None or input_changes(status):
+        return "stale"
+    due = (result.get("record") or {}).get("calibration") or {}
+    return "warn" if result.get("warnings") or due.get("overdue") else "ok"
+
+
+def _decision_section(result: dict) -> list[str]:
+    """The part's verdict against spec.toml, beside the software's verdict: each limited
+    quantity's value, U, limits and verdict, and the decision rule."""
+    decision = result.get("decision")
+    if not decision:
+        return ["<p class='meta'>Part verdict: none (no spec.toml, no specification).</p>"]
+    level = {"pass": "ok", "indeterminate": "warn"}.get(decision["part"], "stale")
+    values = decision.get("values") or {}
+    rows = []
+    for name, verdict in decision["quantities"].items():
+        low, high = decision["limits"][name]
+        value = values.get(name) or {}
+        rows.append([
+            name, f"{value.get('value', math.nan):{VALUE}}", f"{value.get('U', math.nan):.2g}",
+            f"[{low:{VALUE}}, {high:{VALUE}}]", verdict,
+        ])
+    head = f"Part verdict against spec.toml: {html.escape(decision['part'])}"
+    return [
+        f"<div class='part verdict {level}'><h2>{head}</h2>",
+        _table(["quantity (SI units)", "value", "U", "limits", "verdict"], rows),
+        f"<p>Decision rule: {html.escape(decision.get('statement') or decision['rule'])}.</p>",
+        "</div>",
+    ]
+
+
+def report_verdict(root: str | Path) -> tuple[str, str | None]:
+    """The verdicts a report of ``root`` leads with, without writing it: the software's
+    (:func:`verdict_level`) and the part's against spec.toml (None without one).
+
+    Parameters
+    ----------
+    root : str or pathlib.Path
+        The experiment folder, with its result.json.
+
+    Returns
+    -------
+    (str, str or None)
+        'ok', 'warn' or 'stale'; 'pass', 'fail', 'indeterminate' or None.
+
+    Raises
+    ------
+    InputError
+        No result.json, or one that identify did not write.
+    """
+    exp = open_experiment(root)
+    result = _read_result(exp)
+    decision = result.get("decision") or {}
+    return verdict_level(result, _input_status(exp, result)), decision.get("part")
+
+
+def _input_status(exp: Experiment, result: dict) -> dict[str, str] | None:
+    """Each input result.json records, as the folder holds it now
+    (rsp_inertia.provenance.input_status); None when it records none."""
+    provenance = result.get("provenance") or {}
+    if "inputs" not in provenance:
+        return None
+    return input_status(exp.root, provenance["inputs"], exp.identify_inputs())
 
 
 def _tensor_sections(result: dict) -> list[str]:
@@ -397,10 +491,7 @@ def write_report(root: str | Path) -> Path:
     out = exp.report_path
     check_writable(out)
     provenance = result.get("provenance") or {}
-    status = (
-        None if "inputs" not in provenance
-        else input_status(exp.root, provenance["inputs"], exp.identify_inputs())
-    )
+    status = _input_status(exp, result)
     name = html.escape(exp.device.name)
     made = provenance.get("created", "at an unrecorded time")
     version = (provenance.get("software") or {}).get("rsp-inertia", "an unrecorded version")
@@ -411,6 +502,7 @@ def write_report(root: str | Path) -> Path:
          f"Result made {html.escape(made)} by rsp-inertia {html.escape(version)} (identify); "
          f"report written {html.escape(written)}.</p>"),
         _verdict(exp, result, status),
+        *_decision_section(result),
         *_tensor_sections(result),
         *_budget_section(result),
         *_calibration_section(result),
