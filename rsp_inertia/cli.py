@@ -75,7 +75,10 @@ def _cmd_check(args: argparse.Namespace) -> int:
 
 
 def _cmd_report(args: argparse.Namespace) -> None:
-    print(f"report -> {rsp_inertia.write_report(args.exp)}")
+    out = rsp_inertia.write_report(args.exp, pdf=args.pdf, paper=args.paper)
+    print(f"report -> {out}")
+    if args.pdf:
+        print(f"pdf -> {out.with_suffix('.pdf')}")
 
 
 def _cmd_combine(args: argparse.Namespace) -> None:
@@ -189,6 +192,11 @@ def _parser() -> argparse.ArgumentParser:
     ):
         p = sub.add_parser(name, help=text)
         p.add_argument("exp", type=Path, metavar="EXP", help="experiment folder")
+        if name == "report":
+            p.add_argument("--pdf", action="store_true",
+                           help="also print EXP/report.pdf (headless Chromium)")
+            p.add_argument("--paper", choices=("a4", "letter"), default="a4",
+                           help="the PDF's paper (default a4)")
         if name == "check":
             p.add_argument(
                 "--calibration", action="store_true",
