@@ -35,6 +35,8 @@ from rsp_inertia.report_parts import (
     report_number,
     signature_block,
     table,
+    warning_items,
+    warnings_section,
 )
 
 __all__ = ["is_body_folder", "write_body_report"]
@@ -110,8 +112,7 @@ def _verdict(root: Path, body: dict, inputs: list[dict]) -> str:
         level = "stale" if level == "stale" else "warn"
         items.append(
             f"<p><b>{len(warnings)} warning{'s' if len(warnings) > 1 else ''}</b>: read them "
-            "before using the numbers.</p><ul>"
-            + "".join(f"<li>{html.escape(w)}</li>" for w in warnings) + "</ul>")
+            "before using the numbers.</p>" + warning_items(warnings))
     else:
         items.append("<p><b>No warnings</b>: combine found nothing questionable.</p>")
     if consistency:
@@ -291,6 +292,7 @@ def write_body_report(root: str | Path) -> Path:
          + decision_box(body.get("decision"), NO_DECISION) + "</div>"),
         *_result_sections(body),
         f"<p class='statement'>{html.escape(STATEMENT)}</p>",
+        *warnings_section(body.get("warnings") or []),
         *_mountings_section(body, devices),
         *(record_section(records) if records else []),
         *_provenance_sections(body, inputs),

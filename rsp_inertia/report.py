@@ -60,6 +60,8 @@ from rsp_inertia.report_parts import (
     record_section,
     report_number,
     signature_block,
+    warning_items,
+    warnings_section,
 )
 from rsp_inertia.report_parts import interval as _interval
 from rsp_inertia.report_parts import table as _table
@@ -127,7 +129,7 @@ def _verdict(exp: Experiment, result: dict, status: dict[str, str] | None) -> st
             f"<p><b>{len(warnings)} warning{'s' if len(warnings) > 1 else ''}</b>: each says "
             "what may move the result beyond its stds; read them before using the numbers.</p>"
         )
-        items.append("<ul>" + "".join(f"<li>{html.escape(w)}</li>" for w in warnings) + "</ul>")
+        items.append(warning_items(warnings))
     else:
         items.append("<p><b>No warnings</b>: identify found nothing questionable.</p>")
     title = {"ok": "Verdict: no warnings", "warn": "Verdict: read the warnings",
@@ -531,6 +533,7 @@ def _write_experiment_report(root: str | Path) -> Path:
          + decision_box(result.get("decision")) + "</div>"),
         *_tensor_sections(result),
         f"<p class='statement'>{html.escape(STATEMENT)}</p>",
+        *warnings_section(result.get("warnings") or []),
         *record_section({"result.json": result.get("record")}),
         *_axes_section(result),
         *_budget_section(result),

@@ -31,6 +31,8 @@ __all__ = [
     "report_number",
     "signature_block",
     "table",
+    "warning_items",
+    "warnings_section",
 ]
 
 VALUE = "#.8g"
@@ -101,7 +103,25 @@ def table(
     kind: str = "",
 ) -> str:
     """An HTML table: a header row, the rows, an optional bold total row (every cell
-    escaped); ``kind`` is its CSS class (``long``: may break across pages)."""
+    escaped).
+
+    Parameters
+    ----------
+    head : list of str
+        The header cells.
+    rows : list of list of str
+        The rows' cells.
+    total : list of str, optional
+        A last row in bold (a budget's total).
+    kind : str, optional
+        The table's CSS classes (``long``: it may break across printed pages; ``hashes``:
+        monospaced cells).
+
+    Returns
+    -------
+    str
+        The table's HTML.
+    """
     cells = "".join(f"<th>{html.escape(h)}</th>" for h in head)
     body = "".join(
         "<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in row) + "</tr>" for row in rows
@@ -115,7 +135,22 @@ def table(
 
 
 def interval(value: float, std: float | None, digits: str = VALUE) -> str:
-    """The 95% interval ``[value - Z95 std, value + Z95 std]``."""
+    """The 95% interval ``[value - Z95 std, value + Z95 std]`` as text.
+
+    Parameters
+    ----------
+    value : float
+        The estimate.
+    std : float or None
+        Its standard uncertainty (None or not finite: "not defined").
+    digits : str, optional
+        The format of both ends (default :data:`VALUE`).
+
+    Returns
+    -------
+    str
+        ``[low, high]``.
+    """
     if std is None or not math.isfinite(std):
         return "not defined"
     return f"[{value - Z95 * std:{digits}}, {value + Z95 * std:{digits}}]"
@@ -156,6 +191,30 @@ def identification(rows: Iterable[tuple[str, str]]) -> str:
             f"<td class='k'>{html.escape(k)}</td><td>{html.escape(v)}</td>" for k, v in pair
         ) + ("<td></td><td></td>" if len(pair) == 1 else "") + "</tr>")
     return "<table class='id'>" + "".join(cells) + "</table>"
+
+
+WARNINGS_SHOWN = 3
+"""The verdict box lists at most this many warnings; the rest follow the result, in the
+section "Warnings" (so that the first printed page keeps the result with the verdict)."""
+
+
+def warning_items(warnings: list[str]) -> str:
+    """The verdict box's list: the first :data:`WARNINGS_SHOWN` warnings, and how many more
+    the section "Warnings" lists."""
+    shown = "".join(f"<li>{html.escape(w)}</li>" for w in warnings[:WARNINGS_SHOWN])
+    more = len(warnings) - WARNINGS_SHOWN
+    if more > 0:
+        shown += (f"<li><b>{more} more</b>: under Warnings, below the result (all "
+                  f"{len(warnings)} there).</li>")
+    return f"<ul>{shown}</ul>"
+
+
+def warnings_section(warnings: list[str]) -> list[str]:
+    """Every warning, when the verdict box could not list them all (else nothing)."""
+    if len(warnings) <= WARNINGS_SHOWN:
+        return []
+    return ["<h2>Warnings</h2>",
+            "<ol>" + "".join(f"<li>{html.escape(w)}</li>" for w in warnings) + "</ol>"]
 
 
 def record_rows(record: dict | None) -> list[tuple[str, str]]:
@@ -249,7 +308,7 @@ def decision_box(decision: dict | None, absent: str = "") -> str:
     rows = []
     for name, verdict in (decision.get("quantities") or {}).items():
         low_high = limits.get(name)
-        span = (f"[{low_high[0]:g}, {low_high[1]:g}]" if isinstance(low_high, list | tuple)
+        span = (f"[{low_high[0]:.12g}, {low_high[1]:.12g}]" if isinstance(low_high, list | tuple)
                 and len(low_high) == 2 else "")
         rows.append([name, span, DECISION_TEXT.get(verdict, str(verdict))])
     rule_text = {
@@ -295,8 +354,22 @@ def _kept(parts: list[str]) -> list[str]:
 
 
 def page(title: str, number: str, parts: list[str]) -> str:
-    """The whole HTML document: ``title``, the style, ``parts`` (headings kept with what
-    follows them) and ``number`` in every printed page's footer."""
+    """The whole HTML document.
+
+    Parameters
+    ----------
+    title : str
+        The document's title (the browser's tab, the PDF's metadata).
+    number : str
+        The report number, printed in every page's footer with "page x of y".
+    parts : list of str
+        The body's HTML parts, in order; each heading (h2, h3) is kept with the part after it.
+
+    Returns
+    -------
+    str
+        The page, with its style and print layout.
+    """
     footer = "".join(c for c in number if c.isalnum() or c in " -_.:")
     return (
         "<!DOCTYPE html><html><head><meta charset='utf-8'>"
