@@ -339,12 +339,19 @@ def signature_block(prepared_by: str | None) -> str:
     )
 
 
+def _paragraph(part: str) -> bool:
+    """Whether ``part`` is one paragraph alone (no table or figure after it)."""
+    return part.startswith("<p") and part.endswith("</p>") and part.count("<p") == 1
+
+
 def _kept(parts: list[str]) -> list[str]:
-    """The parts with each heading (h2, h3) wrapped together with the part after it, so that a
-    printed page never ends on a heading."""
+    """The parts with each heading (h2, h3) wrapped together with the parts after it up to the
+    first that is not a paragraph (a table, a figure), so that a printed page never ends on
+    a heading or on the sentence that introduces a table."""
     kept, pending = [], []
     for part in parts:
-        if part.startswith(("<h2", "<h3")):
+        # A heading, and a paragraph under one, wait for what follows them.
+        if part.startswith(("<h2", "<h3")) or (pending and _paragraph(part)):
             pending.append(part)
             continue
         kept.append("<div class='keep'>" + "".join(pending) + part + "</div>" if pending
