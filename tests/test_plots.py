@@ -100,3 +100,19 @@ def test_titles_and_labels_say_what_is_shown(tmp_path):
         joined = " | ".join(texts)
         assert "paper" not in joined and "Fig." not in joined, joined
         assert "output y" not in joined and "reference r" not in joined, joined
+
+
+def test_the_figures_drawn_from_logs_say_what_they_show(default_logs):
+    # The motion figures of a simulated folder, as report draws them: their
+    # titles and labels name the quantities, not the paper's figure numbers or control terms.
+    from rsp_inertia.plant.experiment import open_experiment
+    from rsp_inertia.plots import experiment_figures
+
+    figures = experiment_figures(open_experiment(default_logs))
+    # (no program.csv there, an ideal reverse: the tracking figures' labels are checked above)
+    assert {name for name, _ in figures} == {"motion_stage1.png", "motion_stage2.png"}
+    for name, fig in figures:
+        fig.canvas.draw()
+        joined = " | ".join(t.get_text() for t in fig.findobj(lambda o: hasattr(o, "get_text")))
+        assert "paper" not in joined and "Fig." not in joined, (name, joined)
+        assert "output y" not in joined and "reference r" not in joined, (name, joined)
