@@ -185,7 +185,7 @@ def _mounting_rows(body: dict, devices: list[Device | None]) -> list[list[str]]:
         rotation = ("identity (no [mounting])" if placed is None else
                     "; ".join("[" + ", ".join(f"{c:.6g}" for c in row) + "]"
                               for row in placed.rotation))
-        origin = ("0, 0, 0" if placed is None else
+        origin = ("0.000, 0.000, 0.000" if placed is None else
                   ", ".join(f"{c * 1e3:.3f}" for c in placed.origin))
         rows.append([mounting["name"], rotation, origin])
     return rows
