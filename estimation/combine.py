@@ -217,6 +217,9 @@ class Combination:
     warnings: list[str] = field(default_factory=list)
     """The mountings' disagreement (statistic and the entries that disagree), a tensor that
     is not a physical one."""
+    provenance: dict | None = None
+    """body.json's ``provenance`` (``rsp-inertia combine``: when, by which software, the
+    sha256 of each mounting's result.json); None: not recorded (the library alone)."""
 
     @property
     def entries_std(self) -> np.ndarray:
@@ -256,8 +259,8 @@ class Combination:
         """body.json's document (docs/files.md): ``tensor``, ``tensor_std`` (keys Jx ... Jxz,
         kg m^2), ``com``, ``com_std`` (keys x, y, z, m), ``covariance`` (9 x 9, order
         Jx, Jy, Jz, Jxy, Jyz, Jxz, x, y, z), the principal moments and axes with their stds,
-        per mounting its residuals in stds (None: not tested), the consistency test and the
-        warnings."""
+        per mounting its residuals in stds (None: not tested), the consistency test, the
+        warnings and, when recorded, the provenance."""
         tilt = self.principal_axes_tilt_std
         return {
             "tensor": dict(zip(ENTRY_KEYS, map(float, self.entries))),
@@ -283,7 +286,7 @@ class Combination:
             ],
             "consistency": {"chi2": float(self.chi2), "dof": int(self.dof), "p": float(self.p)},
             "warnings": list(self.warnings),
-        }
+        } | ({} if self.provenance is None else {"provenance": self.provenance})
 
     def __str__(self) -> str:
         lines = [

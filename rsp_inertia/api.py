@@ -417,7 +417,7 @@ def check(path: str | Path, *, calibration: bool = False) -> CheckResult:
     return run(path, calibration)
 
 
-def write_report(path: str | Path) -> Path:
+def write_report(path: str | Path, pdf: bool = False, paper: str = "a4") -> Path:
     """Write ``EXP/report.html`` from an identified experiment (``rsp-inertia report EXP``).
 
     One self-contained, dated file (figures inlined, no network) that leads with a verdict:
@@ -428,10 +428,18 @@ def write_report(path: str | Path) -> Path:
     software. (Named ``write_report``, not ``report``: ``rsp_inertia.report`` is the module
     that writes it.)
 
+    On a combine folder (``OUT`` with the body.json of :func:`combine`, no device.toml) the
+    combined body's report: the tensor and the centre of mass (z_c too) in body axes, the
+    mountings and their consistency, the results combined and their sha256.
+
     Parameters
     ----------
     path : str or pathlib.Path
-        The experiment folder, with the result.json of :func:`identify`.
+        The experiment folder, with the result.json of :func:`identify`, or a combine folder.
+    pdf : bool, optional
+        Also print ``report.pdf`` beside it (headless Chromium; ``report --pdf``).
+    paper : str, optional
+        The PDF's paper: ``"a4"`` (default) or ``"letter"``.
 
     Returns
     -------
@@ -441,7 +449,8 @@ def write_report(path: str | Path) -> Path:
     Raises
     ------
     InputError
-        No result.json (run identify first), or one that identify did not write.
+        No result.json (run identify first), or one that identify did not write; no
+        body.json in a combine folder; with ``pdf``, no Chromium on the PATH.
 
     Examples
     --------
@@ -451,7 +460,7 @@ def write_report(path: str | Path) -> Path:
     # the report's figures and the logs' smoother (matplotlib, the estimation stack)
     from rsp_inertia.report import write_report as run
 
-    return run(path)
+    return run(path, pdf, paper)
 
 
 def create_experiment(path: str | Path) -> Path:

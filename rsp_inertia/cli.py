@@ -106,7 +106,10 @@ def _cmd_check(args: argparse.Namespace) -> int:
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    print(f"report -> {rsp_inertia.write_report(args.exp)}")
+    out = rsp_inertia.write_report(args.exp, pdf=args.pdf, paper=args.paper)
+    print(f"report -> {out}")
+    if args.pdf:
+        print(f"pdf -> {out.with_suffix('.pdf')}")
     if not args.strict:
         return 0
     verdict, part = api.report_verdict(args.exp)
@@ -219,9 +222,10 @@ def _parser() -> argparse.ArgumentParser:
         "for identify)"
     )
     report_help = (
-        "EXP/result.json -> EXP/report.html (one self-contained file): a verdict (inputs "
-        "changed since identify? warnings?), the result with 95%% intervals, budget, "
-        "calibration, protocol, figures from the logs"
+        "EXP/result.json -> EXP/report.html (one self-contained test report): a verdict (inputs "
+        "changed since identify? warnings?) and the part's decision, the result with 95%% "
+        "intervals, record, budget, calibration, protocol, figures, signatures; on a combine "
+        "folder (OUT/body.json) the combined body's report"
     )
     for name, run, text in (
         ("check", _cmd_check, check_help),
@@ -230,6 +234,11 @@ def _parser() -> argparse.ArgumentParser:
     ):
         p = sub.add_parser(name, help=text)
         p.add_argument("exp", type=Path, metavar="EXP", help="experiment folder")
+        if name == "report":
+            p.add_argument("--pdf", action="store_true",
+                           help="also print report.pdf beside report.html (headless Chromium)")
+            p.add_argument("--paper", choices=("a4", "letter"), default="a4",
+                           help="the PDF's paper (default a4)")
         if name == "check":
             p.add_argument(
                 "--calibration", action="store_true",

@@ -42,7 +42,7 @@ from rsp_inertia.infra.toml_schema import REQUIRED, accepted_keys, is_table, lay
 from rsp_inertia.plant.config import load_device
 from rsp_inertia.plant.geometry import ENTRY_KEYS
 from rsp_inertia.plant.record_config import RecordFile, Rule, SpecFile, load_record, load_spec
-from rsp_inertia.report import _decision_section
+from rsp_inertia.report_parts import decision_box
 from tests.conftest import copy_experiment
 from tests.test_combine_cli import TURNED_X90, _mounting
 from tests.test_docs import FILES, _documented, _examples, _section, _text
@@ -431,7 +431,7 @@ def test_a_part_within_its_limits_passes_and_an_indeterminate_one_is_not_strict_
     page = (root / "report.html").read_text()
     assert _verdict(page)[0] == "ok"
     level, box = _part(page)
-    assert level == "ok" and "Part verdict against spec.toml: pass" in box
+    assert level == "ok" and "<h2>Part: PASS</h2>" in box
     assert "<td>tensor.Jx</td>" in box and "guard band" in box
     assert page.index("class='verdict ok'") < page.index("class='part verdict") < page.index(
         "Inertia tensor"
@@ -443,7 +443,7 @@ def test_a_part_within_its_limits_passes_and_an_indeterminate_one_is_not_strict_
     assert status == STRICT and err == ""
     assert _result(root)["decision"]["part"] == INDETERMINATE
     assert rsp_inertia.api.report_verdict(root) == ("ok", INDETERMINATE)
-    assert _part("".join(_decision_section(_result(root))))[0] == "warn"  # amber
+    assert _part(decision_box(_result(root)["decision"]))[0] == "warn"  # amber
     # The simple rule passes it: the value is inside.
     (root / "spec.toml").write_text(_spec("simple", {"tensor.Jx": (jx - 3 * u, jx + u / 2)}))
     assert cli(capsys, "identify", root, "--strict")[0] == 0
@@ -533,7 +533,7 @@ def test_a_clean_identify_and_report_exit_0_under_strict(plain, capsys):
     assert out.rstrip().endswith(f"result -> {root / 'result.json'}")
     assert cli(capsys, "report", root, "--strict")[0] == 0
     page = (root / "report.html").read_text()
-    assert "Part verdict: none (no spec.toml" in page
+    assert "Decision: none" in page and "No specification (EXP/spec.toml)" in page
 
 
 def test_report_strict_exits_3_on_a_red_or_amber_verdict(plain, tmp_path, capsys):
