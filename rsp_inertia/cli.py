@@ -64,7 +64,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> None:
 
 def _cmd_identify(args: argparse.Namespace) -> None:
     with _terminal():
-        result = rsp_inertia.identify(args.exp)
+        result = rsp_inertia.identify(args.exp, coverage_factor=args.coverage_factor)
     print(result)
 
 
@@ -194,6 +194,13 @@ def _parser() -> argparse.ArgumentParser:
                 "--calibration", action="store_true",
                 help="EXP is a calibration folder (the empty fixture's runs, for calibrate; "
                 "one with reference.toml is taken as one anyway): no calibration.toml needed",
+            )
+        if name == "identify":
+            p.add_argument(
+                "--coverage-factor", type=float, default=2.0, metavar="K",
+                help="k of the expanded uncertainties U = k u in result.json and the output "
+                "(default 2: about 95 %%); the principal moments' and axes' Monte Carlo "
+                "intervals use its coverage probability",
             )
         p.set_defaults(run=run)
 
