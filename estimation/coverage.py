@@ -18,7 +18,13 @@ from statistics import NormalDist
 import numpy as np
 
 from rsp_inertia.infra.errors import InputError
-from rsp_inertia.plant.geometry import ENTRY_KEYS, principal, principal_uncertainty
+from rsp_inertia.plant.geometry import (
+    ENTRY_KEYS,
+    bilinear_gradient,
+    principal,
+    principal_uncertainty,
+    tensor_from_entries,
+)
 
 __all__ = [
     "DEFAULT_COVERAGE_FACTOR",
@@ -159,7 +165,7 @@ def principal_determined(
         In the order of the ascending moments.
     """
     moments, vectors = principal(entries)
-    gradients = [_gradient(v, v) for v in vectors]
+    gradients = [bilinear_gradient(v, v) for v in vectors]
     determined = np.ones(3, dtype=bool)
     for i in range(3):
         for j in range(i + 1, 3):
@@ -204,7 +210,7 @@ def linearised_tilt_quantile(
             if j == i:
                 continue
             gap = moments[i] - moments[j]
-            h = _gradient(vectors[j], vectors[i])
+            h = bilinear_gradient(vectors[j], vectors[i])
             if gap == 0.0:
                 rows = None
                 break
@@ -341,7 +347,7 @@ def principal_monte_carlo(
     moments_all, tilts_all, summaries = [], [], []
     while True:
         z = rng.standard_normal((batch, 6))
-        m, axes = np.linalg.eigh(_tensors(entries + z @ root.T))  # axes[n, :, i]: m[n, i]'s
+        m, axes = np.linalg.eigh(tensor_from_entries(entries + z @ root.T))  # axes[n, :, i]: m[n, i]'s
         # components of each drawn axis along the estimated ones: cosine and sine of the tilt
         c = np.einsum("ak,nki->nai", vectors, axes)
         along = np.abs(np.einsum("nii->ni", c))
@@ -404,24 +410,6 @@ def _pooled_std(means: np.ndarray, stds: np.ndarray, n: int) -> np.ndarray:
     h = means.shape[0]
     squares = (n - 1) * np.sum(stds**2, axis=0) + n * np.sum((means - means.mean(axis=0)) ** 2, axis=0)
     return np.sqrt(squares / (h * n - 1))
-
-
-def _tensors(entries: np.ndarray) -> np.ndarray:
-    """(n, 3, 3) tensors of (n, 6) entries (the layout of
-    rsp_inertia.plant.geometry.tensor_from_entries)."""
-    jx, jy, jz, jxy, jyz, jxz = entries.T
-    return np.stack(
-        [np.stack([jx, jxy, jxz], -1), np.stack([jxy, jy, jyz], -1), np.stack([jxz, jyz, jz], -1)],
-        axis=-2,
-    )
-
-
-def _gradient(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """d(a^T J b) / d(entries) for unit vectors a, b (the entries' order of ENTRY_KEYS)."""
-    return np.array([
-        a[0] * b[0], a[1] * b[1], a[2] * b[2],
-        a[0] * b[1] + a[1] * b[0], a[1] * b[2] + a[2] * b[1], a[0] * b[2] + a[2] * b[0],
-    ])
 
 
 METHOD = (
