@@ -498,7 +498,9 @@ def create_experiment(path: str | Path) -> Path:
 # --- combine --------------------------------------------------------------------------------
 
 
-def combine(paths: list[str | Path], out: str | Path) -> CombineResult:
+def combine(
+    paths: list[str | Path], out: str | Path, *, coverage_factor: float = 2.0
+) -> CombineResult:
     """Combine several identified mountings of one body (``rsp-inertia combine EXP ... --out
     OUT``): the tensor and the centre of mass (x, y and z) in body axes -> ``OUT/body.json``.
 
@@ -514,6 +516,8 @@ def combine(paths: list[str | Path], out: str | Path) -> CombineResult:
         The mountings' experiment folders.
     out : str or pathlib.Path
         The folder to write body.json into (created if needed).
+    coverage_factor : float, optional
+        k of body.json's expanded uncertainties U = k u (default 2), as for :func:`identify`.
 
     Returns
     -------
@@ -525,7 +529,8 @@ def combine(paths: list[str | Path], out: str | Path) -> CombineResult:
     InputError
         No folder or one given twice, folders of different devices or masses, a folder
         without result.json or ``[body] mass``, mountings that cannot give z_c (the message
-        says which rotation would), an output that cannot be written.
+        says which rotation would), an output that cannot be written, a coverage factor that
+        is not a finite number above 0.
 
     Examples
     --------
@@ -536,7 +541,7 @@ def combine(paths: list[str | Path], out: str | Path) -> CombineResult:
     from rsp_inertia.combining import combine as run
     from rsp_inertia.results import CombineResult
 
-    combination, path = run(paths, out)
+    combination, path = run(paths, out, coverage_factor)
     return CombineResult(combination, path)
 
 

@@ -79,7 +79,7 @@ def _cmd_report(args: argparse.Namespace) -> None:
 
 
 def _cmd_combine(args: argparse.Namespace) -> None:
-    print(rsp_inertia.combine(args.exp, args.out))
+    print(rsp_inertia.combine(args.exp, args.out, coverage_factor=args.coverage_factor))
 
 
 def _cmd_design(args: argparse.Namespace) -> None:
@@ -214,6 +214,10 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--out", type=Path, required=True, metavar="OUT",
         help="folder to write body.json into (created if needed)",
+    )
+    p.add_argument(
+        "--coverage-factor", type=float, default=2.0, metavar="K",
+        help="k of body.json's expanded uncertainties U = k u (default 2: about 95 %%)",
     )
     p.set_defaults(run=_cmd_combine)
 

@@ -12,6 +12,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from rsp_inertia.estimation.combine import Combination, combine_mountings, read_mounting
+from rsp_inertia.estimation.coverage import DEFAULT_COVERAGE_FACTOR, check_coverage_factor
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.infra.files import check_writable, write_atomic
 from rsp_inertia.plant.experiment import BODY_FILE, open_experiment
@@ -20,12 +21,15 @@ from rsp_inertia.provenance import input_changes, input_status
 __all__ = ["combine"]
 
 
-def combine(paths: list[str | Path], out: str | Path) -> tuple[Combination, Path]:
+def combine(
+    paths: list[str | Path], out: str | Path, coverage_factor: float = DEFAULT_COVERAGE_FACTOR
+) -> tuple[Combination, Path]:
     """The command behind :func:`rsp_inertia.api.combine`, documented there; returns the
     library's record (rsp_inertia.estimation.combine.Combination) and the body.json written,
     which the API holds in its CombineResult. A mounting whose inputs changed since
     identify (its result.json's provenance against the folder) gives a warning; an output
     that cannot be written is found before anything is read."""
+    coverage_factor = check_coverage_factor(coverage_factor)
     if not paths:
         raise InputError("combine: no experiment folder given: name every mounting's folder")
     exps = [open_experiment(root, protocol=False) for root in paths]
@@ -65,7 +69,7 @@ def combine(paths: list[str | Path], out: str | Path) -> tuple[Combination, Path
         changes = input_changes(input_status(exp.root, recorded, exp.identify_inputs()))
         if changes:
             warnings.append(f"{exp.root}: identify again: {'; '.join(changes)}")
-    combination = combine_mountings(mountings)
+    combination = replace(combine_mountings(mountings), coverage_factor=coverage_factor)
     if warnings:
         combination = replace(combination, warnings=warnings + list(combination.warnings))
     folder.mkdir(parents=True, exist_ok=True)

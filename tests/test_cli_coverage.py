@@ -109,3 +109,23 @@ def test_the_report_says_when_two_moments_leave_their_axes_undetermined(identifi
     assert stated["principal_axes_determined"].count(False) == 2
     for low, high in stated["principal_moments_interval"]:
         assert f"[{low:{VALUE}}, {high:{VALUE}}]" in page
+
+
+def test_combine_states_U_of_the_whole_centre_of_mass_with_its_k(tmp_path, capsys):
+    from tests.test_combine_cli import TURNED_X90, _mounting
+
+    first = _mounting(tmp_path / "a", np.eye(3))
+    second = _mounting(tmp_path / "b", TURNED_X90)
+    out = tmp_path / "body"
+    args = ["combine", str(first), str(second), "--out", str(out)]
+    assert main([*args, "--coverage-factor", "-1"]) == 2
+    assert "finite number above 0" in capsys.readouterr().err
+    assert not (out / "body.json").exists()
+    assert main([*args, "--coverage-factor", "2.5"]) == 0
+    printed = capsys.readouterr().out
+    body = json.loads((out / "body.json").read_text())
+    stated = body["expanded_uncertainty"]
+    assert stated["k"] == 2.5 and stated["coverage_probability"] == 0.9876
+    assert stated["com"] == {key: 2.5 * std for key, std in body["com_std"].items()}
+    assert stated["tensor"] == {key: 2.5 * std for key, std in body["tensor_std"].items()}
+    assert "U = k u with k = 2.5" in printed
