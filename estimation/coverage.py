@@ -530,7 +530,7 @@ class ExpandedUncertainty:
                 else f"axis NOT determined (moment within {NEAR_EQUAL_STDS:g} stds of another)"
             )
             out.append(
-                f"  I{i + 1} = {self.estimate_moments[i]:.8f} in [{mc.moments_low[i]:.8f}, "
+                f"  I{i + 1} = {self.estimate_moments[i]:.8f}, interval [{mc.moments_low[i]:.8f}, "
                 f"{mc.moments_high[i]:.8f}], U = {mc.moments_U[i]:.2g} (linearised "
                 f"{self.linearised_moments[i]:.2g}), {tilt}"
             )
