@@ -229,6 +229,8 @@ def _rayleigh_quantile(sigma: np.ndarray, p: float) -> float:
     s1, s2 = float(sigma[0]), float(sigma[1])
     if s1 == 0.0:
         return 0.0
+    if p >= 1.0:  # k beyond 8.3: p is 1 in double precision
+        return math.inf
     if s2 <= 1e-9 * s1:  # one-dimensional: |x_1| <= r
         return s1 * NormalDist().inv_cdf(0.5 + p / 2.0)
     psi = np.linspace(0.0, 2.0 * np.pi, 512, endpoint=False)
@@ -302,7 +304,8 @@ def principal_monte_carlo(
     Draws of the entries from N(entries, cov) (JCGM 101 §6.4.8: cov's square root by its
     eigendecomposition, negative rounding eigenvalues taken as 0) give drawn tensors, their
     ascending principal moments and, per axis, the angle between the drawn axis and the
-    estimated one (acos |v . v_drawn|). Batches of M = max(10^4, 100 / (1 - p)) draws run
+    estimated one (atan2 of its components across and along the estimated axis, sign
+    aside). Batches of M = max(10^4, 100 / (1 - p)) draws (at most half ``max_draws``) run
     until, for every moment, twice the standard deviation of the batch means of its mean,
     std and interval ends, and for every determined axis the same of its tilt's mean, std and
     p quantile, is at most the tolerance of the std over all draws (:func:`numerical_tolerance`);
@@ -340,14 +343,16 @@ def principal_monte_carlo(
     determined = principal_determined(entries, cov)
     w, v = np.linalg.eigh(0.5 * (cov + cov.T))
     root = v * np.sqrt(np.clip(w, 0.0, None))
-    batch = min(max(MIN_BATCH, math.ceil(100.0 / (1.0 - p))), max_draws)
+    wanted = math.ceil(100.0 / (1.0 - p)) if p < 1.0 else max_draws
+    batch = min(max(MIN_BATCH, wanted), max(max_draws // 2, 1))
     rng = np.random.default_rng(seed)
     tails = ((1.0 - p) / 2.0, (1.0 + p) / 2.0)
 
     moments_all, tilts_all, summaries = [], [], []
     while True:
         z = rng.standard_normal((batch, 6))
-        m, axes = np.linalg.eigh(tensor_from_entries(entries + z @ root.T))  # axes[n, :, i]: m[n, i]'s
+        # axes[n, :, i] is the axis of m[n, i]
+        m, axes = np.linalg.eigh(tensor_from_entries(entries + z @ root.T))
         # components of each drawn axis along the estimated ones: cosine and sine of the tilt
         c = np.einsum("ak,nki->nai", vectors, axes)
         along = np.abs(np.einsum("nii->ni", c))
@@ -522,6 +527,12 @@ class ExpandedUncertainty:
             f"expanded uncertainty U: {entries} kg m^2{com}",
             f"principal moments and axes by Monte Carlo ({draws}), {percent} intervals:",
         ]
+        if not mc.converged:
+            out.insert(-1, (
+                f"the Monte Carlo did not stabilise within {mc.draws} draws (JCGM 101 §7.9; "
+                f"k = {k} needs more for its tails): its intervals hold fewer digits than "
+                "they show"
+            ))
         for i in range(3):
             tilt = (
                 f"axis tilt <= {mc.tilt[i]:.2g} deg "

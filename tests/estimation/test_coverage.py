@@ -1,6 +1,7 @@
 """GUM statements (rsp_inertia.estimation.coverage): U = k u, coverage probabilities, the
 principal moments' and axes' adaptive Monte Carlo against independent truths."""
 
+import dataclasses
 import math
 from statistics import NormalDist
 
@@ -165,3 +166,15 @@ def test_an_exact_tensor_has_zero_intervals():
     assert stated.principal.converged
     assert np.array_equal(stated.principal.moments_U, np.zeros(3))
     assert np.array_equal(stated.tensor, np.zeros(6))
+
+
+def test_an_unstabilised_monte_carlo_says_so():
+    entries = np.array([0.021, 0.025, 0.028, 0.0, 0.0, 0.0])
+    stated = expanded_uncertainty(entries, COV, 2.0)
+    assert not any("did not stabilise" in line for line in stated.lines())
+    short = dataclasses.replace(
+        stated, principal=principal_monte_carlo(entries, COV, stated.p, max_draws=20_000)
+    )
+    assert not short.principal.converged and short.principal.draws == 20_000
+    assert any("did not stabilise within 20000 draws" in line for line in short.lines())
+    assert short.to_dict()["monte_carlo"]["converged"] is False
