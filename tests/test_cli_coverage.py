@@ -57,11 +57,16 @@ def test_a_bad_coverage_factor_exits_2_and_writes_nothing(default_logs, tmp_path
     assert not (root / "result.json").exists()
 
 
-def test_the_api_refuses_a_bad_coverage_factor(default_logs, tmp_path):
+def test_the_api_takes_the_coverage_factor_and_refuses_a_bad_one(default_logs, tmp_path):
     root = copy_experiment(default_logs, tmp_path / "exp")
     with pytest.raises(InputError, match="coverage_factor"):
         rsp_inertia.identify(root, coverage_factor=-1.0)
     assert not (root / "result.json").exists()
+    result = rsp_inertia.identify(root, coverage_factor=1.0)
+    stated = result.expanded_uncertainty
+    assert stated == json.loads(result.path.read_text())["expanded_uncertainty"]
+    assert stated["k"] == 1.0 and stated["coverage_probability"] == 0.6827
+    assert stated["tensor"]["Jx"] == result.entries_std[0]
 
 
 def test_the_report_states_U_with_its_k_and_what_it_means(identified):
