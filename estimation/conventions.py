@@ -186,7 +186,21 @@ def significant_terms(
     times 1 N m (gravity: a centre of mass off the axis by more than about 1e-10 m), and
     beyond :data:`CERTIFIED_STDS` of their std ``terms_std`` by the reference's certificate
     (a product certified as 5e-6 +- 5e-6 shows nothing): the ones that can show the rig's
-    orientation (M0 never does)."""
+    orientation (M0 never does).
+
+    Parameters
+    ----------
+    reference : TrueBody
+        The reference as it sits on the rig.
+    terms : numpy.ndarray, shape (7,)
+        Its terms in one stage (:func:`reference_terms`).
+    terms_std : numpy.ndarray, shape (7,), optional
+        Their stds by the certificate; None: the certificate's values exact.
+
+    Returns
+    -------
+    numpy.ndarray of bool, shape (7,)
+    """
     scale = np.array([np.inf] + [terms[0]] * 4 + [reference.mass] * 2)
     shown = np.abs(terms) > ORIENTATION_TOLERANCE * scale
     if terms_std is not None:
@@ -200,7 +214,21 @@ def shows_orientation(
     """Whether the reference's balances depend on the angle: a harmonic of its reduced
     inertia or a gravity term, on some stage (:func:`significant_terms`, beyond its
     ``certificate``'s stds when it states them; else no zero offset and no convention can
-    show in them)."""
+    show in them).
+
+    Parameters
+    ----------
+    reference : TrueBody
+        The reference as it sits on the rig.
+    device : Device
+        The calibrated experiment's device (its stages, gravity).
+    certificate : Reference, optional
+        The reference's certificate, whose stds a term must exceed.
+
+    Returns
+    -------
+    bool
+    """
     for st in device.stages:
         terms = reference_terms(reference, st.gear_ratio, device.gravity)
         terms_std = None
@@ -222,6 +250,20 @@ def certificate_jacobian(certificate: Reference, gear_ratio: float, gravity: flo
     centre of mass; docs/method.md §2, "Mountings"), so central differences are exact but for
     rounding; the steps are the values' own sizes (1e-3 of them, 1e-6 m for a centre of mass
     at the origin).
+
+    Parameters
+    ----------
+    certificate : Reference
+        The reference's certificate, with its folder's mounting.
+    gear_ratio : float
+        The stage's lambda.
+    gravity : float
+        m/s^2, device.toml's.
+
+    Returns
+    -------
+    numpy.ndarray, shape (7, 10)
+        Rows [M0, Mc2, Ms2, Ms1, Mc1, Gs, Gc], columns the certificate's values.
     """
     values = certificate.values
     scale = np.abs(values)

@@ -218,7 +218,22 @@ def identify_experiment(
     ISO 8601) the result carries its record (rsp_inertia.estimation.records, a warning when
     the calibration is overdue) and its decision against spec.toml
     (rsp_inertia.estimation.decision), made with the expanded uncertainties of coverage
-    factor ``coverage_factor`` (rsp_inertia.estimation.coverage)."""
+    factor ``coverage_factor`` (rsp_inertia.estimation.coverage).
+
+    Parameters
+    ----------
+    exp : Experiment
+        The experiment folder.
+    made : str, optional
+        When the result is made (ISO 8601): with it the result carries its record.
+    coverage_factor : float, optional
+        k of the result's expanded uncertainties (default 2).
+
+    Returns
+    -------
+    Identification
+        What identify found.
+    """
     calibration = read_calibration(exp)
     record, record_warnings = (None, []) if made is None else experiment_record(
         exp, calibration, made

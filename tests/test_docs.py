@@ -36,7 +36,15 @@ import tomlkit
 import rsp_inertia.plant
 from rsp_inertia.cli import _parser, main
 from rsp_inertia.infra.errors import InputError
-from rsp_inertia.infra.toml_schema import REQUIRED, Key, accepted_keys, is_table, layout
+from rsp_inertia.infra.toml_schema import (
+    REQUIRED,
+    Key,
+    accepted_keys,
+    is_table,
+    layout,
+    read_file,
+    read_table,
+)
 from rsp_inertia.plant import config, reference_config
 from rsp_inertia.virtual import config as virtual_config
 
@@ -220,10 +228,17 @@ def test_commands_md_documents_every_command_and_option():
 
 # --- device.toml, virtual.toml, reference.toml ---------------------------------------------
 
+def _load_reference_tables(path):
+    """reference.toml read by its loader (its rules across keys) and returned as its tables,
+    whose keys the docs name (the loader's Reference holds the stds as a covariance)."""
+    config.load_reference(path)
+    return read_table(reference_config._ReferenceFile, read_file(path))
+
+
 LOADERS = {
     "device.toml": config.load_device,
     "virtual.toml": virtual_config.load_virtual,
-    "reference.toml": config.load_reference,
+    "reference.toml": _load_reference_tables,
 }
 BASES = {
     "device.toml": DEFAULTS / "device.toml",
@@ -338,8 +353,6 @@ def _attribute(loaded, file: str, dotted: str):
         holder = loaded.stages[0] if table == "stage" else (
             loaded if table == "device" else getattr(loaded, table)
         )
-    elif file == "reference.toml":
-        holder = loaded
     else:
         holder = getattr(loaded, table)
     return getattr(holder, key)
@@ -558,16 +571,20 @@ def test_calibration_toml_keys_are_documented_and_exist():
             faults.append(f"{dotted}: documented as {row[1]!r}, the reader's required={required}")
     assert not faults, "\n".join(faults)
 
+    tares = KnownTerms.from_tares([0.0037, 0.084])
+    share = np.eye(tares.cov.shape[0]) * 1e-14  # a reference certificate's whole covariance
+    known = tares.with_theta(tares.theta, share, certificate_cov=share)
     calibration = Calibration(
         device_name="bench-A",
         counts_per_rev=65536,
         gear_ratios=(0.7639320225, 5.2360679775),
         nodes_deg=((0.0, 120.0, 240.0), (60.0, 180.0, 300.0)),
-        known=KnownTerms.from_tares([0.0037, 0.084]),
+        known=known,
         reference=True,
         inputs={"bench-A/calibration/empty/device.toml": "0" * 64},
         chi2_dof=1.0,
         date="2026-11-18",
+        certificate=config.Certificate(id="RB-1", issuer="Lab", date="2026-03-02"),
         stiffness=StiffnessCalibration(2.0, 1e-3, [(1, 0.0, 2.0, 1e-3)], math.nan, []),
     )
     doc = tomllib.loads(calibration.to_toml())

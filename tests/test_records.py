@@ -40,7 +40,7 @@ from rsp_inertia.estimation.records import calibration_due, reference_certificat
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.infra.files import file_sha256
 from rsp_inertia.infra.toml_schema import REQUIRED, accepted_keys, is_table, layout
-from rsp_inertia.plant.config import load_device
+from rsp_inertia.plant.config import Certificate, load_device
 from rsp_inertia.plant.geometry import ENTRY_KEYS
 from rsp_inertia.plant.record_config import RecordFile, Rule, SpecFile, load_record, load_spec
 from rsp_inertia.report_parts import decision_box
@@ -228,12 +228,15 @@ def test_due_dates_count_calendar_days():
 
 
 def test_the_reference_certificate_is_read_where_calibration_toml_has_one():
-    certificate = SimpleNamespace(id="PTB-2026-0815", issuer="PTB", date="2026-03-01")
+    certificate = Certificate(id="PTB-2026-0815", issuer="PTB", date="2026-03-01")
     assert reference_certificate(SimpleNamespace(certificate=certificate)) == {
         "id": "PTB-2026-0815", "issuer": "PTB", "date": "2026-03-01"
     }
-    assert reference_certificate(SimpleNamespace(certificate=None)) is None
-    assert reference_certificate(SimpleNamespace()) is None  # a file without the table
+    # Its issuer and date may be left out of reference.toml.
+    assert reference_certificate(SimpleNamespace(certificate=Certificate(id="X"))) == {
+        "id": "X", "issuer": None, "date": None
+    }
+    assert reference_certificate(SimpleNamespace(certificate=None)) is None  # no [certificate]
     assert reference_certificate(None) is None
 
 

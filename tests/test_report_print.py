@@ -18,7 +18,7 @@ import pytest
 from rsp_inertia.cli import main
 from rsp_inertia.identifying import identify
 from rsp_inertia.pdf import BROWSERS
-from rsp_inertia.report_parts import VALUE, WARNINGS_SHOWN, Z95
+from rsp_inertia.report_parts import VALUE, WARNINGS_SHOWN
 from tests.conftest import copy_experiment
 from tests.test_combine_cli import TURNED_X90, _mounting
 from tests.test_docs import FILES, _section, _table_rows, _text
@@ -53,9 +53,9 @@ def identified(tmp_path_factory, default_logs):
 
 @pytest.fixture
 def signed(identified, tmp_path):
-    """A copy whose result.json carries a record, a failed decision, an expanded uncertainty
-    and eleven warnings (the issue's case: a long verdict must not push the result off the
-    first page)."""
+    """A copy whose result.json carries a record, a failed decision and eleven warnings (the
+    issue's case: a long verdict must not push the result off the first page), beside the
+    expanded uncertainty identify states."""
     root = tmp_path / "signed"
     shutil.copytree(identified, root)
     path = root / "result.json"
@@ -67,13 +67,6 @@ def signed(identified, tmp_path):
         "quantities": {"Jx": "pass", "Jy": "fail", "x": "indeterminate"},
         "limits": {"Jx": [jx * 0.99, jx * 1.01], "Jy": [0.0, 0.02], "x": [0.0, 0.003]},
         "part": "fail",
-    }
-    result["expanded_uncertainty"] = {
-        "k": 2.0, "coverage": "approximately 95 %",
-        "tensor": {k: 2 * s for k, s in result["tensor_std"].items()},
-        "com": {k: 2 * s for k, s in result["com_std"].items()},
-        "principal_moments": [2 * s for s in result["principal_moments_std"]],
-        "principal_axes_tilt_deg": [0.01, 0.01, 0.01], "method": "JCGM 100",
     }
     result["warnings"] = [f"warning number {i}: " + "a model test failed; " * 6
                           for i in range(1, 12)]
@@ -99,8 +92,8 @@ def test_the_report_identifies_itself_as_a_test_report(identified):
     assert "The results relate only to the item tested" in page
     assert "<h1>Test report: inertia tensor of" in page
     assert "counter(page)" in page and "counter(pages)" in page
-    # No record in result.json: every field says so, nothing is made up.
-    assert "holds no record" in page and page.count("not recorded") >= 11
+    # No record.toml, no calibration: every field of the record says so, nothing is made up.
+    assert page.count("not recorded") >= 11
     assert "Decision: none" in page and "No specification (EXP/spec.toml)" in page
     # The signature block: three roles, blank names, dates and signatures.
     block = page[page.index("<div class='signatures'>"):]
@@ -119,14 +112,17 @@ def test_record_decision_and_expanded_uncertainty_are_shown(signed):
     # The part's verdict beside the software's: both before any number.
     decision = page.index("<h2>Part: FAIL</h2>")
     assert page.index("class='verdict") < decision < page.index("Inertia tensor")
-    assert "<td>Jy</td><td>[0, 0.02]</td><td>FAIL</td>" in page
+    assert "<td>Jy</td><td></td><td></td><td>[0, 0.02]</td><td>FAIL</td>" in page
     assert "guarded acceptance" in page
-    # U beside std: the entry's row ends with U = 2 std, as the result states it.
+    # U beside std: the entry's row gives U = 2 std and the interval y +- U, as the result
+    # states them.
     jx, std = result["tensor"]["Jx"], result["tensor_std"]["Jx"]
-    row = (f"<td>Jx</td><td>{jx:{VALUE}}</td><td>{std:.2g}</td><td>{std / jx:.1e}</td>"
-           f"<td>[{jx - Z95 * std:{VALUE}}, {jx + Z95 * std:{VALUE}}]</td><td>{2 * std:.2g}</td>")
+    U = result["expanded_uncertainty"]["tensor"]["Jx"]
+    assert U == 2 * std
+    row = (f"<td>Jx</td><td>{jx:{VALUE}}</td><td>{std:.2g}</td><td>{U:.2g}</td>"
+           f"<td>{std / jx:.1e}</td><td>[{jx - U:{VALUE}}, {jx + U:{VALUE}}]</td>")
     assert row in page
-    assert "k = 2, approximately 95 %" in page
+    assert "U (k = 2)" in page and "95.45 %" in page
     # Eleven warnings: the box lists the first ones, the section after the result all.
     level, box = _verdict(page)
     assert level == "warn" and "11 warnings" in box

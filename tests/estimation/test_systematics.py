@@ -7,6 +7,7 @@ warning) and the accuracy targets of the systematics benchmark.
 """
 
 import dataclasses
+import json
 import re
 import shutil
 
@@ -26,6 +27,7 @@ from rsp_inertia.estimation.runs import ExperimentLogs
 from rsp_inertia.estimation.tensor_fit import fit_tensor
 from rsp_inertia.identifying import identify
 from rsp_inertia.plant.config import (
+    Certificate,
     Pendulum,
     Reference,
     TrueBody,
@@ -307,7 +309,8 @@ def _certificate_off(ref_folder, folder, error=CERTIFICATE_ERROR):
     )
     stated_values = truth.values + std * np.asarray(error)
     body = TrueBody(stated_values[0], stated_values[1:7], stated_values[7:])
-    write_reference(folder / "reference.toml", Reference(body, np.diag(std**2)))
+    certificate = Certificate(id="RB-36", issuer="Example Laboratory", date="2026-03-02")
+    write_reference(folder / "reference.toml", Reference(body, np.diag(std**2), certificate))
 
 
 def test_the_reference_certificates_uncertainty_reaches_the_tensor(rig, tmp_path):
@@ -341,6 +344,11 @@ def test_the_reference_certificates_uncertainty_reaches_the_tensor(rig, tmp_path
     assert np.all((relative > 0.4 * CERTIFICATE_REL_STD) & (relative < 1.2 * CERTIFICATE_REL_STD))
     total = np.sqrt(sum(part["tensor"] ** 2 for part in budget.values()))
     np.testing.assert_allclose(total, result.entries_std, rtol=1e-6)
+    # The certificate's identification reaches the result's record.
+    record = json.loads((target / "result.json").read_text())["record"]
+    assert record["reference_certificate"] == {
+        "id": "RB-36", "issuer": "Example Laboratory", "date": "2026-03-02"
+    }
 
     # A certificate of another body: Jx and Jy 20 of their stds apart from the truth, the
     # shape of the tensor the runs measure far better than the certificate states it.
