@@ -15,7 +15,7 @@ from rsp_inertia.estimation.combine import Combination, combine_mountings, read_
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.infra.files import check_writable, write_atomic
 from rsp_inertia.plant.experiment import BODY_FILE, open_experiment
-from rsp_inertia.provenance import input_changes, input_status
+from rsp_inertia.provenance import input_changes, input_status, integrity_state, sealed_json
 
 __all__ = ["combine"]
 
@@ -24,8 +24,9 @@ def combine(paths: list[str | Path], out: str | Path) -> tuple[Combination, Path
     """The command behind :func:`rsp_inertia.api.combine`, documented there; returns the
     library's record (rsp_inertia.estimation.combine.Combination) and the body.json written,
     which the API holds in its CombineResult. A mounting whose inputs changed since
-    identify (its result.json's provenance against the folder) gives a warning; an output
-    that cannot be written is found before anything is read."""
+    identify (its result.json's provenance against the folder) gives a warning, one whose
+    result.json was edited after identify wrote it (rsp_inertia.provenance.integrity_state)
+    is refused; an output that cannot be written is found before anything is read."""
     if not paths:
         raise InputError("combine: no experiment folder given: name every mounting's folder")
     exps = [open_experiment(root, protocol=False) for root in paths]
@@ -57,7 +58,18 @@ def combine(paths: list[str | Path], out: str | Path) -> tuple[Combination, Path
             )
     warnings = []
     for exp in exps:
-        recorded = (json.loads(exp.result_path.read_text()).get("provenance") or {}).get("inputs")
+        document = json.loads(exp.result_path.read_text())
+        state = integrity_state(document)
+        if state == "edited":
+            raise InputError(
+                f"{exp.result_path}: edited after identify wrote it (its integrity sha256 is "
+                f"not its content's): run rsp-inertia identify {exp.root} again; nothing "
+                "was written"
+            )
+        if state == "not sealed":
+            warnings.append(f"{exp.result_path}: records no integrity (an older rsp-inertia "
+                            "wrote it): whether it was edited cannot be checked")
+        recorded = (document.get("provenance") or {}).get("inputs")
         if recorded is None:
             warnings.append(f"{exp.result_path}: records no inputs: whether it still "
                             "describes the folder's logs cannot be checked")
@@ -69,5 +81,6 @@ def combine(paths: list[str | Path], out: str | Path) -> tuple[Combination, Path
     if warnings:
         combination = replace(combination, warnings=warnings + list(combination.warnings))
     folder.mkdir(parents=True, exist_ok=True)
-    write_atomic(target, combination.to_json())
+    # sealed last, over the whole document (docs/files.md, body.json integrity)
+    write_atomic(target, sealed_json(combination.to_dict()))
     return combination, target

@@ -39,7 +39,13 @@ from rsp_inertia.plots import (
     experiment_figures,
     figure_png,
 )
-from rsp_inertia.provenance import created_now, input_changes, input_status, package_versions
+from rsp_inertia.provenance import (
+    created_now,
+    input_changes,
+    input_status,
+    integrity_state,
+    package_versions,
+)
 
 __all__ = ["FIGURES", "REPORT_FILE", "VALUE", "Z95", "write_report"]
 
@@ -106,10 +112,23 @@ def _read_result(exp: Experiment) -> dict:
 
 def _verdict(exp: Experiment, result: dict, status: dict[str, str] | None) -> str:
     """The box the report leads with: are the inputs those identify read (``status``:
-    rsp_inertia.provenance.input_status, None when result.json records none), and its
-    warnings."""
+    rsp_inertia.provenance.input_status, None when result.json records none), is result.json
+    as identify wrote it (rsp_inertia.provenance.integrity_state), and its warnings."""
     warnings = result.get("warnings") or []
     items, level = [], "ok"
+    integrity = integrity_state(result)
+    if integrity == "edited":
+        level = "stale"
+        items.append(
+            "<p><b>result.json was edited after it was written</b> (its integrity sha256 is "
+            "not its content's): a number or a warning below may not be identify's. Run "
+            f"<code>rsp-inertia identify {html.escape(str(exp.root))}</code> again.</p>"
+        )
+    elif integrity == "not sealed":
+        items.append(
+            "<p>result.json records no integrity (an older rsp-inertia wrote it): whether it "
+            "was edited after it was written cannot be checked.</p>"
+        )
     if status is not None:
         changes = input_changes(status)
         if changes:

@@ -12,6 +12,7 @@ import numpy as np
 from rsp_inertia.figure_files import save_figures
 from rsp_inertia.plant.experiment import RESULT_FILE
 from rsp_inertia.plant.geometry import ENTRY_KEYS, principal, relative_errors, tensor_from_entries
+from rsp_inertia.provenance import sealed_json
 from rsp_inertia.results.common import Drawer, Drawn
 
 if TYPE_CHECKING:
@@ -174,9 +175,10 @@ class IdentifyResult(Drawn):
         str
             The JSON document (keys ``tensor``, ``tensor_std``, ``principal_moments``,
             ``principal_axes``, ``axes``, ``com``, ``com_std``, ``condition_number``,
-            ``node_formula``, ``least_squares``, ``warnings``, ``pendulum``, ...).
+            ``node_formula``, ``least_squares``, ``warnings``, ``pendulum``, ...), sealed
+            with its ``integrity`` (rsp_inertia.provenance.sealed_json).
         """
-        return self.identification.to_json()
+        return sealed_json(self.identification.to_dict())
 
     def figures(self, folder: str | Path | None = None) -> list[Path]:
         """Draw the demo's figures of this experiment as PNG files.
