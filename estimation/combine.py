@@ -217,6 +217,10 @@ class Combination:
     warnings: list[str] = field(default_factory=list)
     """The mountings' disagreement (statistic and the entries that disagree), a tensor that
     is not a physical one."""
+    mass: float | None = None
+    """kg, the body's mass as the mountings' device.toml ``[body] mass`` states it (the rig
+    measures m g x_c, not m: the centre of mass is computed with this mass); body.json's
+    ``mass``."""
 
     @property
     def entries_std(self) -> np.ndarray:
@@ -256,8 +260,8 @@ class Combination:
         """body.json's document (docs/files.md): ``tensor``, ``tensor_std`` (keys Jx ... Jxz,
         kg m^2), ``com``, ``com_std`` (keys x, y, z, m), ``covariance`` (9 x 9, order
         Jx, Jy, Jz, Jxy, Jyz, Jxz, x, y, z), the principal moments and axes with their stds,
-        per mounting its residuals in stds (None: not tested), the consistency test and the
-        warnings."""
+        per mounting its residuals in stds (None: not tested), the consistency test, the
+        warnings and the mass the centre of mass was computed with."""
         tilt = self.principal_axes_tilt_std
         return {
             "tensor": dict(zip(ENTRY_KEYS, map(float, self.entries))),
@@ -283,6 +287,7 @@ class Combination:
             ],
             "consistency": {"chi2": float(self.chi2), "dof": int(self.dof), "p": float(self.p)},
             "warnings": list(self.warnings),
+            "mass": None if self.mass is None else float(self.mass),
         }
 
     def __str__(self) -> str:
@@ -480,6 +485,7 @@ def combine_mountings(mountings: Sequence[MountedResult]) -> Combination:
         dof=dof,
         p=p,
         warnings=warnings,
+        mass=mountings[0].mass,
     )
 
 

@@ -46,6 +46,7 @@ if TYPE_CHECKING:
         CalibrateResult,
         CheckResult,
         CombineResult,
+        ExportResult,
         IdentifyResult,
         PlanResult,
         ProgramResult,
@@ -526,6 +527,70 @@ def combine(paths: list[str | Path], out: str | Path) -> CombineResult:
 
     combination, path = run(paths, out)
     return CombineResult(combination, path)
+
+
+# --- export ---------------------------------------------------------------------------------
+
+
+def export(
+    source: str | Path,
+    out: str | Path,
+    *,
+    format: str = "json",  # named as the command line's --format
+    frame: str | Path | None = None,
+    mass: float | None = None,
+    mass_std: float | None = None,
+) -> ExportResult:
+    """A result's mass properties in another frame, as JSON, CSV or URDF (``rsp-inertia export
+    SRC --format F [--frame FRAME.toml] --out FILE``).
+
+    Reads identify's result.json (rig axes, about the rig's centre) or combine's body.json
+    (body axes, about the body frame's origin) and writes the mass, the centre of mass and
+    the tensor about the frame's origin in the frame's axes, with the covariance carried
+    through the rotation and the parallel-axis shift (docs/method.md, "Exporting in another
+    frame"); URDF: an ``<inertial>`` element, the tensor about the centre of mass, the stds
+    in a comment. The file is written atomically.
+
+    Parameters
+    ----------
+    source : str or pathlib.Path
+        SRC: a result.json, a body.json, or a folder holding one of them.
+    out : str or pathlib.Path
+        FILE to write.
+    format : {'json', 'csv', 'urdf'}, optional
+        ``--format`` (default 'json').
+    frame : str or pathlib.Path, optional
+        FRAME.toml: ``[frame] rotation`` (3 x 3, rows: the frame's axes in the source's axes)
+        and ``origin`` (m, in the source's axes); default: the source's own axes and origin.
+    mass : float, optional
+        kg, ``--mass``: needed only when the source states no mass (the rig does not measure
+        it; result.json's folder's device.toml ``[body] mass``, body.json's ``mass``).
+    mass_std : float, optional
+        kg, ``--mass-std``: the mass's std (default: the mass is taken as exact, with a note).
+
+    Returns
+    -------
+    ExportResult
+        The values in the frame with their covariance, and the file written.
+
+    Raises
+    ------
+    InputError
+        A source that is missing, not a result file or edited after it was written; a frame
+        file that is not valid (a rotation that is not orthonormal with determinant +1); no
+        mass; a result.json asked for what its missing z_c would give (URDF, a shifted
+        origin); a bad ``format``; an output that cannot be written.
+
+    Examples
+    --------
+    >>> rsp_inertia.export("body", "body.urdf", format="urdf", frame="cad.toml")  # doctest: +SKIP
+    """
+    # numpy and the geometry only: not the estimation stack, CasADi or matplotlib
+    from rsp_inertia.exporting import export as run
+    from rsp_inertia.results import ExportResult
+
+    exported = run(source, out, format, frame, mass, mass_std)
+    return ExportResult(exported, Path(out), format)
 
 
 # --- design (the command line's; not in __all__) --------------------------------------------
