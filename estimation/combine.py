@@ -31,6 +31,7 @@ from scipy.linalg import solve_triangular
 from scipy.special import chdtrc
 
 from rsp_inertia.infra.errors import InputError
+from rsp_inertia.infra.frozen import freeze_arrays, read_only
 from rsp_inertia.plant.experiment import Experiment
 from rsp_inertia.plant.geometry import (
     ENTRY_KEYS,
@@ -222,35 +223,38 @@ class Combination:
     measures m g x_c, not m: the centre of mass is computed with this mass); body.json's
     ``mass``."""
 
+    def __post_init__(self) -> None:
+        freeze_arrays(self)  # its arrays read-only, as the record is frozen
+
     @property
     def entries_std(self) -> np.ndarray:
         """(6,) kg m^2."""
-        return np.sqrt(np.diag(self.cov)[:6])
+        return read_only(np.sqrt(np.diag(self.cov)[:6]))
 
     @property
     def com_std(self) -> np.ndarray:
         """(3,) m."""
-        return np.sqrt(np.diag(self.cov)[6:])
+        return read_only(np.sqrt(np.diag(self.cov)[6:]))
 
     @property
     def principal_moments(self) -> np.ndarray:
         """(3,) kg m^2, ascending (rsp_inertia.plant.geometry.principal)."""
-        return principal(self.entries)[0]
+        return read_only(principal(self.entries)[0])
 
     @property
     def principal_axes(self) -> np.ndarray:
         """(3, 3) unit axes in body axes, one per row, in the order of the moments."""
-        return principal(self.entries)[1]
+        return read_only(principal(self.entries)[1])
 
     @property
     def principal_moments_std(self) -> np.ndarray:
         """(3,) kg m^2, to first order (rsp_inertia.plant.geometry.principal_uncertainty)."""
-        return principal_uncertainty(self.entries, self.cov[:6, :6])[0]
+        return read_only(principal_uncertainty(self.entries, self.cov[:6, :6])[0])
 
     @property
     def principal_axes_tilt_std(self) -> np.ndarray:
         """(3,) rad, each principal axis's rms tilt (infinite for two equal moments)."""
-        return principal_uncertainty(self.entries, self.cov[:6, :6])[1]
+        return read_only(principal_uncertainty(self.entries, self.cov[:6, :6])[1])
 
     def to_json(self) -> str:
         """The text of body.json: :meth:`to_dict` indented, with a final newline."""

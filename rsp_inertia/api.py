@@ -16,7 +16,9 @@ module re-exports them, so ``rsp_inertia.api.IdentifyResult`` and
 ``rsp_inertia.IdentifyResult`` are the same class.
 
 Bad input raises :class:`~rsp_inertia.infra.errors.InputError`, whose message is the line
-the command line prints after ``rsp-inertia: error:``. Nothing is printed: what the command
+the command line prints after ``rsp-inertia: error:``; so does an argument of the wrong type
+(None or a number for a path, the string "1" for a stage, a string for a number), with a line
+naming the function and the argument. Nothing is printed: what the command
 line shows while it works goes to the optional ``progress`` callable, one line (a ``str``)
 at a time (rsp_inertia.infra.progress.lines_to: without it, to the progress installed around
 the call, none by default).
@@ -31,6 +33,8 @@ in the package, each with its reason. User documentation: docs/api.md.
 
 from __future__ import annotations
 
+import numbers
+import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -79,6 +83,60 @@ def _identify_figures(result: IdentifyResult) -> list[tuple[str, Figure]]:
     return identify_figures(result)
 
 
+# --- arguments: the types a script may pass wrong ------------------------------------------
+
+
+def _path(value: object, function: str, name: str = "path") -> Path:
+    """``value`` as a path; anything but a str or path-like (None, a number) is refused with
+    one line naming the function and the argument (InputError), not a TypeError deep down."""
+    if isinstance(value, (str, os.PathLike)):
+        return Path(value)
+    raise InputError(
+        f"{function}: {name}: must be a path (str or pathlib.Path), got {value!r}"
+    )
+
+
+def _paths(value: object, function: str, name: str) -> list[Path]:
+    """One path, or a list or tuple of paths (one folder is not taken for its characters)."""
+    if isinstance(value, (str, os.PathLike)):
+        return [Path(value)]
+    if isinstance(value, (list, tuple)):
+        return [_path(item, function, f"{name}[{i}]") for i, item in enumerate(value)]
+    raise InputError(
+        f"{function}: {name}: must be a path or a list of paths (str or pathlib.Path), "
+        f"got {value!r}"
+    )
+
+
+def _stage(value: object, function: str) -> int | None:
+    """A stage number (an integer; None: every stage), or the one-line refusal of another
+    type (the string "1", 1.5, True)."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise InputError(
+            f"{function}: stage: must be an integer, the stage's number from 1 (None: every "
+            f"stage), got {value!r}"
+        )
+    return int(value)
+
+
+def _number(value: object, function: str, name: str) -> float | None:
+    """A real number as float (None stays None), or the one-line refusal of another type."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise InputError(f"{function}: {name}: must be a number, got {value!r}")
+    return float(value)
+
+
+def _flag(value: object, function: str, name: str) -> bool:
+    """A bool, or the one-line refusal of another type (the string "no" is true)."""
+    if not isinstance(value, bool):
+        raise InputError(f"{function}: {name}: must be True or False, got {value!r}")
+    return value
+
+
 # --- identify and demo ----------------------------------------------------------------------
 
 
@@ -116,9 +174,10 @@ def identify(path: str | Path, *, progress: LineReceiver | None = None) -> Ident
     from rsp_inertia.identifying import identify as run
     from rsp_inertia.results import IdentifyResult
 
+    path = _path(path, "identify")
     with lines_to(progress):
         identification = run(path)
-    return IdentifyResult(identification, Path(path), drawer=_identify_figures)
+    return IdentifyResult(identification, path, drawer=_identify_figures)
 
 
 def demo(
@@ -162,6 +221,7 @@ def demo(
     from rsp_inertia.rig_demo import demo as run
     from rsp_inertia.virtual.config import experiment_virtual, placed_body
 
+    path = _path(path, "demo")
     with lines_to(progress):
         result = run(path)
     exp = open_experiment(path)
@@ -223,6 +283,8 @@ def simulate(
     from rsp_inertia.results import SimulateResult
     from rsp_inertia.simulating import simulate as run
 
+    path, stage = _path(path, "simulate"), _stage(stage, "simulate")
+    ideal = _flag(ideal, "simulate", "ideal")
     with lines_to(progress):
         passes = run(path, stage, part, ideal=ideal, direction=direction)
     return SimulateResult(tuple(passes), Path(path))
@@ -264,6 +326,7 @@ def program(
     from rsp_inertia.programming import program_summaries
     from rsp_inertia.results import ProgramResult
 
+    path, stage = _path(path, "program"), _stage(stage, "program")
     with lines_to(progress):
         runs = program_summaries(path, stage)
     return ProgramResult(tuple(runs), Path(path))
@@ -321,6 +384,9 @@ def calibrate(
     from rsp_inertia.calibrating import calibrate as run
     from rsp_inertia.calibrating import calibrate_result
 
+    path, empty = _path(path, "calibrate"), _path(empty, "calibrate", "empty")
+    if reference is not None:
+        reference = _path(reference, "calibrate", "reference")
     with lines_to(progress):
         calibration = run(path, empty, reference)
     return calibrate_result(calibration, path)
@@ -373,8 +439,9 @@ def plan(
     # experiment design: the prediction, the rehearsal's closed loop, matplotlib
     from rsp_inertia.planning import plan as run
 
-    if max_duration is not None:
-        max_duration = float(max_duration)  # as the command line parses it
+    path = _path(path, "plan")
+    max_duration = _number(max_duration, "plan", "max_duration")
+    rehearse = _flag(rehearse, "plan", "rehearse")
     with lines_to(progress):
         return run(path, max_duration, rehearse=rehearse)
 
@@ -415,7 +482,7 @@ def check(path: str | Path, *, calibration: bool = False) -> CheckResult:
     # identify's readers and checks (the estimation stack), not the simulator or matplotlib
     from rsp_inertia.checking import check as run
 
-    return run(path, calibration)
+    return run(_path(path, "check"), _flag(calibration, "check", "calibration"))
 
 
 def write_report(path: str | Path) -> Path:
@@ -452,7 +519,7 @@ def write_report(path: str | Path) -> Path:
     # the report's figures and the logs' smoother (matplotlib, the estimation stack)
     from rsp_inertia.report import write_report as run
 
-    return run(path)
+    return run(_path(path, "write_report"))
 
 
 def create_experiment(path: str | Path) -> Path:
@@ -481,13 +548,13 @@ def create_experiment(path: str | Path) -> Path:
     # the default files and tomlkit: light, but create_experiment's alone
     from rsp_inertia.scenarios import create_default_experiment
 
-    return create_default_experiment(path)
+    return create_default_experiment(_path(path, "create_experiment"))
 
 
 # --- combine --------------------------------------------------------------------------------
 
 
-def combine(paths: list[str | Path], out: str | Path) -> CombineResult:
+def combine(paths: list[str | Path] | str | Path, out: str | Path) -> CombineResult:
     """Combine several identified mountings of one body (``rsp-inertia combine EXP ... --out
     OUT``): the tensor and the centre of mass (x, y and z) in body axes -> ``OUT/body.json``.
 
@@ -499,8 +566,8 @@ def combine(paths: list[str | Path], out: str | Path) -> CombineResult:
 
     Parameters
     ----------
-    paths : list of str or pathlib.Path
-        The mountings' experiment folders.
+    paths : list of str or pathlib.Path, or one of them
+        The mountings' experiment folders (one folder alone: a one-element list).
     out : str or pathlib.Path
         The folder to write body.json into (created if needed).
 
@@ -525,7 +592,8 @@ def combine(paths: list[str | Path], out: str | Path) -> CombineResult:
     from rsp_inertia.combining import combine as run
     from rsp_inertia.results import CombineResult
 
-    combination, path = run(paths, out)
+    paths = _paths(paths, "combine", "paths")
+    combination, path = run(paths, _path(out, "combine", "out"))
     return CombineResult(combination, path)
 
 
@@ -589,8 +657,13 @@ def export(
     from rsp_inertia.exporting import export as run
     from rsp_inertia.results import ExportResult
 
+    source, out = _path(source, "export", "source"), _path(out, "export", "out")
+    if frame is not None:
+        frame = _path(frame, "export", "frame")
+    mass = _number(mass, "export", "mass")
+    mass_std = _number(mass_std, "export", "mass_std")
     exported = run(source, out, format, frame, mass, mass_std)
-    return ExportResult(exported, Path(out), format)
+    return ExportResult(exported, out, format)
 
 
 # --- design (the command line's; not in __all__) --------------------------------------------
@@ -631,6 +704,6 @@ def axis_designs(
     from rsp_inertia.axis_designs import axis_designs as run
 
     return run(
-        [Path(p) for p in paths] if paths is not None else None,
-        None if plot is None else Path(plot),
+        _paths(paths, "axis_designs", "paths") if paths is not None else None,
+        None if plot is None else _path(plot, "axis_designs", "plot"),
     )

@@ -39,6 +39,7 @@ import numpy as np
 
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.infra.files import check_writable, write_atomic
+from rsp_inertia.infra.frozen import freeze_arrays, read_only
 from rsp_inertia.infra.toml_schema import ContentError, config_class, key, read_file, read_table
 from rsp_inertia.plant.device_config import _rotation
 from rsp_inertia.plant.experiment import BODY_FILE, RESULT_FILE, open_experiment
@@ -163,6 +164,9 @@ class SourceBody:
     """kg."""
     notes: tuple[str, ...] = ()
     """What the reader assumed: a mass std not stated, a source without integrity."""
+
+    def __post_init__(self) -> None:
+        freeze_arrays(self)  # its arrays read-only, as the record is frozen
 
 
 def _load_document(path: Path) -> dict:
@@ -397,15 +401,12 @@ class Exported:
     """What the export assumed (a mass std not stated, a source without integrity)."""
 
     def __post_init__(self) -> None:
-        for name in ("values", "cov"):
-            array = np.array(getattr(self, name), dtype=float)
-            array.flags.writeable = False
-            object.__setattr__(self, name, array)
+        freeze_arrays(self)  # its arrays read-only, as the record is frozen
 
     @property
     def std(self) -> np.ndarray:
-        """(16,) standard deviations of :attr:`values`."""
-        return np.sqrt(np.maximum(np.diag(self.cov), 0.0))
+        """(16,) standard deviations of :attr:`values`, read-only."""
+        return read_only(np.sqrt(np.maximum(np.diag(self.cov), 0.0)))
 
     def to_dict(self) -> dict:
         """The JSON document (docs/files.md, export): values, stds, the covariance of the

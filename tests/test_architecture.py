@@ -421,7 +421,7 @@ def test_the_results_import_nothing_heavy(name: str) -> None:
     light = ("rsp_inertia.results", "rsp_inertia.figure_files", "rsp_inertia.plant.experiment",
              "rsp_inertia.plant.geometry", "rsp_inertia.plant.direction",
              "rsp_inertia.infra.toml_writer", "rsp_inertia.infra.lazy",
-             "rsp_inertia.provenance")
+             "rsp_inertia.provenance", "rsp_inertia.infra.frozen")
     heavy = [target for target, _, _ in IMPORTS[name] if not target.startswith(light)]
     assert heavy == [], f"{name} imports {heavy}"
     assert _third_party(MODULES[name].read_text()) <= LIGHT_PACKAGES
