@@ -38,7 +38,7 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from rsp_inertia.infra.errors import InputError  # noqa: F401 (public: raised by every function)
+from rsp_inertia.infra.errors import InputError  # public: raised by every function
 from rsp_inertia.infra.progress import LineReceiver, lines_to
 from rsp_inertia.public import API_NAMES, RESULT_CLASSES
 
