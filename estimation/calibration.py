@@ -38,9 +38,20 @@ The estimates and their covariance are the calibration (:class:`KnownTerms`), wr
 corrected, its right-hand side is h_d W_d + h_b W_b - 2 Pi_spring - 1/2 S M_empty - 2 Pi_f,
 and the calibration's covariance reaches the tensor as its own budget line.
 
-The reference body's data are taken as exact (a reference mass is certified far beyond the
-method's noise); friction may differ between the calibration runs and the loaded ones (it
-cancels within each run).
+The reference body's certified values (mass, tensor, centre of mass) are known terms of
+the fit with their certificate's covariance as a prior (reference.toml's stds;
+rsp_inertia.plant.config.Reference), as identify takes the calibration's terms
+(rsp_inertia.estimation.gls, known terms): their columns are the reference runs' d rhs / d
+value (rsp_inertia.estimation.conventions.certificate_jacobian), so the runs refine them where they carry information,
+the model tests take an error of the certificate within its stds for the certificate's and
+not for a fault of the rig, and the certificate's uncertainty reaches every calibrated term
+through the whole fit (tares and their harmonics, fixture, drive gains, encoder). The
+certificate's common scale (mass and tensor together) is the logged torque's: the runs
+carry no information on it, so it is propagated, never fitted (the ``consider`` direction of
+rsp_inertia.estimation.gls). Its share of the calibration's covariance is kept apart
+(KnownTerms.certificate_cov) for identify's budget line :data:`CERTIFICATE_SOURCE`. A
+certificate without stds is taken as exact, with a warning. Friction may differ between
+the calibration runs and the loaded ones (it cancels within each run).
 """
 
 from __future__ import annotations
@@ -51,6 +62,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.stats import chi2 as chi2_distribution
 
 from rsp_inertia.estimation.calibration_file import (
     CalibrationFile,
@@ -69,6 +81,7 @@ from rsp_inertia.estimation.columns import (
 )
 from rsp_inertia.estimation.conventions import (
     CONVENTION_FACTOR,
+    certificate_jacobian,
     check_conventions,
     reference_terms,
     shows_orientation,
@@ -83,14 +96,20 @@ from rsp_inertia.estimation.gls import (
     solve_blocks,
     speed_noise_scales,
 )
-from rsp_inertia.estimation.known_terms import KnownTerms
+from rsp_inertia.estimation.known_terms import CERTIFICATE_SOURCE, KnownTerms
 from rsp_inertia.estimation.layout import ZERO_NAME, theta_layout
 from rsp_inertia.estimation.model_tests import ModelTest, described, model_warnings
 from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs, corrected_log
 from rsp_inertia.estimation.stiffness import StiffnessCalibration, calibrate_stiffness
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.infra.progress import drop, lines_to, say
-from rsp_inertia.plant.config import Device, TrueBody
+from rsp_inertia.plant.config import (
+    REFERENCE_PARAMETERS,
+    Certificate,
+    Device,
+    Reference,
+    TrueBody,
+)
 from rsp_inertia.plant.experiment import CALIBRATION_FILE
 from rsp_inertia.plant.geometry import HARMONIC_NAMES
 from rsp_inertia.plant.model import inertia_basis, inertia_basis_slope
@@ -149,6 +168,11 @@ class Calibration:
     conventions: str = ""
     """One line on the rig's conventions: verified by the reference, or not and how to
     (rsp_inertia.estimation.conventions)."""
+    certificate: Certificate | None = None
+    """The reference body's certificate (reference.toml ``[certificate]``), for the records."""
+    date: str | None = None
+    """The day of the calibration, ``YYYY-MM-DD`` in UTC (set by the calibrate command;
+    calibration.toml ``[calibration] date``)."""
 
     def to_file(self) -> CalibrationFile:
         """The calibration as calibration.toml holds it
@@ -227,7 +251,7 @@ class Calibration:
             )
         if self.conventions:
             out.append(self.conventions)
-        out += [f"warning: {w}" for w in self.warnings]
+        # The warnings are not in the text: the command line prints them on stderr.
         return "\n".join(out)
 
 
@@ -240,6 +264,7 @@ def _blocks(
     encoder_orders: int,
     orientation: bool = False,
     flip: np.ndarray | None = None,
+    certificate: Reference | None = None,
 ):
     """The calibration equations of one experiment's runs (module docstring).
 
@@ -249,7 +274,9 @@ def _blocks(
     corrected angle (rsp_inertia.estimation.known_terms.KnownTerms). ``flip``: a mask over
     the reference's terms [M0, Mc2, Ms2, Ms1, Mc1, Gs, Gc] whose share gets a free factor,
     the unknown :data:`CONVENTION_FACTOR` (+1 where the rig keeps the stated conventions,
-    -1 where a convention flips them, :data:`CONVENTIONS`)."""
+    -1 where a convention flips them, :data:`CONVENTIONS`). ``certificate``: the reference's
+    certified values are known terms of the fit with their stated covariance (module
+    docstring); each reference run's block carries their d rhs / d value."""
     # The unknowns are theta's, by theta's names (rsp_inertia.estimation.layout).
     theta = theta_layout(len(device.stages), encoder_orders)
     gains = theta.names("gains")
@@ -275,13 +302,20 @@ def _blocks(
         probes, probes_per_inertia = ({}, {}) if has_gain else cause_probes(bal)
         known_M = np.zeros(len(bal.phi))
         slope = np.zeros(len(bal.phi)) if bal.spring_slope is None else -bal.spring_slope
+        known_jacobian = terms_std = None
+        if reference is not None and certificate is not None:
+            D = certificate_jacobian(certificate, device.stages[s - 1].gear_ratio, device.gravity)
+            known_jacobian = -np.column_stack(
+                [_reference_balance(bal, column) for column in D.T]
+            )
+            terms_std = np.sqrt(np.einsum("ij,jk,ik->i", D, certificate.cov, D))
         if reference is not None:
             terms = reference_terms(reference, device.stages[s - 1].gear_ratio, device.gravity)
             known_M = basis @ terms[:5]
             # A convention's factor only on terms that can show it (an axisymmetric
             # reference's products are zero: no factor, the convention unverified).
             mask = np.zeros(len(terms), dtype=bool) if flip is None else flip
-            mask = mask & significant_terms(reference, terms)
+            mask = mask & significant_terms(reference, terms, terms_std)
             rhs = rhs - _reference_balance(bal, np.where(mask, 0.0, terms))
             if mask.any():
                 cols[CONVENTION_FACTOR] = _reference_balance(bal, np.where(mask, terms, 0.0))
@@ -314,9 +348,29 @@ def _blocks(
                 probes=probes,
                 probes_per_inertia=probes_per_inertia,
                 priors=run_priors(bal, cols, f"{role}{k}"),
+                known_jacobian=known_jacobian,
             )
         )
     return blocks
+
+
+def _certificate_scale(certificate: Reference, device: Device) -> np.ndarray:
+    """(10,) the change of the certificate's values along which every reference term of
+    every stage scales as a whole, the most probable one under the certificate's covariance
+    C: dv = C D^T (D C D^T)^+ t, D the terms' d / d value (rsp_inertia.estimation.conventions.certificate_jacobian) and
+    t the terms, stacked over the stages. The terms are homogeneous of degree one in the
+    mass and the tensor (the centre of mass fixed), so D v_(m, J) = t and the scale is
+    reachable wherever C lets the mass or the tensor move. It is the logged torque's common
+    scale, which the runs cannot measure (module docstring): their information on what is
+    orthogonal to it in C's metric is then no scale's."""
+    D = np.vstack(
+        [certificate_jacobian(certificate, st.gear_ratio, device.gravity) for st in device.stages]
+    )
+    t = np.concatenate(
+        [reference_terms(certificate.placed, st.gear_ratio, device.gravity) for st in device.stages]
+    )
+    C = certificate.cov
+    return C @ D.T @ np.linalg.pinv(D @ C @ D.T, rcond=1e-12, hermitian=True) @ t
 
 
 def _reference_balance(bal, terms: np.ndarray, slope: bool = False) -> np.ndarray:
@@ -341,6 +395,7 @@ def fit_calibration(
     tests: bool = True,
     zero: float | None = None,
     flip: np.ndarray | None = None,
+    certificate: Reference | None = None,
 ) -> tuple[KnownTerms, BalanceFit]:
     """The calibrated terms from the empty runs' and the reference runs' balances.
 
@@ -368,6 +423,9 @@ def fit_calibration(
     flip : array of bool, optional
         A convention's mask over the reference's terms (:data:`CONVENTIONS`): their share
         gets the free factor :data:`CONVENTION_FACTOR` (the convention check).
+    certificate : Reference, optional
+        With a reference: its certificate, whose stated covariance the fit carries (module
+        docstring); None, or one without stds: the reference's values exact.
 
     Returns
     -------
@@ -377,12 +435,22 @@ def fit_calibration(
     has_gain = reference is not None
     orders = ENCODER_ORDERS if has_gain else 0
     orientation = has_gain and zero is not None
+    certificate = certificate if has_gain and certificate is not None and certificate.stated else None
     blocks = _blocks(device, empty, "empty", None, has_gain, orders, orientation)
     if has_gain:
         blocks += _blocks(
-            device, reference, "reference", reference_body, has_gain, orders, orientation, flip
+            device, reference, "reference", reference_body, has_gain, orders, orientation, flip,
+            certificate,
         )
-    equations = assemble_blocks(blocks)
+    if certificate is None:
+        equations = assemble_blocks(blocks)
+    else:
+        equations = assemble_blocks(
+            blocks,
+            certificate.cov,
+            {CERTIFICATE_SOURCE: list(range(len(REFERENCE_PARAMETERS)))},
+            consider=_certificate_scale(certificate, device),
+        )
     fit = solve_blocks(equations, speed_noise_scales(equations) if scales is None else scales)
     if tests:
         fit = dataclasses.replace(fit, tests=block_model_tests(equations, fit))
@@ -416,14 +484,20 @@ def fit_calibration(
     for i, j, name in zip(which, where, measured):
         theta[i] = theta[i] + fit.x[j] if name in added else fit.x[j]
     cov[np.ix_(which, which)] = fit.cov[np.ix_(where, where)]
-    return start.with_theta(theta, cov), fit
+    certificate_cov = None
+    if CERTIFICATE_SOURCE in fit.cov_parts:
+        certificate_cov = np.zeros_like(cov)
+        certificate_cov[np.ix_(which, which)] = fit.cov_parts[CERTIFICATE_SOURCE][
+            np.ix_(where, where)
+        ]
+    return start.with_theta(theta, cov, certificate_cov=certificate_cov), fit
 
 
 def calibrate_logs(
     device: Device,
     empty: ExperimentLogs,
     reference: ExperimentLogs | None = None,
-    reference_body: TrueBody | None = None,
+    certificate: Reference | None = None,
 ) -> Calibration:
     """Calibrate the rig of ``device`` from the empty-fixture and reference experiments' logs.
 
@@ -440,8 +514,9 @@ def calibrate_logs(
         The empty-fixture experiment's logs.
     reference : ExperimentLogs, optional
         The reference experiment's logs.
-    reference_body : TrueBody, optional
-        The reference experiment's known body (reference.toml), with ``reference``.
+    certificate : Reference, optional
+        The reference body's certificate (reference.toml, placed by the reference folder's
+        ``[mounting]``), with ``reference``.
 
     Returns
     -------
@@ -454,8 +529,12 @@ def calibrate_logs(
         Bad logs; a pendulum run the best-practice fit cannot take.
     """
     encoder = np.zeros(2 * ENCODER_ORDERS) if reference is not None else None
+    reference_body = None if certificate is None else certificate.placed
     # The encoder's zero is measured when the reference shows the rig's orientation.
-    zero = 0.0 if reference is not None and shows_orientation(reference_body, device) else None
+    zero = (
+        0.0 if reference is not None and shows_orientation(reference_body, device, certificate)
+        else None
+    )
     scales = None
     conventions = None
     for iteration in range(ENCODER_ITERATIONS if reference is not None else 1):
@@ -471,7 +550,8 @@ def calibrate_logs(
         # The runs' speed-noise scales come from the first fit (taken with the encoder's
         # terms off each run's own fit); the model tests from the fit that is kept.
         known, fit = fit_calibration(
-            device, empty_bal, ref_bal, reference_body, encoder, scales, tests=False, zero=zero
+            device, empty_bal, ref_bal, reference_body, encoder, scales, tests=False, zero=zero,
+            certificate=certificate,
         )
         scales = fit.scales
         if encoder is None:
@@ -481,13 +561,14 @@ def calibrate_logs(
             # encoder's error (rsp_inertia.estimation.conventions): a flip is refused here.
             fitter = functools.partial(
                 fit_calibration, device, empty_bal, ref_bal, reference_body, encoder, scales,
-                tests=False, zero=zero,
+                tests=False, zero=zero, certificate=certificate,
             )
             conventions = check_conventions(fitter, known, reference.sources.experiment)
             if not conventions.zero_measured:
                 zero = zero_applied = None
                 known, fit = fit_calibration(
-                    device, empty_bal, ref_bal, reference_body, encoder, scales, tests=False
+                    device, empty_bal, ref_bal, reference_body, encoder, scales, tests=False,
+                    certificate=certificate,
                 )
         step = np.append(known.encoder - encoder, known.zero - (zero or 0.0))
         step_std = np.append(known.std[known.encoder_slice], known.std[known.zero_slice])
@@ -502,7 +583,7 @@ def calibrate_logs(
         )
     known, fit = fit_calibration(
         device, empty_bal, ref_bal, reference_body, applied if len(applied) else None, scales,
-        zero=zero_applied,
+        zero=zero_applied, certificate=certificate,
     )
     if conventions is None:
         conventions = unverified_conventions()
@@ -516,6 +597,8 @@ def calibrate_logs(
     tests = described(fit.tests, known, one_direction)
     warnings += model_warnings(tests, fit.scales, fit.labels)
     warnings += fit.prior_warnings
+    if certificate is not None:
+        warnings += _certificate_warnings(certificate, fit)
     stiffness = None
     if reference is not None:
         stiffness = calibrate_stiffness(
@@ -543,7 +626,63 @@ def calibrate_logs(
         warnings=warnings,
         stiffness=stiffness,
         conventions=conventions.statement,
+        certificate=None if certificate is None else certificate.certificate,
     )
+
+
+CERTIFICATE_ALPHA = 1e-3
+"""The runs disagree with the reference's certificate when the chi^2 of how far they move
+its values, in the certificate's stds, has a p-value below this (:func:`calibrate_logs`)."""
+
+
+CERTIFICATE_INFORMED = 0.01
+"""The certificate test (:data:`CERTIFICATE_ALPHA`) takes the directions of its values on
+which the runs carry at least this fraction of the information its stds give."""
+
+
+def _certificate_warnings(certificate: Reference, fit: BalanceFit) -> list[str]:
+    """What the certificate calls for: a warning when it states no stds (its uncertainty
+    is then left out of every std), and one when the runs move its values further than its
+    stds allow (the fit's standardised shift z of the certificate's prior: chi^2 = z^T
+    (I - cov z)^-1 z on as many degrees of freedom as it has stds; gls, priors)."""
+    if not certificate.stated:
+        return [
+            (
+                "reference.toml states no uncertainty for the reference body's values: they "
+                "are taken as exact, and the certificate's uncertainty is left out of every "
+                "std (state body.mass_std, body.inertia_std or body.inertia_cov and "
+                "body.com_std from its certificate)"
+            )
+        ]
+    z = fit.z
+    if z.size == 0:
+        return []
+    # The pseudo-equations' residuals -z have covariance I - cov z (gls, priors); the
+    # directions the runs carry no information on (the common scale) or next to none (less
+    # than CERTIFICATE_INFORMED of the certificate's) drop out.
+    values, vectors = np.linalg.eigh(np.eye(z.size) - fit.z_cov)
+    informed = values > CERTIFICATE_INFORMED
+    if not informed.any():
+        return []
+    projected = vectors[:, informed].T @ z
+    stat = float(np.sum(projected**2 / values[informed]))
+    dof = int(informed.sum())
+    p_value = float(chi2_distribution.sf(stat, dof))
+    if p_value >= CERTIFICATE_ALPHA:
+        return []
+    std = np.sqrt(np.diag(certificate.cov))
+    shift = fit.known_shift
+    stated = std > 0
+    worst = int(np.argmax(np.where(stated, np.abs(shift) / np.where(stated, std, 1.0), 0.0)))
+    return [
+        (
+            "the reference runs disagree with the reference body's certificate beyond its "
+            f"stds (chi2 = {stat:.3g} for {dof}, p = {p_value:.2g}; the largest move, "
+            f"{REFERENCE_PARAMETERS[worst]} by {shift[worst] / std[worst]:+.2g} std): a "
+            "certificate of another body, a reference mounted otherwise than its device.toml "
+            "[mounting] states, or stds stated too small"
+        )
+    ]
 
 
 def _corrected_pendulum(

@@ -29,11 +29,13 @@ from rsp_inertia.infra.toml_schema import (
     Bound,
     ContentError,
     config_class,
+    iso_date,
     key,
     read_file,
     read_table,
 )
 from rsp_inertia.infra.toml_writer import checked_text, write_file
+from rsp_inertia.plant.config import Certificate
 from rsp_inertia.plant.experiment import CALIBRATION_FILE
 from rsp_inertia.plant.geometry import HARMONIC_NAMES
 
@@ -92,6 +94,14 @@ class Head:
         doc="One line on the rig's conventions (the gear's sense, phi's handedness, the "
         "encoder's zero, docs/method.md §1): verified by the reference, or not and how to "
         "verify them. Empty in files of older rsp-inertia.",
+    )
+    date: str | None = key(
+        None,
+        check=iso_date,
+        doc="The day of the calibration (UTC), ISO 8601 ``YYYY-MM-DD``, as calibrate wrote "
+        "the file; with device.toml's ``[device] calibration_interval_days`` it gives the "
+        "calibration's due date (result.json ``record.calibration``). Absent in files of "
+        "older rsp-inertia (no due date).",
     )
     torque_gain: float | None = key(
         None,
@@ -190,6 +200,13 @@ class Covariance:
     matrix: tuple[tuple[float, ...], ...] = key(
         doc="One row per parameter, one entry per parameter, in theta's units."
     )
+    certificate: tuple[tuple[float, ...], ...] | None = key(
+        None,
+        doc="The reference certificate's share of ``matrix`` (what the reference body's "
+        "stated uncertainty adds through the calibration fit; identify's budget line "
+        "'reference certificate'), the same shape; absent: a reference without stds, or a "
+        "file of an older rsp-inertia.",
+    )
 
 
 @config_class
@@ -205,6 +222,10 @@ class CalibrationFile:
         doc="The stiffness, when both calibration folders have pendulum runs at a node."
     )
     covariance: Covariance = key(doc="The covariance of theta.")
+    certificate: Certificate | None = key(
+        doc="The reference body's certificate (reference.toml's ``[certificate]``): id, "
+        "issuer, date; absent without a reference or when reference.toml names none."
+    )
     inputs: dict[str, str] = key(
         absent={},
         bound=SHA256,
@@ -251,6 +272,8 @@ class CalibrationFile:
         gravity = np.array(self.fixture.gravity, dtype=float)
         size = len(self.covariance.parameters)
         cov = np.array(self.covariance.matrix, dtype=float).reshape(size, size)
+        share = self.covariance.certificate
+        certificate = None if share is None else np.array(share, dtype=float)
         zero = 0.0
         if self.drive is None:
             gain = self.calibration.torque_gain
@@ -268,7 +291,8 @@ class CalibrationFile:
             at = theta_layout(len(self.stages), encoder.size // 2).slice("zero").start
             cov = np.insert(np.insert(cov, at, 0.0, axis=0), at, 0.0, axis=1)
         return KnownTerms(
-            gains, inertia, gravity, cov, calibrated=True, encoder=encoder, zero=zero
+            gains, inertia, gravity, cov, calibrated=True, encoder=encoder, zero=zero,
+            certificate_cov=certificate,
         )
 
 
@@ -299,6 +323,7 @@ def calibration_file(calibration: Calibration) -> CalibrationFile:
             reference=bool(calibration.reference),
             chi2_dof=float(calibration.chi2_dof),
             conventions=calibration.conventions,
+            date=calibration.date,
         ),
         drive=Drive(
             gain_driving=k.gains[0],
@@ -330,8 +355,13 @@ def calibration_file(calibration: Calibration) -> CalibrationFile:
         if c is None
         else PendulumStiffness(float(c.stiffness), float(c.stiffness_std), len(c.per_node)),
         covariance=Covariance(
-            parameters=tuple(k.names()), matrix=tuple(_floats(row) for row in k.cov)
+            parameters=tuple(k.names()),
+            matrix=tuple(_floats(row) for row in k.cov),
+            certificate=None
+            if k.certificate_cov is None
+            else tuple(_floats(row) for row in k.certificate_cov),
         ),
+        certificate=calibration.certificate,
         inputs={str(path): str(digest) for path, digest in calibration.inputs.items()},
     )
 
@@ -460,4 +490,12 @@ def _calibration(doc: dict[str, Any]) -> CalibrationFile:
             "covariance.matrix[1]",
             f"must have one entry per parameter ({len(names)}), got {len(cov.matrix[0])}",
         )
+    if cov.certificate is not None:
+        if value.legacy or not value.has_zero:
+            raise ContentError("covariance.certificate", "not in files without encoder.zero")
+        if len(cov.certificate) != len(names) or len(cov.certificate[0]) != len(names):
+            raise ContentError(
+                "covariance.certificate",
+                f"must be {len(names)} x {len(names)}, as covariance.matrix",
+            )
     return value

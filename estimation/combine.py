@@ -222,6 +222,9 @@ class Combination:
     """kg, the body's mass as the mountings' device.toml ``[body] mass`` states it (the rig
     measures m g x_c, not m: the centre of mass is computed with this mass); body.json's
     ``mass``."""
+    provenance: dict | None = None
+    """body.json's ``provenance`` (``rsp-inertia combine``: when, by which software, the
+    sha256 of each mounting's result.json); None: not recorded (the library alone)."""
 
     def __post_init__(self) -> None:
         freeze_arrays(self)  # its arrays read-only, as the record is frozen
@@ -265,7 +268,8 @@ class Combination:
         kg m^2), ``com``, ``com_std`` (keys x, y, z, m), ``covariance`` (9 x 9, order
         Jx, Jy, Jz, Jxy, Jyz, Jxz, x, y, z), the principal moments and axes with their stds,
         per mounting its residuals in stds (None: not tested), the consistency test, the
-        warnings and the mass the centre of mass was computed with."""
+        warnings, the mass the centre of mass was computed with and, when recorded, the
+        provenance."""
         tilt = self.principal_axes_tilt_std
         return {
             "tensor": dict(zip(ENTRY_KEYS, map(float, self.entries))),
@@ -292,7 +296,7 @@ class Combination:
             "consistency": {"chi2": float(self.chi2), "dof": int(self.dof), "p": float(self.p)},
             "warnings": list(self.warnings),
             "mass": None if self.mass is None else float(self.mass),
-        }
+        } | ({} if self.provenance is None else {"provenance": self.provenance})
 
     def __str__(self) -> str:
         lines = [
@@ -324,7 +328,7 @@ class Combination:
             f"consistency: chi^2 = {self.chi2:.4g} on {self.dof} dof, {_p_text(self.p)}"
             f" (warns below p = {CONSISTENCY_P})"
         )
-        lines += [f"warning: {w}" for w in self.warnings]
+        # The warnings are not in the text: the command line prints them on stderr.
         return "\n".join(lines)
 
 

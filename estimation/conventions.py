@@ -35,11 +35,12 @@ import numpy as np
 
 from rsp_inertia.estimation.known_terms import KnownTerms
 from rsp_inertia.infra.errors import InputError
-from rsp_inertia.plant.config import Device, TrueBody
+from rsp_inertia.plant.config import REFERENCE_PARAMETERS, Device, Reference, TrueBody
 from rsp_inertia.plant.geometry import GRAVITY_NAMES, HARMONIC_NAMES
 from rsp_inertia.plant.model import inertia_harmonics
 
 __all__ = [
+    "CERTIFIED_STDS",
     "CONVENTIONS",
     "CONVENTION_FACTOR",
     "EXCLUDED_STDS",
@@ -48,6 +49,7 @@ __all__ = [
     "ZERO_STD_LIMIT_DEG",
     "Convention",
     "ConventionCheck",
+    "certificate_jacobian",
     "check_conventions",
     "reference_terms",
     "shows_orientation",
@@ -77,6 +79,10 @@ that shows the rig's orientation less well leaves it unmeasured (0, exact)."""
 ORIENTATION_TOLERANCE = 1e-9
 """A reference shows the rig's orientation when a harmonic exceeds this fraction of its M0
 or its centre of mass is off the shaft's axis (:func:`shows_orientation`)."""
+
+CERTIFIED_STDS = 5.0
+"""A reference's term shows the rig's orientation only beyond this many of its stds by the
+reference's certificate (:func:`significant_terms`)."""
 
 COMMISSIONING = "docs/real-rig.md, commissioning"
 """Where the docs say how to mount a reference that verifies the conventions."""
@@ -172,24 +178,65 @@ def reference_terms(reference: TrueBody, gear_ratio: float, gravity: float) -> n
     )
 
 
-def significant_terms(reference: TrueBody, terms: np.ndarray) -> np.ndarray:
+def significant_terms(
+    reference: TrueBody, terms: np.ndarray, terms_std: np.ndarray | None = None
+) -> np.ndarray:
     """Boolean mask over :data:`REFERENCE_TERMS` of one stage's ``terms``: those beyond
     :data:`ORIENTATION_TOLERANCE` of the reference's M0 (harmonics) or of its mass in kg
-    times 1 N m (gravity: a centre of mass off the axis by more than about 1e-10 m), the ones
-    that can show the rig's orientation (M0 never does)."""
+    times 1 N m (gravity: a centre of mass off the axis by more than about 1e-10 m), and
+    beyond :data:`CERTIFIED_STDS` of their std ``terms_std`` by the reference's certificate
+    (a product certified as 5e-6 +- 5e-6 shows nothing): the ones that can show the rig's
+    orientation (M0 never does)."""
     scale = np.array([np.inf] + [terms[0]] * 4 + [reference.mass] * 2)
-    return np.abs(terms) > ORIENTATION_TOLERANCE * scale
+    shown = np.abs(terms) > ORIENTATION_TOLERANCE * scale
+    if terms_std is not None:
+        shown &= np.abs(terms) > CERTIFIED_STDS * np.asarray(terms_std)
+    return shown
 
 
-def shows_orientation(reference: TrueBody, device: Device) -> bool:
+def shows_orientation(
+    reference: TrueBody, device: Device, certificate: Reference | None = None
+) -> bool:
     """Whether the reference's balances depend on the angle: a harmonic of its reduced
-    inertia or a gravity term, on some stage (:func:`significant_terms`; else no zero offset
-    and no convention can show in them)."""
-    return any(
-        significant_terms(reference, reference_terms(reference, st.gear_ratio, device.gravity))
-        .any()
-        for st in device.stages
-    )
+    inertia or a gravity term, on some stage (:func:`significant_terms`, beyond its
+    ``certificate``'s stds when it states them; else no zero offset and no convention can
+    show in them)."""
+    for st in device.stages:
+        terms = reference_terms(reference, st.gear_ratio, device.gravity)
+        terms_std = None
+        if certificate is not None and certificate.stated:
+            D = certificate_jacobian(certificate, st.gear_ratio, device.gravity)
+            terms_std = np.sqrt(np.einsum("ij,jk,ik->i", D, certificate.cov, D))
+        if significant_terms(reference, terms, terms_std).any():
+            return True
+    return False
+
+
+def certificate_jacobian(certificate: Reference, gear_ratio: float, gravity: float) -> np.ndarray:
+    """(7, 10) d terms / d value: how one stage's reference terms (:func:`reference_terms`: its
+    reduced inertia's harmonics and its gravity terms, in rig axes) move with the certificate's values (rsp_inertia.plant.config.REFERENCE_PARAMETERS: mass, the
+    tensor about the body's origin, the centre of mass, in the body's own axes), the body
+    placed by the reference folder's ``[mounting]``.
+
+    The terms are at most quadratic in the values (the parallel-axis terms are m times the
+    centre of mass; docs/method.md §2, "Mountings"), so central differences are exact but for
+    rounding; the steps are the values' own sizes (1e-3 of them, 1e-6 m for a centre of mass
+    at the origin).
+    """
+    values = certificate.values
+    scale = np.abs(values)
+    scale[7:] = np.maximum(scale[7:], 1e-3)
+    scale[1:7] = np.maximum(scale[1:7], np.abs(values[1:4]).max())
+    D = np.empty((len(REFERENCE_TERMS), len(REFERENCE_PARAMETERS)))
+    for i, step in enumerate(1e-3 * scale):
+        up, down = values.copy(), values.copy()
+        up[i] += step
+        down[i] -= step
+        D[:, i] = (
+            reference_terms(certificate.placed_at(up), gear_ratio, gravity)
+            - reference_terms(certificate.placed_at(down), gear_ratio, gravity)
+        ) / (2.0 * step)
+    return D
 
 
 @dataclass(frozen=True)

@@ -216,6 +216,9 @@ class BalanceFit:
     z: np.ndarray = field(default_factory=lambda: np.zeros(0))
     """The calibrated terms' standardised shift (module docstring, known terms:
     theta = theta_cal + S z); empty without known terms."""
+    z_cov: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    """Covariance of ``z`` from the joint fit (I a priori): below I where the runs carry
+    information on theta; I along the ``consider`` direction, which only its prior sets."""
     factors: list = field(default_factory=list, repr=False)
     """The equations' whiteners at ``scales`` (rsp_inertia.estimation.whitening), for the
     model tests (:func:`block_model_tests`)."""
@@ -332,26 +335,44 @@ def _known_jacobian(
     return B
 
 
-def _prior_root(cov: np.ndarray, groups: dict[str, list[int]]) -> tuple[np.ndarray, list[str]]:
-    """(S, group of each column): cov = S S^T, S lower-triangular in the groups' order
-    (Cholesky), the parameters of zero variance left out (their columns dropped).
+def _prior_root(
+    cov: np.ndarray,
+    groups: dict[str, list[int]],
+    shares: dict[str, np.ndarray] | None = None,
+) -> tuple[np.ndarray, list[str]]:
+    """(S, group of each column): cov = S S^T, the parameters of zero variance left out
+    (their columns dropped).
 
-    Each group's columns carry what that group adds to the groups before it, so their shares
-    of an estimate's variance add up to the whole (module docstring, budget). The factor is
-    taken of the correlation matrix, with a relative ridge of 1e-12 (parameters of very
-    different units, some fully correlated).
+    ``shares`` (name -> a (p, p) part of ``cov``) are budget lines that are parts of the
+    whole covariance rather than groups of parameters (a reference certificate, which moves
+    every calibrated term at once): their columns come first, each part's eigen-root. The
+    rest, ``cov`` less the shares, is split by ``groups``: its Cholesky factor in the
+    groups' order, so that each group's columns carry what that group adds to the groups
+    before it, and the shares of an estimate's variance add up to the whole (module
+    docstring, budget). The factor is taken in the correlation scale of ``cov``, with a
+    relative ridge of 1e-12 (parameters of very different units, some fully correlated).
     """
-    order = [(name, i) for name, indices in groups.items() for i in indices if cov[i, i] > 0]
     p = cov.shape[0]
-    if not order:
-        return np.zeros((p, 0)), []
-    idx = [i for _, i in order]
-    d = np.sqrt(np.diag(cov)[idx])
-    corr = cov[np.ix_(idx, idx)] / np.outer(d, d)
-    L = np.linalg.cholesky(corr + 1e-12 * np.eye(len(idx)))
-    S = np.zeros((p, len(idx)))
-    S[idx] = d[:, None] * L
-    return S, [name for name, _ in order]
+    columns, names = [np.zeros((p, 0))], []
+    rest = cov
+    for name, part in (shares or {}).items():
+        values, vectors = np.linalg.eigh(0.5 * (part + part.T))
+        kept = values > 1e-12 * max(float(values.max()), 0.0)
+        if values.max() > 0.0 and kept.any():
+            columns.append(vectors[:, kept] * np.sqrt(values[kept]))
+            names += [name] * int(kept.sum())
+        rest = rest - part
+    order = [(name, i) for name, indices in groups.items() for i in indices if cov[i, i] > 0]
+    if order:
+        idx = [i for _, i in order]
+        d = np.sqrt(np.diag(cov)[idx])
+        corr = rest[np.ix_(idx, idx)] / np.outer(d, d)
+        L = np.linalg.cholesky(0.5 * (corr + corr.T) + 1e-12 * np.eye(len(idx)))
+        S = np.zeros((p, len(idx)))
+        S[idx] = d[:, None] * L
+        columns.append(S)
+        names += [name for name, _ in order]
+    return np.hstack(columns), names
 
 
 @dataclass(frozen=True)
@@ -442,6 +463,7 @@ def assemble_blocks(
     known_cov: np.ndarray | None = None,
     known_groups: dict[str, list[int]] | None = None,
     consider: np.ndarray | None = None,
+    known_shares: dict[str, np.ndarray] | None = None,
 ) -> Equations:
     """The blocks' equations for the fits (module docstring): stacked, with the noise model's
     parts from a first unweighted pass and the calibrated terms as unknowns.
@@ -460,6 +482,10 @@ def assemble_blocks(
         A direction of theta the runs carry no information on (module docstring: the
         torque's common scale), propagated, not estimated; None, or one the prior gives no
         variance: every direction of theta is refined.
+    known_shares : dict of str to array, optional
+        Budget lines that are parts of ``known_cov`` rather than groups of its parameters
+        (name -> (p, p) part; the reference certificate's share of a calibration's
+        covariance): each its own line, before the groups, which split the rest.
 
     Returns
     -------
@@ -508,7 +534,7 @@ def assemble_blocks(
     ):
         B = np.vstack([_known_jacobian(b, M, p, names, x0) for b, M in zip(blocks, inertia)])
         groups = known_groups or {CALIBRATION_SOURCE: list(range(p))}
-        S, prior_groups = _prior_root(known_cov, groups)
+        S, prior_groups = _prior_root(known_cov, groups, known_shares)
         N = -B @ S  # rhs(theta_cal + S z) = rhs + B S z: on the unknowns' side, -B S z
         direction, column = _consider_direction(S, consider, N)
         if direction is not None:
@@ -735,7 +761,7 @@ def _balance_fit(
         rows_g = n_data + np.array([j for j, g in enumerate(eq.prior_groups) if g == name])
         P = Aw[rows_g]
         cov_parts[name] = (cov_x @ P.T @ P @ cov_x)[:n_x, :n_x]
-    z_cov = cov_x[n_x:, n_x:]
+    z_cov = z_fit_cov = cov_x[n_x:, n_x:]
     if eq.consider is not None:  # the common scale, propagated (module docstring)
         shift = _consider_shift(eq, solution)
         group = eq.prior_groups[int(np.argmax(np.abs(eq.consider)))]
@@ -763,6 +789,7 @@ def _balance_fit(
         known_shift_cov=known_shift_cov,
         prior_warnings=prior_warnings,
         z=x[n_x:],
+        z_cov=z_fit_cov,
         factors=factors,
     )
 

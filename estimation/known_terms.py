@@ -21,7 +21,18 @@ from rsp_inertia.estimation.layout import Layout, theta_layout
 from rsp_inertia.plant.model import inertia_basis
 from rsp_inertia.plant.transducers import error_slope_basis
 
-__all__ = ["DRIVE_SOURCE", "EMPTY_SOURCE", "ENCODER_SOURCE", "ZERO_SOURCE", "KnownTerms"]
+__all__ = [
+    "CERTIFICATE_SOURCE",
+    "DRIVE_SOURCE",
+    "EMPTY_SOURCE",
+    "ENCODER_SOURCE",
+    "ZERO_SOURCE",
+    "KnownTerms",
+]
+
+CERTIFICATE_SOURCE = "reference certificate"
+"""Budget line of the reference body's certified values (reference.toml's stds), which the
+calibration carries into every calibrated term (rsp_inertia.estimation.calibration)."""
 
 DRIVE_SOURCE = "calibration: drive gains"
 """Budget line of the drive's calibrated gains h_d, h_b."""
@@ -70,6 +81,10 @@ class KnownTerms:
     """z, rad: the encoder's zero offset, what it reads at the rig's phi = 0 (body y up,
     docs/method.md §1; rsp_inertia.plant.transducers); identify takes it off every reading
     with the error. 0: the encoder zeroed there (exact unless a calibration measured it)."""
+    certificate_cov: np.ndarray | None = None
+    """The reference certificate's share of :attr:`cov` (the part its stated uncertainty
+    adds through the calibration fit; its own budget line, :data:`CERTIFICATE_SOURCE`), or
+    None: a reference certificate without stds, or no reference."""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "gains", (float(self.gains[0]), float(self.gains[1])))
@@ -119,7 +134,13 @@ class KnownTerms:
             theta[self.layout.slice(name)] = values
         return theta
 
-    def with_theta(self, theta: np.ndarray, cov: np.ndarray, calibrated: bool = True):
+    def with_theta(
+        self,
+        theta: np.ndarray,
+        cov: np.ndarray,
+        calibrated: bool = True,
+        certificate_cov: np.ndarray | None = None,
+    ):
         """These terms' layout with the values ``theta`` and their covariance ``cov``.
 
         Parameters
@@ -130,6 +151,8 @@ class KnownTerms:
             Their covariance.
         calibrated : bool, optional
             Whether theta carries an uncertainty to propagate.
+        certificate_cov : numpy.ndarray, optional
+            The reference certificate's share of ``cov``.
 
         Returns
         -------
@@ -146,6 +169,7 @@ class KnownTerms:
             calibrated=calibrated,
             encoder=theta[self.encoder_slice],
             zero=float(theta[self.zero_slice][0]),
+            certificate_cov=certificate_cov,
         )
 
     @property
@@ -275,6 +299,14 @@ class KnownTerms:
             EMPTY_SOURCE: layout.indices("harmonics", "gravity"),
         }
         return {name: indices for name, indices in groups.items() if indices}
+
+    def budget_shares(self) -> dict[str, np.ndarray]:
+        """Budget lines that are parts of :attr:`cov` rather than groups of theta
+        (rsp_inertia.estimation.gls.assemble_blocks): the reference certificate's, when the
+        calibration carries one."""
+        if self.certificate_cov is None or not np.any(self.certificate_cov):
+            return {}
+        return {CERTIFICATE_SOURCE: self.certificate_cov}
 
     def common_scale(self) -> np.ndarray:
         """(p,) the direction of theta along which the logged torque's scale changes as a

@@ -27,17 +27,25 @@ from rsp_inertia.estimation.calibration import (
     device_known_terms,
 )
 from rsp_inertia.estimation.calibration_file import CalibrationFile, read_calibration_file
+from rsp_inertia.estimation.decision import (
+    check_quantities,
+    decide,
+    expanded_for_decision,
+    result_quantities,
+)
 from rsp_inertia.estimation.identify import identify_logs
 from rsp_inertia.estimation.known_terms import KnownTerms
+from rsp_inertia.estimation.records import experiment_record
 from rsp_inertia.estimation.results import Identification
 from rsp_inertia.estimation.runs import ExperimentLogs, Sources, runs
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.infra.files import file_sha256
-from rsp_inertia.plant.config import load_reference, placed_reference
+from rsp_inertia.plant.config import load_reference
 from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.experiment import Experiment
 from rsp_inertia.plant.log_checks import unterminated_last_line
 from rsp_inertia.plant.logs import Log, align_counter, read_device_log
+from rsp_inertia.plant.record_config import load_spec
 
 __all__ = [
     "calibrate_experiment",
@@ -199,12 +207,25 @@ def known_terms(
     return device_known_terms(exp.device, source)
 
 
-def identify_experiment(exp: Experiment) -> Identification:
+def identify_experiment(exp: Experiment, made: str | None = None) -> Identification:
     """Identify an experiment folder: its logs, calibration and pendulum runs read, then
     rsp_inertia.estimation.identify.identify_logs (its errors and warnings name the files).
-    calibration.toml is read once (:func:`read_calibration`)."""
+    calibration.toml is read once (:func:`read_calibration`); record.toml and spec.toml, when
+    present, are read and checked before the work: with ``made`` (when the result is made,
+    ISO 8601) the result carries its record (rsp_inertia.estimation.records, a warning when
+    the calibration is overdue) and its decision against spec.toml
+    (rsp_inertia.estimation.decision)."""
     calibration = read_calibration(exp)
+    record, record_warnings = (None, []) if made is None else experiment_record(
+        exp, calibration, made
+    )
+    spec = load_spec(exp.spec_path) if exp.spec_path.is_file() else None
+    if spec is not None:
+        check_quantities(
+            spec, result_quantities(exp.device.body is not None), str(exp.spec_path)
+        )
     known, warnings = known_terms(exp, calibration)
+    warnings += record_warnings
     logs = read_experiment(exp)
     warnings += unterminated_warnings(logs)
     stiffness = None
@@ -212,9 +233,15 @@ def identify_experiment(exp: Experiment) -> Identification:
         stiffness = calibration.pendulum_stiffness()
     # What calibrate found of the rig's conventions goes on with the calibration.
     conventions = "" if calibration is None else calibration.calibration.conventions
-    return identify_logs(
+    found = identify_logs(
         logs, known, pendulum_stiffness=stiffness, warnings=warnings, conventions=conventions
     )
+    if record is None and spec is None:  # identify_logs' result as it is
+        return found
+    decision = None if spec is None else decide(
+        spec, expanded_for_decision(found), str(exp.spec_path)
+    )
+    return dataclasses.replace(found, record=record, decision=decision)
 
 
 def unterminated_warnings(logs: ExperimentLogs) -> list[str]:
@@ -310,15 +337,15 @@ def calibrate_experiment(
         reference.toml, bad logs.
     """
     check_same_stages(exp, empty, "empty")
-    body = None
+    certificate = None
     if reference is not None:
         check_same_stages(exp, reference, "reference")
-        body = placed_reference(
-            load_reference(reference.reference_path), reference.device.mounting
+        certificate = dataclasses.replace(
+            load_reference(reference.reference_path), mounting=reference.device.mounting
         )
     empty_logs = read_experiment(empty)
     reference_logs = None if reference is None else read_experiment(reference)
-    result = calibrate_logs(exp.device, empty_logs, reference_logs, body)
+    result = calibrate_logs(exp.device, empty_logs, reference_logs, certificate)
     cut = unterminated_warnings(empty_logs)
     if reference_logs is not None:
         cut += unterminated_warnings(reference_logs)

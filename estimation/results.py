@@ -14,8 +14,10 @@ import numpy as np
 from rsp_inertia.estimation.best_practice import BestPractice
 from rsp_inertia.estimation.calibration_summary import CalibrationSummary
 from rsp_inertia.estimation.columns import format_run
+from rsp_inertia.estimation.decision import Decision
 from rsp_inertia.estimation.model_tests import ModelTest
 from rsp_inertia.estimation.pendulum import PendulumEstimate
+from rsp_inertia.estimation.records import Record
 from rsp_inertia.infra.frozen import freeze_arrays, read_only
 from rsp_inertia.plant.geometry import (
     ENTRY_KEYS,
@@ -221,6 +223,12 @@ class Identification:
     provenance: dict | None = None
     """When and by what the result was made, and the sha256 of every input file read
     (rsp_inertia.provenance.make_provenance; set by the ``identify`` command)."""
+    record: Record | None = None
+    """Who measured which part on which rig, the environment, the calibration's date and due
+    date, the reference's certificate (rsp_inertia.estimation.records; set by identify)."""
+    decision: Decision | None = None
+    """The decision against EXP/spec.toml (rsp_inertia.estimation.decision); None without
+    one."""
 
     def __post_init__(self) -> None:
         freeze_arrays(self)  # its arrays read-only, as the record is frozen
@@ -338,6 +346,8 @@ class Identification:
             "warnings": list(self.warnings),
             "pendulum": None if self.pendulum is None else self.pendulum.to_dict(),
             "provenance": self.provenance,
+            "record": None if self.record is None else self.record.to_dict(),
+            "decision": None if self.decision is None else self.decision.to_dict(),
         }
 
 

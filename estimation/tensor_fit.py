@@ -278,6 +278,7 @@ def _equations(balances: list[StageBalance], known: KnownTerms) -> Equations:
         known.cov if known.calibrated else None,
         known.budget_groups(),
         consider=known.common_scale(),
+        known_shares=known.budget_shares(),
     )
 
 

@@ -34,6 +34,7 @@ from __future__ import annotations
 import codecs
 import copy
 import dataclasses
+import datetime
 import enum
 import functools
 import inspect
@@ -88,6 +89,16 @@ class Bound:
         """Raise ContentError at ``key`` unless ``value`` meets the bound."""
         if not self.holds(value):  # type: ignore[misc]
             raise ContentError(key, f"must be {self.text}, got {value!r}")
+
+
+def iso_date(value: str, key: str) -> None:
+    """A ``check`` (:func:`key`): refuse a date that is not ISO 8601 ``YYYY-MM-DD``."""
+    try:
+        ok = len(value) == 10 and datetime.date.fromisoformat(value).isoformat() == value
+    except ValueError:
+        ok = False
+    if not ok:
+        raise ContentError(key, f"must be a date YYYY-MM-DD, got {value!r}")
 
 
 def key(

@@ -54,6 +54,10 @@ from rsp_inertia.plant.log_layout import (
     TorqueUnit,
 )
 from rsp_inertia.plant.reference_config import (
+    REFERENCE_PARAMETERS,
+    Certificate,
+    CertifiedBody,
+    Reference,
     TrueBody,
     load_reference,
     placed_reference,
@@ -63,10 +67,13 @@ from rsp_inertia.plant.reference_config import (
 __all__ = [
     "DEFAULT_GRAVITY",
     "PROTOCOL",
+    "REFERENCE_PARAMETERS",
     "REQUIRED_AXES",
     "ROTATION_TOLERANCE",
     "AngleUnit",
     "Body",
+    "Certificate",
+    "CertifiedBody",
     "Device",
     "Encoder",
     "LogFormat",
@@ -75,6 +82,7 @@ __all__ = [
     "Mounting",
     "Pendulum",
     "PlanGuess",
+    "Reference",
     "Spring",
     "Stage",
     "TimeOrigin",

@@ -424,6 +424,21 @@ class Device:
         doc="The ``[log]`` table: how the rig's logger writes its logs (format, columns, "
         "units); left out: CSV ``t,phi,torque`` (or ``t,counts,torque``) in s, rad, N m.",
     )
+    asset_id: str | None = key(
+        None,
+        table="device",
+        doc="The rig's asset number in the lab's register (a record of the result: "
+        "result.json ``record.asset_id``).",
+    )
+    calibration_interval_days: int | None = key(
+        None,
+        table="device",
+        unit="days",
+        bound="> 0",
+        doc="How long a calibration of this rig stays valid: identify after calibration.toml's "
+        "``[calibration] date`` plus this many days warns that the calibration is overdue. "
+        "None: no interval, never overdue.",
+    )
 
     @property
     def n_axes(self) -> int:

@@ -20,6 +20,8 @@ program.csv is always CSV.
     EXP/calibration.toml     written by ``calibrate``, applied by ``identify`` (optional)
     EXP/reference.toml       a reference body's certified data (a calibration's reference
                              folder only)
+    EXP/record.toml          the lab's record: operator, part, serial, environment (optional)
+    EXP/spec.toml            the part's specification and decision rule (optional)
 """
 
 from __future__ import annotations
@@ -38,9 +40,11 @@ __all__ = [
     "DEVICE_FILE",
     "ENCODER_FIGURE",
     "PLAN_FIGURE",
+    "RECORD_FILE",
     "REFERENCE_FILE",
     "REPORT_FILE",
     "RESULT_FILE",
+    "SPEC_FILE",
     "VIRTUAL_FILE",
     "Experiment",
     "open_experiment",
@@ -55,6 +59,10 @@ REFERENCE_FILE = "reference.toml"
 """A reference body's certified data (a calibration's reference folder)."""
 CALIBRATION_FILE = "calibration.toml"
 """Written by ``calibrate``, applied by ``identify``."""
+RECORD_FILE = "record.toml"
+"""The lab's record of the measurement (optional; identify copies it into result.json)."""
+SPEC_FILE = "spec.toml"
+"""The part's specification and decision rule (optional; identify decides against it)."""
 RESULT_FILE = "result.json"
 """Written by ``identify``."""
 REPORT_FILE = "report.html"
@@ -142,13 +150,23 @@ class Experiment:
         """``reference.toml`` (a reference body's data, in a calibration's reference folder)."""
         return self.root / REFERENCE_FILE
 
+    @property
+    def record_path(self) -> Path:
+        """``record.toml`` (the lab's record; optional)."""
+        return self.root / RECORD_FILE
+
+    @property
+    def spec_path(self) -> Path:
+        """``spec.toml`` (the part's specification and decision rule; optional)."""
+        return self.root / SPEC_FILE
+
     def identify_inputs(self) -> list[Path]:
         """The files ``identify`` reads that exist, in a fixed order: device.toml,
-        calibration.toml, every run's braking and reverse logs (stage by stage, each
+        calibration.toml, record.toml, spec.toml, every run's braking and reverse logs (stage by stage, each
         direction of ``stage.directions``) and the pendulum logs. result.json records their
         sha256 (rsp_inertia.provenance); ``report`` and ``combine`` check them against the
         folder (a missing log is identify's to refuse)."""
-        files = [self.device_path, self.calibration_path]
+        files = [self.device_path, self.calibration_path, self.record_path, self.spec_path]
         for stage, st in enumerate(self.device.stages, 1):
             for direction in st.directions:
                 files += [self.braking_path(stage, direction), self.reverse_path(stage, direction)]

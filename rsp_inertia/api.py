@@ -485,7 +485,7 @@ def check(path: str | Path, *, calibration: bool = False) -> CheckResult:
     return run(_path(path, "check"), _flag(calibration, "check", "calibration"))
 
 
-def write_report(path: str | Path) -> Path:
+def write_report(path: str | Path, pdf: bool = False, paper: str = "a4") -> Path:
     """Write ``EXP/report.html`` from an identified experiment (``rsp-inertia report EXP``).
 
     One self-contained, dated file (figures inlined, no network) that leads with a verdict:
@@ -496,10 +496,18 @@ def write_report(path: str | Path) -> Path:
     software. (Named ``write_report``, not ``report``: ``rsp_inertia.report`` is the module
     that writes it.)
 
+    On a combine folder (``OUT`` with the body.json of :func:`combine`, no device.toml) the
+    combined body's report: the tensor and the centre of mass (z_c too) in body axes, the
+    mountings and their consistency, the results combined and their sha256.
+
     Parameters
     ----------
     path : str or pathlib.Path
-        The experiment folder, with the result.json of :func:`identify`.
+        The experiment folder, with the result.json of :func:`identify`, or a combine folder.
+    pdf : bool, optional
+        Also print ``report.pdf`` beside it (headless Chromium; ``report --pdf``).
+    paper : str, optional
+        The PDF's paper: ``"a4"`` (default) or ``"letter"``.
 
     Returns
     -------
@@ -509,7 +517,8 @@ def write_report(path: str | Path) -> Path:
     Raises
     ------
     InputError
-        No result.json (run identify first), or one that identify did not write.
+        No result.json (run identify first), or one that identify did not write; no
+        body.json in a combine folder; with ``pdf``, no Chromium on the PATH.
 
     Examples
     --------
@@ -519,7 +528,7 @@ def write_report(path: str | Path) -> Path:
     # the report's figures and the logs' smoother (matplotlib, the estimation stack)
     from rsp_inertia.report import write_report as run
 
-    return run(_path(path, "write_report"))
+    return run(_path(path, "write_report"), _flag(pdf, "write_report", "pdf"), paper)
 
 
 def create_experiment(path: str | Path) -> Path:
@@ -664,6 +673,41 @@ def export(
     mass_std = _number(mass_std, "export", "mass_std")
     exported = run(source, out, format, frame, mass, mass_std)
     return ExportResult(exported, out, format)
+
+
+# --- the report's verdicts (the command line's --strict; not in __all__) ---------------------
+
+
+def report_verdict(path: str | Path) -> tuple[str, str | None]:
+    """The verdicts ``rsp-inertia report EXP`` leads with, for ``report --strict``.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The experiment folder, with the result.json of :func:`identify`.
+
+    Returns
+    -------
+    (str, str or None)
+        The software's verdict, 'ok' (green), 'warn' (amber: warnings, an overdue
+        calibration) or 'stale' (red: inputs changed since identify, or not recorded, or
+        result.json edited after it was written); the
+        part's against spec.toml, 'pass', 'fail', 'indeterminate', or None without one.
+
+    Raises
+    ------
+    InputError
+        No result.json (run identify first), or one that identify did not write.
+
+    Examples
+    --------
+    >>> rsp_inertia.api.report_verdict("bench-A")    # doctest: +SKIP
+    ('ok', 'pass')
+    """
+    # the report's module (matplotlib, the estimation stack): only report --strict asks
+    from rsp_inertia.report import report_verdict as run
+
+    return run(_path(path, "report_verdict"))
 
 
 # --- design (the command line's; not in __all__) --------------------------------------------

@@ -8,6 +8,7 @@ object made (:class:`rsp_inertia.results.CalibrateResult`).
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 from rsp_inertia.estimation.calibration import Calibration
@@ -17,6 +18,7 @@ from rsp_inertia.figure_files import save_figures
 from rsp_inertia.infra.files import check_writable
 from rsp_inertia.plant.experiment import CALIBRATION_FILE, open_experiment
 from rsp_inertia.plots import calibrate_figures, encoder_figures
+from rsp_inertia.provenance import created_now
 from rsp_inertia.results.calibrate import CalibrateResult
 
 __all__ = ["calibrate", "calibrate_result"]
@@ -37,6 +39,8 @@ def calibrate(
         open_experiment(empty),
         None if reference is None else open_experiment(reference),
     )
+    # The day it was made, in UTC: with the rig's interval, its due date (identify's record).
+    result = replace(result, date=created_now()[:10])
     write_calibration_file(exp.calibration_path, result.to_file())
     save_figures(encoder_figures(result), exp.root)
     return result

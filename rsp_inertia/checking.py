@@ -28,6 +28,9 @@ missing for the next step and what looks wrong, without stopping at the first pr
   a program the drive could not run again (its time step not device.toml's sample rate)
   whose reverse log is there (identify never reads program.csv; an ``error`` while the
   reverse is still to run).
+- record.toml and spec.toml as identify reads them (``error`` where it would refuse them;
+  ``ok`` naming the part, the limits and the rule), and a calibration past its due date
+  today (``suspicious``, as identify warns).
 - ``ok``: what is in place, and a gap of dropped samples near a node that identify bridges,
   with the share of the balance's speed std it adds there
   (rsp_inertia.estimation.balance.NodeGap).
@@ -50,12 +53,14 @@ from rsp_inertia.estimation.balance import (
     harmonic_reach,
 )
 from rsp_inertia.estimation.calibration_file import CalibrationFile
+from rsp_inertia.estimation.decision import check_quantities, result_quantities
 from rsp_inertia.estimation.identify import (
     checked_design,
     pendulum_settings,
     reduce_pendulum_run,
 )
 from rsp_inertia.estimation.reading import known_terms, read_calibration, read_run
+from rsp_inertia.estimation.records import experiment_record
 from rsp_inertia.estimation.runs import checked_run
 from rsp_inertia.estimation.smoothing import top_speed
 from rsp_inertia.infra.errors import InputError
@@ -73,6 +78,8 @@ from rsp_inertia.plant.logs import (
     read_device_log,
     read_program,
 )
+from rsp_inertia.plant.record_config import load_spec
+from rsp_inertia.provenance import created_now
 from rsp_inertia.results.check import CheckResult
 
 __all__ = ["MIN_TURNS_PAST_LAST_NODE", "check"]
@@ -135,11 +142,49 @@ def check(path: str | Path, calibration: bool = False) -> CheckResult:
     _check_constants(exp, findings, calibration_folder, calibrated, known_warnings, fault)
     if reference.is_file():
         try:
-            load_reference(reference)
-            _add(findings, "ok", f"{reference}: the reference body's data")
+            certified = load_reference(reference)
         except InputError as error:
             _add(findings, "error", str(error))
+        else:
+            named = certified.certificate
+            which = "" if named is None else f" (certificate {named.id})"
+            if certified.stated:
+                _add(findings, "ok", f"{reference}: the reference body's data and stds{which}")
+            else:
+                _add(
+                    findings, "suspicious",
+                    f"{reference}: the reference body's data{which} without stds: the "
+                    "certificate's uncertainty would be left out of every std (state "
+                    "body.mass_std, body.inertia_std or body.inertia_cov, body.com_std)",
+                )
+    _check_records(exp, calibrated, findings)
     return CheckResult(tuple(findings), exp.root, calibration_folder)
+
+
+def _check_records(
+    exp: Experiment, calibrated: CalibrationFile | None, findings: Findings
+) -> None:
+    """record.toml and spec.toml as identify will read them (an error where it would refuse
+    them), and a calibration past its due date today (identify's warning: suspicious)."""
+    try:
+        record, overdue = experiment_record(exp, calibrated, created_now())
+    except InputError as error:
+        _add(findings, "error", str(error))
+    else:
+        if exp.record_path.is_file():
+            _add(findings, "ok", f"{exp.record_path}: the record (part {record.part_id})")
+        for warning in overdue:
+            _add(findings, "suspicious", warning)
+    if exp.spec_path.is_file():
+        try:
+            spec = load_spec(exp.spec_path)
+            check_quantities(
+                spec, result_quantities(exp.device.body is not None), str(exp.spec_path)
+            )
+            _add(findings, "ok", f"{exp.spec_path}: {len(spec.limits())} limit(s), "
+                 f"{spec.decision.rule.value} rule")
+        except InputError as error:
+            _add(findings, "error", str(error))
 
 
 def _try_read(

@@ -4,6 +4,11 @@ Each command calls its function of the Python API (:mod:`rsp_inertia.api`, the s
 function a script calls) and prints its progress lines and its result; ``design``, which has
 no function among the package's names, calls :func:`rsp_inertia.api.axis_designs`.
 
+A command's result goes to stdout and its warnings to stderr, one line each (``warning: ...``);
+with ``--strict`` (identify, calibrate, combine, report) a result that warns, a report whose
+verdict is not green, or a part that fails or is indeterminate against spec.toml exits with
+status 3 once its files are written.
+
 Bad input (:class:`rsp_inertia.infra.errors.InputError`) becomes one line on stderr and exit
 status 2, and so does running out of memory (a MemoryError anywhere: the line names the
 command, its experiment folders and their logs' rows); argparse's own usage errors exit with
@@ -56,16 +61,42 @@ def _cmd_plan(args: argparse.Namespace) -> None:
     print(result)
 
 
-def _cmd_calibrate(args: argparse.Namespace) -> None:
+STRICT = 3
+"""The exit status of ``--strict`` when the result is not clean (:func:`_strict`)."""
+
+UNDECIDED = ("fail", "indeterminate")
+"""The part's verdicts against spec.toml that ``--strict`` does not pass: a script that
+trusts exit 0 must be able to take it for a part shown to conform."""
+
+
+def _warn(warnings: tuple[str, ...]) -> None:
+    """A result's warnings on stderr, one line each (its result goes to stdout)."""
+    for warning in warnings:
+        print(f"warning: {warning}", file=sys.stderr)
+
+
+def _strict(args: argparse.Namespace, faults: bool) -> int:
+    """The exit status of a command that made its result: :data:`STRICT` with ``--strict``
+    when the result has ``faults`` (a warning, a red or amber verdict, a part that failed or
+    is indeterminate), else 0."""
+    return STRICT if args.strict and faults else 0
+
+
+def _cmd_calibrate(args: argparse.Namespace) -> int:
     with _terminal():
         result = rsp_inertia.calibrate(args.exp, args.empty, args.reference)
     print(result)
+    _warn(result.warnings)
+    return _strict(args, bool(result.warnings))
 
 
-def _cmd_identify(args: argparse.Namespace) -> None:
+def _cmd_identify(args: argparse.Namespace) -> int:
     with _terminal():
         result = rsp_inertia.identify(args.exp)
     print(result)
+    _warn(result.warnings)
+    part = None if result.decision is None else result.decision.part
+    return _strict(args, bool(result.warnings) or part in UNDECIDED)
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
@@ -74,12 +105,22 @@ def _cmd_check(args: argparse.Namespace) -> int:
     return 0 if result.ready else 1
 
 
-def _cmd_report(args: argparse.Namespace) -> None:
-    print(f"report -> {rsp_inertia.write_report(args.exp)}")
+def _cmd_report(args: argparse.Namespace) -> int:
+    out = rsp_inertia.write_report(args.exp, pdf=args.pdf, paper=args.paper)
+    print(f"report -> {out}")
+    if args.pdf:
+        print(f"pdf -> {out.with_suffix('.pdf')}")
+    if not args.strict:
+        return 0
+    verdict, part = api.report_verdict(args.exp)
+    return _strict(args, verdict != "ok" or part in UNDECIDED)
 
 
-def _cmd_combine(args: argparse.Namespace) -> None:
-    print(rsp_inertia.combine(args.exp, args.out))
+def _cmd_combine(args: argparse.Namespace) -> int:
+    result = rsp_inertia.combine(args.exp, args.out)
+    print(result)
+    _warn(result.warnings)
+    return _strict(args, bool(result.warnings))
 
 
 def _cmd_export(args: argparse.Namespace) -> None:
@@ -99,7 +140,9 @@ def _cmd_design(args: argparse.Namespace) -> None:
 EXIT_STATUSES = (
     "exit status: 0 done; 1 check: the folder is not ready for identify; 2 bad input (one "
     "line on stderr naming the file, the line or key and the fault; nothing written) or out "
-    "of memory; 130 interrupted (Ctrl-C)"
+    "of memory; 3 --strict: the result was written but has a warning, a red or amber report "
+    "verdict, or a part that failed or is indeterminate against spec.toml; 130 interrupted "
+    "(Ctrl-C)"
 )
 """The exit statuses, as --help states them (docs/commands.md, Exit statuses)."""
 
@@ -180,6 +223,7 @@ def _parser() -> argparse.ArgumentParser:
         help="experiment folder of the reference body, with REF/reference.toml (same stages); "
         "without it the torque gain is taken as 1",
     )
+    _strict_option(p, "warns")
     p.set_defaults(run=_cmd_calibrate)
 
     # The commands whose only argument is the experiment folder.
@@ -188,9 +232,10 @@ def _parser() -> argparse.ArgumentParser:
         "for identify)"
     )
     report_help = (
-        "EXP/result.json -> EXP/report.html (one self-contained file): a verdict (inputs "
-        "changed since identify? warnings?), the result with 95%% intervals, budget, "
-        "calibration, protocol, figures from the logs"
+        "EXP/result.json -> EXP/report.html (one self-contained test report): a verdict (inputs "
+        "changed since identify? warnings?) and the part's decision, the result with 95%% "
+        "intervals, record, budget, calibration, protocol, figures, signatures; on a combine "
+        "folder (OUT/body.json) the combined body's report"
     )
     for name, run, text in (
         ("check", _cmd_check, check_help),
@@ -199,11 +244,23 @@ def _parser() -> argparse.ArgumentParser:
     ):
         p = sub.add_parser(name, help=text)
         p.add_argument("exp", type=Path, metavar="EXP", help="experiment folder")
+        if name == "report":
+            p.add_argument("--pdf", action="store_true",
+                           help="also print report.pdf beside report.html (headless Chromium)")
+            p.add_argument("--paper", choices=("a4", "letter"), default="a4",
+                           help="the PDF's paper (default a4)")
         if name == "check":
             p.add_argument(
                 "--calibration", action="store_true",
                 help="EXP is a calibration folder (the empty fixture's runs, for calibrate; "
                 "one with reference.toml is taken as one anyway): no calibration.toml needed",
+            )
+        elif name == "identify":
+            _strict_option(p, "warns or the part fails or is indeterminate against spec.toml")
+        else:
+            _strict_option(
+                p, "verdict is red or amber, or the part fails or is indeterminate against "
+                "spec.toml"
             )
         p.set_defaults(run=run)
 
@@ -218,6 +275,7 @@ def _parser() -> argparse.ArgumentParser:
         "--out", type=Path, required=True, metavar="OUT",
         help="folder to write body.json into (created if needed)",
     )
+    _strict_option(p, "warns (the mountings disagree, a mounting's inputs changed, ...)")
     p.set_defaults(run=_cmd_combine)
 
     p = sub.add_parser(
@@ -264,6 +322,14 @@ def _parser() -> argparse.ArgumentParser:
     p.set_defaults(run=_cmd_design)
 
     return parser
+
+
+def _strict_option(parser: argparse.ArgumentParser, when: str) -> None:
+    """``--strict`` on a command that writes a result: exit status 3 when the result ``when``."""
+    parser.add_argument(
+        "--strict", action="store_true",
+        help=f"exit with status 3 (the result still written) when the result {when}",
+    )
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -8,16 +8,23 @@ is :class:`rsp_inertia.results.CombineResult`.
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import replace
 from pathlib import Path
 
 from rsp_inertia.estimation.combine import Combination, combine_mountings, read_mounting
 from rsp_inertia.infra.errors import InputError
-from rsp_inertia.infra.files import check_writable, write_atomic
+from rsp_inertia.infra.files import check_writable, file_sha256, write_atomic
 from rsp_inertia.plant.experiment import BODY_FILE, open_experiment
-from rsp_inertia.provenance import input_changes, input_status, integrity_state, sealed_json
+from rsp_inertia.provenance import (
+    input_changes,
+    input_status,
+    integrity_state,
+    make_provenance,
+    sealed_json,
+)
 
-__all__ = ["combine"]
+__all__ = ["body_provenance", "combine"]
 
 
 def combine(paths: list[str | Path], out: str | Path) -> tuple[Combination, Path]:
@@ -78,9 +85,34 @@ def combine(paths: list[str | Path], out: str | Path) -> tuple[Combination, Path
         if changes:
             warnings.append(f"{exp.root}: identify again: {'; '.join(changes)}")
     combination = combine_mountings(mountings)
-    if warnings:
-        combination = replace(combination, warnings=warnings + list(combination.warnings))
+    combination = replace(combination, warnings=warnings + list(combination.warnings),
+                          provenance=body_provenance(folder, [exp.result_path for exp in exps]))
     folder.mkdir(parents=True, exist_ok=True)
     # sealed last, over the whole document (docs/files.md, body.json integrity)
     write_atomic(target, sealed_json(combination.to_dict()))
     return combination, target
+
+
+def body_provenance(out: Path, results: list[Path]) -> dict:
+    """body.json's ``provenance``: the command, when it ran, the software, and each mounting's
+    result.json with its sha256, named relative to ``out`` (the folders may move together;
+    ``report OUT`` checks them).
+
+    Parameters
+    ----------
+    out : pathlib.Path
+        The folder body.json is written to.
+    results : list of pathlib.Path
+        The mountings' result.json files, in the order given.
+
+    Returns
+    -------
+    dict
+        ``{"command": "combine", "created", "software", "inputs": {name: sha256}}``.
+    """
+    provenance = make_provenance("combine", out, [])
+    provenance["inputs"] = {
+        Path(os.path.relpath(path.resolve(), out.resolve())).as_posix(): file_sha256(path)
+        for path in results
+    }
+    return provenance

@@ -29,7 +29,7 @@ def identify(path: str | Path) -> Identification:
     exp = open_experiment(path)
     check_writable(exp.result_path)
     provenance = make_provenance("identify", exp.root, exp.identify_inputs())
-    result = identify_experiment(exp)
+    result = identify_experiment(exp, made=provenance["created"])
     result = replace(result, provenance=provenance)
     # sealed last, over the whole document (docs/files.md, result.json integrity)
     write_atomic(exp.result_path, sealed_json(result.to_dict()))

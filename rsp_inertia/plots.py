@@ -88,7 +88,8 @@ def plot_tracking(
     output: np.ndarray,
     title: str,
 ) -> None:
-    """The paper's Fig. 4 (:func:`tracking_figure`) written to ``path``.
+    """The reverse run's programmed and measured speeds (:func:`tracking_figure`) written to
+    ``path``.
 
     Parameters
     ----------
@@ -105,7 +106,9 @@ def plot_tracking(
 
 
 def tracking_figure(t: np.ndarray, reference: np.ndarray, output: np.ndarray, title: str) -> Figure:
-    """The paper's Fig. 4: reference speed (r), output (y) and error (e) of the reverse pass.
+    """The reverse run as the program asked for it and as the body moved (the paper's
+    Fig. 4): the programmed speed (the braking mirrored), the measured speed (the smoothed
+    log) and their difference.
 
     Parameters
     ----------
@@ -124,15 +127,16 @@ def tracking_figure(t: np.ndarray, reference: np.ndarray, output: np.ndarray, ti
     fig = Figure(figsize=(7.0, 5.0), dpi=120)
     FigureCanvasAgg(fig)
     top, bottom = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [2, 1]})
-    top.plot(t, reference, color="C0", label="reference r (mirror of the braking)")
-    top.plot(t, output, color="C1", linestyle="--", label="output y")
+    top.plot(t, reference, color="C0", label="programmed speed (the braking mirrored)")
+    top.plot(t, output, color="C1", linestyle="--", label="measured speed (smoothed log)")
     top.set_ylabel("speed [rad/s]")
     top.legend(loc="best", fontsize="small")
     top.grid(True, alpha=0.3)
     top.set_title(title)
-    bottom.plot(t, output - reference, color="C3", linewidth=0.6, label="error e = y - r")
-    bottom.set_xlabel("reverse time t' [s]")
-    bottom.set_ylabel("error [rad/s]")
+    bottom.plot(t, output - reference, color="C3", linewidth=0.6,
+                label="measured - programmed")
+    bottom.set_xlabel("time from the start of the reverse run [s]")
+    bottom.set_ylabel("difference [rad/s]")
     bottom.grid(True, alpha=0.3)
     bottom.legend(loc="best", fontsize="small")
     fig.tight_layout()
@@ -147,7 +151,8 @@ def plot_motion(
     damped: tuple[np.ndarray, np.ndarray],
     title: str,
 ) -> None:
-    """The paper's Fig. 3: the symmetric semi-program motion (1), free undamped (2), damped (3).
+    """The symmetric semi-program motion (1) against the free undamped (2) and damped (3)
+    motions (the paper's Fig. 3): |speed| against time.
 
     Parameters
     ----------
@@ -155,8 +160,9 @@ def plot_motion(
         The PNG file; its folder must exist.
     braking, reverse, undamped, damped : tuple of numpy.ndarray
         Each (t, Omega), s and rad/s: the braking from the release, the reverse (its time
-        shifted to follow the braking, its speed as a magnitude so that the symmetry shows),
-        and the two free motions from the same release with the motor off.
+        shifted to follow the braking), and the two free motions from the same release with
+        the motor off. Every speed is drawn as a magnitude, so that the symmetry shows; a
+        free motion that swings back (its speed changes sign) is marked where it turns.
     title : str
         The figure's title.
     """
@@ -165,7 +171,9 @@ def plot_motion(
 
 def motion_figure(braking, reverse, undamped, damped, title: str) -> Figure:
     """:func:`plot_motion`'s figure, its legend below the axes (inside, it covered the
-    curves of a long braking).
+    curves of a long braking). Every curve is |speed|: a damped free motion that can no
+    longer pass over the top swings back, and a triangle on the time axis marks each turn
+    (with the speed's sign drawn it fell below the axis and vanished until it swung forward).
 
     Parameters
     ----------
@@ -187,12 +195,18 @@ def motion_figure(braking, reverse, undamped, damped, title: str) -> Figure:
     ax = fig.add_subplot()
     tb, wb = braking
     tr, wr = reverse
-    ax.plot(tb, wb, color="C0", label="(1) braking, then reverse (semi-program motion)")
+    ax.plot(tb, np.abs(wb), color="C0", label="(1) braking, then reverse (semi-program motion)")
     ax.plot(tb[-1] + tr, np.abs(wr), color="C0", linestyle="--")
     if undamped is not None:
-        ax.plot(*undamped, color="C2", linewidth=0.8, label="(2) free undamped motion")
+        ax.plot(undamped[0], np.abs(undamped[1]), color="C2", linewidth=0.8,
+                label="(2) free undamped motion")
     if damped is not None:
-        ax.plot(*damped, color="C3", linewidth=0.8, label="(3) free damped motion")
+        label = "(3) free damped motion"
+        turns = _turning_times(*damped)
+        if turns.size:  # the body swings back: its |speed| touches 0 at each turn
+            label += " (turns back at \u25bc)"
+            ax.plot(turns, np.zeros_like(turns), "v", color="C3", markersize=5, clip_on=False)
+        ax.plot(damped[0], np.abs(damped[1]), color="C3", linewidth=0.8, label=label)
     ax.axvline(tb[-1], color="grey", linewidth=0.6, alpha=0.6)
     ax.set_xlabel("time [s]")
     ax.set_ylabel("|speed| [rad/s]")
@@ -201,6 +215,14 @@ def motion_figure(braking, reverse, undamped, damped, title: str) -> Figure:
     fig.legend(loc="outside lower center", fontsize="small", ncol=2)
     ax.set_title(title)
     return fig
+
+
+def _turning_times(t: np.ndarray, omega: np.ndarray) -> np.ndarray:
+    """s, where the speed changes sign: a free motion that no longer passes over the top turns
+    back there (its |speed| touches 0 and rises again)."""
+    t, omega = np.asarray(t, float), np.asarray(omega, float)
+    k = np.flatnonzero(np.sign(omega[:-1]) * np.sign(omega[1:]) < 0)
+    return t[k] - omega[k] * (t[k + 1] - t[k]) / (omega[k + 1] - omega[k])
 
 
 def plot_errors(
@@ -275,12 +297,12 @@ def experiment_figures(
 ) -> list[tuple[str, Figure]]:
     """The figures an experiment folder's logs allow, as (file name, figure), per stage:
 
-    - ``motion_stageN.png`` (paper Fig. 3): the forward run's smoothed braking speed, then
+    - ``motion_stageN.png`` (the paper's Fig. 3): the forward run's smoothed braking speed, then
       the reverse's, from the logs; with the free undamped and damped motions from the same
       release when ``virtual`` (the virtual device, rsp_inertia.virtual.config.Virtual) is
       given: a simulation can release the body with the motor off, a rig's logs hold no
       such run, and ``report`` never reads virtual.toml;
-    - ``tracking_stageN.png`` (paper Fig. 4), when the stage has its ``program.csv``: the
+    - ``tracking_stageN.png`` (the paper's Fig. 4), when the stage has its ``program.csv``: the
       program's reference speed against the reverse log's smoothed speed.
 
     A stage without its forward braking and reverse logs is left out.
@@ -309,8 +331,8 @@ def experiment_figures(
                 (sb.t[::every_b], sb.omega[::every_b]),
                 (sr.t[::every_r], sr.omega[::every_r]),
                 *free,
-                f"Stage {st}: RSP motion" + (" and free motions" if virtual else "")
-                + " (paper Fig. 3)",
+                f"Stage {st}: speed braking, then reversing"
+                + (", and turning freely" if virtual else ""),
             ),
         ))
         if exp.program_path(st).is_file():
@@ -322,7 +344,7 @@ def experiment_figures(
                     prog.t[:n:every_r],
                     prog.omega_ref[:n:every_r],
                     sr.omega[:n:every_r],
-                    f"Stage {st}: reverse pass, reference and smoothed output (paper Fig. 4)",
+                    f"Stage {st}: reverse run, programmed and measured speed",
                 ),
             ))
     return figures
@@ -372,9 +394,11 @@ def plan_figure(plan: Plan) -> Figure:
 
 def encoder_error_figure(known: KnownTerms, title: str = "") -> Figure:
     """``rsp-inertia calibrate``'s encoder error curve (``encoder_error.png``): what the
-    encoder reads beyond the true angle, e(phi), over a turn, with its 1-std band, and each
-    order's part; below, e'(phi), by which the encoder scales every speed (the kinetic energy
-    by 2 e').
+    encoder reads beyond the true angle, e(phi), over a turn, with each order's part; below,
+    e'(phi), by which the encoder scales every speed (the kinetic energy by 2 e'); at the
+    bottom, the 1-std of both, on their own scales (a band of +- 1 std around the curves
+    would be thinner than the line: the calibration states e to a fraction of an arcsecond).
+    The legends stand beside the axes, clear of the curves.
 
     ``known``: the calibrated terms (rsp_inertia.estimation.known_terms.KnownTerms) with encoder
     coefficients theta_e and their covariance.
@@ -382,22 +406,21 @@ def encoder_error_figure(known: KnownTerms, title: str = "") -> Figure:
     orders = known.orders
     phi = np.linspace(0.0, 2.0 * np.pi, 721)
     cov = known.cov[known.encoder_slice, known.encoder_slice]
-    fig = Figure(figsize=(8.0, 6.0), dpi=120)
+    fig = Figure(figsize=(9.0, 7.0), dpi=110, layout="constrained")
     FigureCanvasAgg(fig)
-    top, bottom = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [3, 2]})
+    top, middle, bottom = fig.subplots(
+        3, 1, sharex=True, gridspec_kw={"height_ratios": [3, 2, 1.6]}
+    )
     deg = np.degrees(phi)
-    for ax, basis, scale, label in (
-        (top, error_basis(phi, orders), ARCSEC, "reading error e [arcsec]"),
-        (bottom, error_slope_basis(phi, orders), 1e6, "speed scale error e' [ppm]"),
+    stds = []
+    for ax, basis, scale, label, name in (
+        (top, error_basis(phi, orders), ARCSEC, "reading error e [arcsec]", "e, all orders"),
+        (middle, error_slope_basis(phi, orders), 1e6, "speed scale error e' [ppm]", "e'"),
     ):
         value = basis @ known.encoder * scale
-        std = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", basis, cov, basis), 0.0)) * scale
-        unit = "arcsec" if ax is top else "ppm"
-        ax.fill_between(
-            deg, value - std, value + std, color="C0", alpha=0.3, lw=0,
-            label=f"+- 1 std (at most {std.max():.2g} {unit})",
-        )
-        ax.plot(deg, value, color="C0", lw=2, label="e, all orders" if ax is top else "e'")
+        stds.append(np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", basis, cov, basis), 0.0))
+                    * scale)
+        ax.plot(deg, value, color="C0", lw=2, label=name)
         if ax is top:
             for n in range(orders):
                 part = basis[:, 2 * n : 2 * n + 2] @ known.encoder[2 * n : 2 * n + 2] * scale
@@ -405,11 +428,21 @@ def encoder_error_figure(known: KnownTerms, title: str = "") -> Figure:
         ax.axhline(0.0, color="0.5", lw=0.8)
         ax.set_ylabel(label)
         ax.grid(True, alpha=0.3)
-        ax.legend(loc="upper right", fontsize="small", ncol=2)
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small")
+    bottom.plot(deg, stds[0], color="C0", lw=1.5, label="std of e [arcsec]")
+    scaled = bottom.twinx()
+    scaled.plot(deg, stds[1], color="C1", lw=1.5, ls="--", label="std of e' [ppm]")
+    bottom.set_ylim(bottom=0.0)
+    scaled.set_ylim(bottom=0.0)
+    bottom.set_ylabel("std of e [arcsec]")
+    scaled.set_ylabel("std of e' [ppm]")
+    bottom.grid(True, alpha=0.3)
+    lines = bottom.get_lines() + scaled.get_lines()
+    bottom.legend(lines, [line.get_label() for line in lines], loc="upper left",
+                  bbox_to_anchor=(1.12, 1.0), fontsize="small")
     bottom.set_xlabel("encoder angle phi [deg]")
     bottom.set_xticks(np.arange(0, 361, 45))
     top.set_title(title or "encoder reading error from the calibration")
-    fig.tight_layout()
     return fig
 
 
@@ -443,7 +476,7 @@ def cone_conditioning_figure(
     best_deg, best_cond = best_cone_opening() if best is None else best
     ico_rcond = 1.0 / icosahedron_design().condition
 
-    fig = Figure(figsize=(6.4, 4.2), dpi=120)
+    fig = Figure(figsize=(6.4, 4.6), dpi=120, layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
     ax.plot(openings, rcond, color="C0", label="five axes on a cone + z axis")
@@ -459,12 +492,11 @@ def cone_conditioning_figure(
     )
     ax.axvline(best_deg, color="C3", linewidth=0.8, alpha=0.5)
     ax.set_xlabel("cone opening angle 2\u03b2 [deg]")
-    ax.set_ylabel("1 / cond(V)")
-    ax.set_title("Conditioning of the design matrix V (paper Fig. 1)")
+    ax.set_ylabel("1 / cond(V)  (1 at best)")
+    ax.set_title("Conditioning of the axis design against the cone's opening")
     ax.set_ylim(bottom=0.0)
     ax.grid(True, alpha=0.3)
-    ax.legend(loc="upper left", fontsize="small")
-    fig.tight_layout()
+    fig.legend(loc="outside lower center", fontsize="small", ncol=2)  # clear of the curve
     return fig
 
 

@@ -7,8 +7,16 @@ axes and the centre of mass, each with its std and 95% interval; the axial momen
 uncertainty budget by source, per stage and node, with its total; the calibration applied;
 the protocol of every stage and the runs as logged (release angle, launch speed, turns);
 the figures the logs allow (drawn from them) and those found in the folder; the input files'
-sha256; the software that made the result. Figures are inlined as base64 PNG: the file needs
-no network and no other file. The report never reads virtual.toml (the simulator's truth).
+sha256; the software that made the result; the signature block. Figures are inlined as
+base64 PNG: the file needs no network and no other file. The report never reads virtual.toml
+(the simulator's truth).
+
+As a test report (ISO/IEC 17025 section 7.8, rsp_inertia.report_parts): a title, the report's
+number (from result.json's sha256), the dates of issue and of the measurement, the lab and rig,
+the method, the item, the record fields (result.json ``record``) and the part's decision
+against its specification (result.json ``decision``) beside the software's verdict; the first
+printed page holds the verdicts and the result. On a combine folder, the combined body's
+report instead (rsp_inertia.body_report).
 """
 
 from __future__ import annotations
@@ -19,10 +27,12 @@ import json
 import math
 from pathlib import Path
 
+from rsp_inertia.body_report import body_report_verdict, is_body_folder, write_body_report
 from rsp_inertia.estimation.runs import runs
 from rsp_inertia.estimation.smoothing import smooth_log
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.infra.files import check_writable, write_atomic
+from rsp_inertia.pdf import PAPERS, find_renderer, print_pdf
 from rsp_inertia.plant.experiment import (
     ENCODER_FIGURE,
     PLAN_FIGURE,
@@ -46,54 +56,41 @@ from rsp_inertia.provenance import (
     integrity_state,
     package_versions,
 )
+from rsp_inertia.report_parts import (
+    STATEMENT,
+    VALUE,
+    Z95,
+    decision_box,
+    identification,
+    page,
+    record_section,
+    report_number,
+    signature_block,
+    warning_items,
+    warnings_section,
+)
+from rsp_inertia.report_parts import interval as _interval
+from rsp_inertia.report_parts import table as _table
 
-__all__ = ["FIGURES", "REPORT_FILE", "VALUE", "Z95", "write_report"]
+__all__ = [
+    "FIGURES",
+    "PDF_FILE",
+    "REPORT_FILE",
+    "VALUE",
+    "Z95",
+    "figure_rows",
+    "report_verdict",
+    "uncertainty_note",
+    "verdict_level",
+    "write_report",
+]
+
+PDF_FILE = "report.pdf"
+"""``report --pdf``'s print of report.html, beside it."""
 
 FIGURES = (PLAN_FIGURE, AXIS_DESIGN_FIGURE, ENCODER_FIGURE, ERRORS_FIGURE)
 """Figures of other commands inlined when present (plan, design or demo, calibrate, demo);
 the motion and tracking figures are drawn from the logs (rsp_inertia.plots.experiment_figures)."""
-
-VALUE = "#.8g"
-"""How an estimate is printed: eight significant digits, trailing zeros kept (0.028000000,
-not 0.028, whose precision reads as two digits)."""
-
-Z95 = 1.959963984540054
-"""The 95% interval of a Gaussian estimate is +- Z95 std."""
-
-STYLE = (
-    "body{font-family:sans-serif;max-width:62em;margin:auto;padding:0 1em;color:#222}"
-    "table{border-collapse:collapse;margin:0.4em 0 1em}"
-    "td,th{border:1px solid #999;padding:2px 6px;text-align:right}"
-    "td:first-child,th:first-child{text-align:left}"
-    "tr.total td{font-weight:bold;border-top:2px solid #444}"
-    ".verdict{border:3px solid;border-radius:6px;padding:0.3em 1em;margin:1em 0}"
-    ".verdict h2{margin-top:0.3em}"
-    ".ok{border-color:#2a7a2a;background:#eef8ee}"
-    ".warn{border-color:#b07000;background:#fff6e0}"
-    ".stale{border-color:#b00020;background:#fdecee}"
-    ".meta{color:#555}"
-    "img{max-width:100%}figure{margin:1em 0}"
-)
-
-
-def _table(head: list[str], rows: list[list[str]], total: list[str] | None = None) -> str:
-    cells = "".join(f"<th>{html.escape(h)}</th>" for h in head)
-    body = "".join(
-        "<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in row) + "</tr>" for row in rows
-    )
-    if total is not None:
-        body += "<tr class='total'>" + "".join(
-            f"<td>{html.escape(str(c))}</td>" for c in total
-        ) + "</tr>"
-    return f"<table><tr>{cells}</tr>{body}</table>"
-
-
-def _interval(value: float, std: float, digits: str = VALUE) -> str:
-    """The 95% interval ``[value - Z95 std, value + Z95 std]``."""
-    if std is None or not math.isfinite(std):
-        return "not defined"
-    return f"[{value - Z95 * std:{digits}}, {value + Z95 * std:{digits}}]"
-
 
 def _read_result(exp: Experiment) -> dict:
     path = exp.result_path
@@ -115,10 +112,9 @@ def _verdict(exp: Experiment, result: dict, status: dict[str, str] | None) -> st
     rsp_inertia.provenance.input_status, None when result.json records none), is result.json
     as identify wrote it (rsp_inertia.provenance.integrity_state), and its warnings."""
     warnings = result.get("warnings") or []
-    items, level = [], "ok"
+    items, level = [], verdict_level(result, status)
     integrity = integrity_state(result)
     if integrity == "edited":
-        level = "stale"
         items.append(
             "<p><b>result.json was edited after it was written</b> (its integrity sha256 is "
             "not its content's): a number or a warning below may not be identify's. Run "
@@ -132,7 +128,6 @@ def _verdict(exp: Experiment, result: dict, status: dict[str, str] | None) -> st
     if status is not None:
         changes = input_changes(status)
         if changes:
-            level = "stale"
             items.append(
                 "<p><b>The inputs changed since identify made this result</b>: the numbers "
                 "below describe the files as they were, not as they are. Run "
@@ -141,81 +136,193 @@ def _verdict(exp: Experiment, result: dict, status: dict[str, str] | None) -> st
             items.append("<ul>" + "".join(f"<li>{html.escape(c)}</li>" for c in changes)
                          + "</ul>")
     else:
-        level = "stale"
         items.append(
             "<p><b>result.json records no provenance</b> (made by an older rsp-inertia): "
             "whether the folder still holds the inputs it was made from cannot be checked. "
             "Run identify again.</p>"
         )
     if warnings:
-        level = "stale" if level == "stale" else "warn"
         items.append(
             f"<p><b>{len(warnings)} warning{'s' if len(warnings) > 1 else ''}</b>: each says "
             "what may move the result beyond its stds; read them before using the numbers.</p>"
         )
-        items.append("<ul>" + "".join(f"<li>{html.escape(w)}</li>" for w in warnings) + "</ul>")
+        items.append(warning_items(warnings))
     else:
         items.append("<p><b>No warnings</b>: identify found nothing questionable.</p>")
+    due = (result.get("record") or {}).get("calibration") or {}
+    if due.get("overdue"):
+        items.append(
+            f"<p><b>The calibration was overdue</b>: made {html.escape(str(due.get('date')))}, "
+            f"due {html.escape(str(due.get('due')))}.</p>"
+        )
     title = {"ok": "Verdict: no warnings", "warn": "Verdict: read the warnings",
              "stale": "Verdict: do not use as it stands"}[level]
     return f"<div class='verdict {level}'><h2>{title}</h2>" + "".join(items) + "</div>"
 
 
+def verdict_level(result: dict, status: dict[str, str] | None) -> str:
+    """The colour of the report's verdict: 'stale' (red) when result.json was edited after
+    it was written (rsp_inertia.provenance.integrity_state) or the inputs changed since
+    identify or cannot be checked (``status`` None), else 'warn' (amber) when result.json
+    has a warning or an overdue calibration, else 'ok' (green).
+
+    Parameters
+    ----------
+    result : dict
+        result.json's document.
+    status : dict or None
+        Each recorded input's status now (rsp_inertia.provenance.input_status); None when
+        result.json records no inputs.
+
+    Returns
+    -------
+    str
+        'ok', 'warn' or 'stale'.
+    """
+    if integrity_state(result) == "edited" or status is None or input_changes(status):
+        return "stale"
+    due = (result.get("record") or {}).get("calibration") or {}
+    return "warn" if result.get("warnings") or due.get("overdue") else "ok"
+
+
+def report_verdict(root: str | Path) -> tuple[str, str | None]:
+    """The verdicts a report of ``root`` leads with, without writing it: the software's
+    (:func:`verdict_level`) and the part's against spec.toml (None without one).
+
+    Parameters
+    ----------
+    root : str or pathlib.Path
+        The experiment folder, with its result.json; or a combine folder, with its body.json
+        (rsp_inertia.body_report.body_report_verdict; no part verdict).
+
+    Returns
+    -------
+    (str, str or None)
+        'ok', 'warn' or 'stale'; 'pass', 'fail', 'indeterminate' or None.
+
+    Raises
+    ------
+    InputError
+        No result.json, or one that identify did not write.
+    """
+    if is_body_folder(root):
+        return body_report_verdict(root), None
+    exp = open_experiment(root)
+    result = _read_result(exp)
+    decision = result.get("decision") or {}
+    return verdict_level(result, _input_status(exp, result)), decision.get("part")
+
+
+def _input_status(exp: Experiment, result: dict) -> dict[str, str] | None:
+    """Each input result.json records, as the folder holds it now
+    (rsp_inertia.provenance.input_status); None when it records none."""
+    provenance = result.get("provenance") or {}
+    if "inputs" not in provenance:
+        return None
+    return input_status(exp.root, provenance["inputs"], exp.identify_inputs())
+
+
+def _expanded(result: dict) -> dict:
+    """result.json's ``expanded_uncertainty`` (GUM, JCGM 100), empty when it has none."""
+    return result.get("expanded_uncertainty") or {}
+
+
+def _coverage(expanded: dict) -> str:
+    """``k = 2, approximately 95 %``: the coverage factor and probability as stated."""
+    k = expanded.get("k")
+    coverage = expanded.get("coverage", expanded.get("coverage_probability"))
+    if isinstance(coverage, int | float):
+        coverage = f"{coverage:.0%}"
+    return ", ".join(text for text in (
+        None if k is None else f"k = {k:g}", None if coverage is None else str(coverage)) if text)
+
+
+def uncertainty_note(expanded: dict) -> str:
+    """What std, the 95% interval and U mean, as the report prints them."""
+    text = ("<p>std: the standard uncertainty (one standard deviation of the estimate, every "
+            "source of the budget below included). 95% interval: the estimate +- 1.96 std.")
+    if expanded:
+        text += (f" U: the expanded uncertainty ({html.escape(_coverage(expanded))}; "
+                 f"{html.escape(str(expanded.get('method', 'method not stated')))}); "
+                 "the value lies in [estimate - U, estimate + U] with that probability.")
+    return text + "</p>"
+
+
+def _with_u(head: list[str], rows: list[list[str]], values: list, expanded: list | None,
+            scale: float = 1.0) -> tuple[list[str], list[list[str]]]:
+    """``head`` and ``rows`` with a column U (expanded uncertainty) when ``expanded`` holds one
+    per row (None: the table as it is)."""
+    if not expanded or len(expanded) != len(rows):
+        return head, rows
+    return [*head, "U"], [[*row, "-" if u is None else f"{u * scale:.2g}"]
+                          for row, u in zip(rows, expanded)]
+
+
 def _tensor_sections(result: dict) -> list[str]:
     tensor, std = result["tensor"], result["tensor_std"]
+    expanded = _expanded(result)
+    head, rows = _with_u(
+        ["entry", "kg m^2", "std", "relative std", "95% interval"],
+        [[k, f"{v:{VALUE}}", f"{std[k]:.2g}",
+          f"{std[k] / abs(v):.1e}" if v else "-", _interval(v, std[k])]
+         for k, v in tensor.items()],
+        list(tensor), [(expanded.get("tensor") or {}).get(k) for k in tensor] if expanded
+        else None,
+    )
     parts = [
         "<h2>Inertia tensor (least squares), kg m^2</h2>",
         ("<p>In the rig's axes: z along the shaft, x and y as at phi = 0. Products are the "
-         "tensor's entries (Jxy = -integral of x y dm).</p>"),
-        _table(
-            ["entry", "kg m^2", "std", "relative std", "95% interval"],
-            [[k, f"{v:{VALUE}}", f"{std[k]:.2g}",
-              f"{std[k] / abs(v):.1e}" if v else "-", _interval(v, std[k])]
-             for k, v in tensor.items()],
-        ),
+         "tensor's entries (Jxy = -integral of x y dm).</p>" + uncertainty_note(expanded)
+         + _table(head, rows)),
     ]
     moments = result.get("principal_moments")
     if moments:
         moments_std = result.get("principal_moments_std") or [float("nan")] * 3
         tilt = result.get("principal_axes_tilt_std_deg") or [None] * 3
         axes = result["principal_axes"]
-        parts += [
-            "<h2>Principal moments and axes</h2>",
-            _table(
-                ["", "kg m^2", "std", "95% interval", "axis (x, y, z)", "axis tilt std, deg"],
-                [[f"I{i + 1}", f"{m:{VALUE}}", f"{s:.2g}", _interval(m, s),
-                  "(" + ", ".join(f"{c:+.6f}" for c in a) + ")",
-                  "not defined (equal moments)" if t is None else f"{t:.2g}"]
-                 for i, (m, s, a, t) in enumerate(zip(moments, moments_std, axes, tilt))],
-            ),
-        ]
+        head, rows = _with_u(
+            ["", "kg m^2", "std", "95% interval", "axis (x, y, z)", "axis tilt std, deg"],
+            [[f"I{i + 1}", f"{m:{VALUE}}", f"{s:.2g}", _interval(m, s),
+              "(" + ", ".join(f"{c:+.6f}" for c in a) + ")",
+              "not defined (equal moments)" if t is None else f"{t:.2g}"]
+             for i, (m, s, a, t) in enumerate(zip(moments, moments_std, axes, tilt))],
+            moments, expanded.get("principal_moments"),
+        )
+        parts += ["<h2>Principal moments and axes</h2>", _table(head, rows)]
     com = result.get("com")
     if com is not None:
         com_std = result.get("com_std") or {}
+        names = [n for n in ("x", "y") if n in com]
+        head, rows = _with_u(
+            ["", "mm", "std", "95% interval"],
+            [[n, f"{com[n] * 1e3:.5f}", f"{com_std.get(n, float('nan')) * 1e3:.2g}",
+              _interval(com[n] * 1e3, com_std.get(n, float("nan")) * 1e3, ".5f")]
+             for n in names],
+            names, [(expanded.get("com") or {}).get(n) for n in names] if expanded else None,
+            1e3,
+        )
         parts += [
             "<h2>Centre of mass, mm</h2>",
             ("<p>z_c, along the shaft, does not change the potential energy on this gimbal: "
-             "one mounting does not measure it.</p>"),
-            _table(
-                ["", "mm", "std", "95% interval"],
-                [[n, f"{com[n] * 1e3:.5f}", f"{com_std.get(n, float('nan')) * 1e3:.2g}",
-                  _interval(com[n] * 1e3, com_std.get(n, float("nan")) * 1e3, ".5f")]
-                 for n in ("x", "y")],
-            ),
+             "one mounting does not measure it (rsp-inertia combine gives it from two or more "
+             "mountings).</p>" + _table(head, rows)),
         ]
     else:
         parts.append("<p>Centre of mass: not identified (device.toml gives no [body] mass).</p>")
+    return parts
+
+
+def _axes_section(result: dict) -> list[str]:
     axes = result["axes"]
-    parts += [
-        f"<p>cond(V) of the node axes = {result.get('condition_number', float('nan')):.4g}</p>",
+    return [
         "<h2>Axial moments</h2>",
-        _table(
+        (f"<p>cond(V) of the node axes = {result.get('condition_number', float('nan')):.4g}"
+         "</p>" + _table(
             ["stage", "node, deg", "J, kg m^2", "std", "node formula", "std"],
             [[a["stage"], f"{a['phi_deg']:g}", f"{a['J']:{VALUE}}", f"{a['J_std']:.2g}",
               f"{a['J_node']:{VALUE}}", f"{a['J_node_std']:.2g}"] for a in axes],
-        ),
+        )),
     ]
-    return parts
 
 
 def _budget_section(result: dict) -> list[str]:
@@ -375,14 +482,32 @@ def _figures(exp: Experiment, result: dict) -> list[str]:
         pass
     pictures.append(("differences.png", figure_png(difference_figure(result)),
                      "each method against the least squares (drawn from result.json)"))
-    parts = ["<h2>Figures</h2>"]
+    return ["<h2>Figures</h2>", *figure_rows(pictures)]
+
+
+def figure_rows(pictures: list[tuple[str, bytes, str]]) -> list[str]:
+    """The figures inlined (base64 PNG), two to a row (printed side by side, a row never split
+    across pages).
+
+    Parameters
+    ----------
+    pictures : list of (str, bytes, str)
+        Each figure's name, PNG bytes and caption.
+
+    Returns
+    -------
+    list of str
+        One HTML part per row.
+    """
+    figures = []
     for name, data, caption in pictures:
         encoded = base64.b64encode(data).decode("ascii")
-        parts.append(
+        figures.append(
             f"<figure><img alt='{html.escape(name)}' src='data:image/png;base64,{encoded}'>"
             f"<figcaption>{html.escape(caption)}</figcaption></figure>"
         )
-    return parts
+    return ["<div class='figures keep'>" + "".join(figures[i : i + 2]) + "</div>"
+            for i in range(0, len(figures), 2)]
 
 
 def _provenance_sections(result: dict, status: dict[str, str] | None) -> list[str]:
@@ -393,7 +518,8 @@ def _provenance_sections(result: dict, status: dict[str, str] | None) -> list[st
     current = package_versions()
     return [
         "<h2>Input files (sha256 when identify read them)</h2>",
-        _table(["file", "sha256", "now"], rows) if rows else "<p>Not recorded.</p>",
+        _table(["file", "sha256", "now"], rows, kind="long hashes") if rows
+        else "<p>Not recorded.</p>",
         "<h2>Software</h2>",
         _table(
             ["package", "made the result", "installed now"],
@@ -403,45 +529,100 @@ def _provenance_sections(result: dict, status: dict[str, str] | None) -> list[st
     ]
 
 
-def write_report(root: str | Path) -> Path:
-    """Write EXP/report.html (atomically) and return its path.
+def _identification(exp: Experiment, result: dict, number: str, written: str) -> str:
+    """The test report's identification (ISO/IEC 17025 section 7.8.2.1)."""
+    provenance = result.get("provenance") or {}
+    record = result.get("record") or {}
+    made = provenance.get("created", "not recorded")
+    version = (provenance.get("software") or {}).get("rsp-inertia", "an unrecorded version")
+    item = ", ".join(f"{label} {record[key]}" for label, key in
+                     (("part", "part_id"), ("serial", "serial")) if record.get(key))
+    rig = exp.device.name + (f" (asset {record['asset_id']})" if record.get("asset_id") else "")
+    return identification([
+        ("report number", number),
+        ("date of issue", written),
+        ("item tested", item or "the body mounted in device.toml's [body] (part and serial "
+                                "not recorded)"),
+        ("laboratory and rig", rig),
+        ("method", (f"reverse semi-program motion (RSP), rsp-inertia {version} identify "
+                   "(docs/method.md)")),
+        ("date of the measurement", str(record.get("date") or
+                                        f"not recorded; identify ran {made}")),
+        ("experiment folder", str(exp.root)),
+        ("operator", str(record.get("operator") or "not recorded")),
+    ])
+
+
+def write_report(root: str | Path, pdf: bool = False, paper: str = "a4") -> Path:
+    """Write EXP/report.html (atomically) and return its path; on a combine folder (OUT with
+    body.json and no device.toml) the combined body's report, OUT/report.html
+    (rsp_inertia.body_report). With ``pdf``, also its print, report.pdf beside it
+    (rsp_inertia.pdf.print_pdf).
+
+    Parameters
+    ----------
+    root : str or pathlib.Path
+        The experiment folder (with result.json) or the combine folder (with body.json).
+    pdf : bool, optional
+        Also print report.pdf (needs Chromium; its absence is found before anything is
+        written).
+    paper : str, optional
+        The PDF's paper, ``"a4"`` (default) or ``"letter"``.
+
+    Returns
+    -------
+    pathlib.Path
+        The report.html written.
 
     Raises
     ------
     InputError
-        No result.json (run identify first), or one that is not identify's.
+        No result.json (run identify first), or one that is not identify's; no body.json on a
+        combine folder; with ``pdf``, no Chromium, an unknown paper or an unwritable PDF.
     """
+    browser = None
+    if pdf:
+        if paper not in PAPERS:
+            raise InputError(f"--paper {paper}: not one of {', '.join(PAPERS)}")
+        browser = find_renderer()
+        if Path(root).is_dir():
+            check_writable(Path(root) / PDF_FILE)
+    if is_body_folder(root):
+        out = write_body_report(root)
+    else:
+        out = _write_experiment_report(root)
+    if pdf:
+        print_pdf(out, out.with_name(PDF_FILE), paper, browser)
+    return out
+
+
+def _write_experiment_report(root: str | Path) -> Path:
+    """EXP/report.html (:func:`write_report`)."""
     exp = open_experiment(root)
     result = _read_result(exp)
     out = exp.report_path
     check_writable(out)
-    provenance = result.get("provenance") or {}
-    status = (
-        None if "inputs" not in provenance
-        else input_status(exp.root, provenance["inputs"], exp.identify_inputs())
-    )
-    name = html.escape(exp.device.name)
-    made = provenance.get("created", "at an unrecorded time")
-    version = (provenance.get("software") or {}).get("rsp-inertia", "an unrecorded version")
+    status = _input_status(exp, result)
+    name = exp.device.name
     written = created_now()
+    number = report_number("RSP", exp.result_path.read_bytes())
+    record = result.get("record") or {}
     parts = [
-        f"<h1>rsp-inertia report: {name}</h1>",
-        (f"<p class='meta'>Experiment folder <code>{html.escape(str(exp.root))}</code>. "
-         f"Result made {html.escape(made)} by rsp-inertia {html.escape(version)} (identify); "
-         f"report written {html.escape(written)}.</p>"),
-        _verdict(exp, result, status),
+        f"<h1>Test report: inertia tensor of {html.escape(name)}</h1>",
+        _identification(exp, result, number, written),
+        ("<div class='boxes'>" + _verdict(exp, result, status)
+         + decision_box(result.get("decision")) + "</div>"),
         *_tensor_sections(result),
+        f"<p class='statement'>{html.escape(STATEMENT)}</p>",
+        *warnings_section(result.get("warnings") or []),
+        *record_section({"result.json": result.get("record")}),
+        *_axes_section(result),
         *_budget_section(result),
         *_calibration_section(result),
         *_protocol_section(exp),
         *_figures(exp, result),
         *_provenance_sections(result, status),
+        signature_block(record.get("operator")),
     ]
-    page = (
-        "<!DOCTYPE html><html><head><meta charset='utf-8'>"
-        f"<title>rsp-inertia report: {name} ({written[:10]})</title>"
-        f"<style>{STYLE}</style></head><body>\n" + "\n".join(parts) + "\n</body></html>\n"
-    )
-    write_atomic(out, page)
+    write_atomic(out, page(f"Test report {number}: {name} ({written[:10]})", number, parts))
     return out
-

@@ -86,8 +86,12 @@ def demo(path: str | Path = DEFAULT_EXPERIMENT) -> Identification:
     with lines_to(drop):
         calibration = calibrate(root, empty, reference)
     say(str(calibration))
+    for warning in calibration.warnings:
+        say(f"warning: {warning}")
     result = identify(root)
     say(format_identification(result, truth.inertia))
+    for warning in result.warnings:
+        say(f"warning: {warning}")
     figures = save_figures(demo_figures(exp, result), exp.root)
     say(f"figures -> {', '.join(str(p) for p in figures)}")
     if result.com is not None:
@@ -104,6 +108,8 @@ def demo(path: str | Path = DEFAULT_EXPERIMENT) -> Identification:
         identify(second)
     combination, body = combine([root, second], root / "body")
     say(str(combination))
+    for warning in combination.warnings:
+        say(f"warning: {warning}")
     true_body = experiment_virtual(exp).body  # body axes, about the body frame's origin
     say(
         "against the true body: worst tensor error / largest moment "

@@ -410,6 +410,9 @@ def test_calibrate_prints_and_writes_what_the_command_line_does(tmp_path, capsys
     # The plate's m g x_c: 0.8 kg x 9.80665 m/s^2 x 1 mm.
     assert result.fixture_gravity[0] == pytest.approx(0.8 * 9.80665e-3, rel=1e-3)
     assert result.stiffness is None and result.path == root / "calibration.toml"
+    # The day of the calibration in UTC: SOURCE_DATE_EPOCH (tests/conftest.py) is
+    # 1795000000 s = 2026-11-18 11:06:40 UTC.
+    assert document["calibration"]["date"] == "2026-11-18"
     json_document = json.loads(result.to_json())
     assert json_document.pop("warnings") == list(result.warnings)
     assert json_document == document

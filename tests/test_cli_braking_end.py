@@ -53,8 +53,8 @@ def test_a_held_tail_is_cut_and_said_in_one_line_by_every_command(default_logs, 
     assert np.max(np.abs(a[:, 1] - b[:, 1])) < 20 * q
     for root in (clean, held):
         assert main(["identify", str(root)]) == 0
-    out = capsys.readouterr().out
-    assert f"warning: {said}" in out.splitlines()
+    err = capsys.readouterr().err  # the result on stdout, its warnings on stderr
+    assert f"warning: {said}" in err.splitlines()
     results = [json.loads((root / "result.json").read_text()) for root in (clean, held)]
     entries = ("Jx", "Jy", "Jz", "Jxy", "Jyz", "Jxz")
     tensors = [np.array([r["tensor"][e] for e in entries]) for r in results]

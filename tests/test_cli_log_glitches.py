@@ -77,8 +77,10 @@ def test_identify_warns_and_leaves_the_glitches_out(glitched, default_logs, tmp_
     root, named = glitched
     capsys.readouterr()
     assert main(["identify", str(root)]) == 0
-    out = capsys.readouterr().out.splitlines()
-    _glitch_lines([line for line in out if line.startswith("warning: ")], named)
+    captured = capsys.readouterr()  # the result on stdout, its warnings on stderr
+    assert "warning: " not in captured.out
+    err = captured.err.splitlines()
+    _glitch_lines([line for line in err if line.startswith("warning: ")], named)
     result = json.loads((root / "result.json").read_text())
     assert len([w for w in result["warnings"] if "a glitch" in w]) == len(named)
     # the braking torque constant again once its glitch is out: no such warning
@@ -86,7 +88,7 @@ def test_identify_warns_and_leaves_the_glitches_out(glitched, default_logs, tmp_
     entries, std = _entries(root)
     clean = copy_experiment(default_logs, tmp_path / "clean")
     assert main(["identify", str(clean)]) == 0
-    assert "a glitch" not in capsys.readouterr().out
+    assert "a glitch" not in capsys.readouterr().err
     # Three rows left out are three dropped samples: the result moves well within its std
     # (benchmarks/glitches.py: at most 0.23 std over 20 seeds, against 90 std as logged).
     assert np.all(np.abs(entries - _entries(clean)[0]) < std)

@@ -448,6 +448,11 @@ def result(tmp_path_factory) -> dict:
         text, found = re.subn(old, new, text, count=1)
         assert found, f"the default device.toml changed: no line {old!r}"
     (root / "device.toml").write_text(text)
+    # A specification, so that result.json's decision is filled (record.toml's keys are
+    # always there, null where not stated).
+    (root / "spec.toml").write_text(
+        '[decision]\nrule = "guarded"\n[tensor]\nJx = [0.0, 1.0]\n[com]\nx = [-0.1, 0.1]\n'
+    )
     with threadpool_limits(limits=1):
         simulate(root, part="braking")
         simulate(root, part="reverse", ideal=True)
@@ -471,7 +476,9 @@ def _paths(value, path: str = "") -> set[str]:
                 name = "<file>"
             elif path == "provenance.software":
                 name = "<package>"
-            elif path.endswith("residuals"):
+            elif path.endswith("residuals") or path in (
+                "decision.quantities", "decision.limits", "decision.values"
+            ):
                 name = "<quantity>"
             elif path in ("com", "com_std") and names == {"x", "y", "z"}:
                 name = "<coordinate>"
@@ -560,6 +567,7 @@ def test_calibration_toml_keys_are_documented_and_exist():
         reference=True,
         inputs={"bench-A/calibration/empty/device.toml": "0" * 64},
         chi2_dof=1.0,
+        date="2026-11-18",
         stiffness=StiffnessCalibration(2.0, 1e-3, [(1, 0.0, 2.0, 1e-3)], math.nan, []),
     )
     doc = tomllib.loads(calibration.to_toml())

@@ -30,6 +30,9 @@ class CombineResult:
         (``chi2``, ``dof``, ``p``) and the ``warnings``.
     path : pathlib.Path
         The body.json written (``OUT/body.json``).
+    warnings : tuple of str
+        The combination's warnings (as body.json's); not in ``str(result)``: the command
+        line prints them on stderr.
 
     Examples
     --------
@@ -39,6 +42,11 @@ class CombineResult:
 
     combination: Combination
     path: Path
+
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        """The combination's warnings, as in body.json."""
+        return tuple(self.combination.warnings)
 
     def __str__(self) -> str:
         return f"{self.combination}\nbody -> {self.path}"

@@ -17,6 +17,8 @@ from rsp_inertia.provenance import sealed_json
 from rsp_inertia.results.common import Drawer, Drawn
 
 if TYPE_CHECKING:
+    from rsp_inertia.estimation.decision import Decision
+    from rsp_inertia.estimation.records import Record
     from rsp_inertia.estimation.results import AxisResult, Identification
 
 __all__ = ["IdentifyResult", "format_identification"]
@@ -64,7 +66,14 @@ class IdentifyResult(Drawn):
         cond(V) of the node axes' design matrix (1 is ideal; identify warns above 1e3).
     warnings : tuple of str
         What identify found questionable (no calibration, a non-physical tensor, a failed
-        model test, ...), the same lines as in result.json.
+        model test, an overdue calibration, ...), the same lines as in result.json; not in
+        ``str(result)``: the command line prints them on stderr.
+    record : rsp_inertia.estimation.records.Record or None
+        The record fields (record.toml, the rig's asset id, the calibration's date and due
+        date, the reference's certificate): result.json's ``record``.
+    decision : rsp_inertia.estimation.decision.Decision or None
+        The decision against spec.toml (each limited quantity's verdict and the part's),
+        None without a spec.toml: result.json's ``decision``.
     path : pathlib.Path
         The result.json written (``EXP/result.json``).
     experiment : pathlib.Path
@@ -160,6 +169,16 @@ class IdentifyResult(Drawn):
         return tuple(self.identification.warnings)
 
     @property
+    def record(self) -> Record | None:
+        """The record fields, as result.json's ``record``."""
+        return self.identification.record
+
+    @property
+    def decision(self) -> Decision | None:
+        """The decision against spec.toml, None without one."""
+        return self.identification.decision
+
+    @property
     def path(self) -> Path:
         """The result.json written."""
         return self.experiment / RESULT_FILE
@@ -228,8 +247,9 @@ def format_identification(result: Identification, truth: np.ndarray | None = Non
     str
         The entries by least squares and by the node formula with their stds, the axes'
         moments, the least sure axis's uncertainty budget, the friction asymmetry, the
-        calibration applied, the pendulum baseline, the centre of mass and the warnings, one
-        line each (no final newline).
+        calibration applied, the pendulum baseline, the centre of mass and the part's verdict
+        against spec.toml, one line each (no final newline); not the warnings
+        (``result.warnings``), which the command line prints on stderr.
     """
     lines = []
     head = f"{'':5} {'RSP least squares':>26} {'RSP node formula':>26}"
@@ -331,5 +351,7 @@ def format_identification(result: Identification, truth: np.ndarray | None = Non
             f"centre of mass: x = {result.com[0] * 1e3:.4f} +- {result.com_std[0] * 1e3:.4f} mm,"
             f" y = {result.com[1] * 1e3:.4f} +- {result.com_std[1] * 1e3:.4f} mm"
         )
-    lines += [f"warning: {w}" for w in result.warnings]
+    if result.decision is not None:
+        lines.append(str(result.decision))
+    # The warnings are not in the table: the command line prints them on stderr.
     return "\n".join(lines)

@@ -79,7 +79,7 @@ def test_calibrated_stiffness_recovers_the_rigs(rig):
     ])
     # The reference as it sits on the rig: its folder's [mounting] turns it (calibrate's).
     body = placed_reference(
-        load_reference(reference.root / "reference.toml"), reference.device.mounting
+        load_reference(reference.root / "reference.toml").body, reference.device.mounting
     )
     cal = calibrate_stiffness(
         _pendulum_logs(empty), _pendulum_logs(reference), body, G_f, np.zeros((2, 2)), harmonics

@@ -25,7 +25,15 @@ from rsp_inertia.estimation.reading import known_terms, read_calibration
 from rsp_inertia.estimation.runs import ExperimentLogs
 from rsp_inertia.estimation.tensor_fit import fit_tensor
 from rsp_inertia.identifying import identify
-from rsp_inertia.plant.config import Pendulum, load_device, write_device
+from rsp_inertia.plant.config import (
+    Pendulum,
+    Reference,
+    TrueBody,
+    load_device,
+    load_reference,
+    write_device,
+    write_reference,
+)
 from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.geometry import axis_direction, tensor_from_entries
@@ -274,6 +282,80 @@ def test_calibration_for_another_device_is_refused(rig, tmp_path, capsys):
     assert main(["identify", str(target)]) == 2
     err = capsys.readouterr().err
     assert "calibration.toml" in err and "made for device" in err
+
+
+CERTIFICATE_REL_STD = 2e-4
+"""The reference certificate's relative std on each moment (issue 36's target; a product's
+std is this times the mean moment, the mass's this times the mass)."""
+
+
+CERTIFICATE_ERROR = np.array([0.5, 1.0, -1.0, 0.7, 1.0, -1.0, 0.8, 1.0, -0.5, 0.5])
+"""How far the certificate states the reference's values off their truth, in its own stds
+(mass, the six entries, the centre of mass): errors of a size one draw gives."""
+
+
+def _certificate_off(ref_folder, folder, error=CERTIFICATE_ERROR):
+    """``folder``: a copy of the reference folder whose reference.toml states the body's
+    values off its truth by ``error`` of its own stds (relative std CERTIFICATE_REL_STD),
+    and those stds."""
+    shutil.copytree(ref_folder, folder)
+    truth = load_reference(ref_folder / "reference.toml")  # the virtual body's own values
+    moments = truth.body.inertia[:3]
+    std = np.concatenate(
+        [[CERTIFICATE_REL_STD * truth.body.mass], CERTIFICATE_REL_STD * moments,
+         [CERTIFICATE_REL_STD * moments.mean()] * 3, [1e-5] * 3]
+    )
+    stated_values = truth.values + std * np.asarray(error)
+    body = TrueBody(stated_values[0], stated_values[1:7], stated_values[7:])
+    write_reference(folder / "reference.toml", Reference(body, np.diag(std**2)))
+
+
+def test_the_reference_certificates_uncertainty_reaches_the_tensor(rig, tmp_path):
+    """A certificate off its body by about one of its stated stds: calibrate carries the stds
+    through its fit, takes the certificate's error for the certificate's (no warning), and
+    identify's tensor is within 3 of its stds of the truth, the 'reference certificate'
+    line of its budget the largest (the certificate's scale is the torque's). Stated without
+    stds, the same certificate is exact and calibrate says its uncertainty is left out."""
+    exp, empty, ref = rig
+    target = tmp_path / "exp"
+    shutil.copytree(exp, target)
+    _certificate_off(ref, tmp_path / "ref")
+    calibration = calibrate(target, empty, tmp_path / "ref")
+    assert calibration.warnings == []
+    known, _ = known_terms(open_experiment(target), read_calibration(open_experiment(target)))
+    assert known.certificate_cov is not None
+    # The certificate's share of the calibration is part of its covariance.
+    assert np.all(np.diag(known.cov) >= np.diag(known.certificate_cov) * (1 - 1e-9))
+    result = identify(target)
+    assert result.warnings == []
+    truth = experiment_virtual(open_experiment(target)).body.inertia
+    z = (np.asarray(result.entries) - truth) / np.asarray(result.entries_std)
+    assert np.all(np.abs(z) < 3.0), z
+    budget = result.std_budget
+    line = budget["reference certificate"]["tensor"]
+    assert all(np.all(line[:3] >= part["tensor"][:3])
+               for name, part in budget.items() if name != "reference certificate")
+    # The certificate's common scale is the moments': its line is about their relative std
+    # (within the ratio its mean over three independent draws leaves, 1/sqrt(3) to 1).
+    relative = line[:3] / truth[:3]
+    assert np.all((relative > 0.4 * CERTIFICATE_REL_STD) & (relative < 1.2 * CERTIFICATE_REL_STD))
+    total = np.sqrt(sum(part["tensor"] ** 2 for part in budget.values()))
+    np.testing.assert_allclose(total, result.entries_std, rtol=1e-6)
+
+    # A certificate of another body: Jx and Jy 20 of their stds apart from the truth, the
+    # shape of the tensor the runs measure far better than the certificate states it.
+    other = tmp_path / "exp-other"
+    shutil.copytree(exp, other)
+    _certificate_off(ref, tmp_path / "ref-other", [0, 20, -20, 0, 0, 0, 0, 0, 0, 0])
+    calibration = calibrate(other, empty, tmp_path / "ref-other")
+    assert any("disagree with the reference body's certificate" in w
+               for w in calibration.warnings), calibration.warnings
+
+    # The rig's own reference.toml states the body's values without stds.
+    without = tmp_path / "exp-without"
+    shutil.copytree(exp, without)
+    calibration = calibrate(without, empty, ref)
+    assert any("certificate's uncertainty is left out" in w for w in calibration.warnings)
 
 
 # --- Monte Carlo of the stds under rig imperfections (slow) --------------------------------

@@ -833,9 +833,9 @@ def test_default_virtuals_round_trip(tmp_path, source):
 
 
 def test_reference_round_trips(tmp_path):
-    body = load_reference(DEFAULTS / "rig" / "reference" / "reference.toml")
-    write_reference(tmp_path / "reference.toml", body)
-    assert load_reference(tmp_path / "reference.toml") == body
+    reference = load_reference(DEFAULTS / "rig" / "reference" / "reference.toml")
+    write_reference(tmp_path / "reference.toml", reference)
+    assert load_reference(tmp_path / "reference.toml") == reference
 
 
 EVERY_DEVICE_KEY = (
@@ -1195,4 +1195,4 @@ def test_any_virtual_round_trips(tmp_path, virtual):
 @given(body=true_bodies())
 def test_any_reference_body_round_trips(tmp_path, body):
     write_reference(tmp_path / "reference.toml", body)
-    assert load_reference(tmp_path / "reference.toml") == body
+    assert load_reference(tmp_path / "reference.toml").body == body
