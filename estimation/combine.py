@@ -25,11 +25,17 @@ import json
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 from scipy.linalg import solve_triangular
 from scipy.special import chdtrc
 
+from rsp_inertia.estimation.coverage import (
+    DEFAULT_COVERAGE_FACTOR,
+    ExpandedUncertainty,
+    expanded_uncertainty,
+)
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.infra.frozen import freeze_arrays, read_only
 from rsp_inertia.plant.experiment import Experiment
@@ -225,6 +231,18 @@ class Combination:
     provenance: dict | None = None
     """body.json's ``provenance`` (``rsp-inertia combine``: when, by which software, the
     sha256 of each mounting's result.json); None: not recorded (the library alone)."""
+    coverage_factor: float = DEFAULT_COVERAGE_FACTOR
+    """k of the expanded uncertainties U = k u (``combine --coverage-factor``)."""
+
+    @cached_property
+    def expanded_uncertainty(self) -> ExpandedUncertainty:
+        """The GUM statement: U = k u of the entries and of x_c, y_c, z_c, the principal
+        moments' and axes' Monte Carlo intervals (rsp_inertia.estimation.coverage; computed
+        once, when first read)."""
+        return expanded_uncertainty(
+            self.entries, self.cov[:6, :6], self.coverage_factor, com_std=self.com_std,
+            com_keys=COM_KEYS,
+        )
 
     def __post_init__(self) -> None:
         freeze_arrays(self)  # its arrays read-only, as the record is frozen
@@ -283,6 +301,7 @@ class Combination:
             "principal_axes_tilt_std_deg": [
                 float(np.degrees(t)) if np.isfinite(t) else None for t in tilt
             ],
+            "expanded_uncertainty": self.expanded_uncertainty.to_dict(),
             "mountings": [
                 {
                     "name": name,
@@ -328,6 +347,7 @@ class Combination:
             f"consistency: chi^2 = {self.chi2:.4g} on {self.dof} dof, {_p_text(self.p)}"
             f" (warns below p = {CONSISTENCY_P})"
         )
+        lines += self.expanded_uncertainty.lines()
         # The warnings are not in the text: the command line prints them on stderr.
         return "\n".join(lines)
 

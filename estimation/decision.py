@@ -20,14 +20,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from rsp_inertia.infra.errors import InputError
-from rsp_inertia.plant.geometry import ENTRY_KEYS, principal, principal_uncertainty
+from rsp_inertia.plant.geometry import ENTRY_KEYS, principal
 from rsp_inertia.plant.record_config import Rule, SpecFile
 
 if TYPE_CHECKING:
     from rsp_inertia.estimation.results import Identification
 
 __all__ = [
-    "DECISION_COVERAGE_FACTOR",
     "FAIL",
     "INDETERMINATE",
     "PASS",
@@ -42,10 +41,6 @@ __all__ = [
 
 PASS, FAIL, INDETERMINATE = "pass", "fail", "indeterminate"
 """The verdicts of a quantity and of the part."""
-
-DECISION_COVERAGE_FACTOR = 2.0
-"""k of the expanded uncertainty U = k std that the guarded rule uses when the result states
-no expanded uncertainty of its own (:func:`expanded_for_decision`)."""
 
 STATEMENTS = {
     Rule.SIMPLE: (
@@ -224,23 +219,17 @@ def result_quantities(has_com: bool) -> set[str]:
     return names
 
 
-def expanded_for_decision(
-    identification: Identification, k: float = DECISION_COVERAGE_FACTOR
-) -> dict[str, tuple[float, float]]:
-    """Each quantity of an identification with the expanded uncertainty U the decision uses.
-
-    The one place the decision takes its U from. Where the identification states its own
-    expanded uncertainty (its ``expanded_uncertainty``, result.json's: ``tensor`` {entry: U},
-    ``com`` {axis: U}, ``principal_moments`` [U, U, U]), that U; else U = k std with ``k``
-    (2): the entries' and the centre of mass's stds, and the principal moments' linearised
-    stds (rsp_inertia.plant.geometry.principal_uncertainty).
+def expanded_for_decision(identification: Identification) -> dict[str, tuple[float, float]]:
+    """Each quantity of an identification with the expanded uncertainty U the decision uses:
+    the result's own GUM statement (its ``expanded_uncertainty``,
+    rsp_inertia.estimation.coverage: U = k std of the entries and the centre of mass, the
+    principal moments' U from their Monte Carlo intervals), the one place the decision takes
+    its U from.
 
     Parameters
     ----------
     identification : Identification
         What identify found.
-    k : float
-        The coverage factor.
 
     Returns
     -------
@@ -248,32 +237,20 @@ def expanded_for_decision(
         ``tensor.<entry>``, ``principal.moments[1..3]`` (ascending) and, with a centre of
         mass, ``com.x``, ``com.y`` -> (value, U).
     """
+    stated = identification.expanded_uncertainty.to_dict()
     entries = np.asarray(identification.entries, dtype=float)
-    std = np.sqrt(np.diag(np.asarray(identification.entries_cov, dtype=float)))
     moments, _ = principal(entries)
-    moments_std, _ = principal_uncertainty(entries, identification.entries_cov)
-    U = {f"tensor.{name}": k * s for name, s in zip(ENTRY_KEYS, std, strict=True)}
-    U |= {f"principal.moments[{i}]": k * s for i, s in enumerate(moments_std, 1)}
-    values = dict(zip(U, [*entries, *moments], strict=True))
-    if identification.com is not None:
-        for axis, v, s in zip("xy", identification.com, identification.com_std, strict=True):
-            values[f"com.{axis}"], U[f"com.{axis}"] = v, k * s
-    U |= _stated_expanded(identification)
-    return {name: (float(values[name]), float(U[name])) for name in values}
-
-
-def _stated_expanded(identification: Identification) -> dict[str, float]:
-    """The expanded uncertainties the identification states itself (its
-    ``expanded_uncertainty``, as a document or an object with ``to_dict()``), by quantity;
-    empty when it states none."""
-    stated = getattr(identification, "expanded_uncertainty", None)
-    if stated is None:
-        return {}
-    doc = stated.to_dict() if hasattr(stated, "to_dict") else dict(stated)
-    out = {f"tensor.{name}": U for name, U in (doc.get("tensor") or {}).items()}
-    out |= {f"com.{axis}": U for axis, U in (doc.get("com") or {}).items()}
-    out |= {
-        f"principal.moments[{i}]": U
-        for i, U in enumerate(doc.get("principal_moments") or (), 1)
+    out = {
+        f"tensor.{name}": (value, stated["tensor"][name])
+        for name, value in zip(ENTRY_KEYS, entries, strict=True)
     }
-    return {name: float(U) for name, U in out.items() if U is not None}
+    out |= {
+        f"principal.moments[{i}]": (value, U)
+        for i, (value, U) in enumerate(zip(moments, stated["principal_moments"], strict=True), 1)
+    }
+    if identification.com is not None:
+        out |= {
+            f"com.{axis}": (value, stated["com"][axis])
+            for axis, value in zip("xy", identification.com, strict=True)
+        }
+    return {name: (float(value), float(U)) for name, (value, U) in out.items()}

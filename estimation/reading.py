@@ -27,6 +27,7 @@ from rsp_inertia.estimation.calibration import (
     device_known_terms,
 )
 from rsp_inertia.estimation.calibration_file import CalibrationFile, read_calibration_file
+from rsp_inertia.estimation.coverage import DEFAULT_COVERAGE_FACTOR
 from rsp_inertia.estimation.decision import (
     check_quantities,
     decide,
@@ -207,14 +208,17 @@ def known_terms(
     return device_known_terms(exp.device, source)
 
 
-def identify_experiment(exp: Experiment, made: str | None = None) -> Identification:
+def identify_experiment(
+    exp: Experiment, made: str | None = None, coverage_factor: float = DEFAULT_COVERAGE_FACTOR
+) -> Identification:
     """Identify an experiment folder: its logs, calibration and pendulum runs read, then
     rsp_inertia.estimation.identify.identify_logs (its errors and warnings name the files).
     calibration.toml is read once (:func:`read_calibration`); record.toml and spec.toml, when
     present, are read and checked before the work: with ``made`` (when the result is made,
     ISO 8601) the result carries its record (rsp_inertia.estimation.records, a warning when
     the calibration is overdue) and its decision against spec.toml
-    (rsp_inertia.estimation.decision)."""
+    (rsp_inertia.estimation.decision), made with the expanded uncertainties of coverage
+    factor ``coverage_factor`` (rsp_inertia.estimation.coverage)."""
     calibration = read_calibration(exp)
     record, record_warnings = (None, []) if made is None else experiment_record(
         exp, calibration, made
@@ -236,6 +240,7 @@ def identify_experiment(exp: Experiment, made: str | None = None) -> Identificat
     found = identify_logs(
         logs, known, pendulum_stiffness=stiffness, warnings=warnings, conventions=conventions
     )
+    found = dataclasses.replace(found, coverage_factor=coverage_factor)
     if record is None and spec is None:  # identify_logs' result as it is
         return found
     decision = None if spec is None else decide(

@@ -8,12 +8,18 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
 from rsp_inertia.estimation.best_practice import BestPractice
 from rsp_inertia.estimation.calibration_summary import CalibrationSummary
 from rsp_inertia.estimation.columns import format_run
+from rsp_inertia.estimation.coverage import (
+    DEFAULT_COVERAGE_FACTOR,
+    ExpandedUncertainty,
+    expanded_uncertainty,
+)
 from rsp_inertia.estimation.decision import Decision
 from rsp_inertia.estimation.model_tests import ModelTest
 from rsp_inertia.estimation.pendulum import PendulumEstimate
@@ -229,6 +235,17 @@ class Identification:
     decision: Decision | None = None
     """The decision against EXP/spec.toml (rsp_inertia.estimation.decision); None without
     one."""
+    coverage_factor: float = DEFAULT_COVERAGE_FACTOR
+    """k of the expanded uncertainties U = k u (``identify --coverage-factor``)."""
+
+    @cached_property
+    def expanded_uncertainty(self) -> ExpandedUncertainty:
+        """The GUM statement: U = k u of the entries and the centre of mass, the principal
+        moments' and axes' Monte Carlo intervals (rsp_inertia.estimation.coverage; computed
+        once, when first read)."""
+        return expanded_uncertainty(
+            self.entries, self.entries_cov, self.coverage_factor, com_std=self.com_std
+        )
 
     def __post_init__(self) -> None:
         freeze_arrays(self)  # its arrays read-only, as the record is frozen
@@ -268,6 +285,7 @@ class Identification:
             "principal_axes_tilt_std_deg": [
                 float(np.degrees(t)) if np.isfinite(t) else None for t in tilt_std
             ],
+            "expanded_uncertainty": self.expanded_uncertainty.to_dict(),
             "axes": [
                 {
                     "stage": a.stage,

@@ -26,6 +26,7 @@ __all__ = [
     "axis_angles_deg",
     "axis_direction",
     "axis_nodes_deg",
+    "bilinear_gradient",
     "condition_number",
     "cone_condition",
     "cone_plus_z_design",
@@ -328,6 +329,27 @@ def principal(entries: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return moments, vectors.T
 
 
+def bilinear_gradient(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """d(a^T J b) / d(entries): the gradient of a bilinear form of the tensor in its six
+    entries ``[Jx, Jy, Jz, Jxy, Jyz, Jxz]`` (the tensor holds Jxy at (0, 1) and (1, 0)).
+
+    Parameters
+    ----------
+    a : numpy.ndarray, shape (3,)
+        A vector (a unit principal axis, for the moments' and axes' first-order changes).
+    b : numpy.ndarray, shape (3,)
+        Another, or the same.
+
+    Returns
+    -------
+    numpy.ndarray, shape (6,)
+    """
+    return np.array([
+        a[0] * b[0], a[1] * b[1], a[2] * b[2],
+        a[0] * b[1] + a[1] * b[0], a[1] * b[2] + a[2] * b[1], a[0] * b[2] + a[2] * b[0],
+    ])
+
+
 def principal_uncertainty(
     entries: np.ndarray, cov: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -356,25 +378,17 @@ def principal_uncertainty(
         equals another's (its direction is then not defined).
     """
     moments, vectors = principal(entries)
-
-    def gradient(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """d(a^T J b) / d(entries) for unit vectors a, b."""
-        return np.array([
-            a[0] * b[0], a[1] * b[1], a[2] * b[2],
-            a[0] * b[1] + a[1] * b[0], a[1] * b[2] + a[2] * b[1], a[0] * b[2] + a[2] * b[0],
-        ])
-
     moments_std = np.empty(3)
     tilt_std = np.empty(3)
     for i in range(3):
-        g = gradient(vectors[i], vectors[i])
+        g = bilinear_gradient(vectors[i], vectors[i])
         moments_std[i] = math.sqrt(max(float(g @ cov @ g), 0.0))
         variance = 0.0
         for j in range(3):
             if j == i:
                 continue
             gap = moments[i] - moments[j]
-            h = gradient(vectors[j], vectors[i])
+            h = bilinear_gradient(vectors[j], vectors[i])
             spread = max(float(h @ cov @ h), 0.0)
             variance += math.inf if gap == 0.0 and spread > 0 else spread / gap**2 if gap else 0.0
         tilt_std[i] = math.sqrt(variance)

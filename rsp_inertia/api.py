@@ -140,12 +140,18 @@ def _flag(value: object, function: str, name: str) -> bool:
 # --- identify and demo ----------------------------------------------------------------------
 
 
-def identify(path: str | Path, *, progress: LineReceiver | None = None) -> IdentifyResult:
+def identify(
+    path: str | Path,
+    *,
+    progress: LineReceiver | None = None,
+    coverage_factor: float = 2.0,
+) -> IdentifyResult:
     """Identify the inertia tensor and centre of mass (``rsp-inertia identify EXP``).
 
     Reads ``EXP/device.toml``, every stage's ``braking.csv`` and ``reverse.csv`` (and
     ``calibration.toml`` and the pendulum logs when present) and writes ``EXP/result.json``
-    (atomically).
+    (atomically), with the GUM statement ``expanded_uncertainty``: U = k u of every entry
+    and centre-of-mass coordinate, the principal moments' and axes' Monte Carlo intervals.
 
     Parameters
     ----------
@@ -153,6 +159,9 @@ def identify(path: str | Path, *, progress: LineReceiver | None = None) -> Ident
         The experiment folder EXP.
     progress : callable, optional
         Called with each progress line (str) as the command prints it; silent by default.
+    coverage_factor : float, optional
+        k of the expanded uncertainties U = k u (default 2: a coverage probability of
+        95.45 % for a normal distribution); a finite number above 0.
 
     Returns
     -------
@@ -163,12 +172,15 @@ def identify(path: str | Path, *, progress: LineReceiver | None = None) -> Ident
     ------
     InputError
         A missing or malformed file, logs that do not overlap, too few turns for a node, a
-        braking whose speed reverses, an ill-conditioned axis design, ...
+        braking whose speed reverses, an ill-conditioned axis design, a coverage factor
+        that is not a finite number above 0, ...
 
     Examples
     --------
     >>> result = rsp_inertia.identify("bench-A")    # doctest: +SKIP
     >>> print(result.tensor)                         # doctest: +SKIP
+    >>> rsp_inertia.identify("bench-A", coverage_factor=3).expanded_uncertainty["k"]  # doctest: +SKIP
+    3.0
     """
     # the estimation stack (scipy.stats, CasADi's model): only the commands that read logs
     from rsp_inertia.identifying import identify as run
@@ -176,7 +188,7 @@ def identify(path: str | Path, *, progress: LineReceiver | None = None) -> Ident
 
     path = _path(path, "identify")
     with lines_to(progress):
-        identification = run(path)
+        identification = run(path, coverage_factor)
     return IdentifyResult(identification, path, drawer=_identify_figures)
 
 
@@ -563,7 +575,9 @@ def create_experiment(path: str | Path) -> Path:
 # --- combine --------------------------------------------------------------------------------
 
 
-def combine(paths: list[str | Path] | str | Path, out: str | Path) -> CombineResult:
+def combine(
+    paths: list[str | Path] | str | Path, out: str | Path, *, coverage_factor: float = 2.0
+) -> CombineResult:
     """Combine several identified mountings of one body (``rsp-inertia combine EXP ... --out
     OUT``): the tensor and the centre of mass (x, y and z) in body axes -> ``OUT/body.json``.
 
@@ -579,6 +593,8 @@ def combine(paths: list[str | Path] | str | Path, out: str | Path) -> CombineRes
         The mountings' experiment folders (one folder alone: a one-element list).
     out : str or pathlib.Path
         The folder to write body.json into (created if needed).
+    coverage_factor : float, optional
+        k of body.json's expanded uncertainties U = k u (default 2), as for :func:`identify`.
 
     Returns
     -------
@@ -590,7 +606,8 @@ def combine(paths: list[str | Path] | str | Path, out: str | Path) -> CombineRes
     InputError
         No folder or one given twice, folders of different devices or masses, a folder
         without result.json or ``[body] mass``, mountings that cannot give z_c (the message
-        says which rotation would), an output that cannot be written.
+        says which rotation would), an output that cannot be written, a coverage factor that
+        is not a finite number above 0.
 
     Examples
     --------
@@ -602,7 +619,7 @@ def combine(paths: list[str | Path] | str | Path, out: str | Path) -> CombineRes
     from rsp_inertia.results import CombineResult
 
     paths = _paths(paths, "combine", "paths")
-    combination, path = run(paths, _path(out, "combine", "out"))
+    combination, path = run(paths, _path(out, "combine", "out"), coverage_factor)
     return CombineResult(combination, path)
 
 

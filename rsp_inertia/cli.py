@@ -92,7 +92,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
 def _cmd_identify(args: argparse.Namespace) -> int:
     with _terminal():
-        result = rsp_inertia.identify(args.exp)
+        result = rsp_inertia.identify(args.exp, coverage_factor=args.coverage_factor)
     print(result)
     _warn(result.warnings)
     part = None if result.decision is None else result.decision.part
@@ -117,7 +117,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
 
 def _cmd_combine(args: argparse.Namespace) -> int:
-    result = rsp_inertia.combine(args.exp, args.out)
+    result = rsp_inertia.combine(args.exp, args.out, coverage_factor=args.coverage_factor)
     print(result)
     _warn(result.warnings)
     return _strict(args, bool(result.warnings))
@@ -257,6 +257,12 @@ def _parser() -> argparse.ArgumentParser:
             )
         elif name == "identify":
             _strict_option(p, "warns or the part fails or is indeterminate against spec.toml")
+            p.add_argument(
+                "--coverage-factor", type=float, default=2.0, metavar="K",
+                help="k of the expanded uncertainties U = k u in result.json and the output "
+                "(default 2: about 95 %%); the principal moments' and axes' Monte Carlo "
+                "intervals use its coverage probability",
+            )
         else:
             _strict_option(
                 p, "verdict is red or amber, or the part fails or is indeterminate against "
@@ -276,6 +282,10 @@ def _parser() -> argparse.ArgumentParser:
         help="folder to write body.json into (created if needed)",
     )
     _strict_option(p, "warns (the mountings disagree, a mounting's inputs changed, ...)")
+    p.add_argument(
+        "--coverage-factor", type=float, default=2.0, metavar="K",
+        help="k of body.json's expanded uncertainties U = k u (default 2: about 95 %%)",
+    )
     p.set_defaults(run=_cmd_combine)
 
     p = sub.add_parser(

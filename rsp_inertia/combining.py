@@ -13,6 +13,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from rsp_inertia.estimation.combine import Combination, combine_mountings, read_mounting
+from rsp_inertia.estimation.coverage import DEFAULT_COVERAGE_FACTOR, check_coverage_factor
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.infra.files import check_writable, file_sha256, write_atomic
 from rsp_inertia.plant.experiment import BODY_FILE, open_experiment
@@ -27,13 +28,16 @@ from rsp_inertia.provenance import (
 __all__ = ["body_provenance", "combine"]
 
 
-def combine(paths: list[str | Path], out: str | Path) -> tuple[Combination, Path]:
+def combine(
+    paths: list[str | Path], out: str | Path, coverage_factor: float = DEFAULT_COVERAGE_FACTOR
+) -> tuple[Combination, Path]:
     """The command behind :func:`rsp_inertia.api.combine`, documented there; returns the
     library's record (rsp_inertia.estimation.combine.Combination) and the body.json written,
     which the API holds in its CombineResult. A mounting whose inputs changed since
     identify (its result.json's provenance against the folder) gives a warning, one whose
     result.json was edited after identify wrote it (rsp_inertia.provenance.integrity_state)
     is refused; an output that cannot be written is found before anything is read."""
+    coverage_factor = check_coverage_factor(coverage_factor)
     if not paths:
         raise InputError("combine: no experiment folder given: name every mounting's folder")
     exps = [open_experiment(root, protocol=False) for root in paths]
@@ -86,7 +90,8 @@ def combine(paths: list[str | Path], out: str | Path) -> tuple[Combination, Path
             warnings.append(f"{exp.root}: identify again: {'; '.join(changes)}")
     combination = combine_mountings(mountings)
     combination = replace(combination, warnings=warnings + list(combination.warnings),
-                          provenance=body_provenance(folder, [exp.result_path for exp in exps]))
+                          provenance=body_provenance(folder, [exp.result_path for exp in exps]),
+                          coverage_factor=coverage_factor)
     folder.mkdir(parents=True, exist_ok=True)
     # sealed last, over the whole document (docs/files.md, body.json integrity)
     write_atomic(target, sealed_json(combination.to_dict()))

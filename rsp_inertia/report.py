@@ -3,7 +3,10 @@
 Built from what identify wrote (result.json) and what the experiment holds. It leads with a
 verdict: whether the inputs are still those identify read (result.json's provenance, checked
 against the folder), and identify's warnings. Then the tensor, its principal moments and
-axes and the centre of mass, each with its std and 95% interval; the axial moments; the
+axes and the centre of mass, each with its std, its expanded uncertainty U = k std and the
+interval y +- U (result.json's ``expanded_uncertainty``; what std and U mean, in JCGM 100's
+words; the principal moments' Monte Carlo intervals, an axis not determined said so); the
+axial moments; the
 uncertainty budget by source, per stage and node, with its total; the calibration applied;
 the protocol of every stage and the runs as logged (release angle, launch speed, turns);
 the figures the logs allow (drawn from them) and those found in the folder; the input files'
@@ -80,7 +83,6 @@ __all__ = [
     "Z95",
     "figure_rows",
     "report_verdict",
-    "uncertainty_note",
     "verdict_level",
     "write_report",
 ]
@@ -91,6 +93,38 @@ PDF_FILE = "report.pdf"
 FIGURES = (PLAN_FIGURE, AXIS_DESIGN_FIGURE, ENCODER_FIGURE, ERRORS_FIGURE)
 """Figures of other commands inlined when present (plan, design or demo, calibrate, demo);
 the motion and tracking figures are drawn from the logs (rsp_inertia.plots.experiment_figures)."""
+
+def _interval_U(value: float, U: float, digits: str = VALUE) -> str:
+    """The interval ``[value - U, value + U]`` of an expanded uncertainty U."""
+    return f"[{value - U:{digits}}, {value + U:{digits}}]"
+
+
+def _principal_section(stated: dict, moments, moments_std, axes, tilt_std) -> list[str]:
+    """The principal moments with their Monte Carlo intervals and U (the linearised U beside
+    them), the axes with their tilt at the coverage probability, or "not determined"."""
+    p = f"{100 * stated['coverage_probability']:.2f} %"
+    determined = stated["principal_axes_determined"]
+    rows = []
+    for i, (m, s, a) in enumerate(zip(moments, moments_std, axes)):
+        low, high = stated["principal_moments_interval"][i]
+        tilt = stated["principal_axes_tilt_deg"][i]
+        rows.append([
+            f"I{i + 1}", f"{m:{VALUE}}", f"{s:.2g}", f"{stated['principal_moments'][i]:.2g}",
+            f"{stated['linearised']['principal_moments'][i]:.2g}",
+            f"[{low:{VALUE}}, {high:{VALUE}}]",
+            "(" + ", ".join(f"{c:+.6f}" for c in a) + ")",
+            f"{tilt:.2g}" if determined[i] and tilt is not None
+            else "not determined (moment within 3 stds of another)",
+        ])
+    return [
+        "<h2>Principal moments and axes</h2>",
+        _table(
+            ["", "kg m^2", "std", "U (Monte Carlo)", "U (linearised)",
+             f"interval ({p}, Monte Carlo)", "axis (x, y, z)", f"axis tilt ({p}), deg"],
+            rows,
+        ),
+    ]
+
 
 def _read_result(exp: Experiment) -> dict:
     path = exp.result_path
@@ -222,90 +256,90 @@ def _input_status(exp: Experiment, result: dict) -> dict[str, str] | None:
     return input_status(exp.root, provenance["inputs"], exp.identify_inputs())
 
 
-def _expanded(result: dict) -> dict:
-    """result.json's ``expanded_uncertainty`` (GUM, JCGM 100), empty when it has none."""
-    return result.get("expanded_uncertainty") or {}
+def _expanded(result: dict) -> dict | None:
+    """result.json's GUM statement ``expanded_uncertainty`` (None: a result.json of an older
+    rsp-inertia, which the report states with +- Z95 std)."""
+    stated = result.get("expanded_uncertainty")
+    return stated if isinstance(stated, dict) and "k" in stated else None
 
 
-def _coverage(expanded: dict) -> str:
-    """``k = 2, approximately 95 %``: the coverage factor and probability as stated."""
-    k = expanded.get("k")
-    coverage = expanded.get("coverage", expanded.get("coverage_probability"))
-    if isinstance(coverage, int | float):
-        coverage = f"{coverage:.0%}"
-    return ", ".join(text for text in (
-        None if k is None else f"k = {k:g}", None if coverage is None else str(coverage)) if text)
-
-
-def uncertainty_note(expanded: dict) -> str:
-    """What std, the 95% interval and U mean, as the report prints them."""
-    text = ("<p>std: the standard uncertainty (one standard deviation of the estimate, every "
-            "source of the budget below included). 95% interval: the estimate +- 1.96 std.")
-    if expanded:
-        text += (f" U: the expanded uncertainty ({html.escape(_coverage(expanded))}; "
-                 f"{html.escape(str(expanded.get('method', 'method not stated')))}); "
-                 "the value lies in [estimate - U, estimate + U] with that probability.")
-    return text + "</p>"
-
-
-def _with_u(head: list[str], rows: list[list[str]], values: list, expanded: list | None,
-            scale: float = 1.0) -> tuple[list[str], list[list[str]]]:
-    """``head`` and ``rows`` with a column U (expanded uncertainty) when ``expanded`` holds one
-    per row (None: the table as it is)."""
-    if not expanded or len(expanded) != len(rows):
-        return head, rows
-    return [*head, "U"], [[*row, "-" if u is None else f"{u * scale:.2g}"]
-                          for row, u in zip(rows, expanded)]
+def _gum_paragraph(stated: dict) -> str:
+    """What std and U mean, in the words of JCGM 100 (and how the principal moments' and
+    axes' intervals were obtained)."""
+    k, p = stated["k"], 100 * stated["coverage_probability"]
+    mc = stated["monte_carlo"]
+    return (
+        "<p><b>std</b> is the standard uncertainty u: the standard deviation of the values "
+        "that could reasonably be attributed to the quantity (JCGM 100 §2.3.1). <b>U = k u</b> "
+        f"with k = {k:g} is the expanded uncertainty: the interval y &plusmn; U is expected to "
+        f"contain about {p:.2f} % of those values (the coverage probability of k = {k:g} for a "
+        "normal distribution; JCGM 100 §6). The principal moments and axes, nonlinear in the "
+        "tensor, have their intervals from a Monte Carlo of the entries' joint distribution "
+        f"(JCGM 101: {mc['draws']} draws, seed {mc['seed']}"
+        + ("" if mc["converged"] else ", not stabilised")
+        + "); the first-order (linearised) U is given beside them.</p>"
+    )
 
 
 def _tensor_sections(result: dict) -> list[str]:
     tensor, std = result["tensor"], result["tensor_std"]
-    expanded = _expanded(result)
-    head, rows = _with_u(
-        ["entry", "kg m^2", "std", "relative std", "95% interval"],
-        [[k, f"{v:{VALUE}}", f"{std[k]:.2g}",
-          f"{std[k] / abs(v):.1e}" if v else "-", _interval(v, std[k])]
-         for k, v in tensor.items()],
-        list(tensor), [(expanded.get("tensor") or {}).get(k) for k in tensor] if expanded
-        else None,
-    )
+    stated = _expanded(result)
+    if stated is None:
+        interval_head, U, U_head = "95% interval", {}, "U"
+        gum = []
+    else:
+        interval_head = f"interval y +- U ({100 * stated['coverage_probability']:.2f} %)"
+        U = stated["tensor"]
+        U_head = f"U (k = {stated['k']:g})"
+        gum = [_gum_paragraph(stated)]
     parts = [
         "<h2>Inertia tensor (least squares), kg m^2</h2>",
         ("<p>In the rig's axes: z along the shaft, x and y as at phi = 0. Products are the "
-         "tensor's entries (Jxy = -integral of x y dm).</p>" + uncertainty_note(expanded)
-         + _table(head, rows)),
+         "tensor's entries (Jxy = -integral of x y dm).</p>"),
+        *gum,
+        _table(
+            ["entry", "kg m^2", "std", *([U_head] if U else []), "relative std", interval_head],
+            [[k, f"{v:{VALUE}}", f"{std[k]:.2g}", *([f"{U[k]:.2g}"] if U else []),
+              f"{std[k] / abs(v):.1e}" if v else "-",
+              _interval_U(v, U[k]) if U else _interval(v, std[k])]
+             for k, v in tensor.items()],
+        ),
     ]
     moments = result.get("principal_moments")
     if moments:
         moments_std = result.get("principal_moments_std") or [float("nan")] * 3
         tilt = result.get("principal_axes_tilt_std_deg") or [None] * 3
         axes = result["principal_axes"]
-        head, rows = _with_u(
-            ["", "kg m^2", "std", "95% interval", "axis (x, y, z)", "axis tilt std, deg"],
-            [[f"I{i + 1}", f"{m:{VALUE}}", f"{s:.2g}", _interval(m, s),
-              "(" + ", ".join(f"{c:+.6f}" for c in a) + ")",
-              "not defined (equal moments)" if t is None else f"{t:.2g}"]
-             for i, (m, s, a, t) in enumerate(zip(moments, moments_std, axes, tilt))],
-            moments, expanded.get("principal_moments"),
-        )
-        parts += ["<h2>Principal moments and axes</h2>", _table(head, rows)]
+        if stated is None:
+            parts += [
+                "<h2>Principal moments and axes</h2>",
+                _table(
+                    ["", "kg m^2", "std", "95% interval", "axis (x, y, z)", "axis tilt std, deg"],
+                    [[f"I{i + 1}", f"{m:{VALUE}}", f"{s:.2g}", _interval(m, s),
+                      "(" + ", ".join(f"{c:+.6f}" for c in a) + ")",
+                      "not defined (equal moments)" if t is None else f"{t:.2g}"]
+                     for i, (m, s, a, t) in enumerate(zip(moments, moments_std, axes, tilt))],
+                ),
+            ]
+        else:
+            parts += _principal_section(stated, moments, moments_std, axes, tilt)
     com = result.get("com")
     if com is not None:
         com_std = result.get("com_std") or {}
-        names = [n for n in ("x", "y") if n in com]
-        head, rows = _with_u(
-            ["", "mm", "std", "95% interval"],
-            [[n, f"{com[n] * 1e3:.5f}", f"{com_std.get(n, float('nan')) * 1e3:.2g}",
-              _interval(com[n] * 1e3, com_std.get(n, float("nan")) * 1e3, ".5f")]
-             for n in names],
-            names, [(expanded.get("com") or {}).get(n) for n in names] if expanded else None,
-            1e3,
-        )
+        com_U = (stated or {}).get("com") or {}
         parts += [
             "<h2>Centre of mass, mm</h2>",
             ("<p>z_c, along the shaft, does not change the potential energy on this gimbal: "
-             "one mounting does not measure it (rsp-inertia combine gives it from two or more "
-             "mountings).</p>" + _table(head, rows)),
+             "one mounting does not measure it.</p>"),
+            _table(
+                ["", "mm", "std", *([U_head] if com_U else []),
+                 interval_head if com_U else "95% interval"],
+                [[n, f"{com[n] * 1e3:.5f}", f"{com_std.get(n, float('nan')) * 1e3:.2g}",
+                  *([f"{com_U[n] * 1e3:.2g}"] if com_U else []),
+                  _interval_U(com[n] * 1e3, com_U[n] * 1e3, ".5f") if com_U
+                  else _interval(com[n] * 1e3, com_std.get(n, float("nan")) * 1e3, ".5f")]
+                 for n in ("x", "y")],
+            ),
         ]
     else:
         parts.append("<p>Centre of mass: not identified (device.toml gives no [body] mass).</p>")

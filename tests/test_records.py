@@ -26,6 +26,7 @@ from rsp_inertia.cli import STRICT, main
 from rsp_inertia.estimation import reading
 from rsp_inertia.estimation.calibration import Calibration
 from rsp_inertia.estimation.calibration_file import read_calibration_file
+from rsp_inertia.estimation.coverage import expanded_uncertainty
 from rsp_inertia.estimation.decision import (
     FAIL,
     INDETERMINATE,
@@ -303,40 +304,34 @@ def test_the_part_fails_if_any_fails_else_is_indeterminate_if_any_is():
 
 
 def test_the_decision_takes_the_expanded_uncertainty_the_result_states():
-    """U is the result's own expanded uncertainty where it states one (the GUM statement),
-    else 2 std; a stand-in identification with a diagonal covariance keeps the truth plain."""
+    """U is the result's own GUM statement: k std of the entries and the centre of mass, the
+    principal moments' from their Monte Carlo intervals (estimation.coverage); a diagonal
+    covariance of well separated moments keeps the truth plain (their U 2 std within the
+    Monte Carlo's tolerance)."""
     entries = np.array([0.025, 0.028, 0.022, 0.0, 0.0, 0.0])
     std = np.array([1e-6, 2e-6, 3e-6, 1e-7, 1e-7, 1e-7])
-    found = SimpleNamespace(
-        entries=entries, entries_cov=np.diag(std**2), com=np.array([0.003, -0.002]),
-        com_std=np.array([1e-6, 2e-6]),
+    com, com_std = np.array([0.003, -0.002]), np.array([1e-6, 2e-6])
+    found = SimpleNamespace(entries=entries, entries_cov=np.diag(std**2), com=com)
+    found.expanded_uncertainty = expanded_uncertainty(
+        entries, found.entries_cov, 3.0, com_std=com_std
     )
     values = expanded_for_decision(found)
-    assert values["tensor.Jy"] == (0.028, pytest.approx(4e-6))
-    assert values["com.y"] == (-0.002, pytest.approx(4e-6))
+    assert values["tensor.Jy"] == (0.028, pytest.approx(6e-6))
+    assert values["com.y"] == (-0.002, pytest.approx(6e-6))
     # A diagonal tensor: the principal moments are the diagonal, ascending, with its stds.
-    assert values["principal.moments[1]"] == (pytest.approx(0.022), pytest.approx(6e-6))
-    assert values["principal.moments[3]"] == (pytest.approx(0.028), pytest.approx(4e-6))
-    found.expanded_uncertainty = {
-        "k": 2.0, "tensor": {"Jy": 5e-6}, "com": {"y": 7e-6}, "principal_moments": [8e-6, 9e-6, 1e-5]
-    }
-    values = expanded_for_decision(found)
-    assert values["tensor.Jy"] == (0.028, 5e-6) and values["com.y"] == (-0.002, 7e-6)
-    assert values["principal.moments[1]"][1] == 8e-6
-    assert values["tensor.Jx"][1] == pytest.approx(2e-6)  # not stated: 2 std
+    assert values["principal.moments[1]"] == (pytest.approx(0.022), pytest.approx(9e-6, rel=0.05))
+    assert values["principal.moments[3]"] == (pytest.approx(0.028), pytest.approx(6e-6, rel=0.05))
 
 
 def _values(result: dict) -> dict[str, tuple[float, float]]:
-    """Each quantity of result.json with U = 2 std (the decision's k = 2), from the stds
-    result.json states: the entries', the centre of mass's and the principal moments'."""
-    out = {
-        f"tensor.{k}": (result["tensor"][k], 2 * result["tensor_std"][k]) for k in ENTRY_KEYS
-    }
-    out |= {f"com.{k}": (result["com"][k], 2 * result["com_std"][k]) for k in "xy"}
-    for i, (m, s) in enumerate(
-        zip(result["principal_moments"], result["principal_moments_std"]), 1
-    ):
-        out[f"principal.moments[{i}]"] = (m, 2 * s)
+    """Each quantity of result.json with the U its GUM statement gives (result.json
+    ``expanded_uncertainty``): the entries', the centre of mass's and the principal
+    moments'."""
+    stated = result["expanded_uncertainty"]
+    out = {f"tensor.{k}": (result["tensor"][k], stated["tensor"][k]) for k in ENTRY_KEYS}
+    out |= {f"com.{k}": (result["com"][k], stated["com"][k]) for k in "xy"}
+    for i, (m, U) in enumerate(zip(result["principal_moments"], stated["principal_moments"]), 1):
+        out[f"principal.moments[{i}]"] = (m, U)
     return out
 
 

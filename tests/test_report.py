@@ -15,7 +15,7 @@ import pytest
 from rsp_inertia.cli import main
 from rsp_inertia.identifying import identify
 from rsp_inertia.provenance import created_now, sealed_json
-from rsp_inertia.report import VALUE, Z95
+from rsp_inertia.report import VALUE
 from rsp_inertia.scenarios import create_default_experiment
 from tests.conftest import copy_experiment
 
@@ -151,7 +151,11 @@ def test_the_report_states_intervals_principal_axes_and_a_budget_total(identifie
     page = (identified / "report.html").read_text()
     result = json.loads((identified / "result.json").read_text())
     Jx, std = result["tensor"]["Jx"], result["tensor_std"]["Jx"]
-    assert f"[{Jx - Z95 * std:{VALUE}}, {Jx + Z95 * std:{VALUE}}]" in page
+    # the interval y +- U of the GUM statement, U = k std (k = 2 by default)
+    U = result["expanded_uncertainty"]["tensor"]["Jx"]
+    assert U == 2.0 * std
+    assert f"[{Jx - U:{VALUE}}, {Jx + U:{VALUE}}]" in page
+    assert "U = k u</b> with k = 2" in page and "95.45 %" in page
     for moment, m_std in zip(result["principal_moments"], result["principal_moments_std"]):
         assert f"<td>{moment:{VALUE}}</td><td>{m_std:.2g}</td>" in page
     # The budget's total row: the sources' variances add up to each entry's variance.

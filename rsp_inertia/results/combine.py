@@ -27,7 +27,8 @@ class CombineResult:
         The generalised least squares over the mountings: ``entries`` (6,) kg m^2 about the
         body frame's origin, ``com`` (3,) m, their joint ``cov`` (9, 9), the principal
         moments and axes, each mounting's residuals in stds, the consistency test
-        (``chi2``, ``dof``, ``p``) and the ``warnings``.
+        (``chi2``, ``dof``, ``p``), the ``warnings`` and the GUM statement
+        (``expanded_uncertainty``, rsp_inertia.estimation.coverage.ExpandedUncertainty).
     path : pathlib.Path
         The body.json written (``OUT/body.json``).
     warnings : tuple of str

@@ -58,6 +58,12 @@ class IdentifyResult(Drawn):
         m, ``[x_c, y_c]`` of the centre of mass, when device.toml gives ``[body] mass``.
     com_std : numpy.ndarray, shape (2,), or None
         m.
+    expanded_uncertainty : dict
+        The GUM statement, as result.json's ``expanded_uncertainty`` (docs/files.md): the
+        coverage factor ``k`` (``identify(..., coverage_factor=K)``, default 2), its
+        ``coverage_probability``, U = k std of every entry (``tensor``) and centre-of-mass
+        coordinate (``com``), the principal moments' Monte Carlo intervals and U, the axes'
+        tilts and whether each axis is determined, the linearised values beside them.
     axes : tuple of rsp_inertia.estimation.results.AxisResult
         One per node of every stage: ``stage``, ``phi_deg``, the unit ``direction`` (3,),
         and the axial moment ``J`` (least squares), ``J_node`` (node formula), ``J_plain``
@@ -152,6 +158,11 @@ class IdentifyResult(Drawn):
         """m."""
         std = self.identification.com_std
         return None if std is None else read_only(np.asarray(std, dtype=float))
+
+    @property
+    def expanded_uncertainty(self) -> dict:
+        """The GUM statement, as result.json's ``expanded_uncertainty``."""
+        return self.identification.expanded_uncertainty.to_dict()
 
     @property
     def axes(self) -> tuple[AxisResult, ...]:
@@ -351,6 +362,7 @@ def format_identification(result: Identification, truth: np.ndarray | None = Non
             f"centre of mass: x = {result.com[0] * 1e3:.4f} +- {result.com_std[0] * 1e3:.4f} mm,"
             f" y = {result.com[1] * 1e3:.4f} +- {result.com_std[1] * 1e3:.4f} mm"
         )
+    lines += result.expanded_uncertainty.lines()
     if result.decision is not None:
         lines.append(str(result.decision))
     # The warnings are not in the table: the command line prints them on stderr.

@@ -272,6 +272,7 @@ def test_the_demo_prints_the_errors_relative_errors_gives(monkeypatch) -> None:
         entries=truth + 1e-6, entries_std=np.full(6, 1e-7), node_entries=truth - 1e-6,
         node_entries_cov=np.eye(6) * 1e-12, condition_number=1.58, axes=[], std_budget={},
         friction_asymmetry=None, calibration=None, pendulum=None, com=None, decision=None,
+        warnings=[], expanded_uncertainty=SimpleNamespace(lines=list),
     )
     monkeypatch.setattr(
         "rsp_inertia.results.identify.relative_errors", lambda j6, true_j6: np.full(6, 0.125)
