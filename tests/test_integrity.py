@@ -107,3 +107,19 @@ def test_combine_reads_a_result_without_integrity_with_a_note(tmp_path, capsys):
     warnings = json.loads((out / "body.json").read_text())["warnings"]
     noted = [w for w in warnings if "records no integrity" in w]
     assert len(noted) == 1 and str(second / "result.json") in noted[0]
+
+
+def test_the_body_report_turns_red_on_an_edited_body_json(tmp_path):
+    first = _sealed(_mounting(tmp_path / "a", np.eye(3)))
+    second = _sealed(_mounting(tmp_path / "b", TURNED_X90))
+    out = tmp_path / "body"
+    assert main(["combine", str(first), str(second), "--out", str(out)]) == 0
+    assert main(["report", str(out)]) == 0
+    assert "body.json was edited" not in (out / "report.html").read_text()
+    document = json.loads((out / "body.json").read_text())
+    document["com"]["z"] += 1e-4
+    (out / "body.json").write_text(json.dumps(document, indent=2))
+    assert main(["report", str(out)]) == 0
+    page = (out / "report.html").read_text()
+    assert "<div class='verdict stale'>" in page and "body.json was edited after it" in page
+    assert main(["report", str(out), "--strict"]) == 3

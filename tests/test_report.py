@@ -216,6 +216,7 @@ def test_a_result_json_edited_after_it_was_written_turns_the_verdict_red(rig, ed
     assert main(["report", str(rig)]) == 0
     level, box = _verdict((rig / "report.html").read_text())
     assert level == "stale" and "edited after it was written" in box
+    assert main(["report", str(rig), "--strict"]) == 3  # a script sees it too
 
 
 def test_a_result_json_as_written_and_one_without_integrity(rig):
