@@ -269,6 +269,8 @@ def read_source(
         axes = "rig axes, about the rig's centre O (result.json)"
     else:
         stated, where = document.get("mass"), f"{path} mass"
+        if stated is not None:
+            stated = _number(stated, f"{path}: mass", "> 0")
         axes = "body axes, about the body frame's origin (body.json)"
     if stated is None and given is None:
         raise InputError(f"{path}: states no mass (the rig does not measure it): give --mass KG "
