@@ -38,6 +38,7 @@ from rsp_inertia.design.candidates import (
 )
 from rsp_inertia.estimation.predict import axis_stds, combine_information
 from rsp_inertia.infra.errors import InputError
+from rsp_inertia.infra.frozen import freeze_arrays
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.geometry import device_design
 
@@ -86,6 +87,9 @@ class Plan:
     """Per stage and launch speed tried: (stage, speed, its best feasible candidate within
     the budget with the other stages as chosen or None, the predicted worst std over the
     stage's own axes, and over all axes), stds in kg m^2."""
+
+    def __post_init__(self) -> None:
+        freeze_arrays(self)  # its arrays read-only, as the record is frozen
 
     @property
     def worst(self) -> float:

@@ -37,6 +37,7 @@ from rsp_inertia.estimation.coverage import (
     expanded_uncertainty,
 )
 from rsp_inertia.infra.errors import InputError
+from rsp_inertia.infra.frozen import freeze_arrays, read_only
 from rsp_inertia.plant.experiment import Experiment
 from rsp_inertia.plant.geometry import (
     ENTRY_KEYS,
@@ -223,6 +224,10 @@ class Combination:
     warnings: list[str] = field(default_factory=list)
     """The mountings' disagreement (statistic and the entries that disagree), a tensor that
     is not a physical one."""
+    mass: float | None = None
+    """kg, the body's mass as the mountings' device.toml ``[body] mass`` states it (the rig
+    measures m g x_c, not m: the centre of mass is computed with this mass); body.json's
+    ``mass``."""
     provenance: dict | None = None
     """body.json's ``provenance`` (``rsp-inertia combine``: when, by which software, the
     sha256 of each mounting's result.json); None: not recorded (the library alone)."""
@@ -239,35 +244,38 @@ class Combination:
             com_keys=COM_KEYS,
         )
 
+    def __post_init__(self) -> None:
+        freeze_arrays(self)  # its arrays read-only, as the record is frozen
+
     @property
     def entries_std(self) -> np.ndarray:
         """(6,) kg m^2."""
-        return np.sqrt(np.diag(self.cov)[:6])
+        return read_only(np.sqrt(np.diag(self.cov)[:6]))
 
     @property
     def com_std(self) -> np.ndarray:
         """(3,) m."""
-        return np.sqrt(np.diag(self.cov)[6:])
+        return read_only(np.sqrt(np.diag(self.cov)[6:]))
 
     @property
     def principal_moments(self) -> np.ndarray:
         """(3,) kg m^2, ascending (rsp_inertia.plant.geometry.principal)."""
-        return principal(self.entries)[0]
+        return read_only(principal(self.entries)[0])
 
     @property
     def principal_axes(self) -> np.ndarray:
         """(3, 3) unit axes in body axes, one per row, in the order of the moments."""
-        return principal(self.entries)[1]
+        return read_only(principal(self.entries)[1])
 
     @property
     def principal_moments_std(self) -> np.ndarray:
         """(3,) kg m^2, to first order (rsp_inertia.plant.geometry.principal_uncertainty)."""
-        return principal_uncertainty(self.entries, self.cov[:6, :6])[0]
+        return read_only(principal_uncertainty(self.entries, self.cov[:6, :6])[0])
 
     @property
     def principal_axes_tilt_std(self) -> np.ndarray:
         """(3,) rad, each principal axis's rms tilt (infinite for two equal moments)."""
-        return principal_uncertainty(self.entries, self.cov[:6, :6])[1]
+        return read_only(principal_uncertainty(self.entries, self.cov[:6, :6])[1])
 
     def to_json(self) -> str:
         """The text of body.json: :meth:`to_dict` indented, with a final newline."""
@@ -278,7 +286,8 @@ class Combination:
         kg m^2), ``com``, ``com_std`` (keys x, y, z, m), ``covariance`` (9 x 9, order
         Jx, Jy, Jz, Jxy, Jyz, Jxz, x, y, z), the principal moments and axes with their stds,
         per mounting its residuals in stds (None: not tested), the consistency test, the
-        warnings and, when recorded, the provenance."""
+        warnings, the mass the centre of mass was computed with and, when recorded, the
+        provenance."""
         tilt = self.principal_axes_tilt_std
         return {
             "tensor": dict(zip(ENTRY_KEYS, map(float, self.entries))),
@@ -305,6 +314,7 @@ class Combination:
             ],
             "consistency": {"chi2": float(self.chi2), "dof": int(self.dof), "p": float(self.p)},
             "warnings": list(self.warnings),
+            "mass": None if self.mass is None else float(self.mass),
         } | ({} if self.provenance is None else {"provenance": self.provenance})
 
     def __str__(self) -> str:
@@ -503,6 +513,7 @@ def combine_mountings(mountings: Sequence[MountedResult]) -> Combination:
         dof=dof,
         p=p,
         warnings=warnings,
+        mass=mountings[0].mass,
     )
 
 

@@ -45,6 +45,7 @@ import numpy as np
 from scipy.stats import chi2
 
 from rsp_inertia.estimation.whitening import Identity, lstsq_rows, weighted_chi2, whiten
+from rsp_inertia.infra.frozen import freeze_arrays
 from rsp_inertia.infra.progress import report
 
 if TYPE_CHECKING:
@@ -106,6 +107,9 @@ class ModelTest:
     detail: str = ""
     """What the fitted terms mean, in words and numbers, for the warning (a probe's:
     :func:`probe_detail`)."""
+
+    def __post_init__(self) -> None:
+        freeze_arrays(self)  # its arrays read-only, as the record is frozen
 
     def to_dict(self) -> dict:
         """The result.json entry."""

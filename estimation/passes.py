@@ -40,9 +40,11 @@ channel's white noise. Then the best estimate of the applied torque is the mean 
 row of the log, u_bar, and the work is W(phi) = u_bar (phi - phi^_0): its error
 (u_bar - u)(phi - phi^_0) has variance sigma^2 / N (phi - phi^_0)^2, N the rows, instead of
 the sample-by-sample sum's random walk sigma^2 sum dphi_k^2. The assumption is checked on the
-log itself (:func:`constancy_p_value`, a chi^2 test of quarter-turn means): a braking torque that
-drifts or ripples beyond its noise falls back to the sample-by-sample sum, which is exact
-for any applied torque, and identify says so.
+log itself (:func:`constancy_p_value`, a chi^2 test of quarter-turn means, at the level
+:func:`constancy_level` that keeps the false alarms to :data:`CONSTANCY_TAIL` per experiment,
+however many braking logs it has): a braking torque that drifts or ripples beyond its noise
+falls back to the sample-by-sample sum, which is exact for any applied torque, and identify
+says so.
 
 Dropped samples (rsp_inertia.plant.logs.dropped_samples: a logger may lose rows; the drive
 still acted at those instants; :func:`estimate_pass` finds them once and the estimate keeps
@@ -101,6 +103,7 @@ __all__ = [
     "PassEstimate",
     "angle_work_noise",
     "angle_work_variance",
+    "constancy_level",
     "constancy_p_value",
     "estimate_pass",
     "gap_work",
@@ -111,8 +114,40 @@ CONSTANCY_CHUNK = math.pi / 2
 pass and a ripple once per turn both move the chunks' means)."""
 
 CONSTANCY_TAIL = 1e-3
-"""The braking torque is taken as constant unless the chunks' chi^2 has a p-value below
-this (a false alarm once in a thousand honest logs, which only costs some accuracy)."""
+"""The constant-torque test's false-alarm rate per experiment: an experiment whose every
+braking log is honest (a constant torque plus white noise) sees one or more of them flagged
+with this probability, whatever its number of logs (each log is tested at
+:func:`constancy_level`; a false alarm only costs some accuracy: that log's work is summed
+row by row)."""
+
+
+def constancy_level(logs: int, rate: float = CONSTANCY_TAIL) -> float:
+    """The level at which each of an experiment's braking logs is tested, so that the
+    experiment raises a false alarm with probability ``rate`` (docs/method.md, "Motor work").
+
+    Šidák's correction, exact for independent tests (each log has its own noise):
+    ``1 - (1 - rate)^(1 / logs)``, a little above ``rate / logs`` (Bonferroni). One test per
+    log at ``rate`` would raise a false alarm in ``1 - (1 - rate)^logs`` of the experiments,
+    growing with their logs.
+
+    Parameters
+    ----------
+    logs : int
+        The experiment's braking logs (device.toml: its stages' directions), >= 1.
+    rate : float, optional
+        The false-alarm rate per experiment (default :data:`CONSTANCY_TAIL`).
+
+    Returns
+    -------
+    float
+        The per-log level: a log whose p-value is below it is flagged.
+
+    Examples
+    --------
+    >>> round(constancy_level(4), 9)
+    0.000250094
+    """
+    return -math.expm1(math.log1p(-rate) / max(int(logs), 1))
 
 
 GAP_NEGLIGIBLE = 0.1
@@ -427,6 +462,7 @@ def estimate_pass(
     constant_torque: bool = False,
     smoothed: Smoothed | None = None,
     sample_rate: float | None = None,
+    constancy_logs: int = 1,
 ) -> PassEstimate:
     """Smooth a pass and accumulate its motor work (docs/method.md §3, Stieltjes sum; see above).
 
@@ -453,6 +489,10 @@ def estimate_pass(
         (rsp_inertia.plant.logs.dropped_samples, kept as :attr:`PassEstimate.dropped`) and
         the sample-by-sample sum fills their gaps (:func:`gap_work`); by default it is taken
         from the log's median step.
+    constancy_logs : int, optional
+        With ``constant_torque``: the experiment's braking logs, whose constant-torque tests
+        share the false-alarm rate :data:`CONSTANCY_TAIL` (the log is tested at
+        :func:`constancy_level` of them); 1 by default (the log alone).
 
     Returns
     -------
@@ -463,7 +503,7 @@ def estimate_pass(
         smoothed = smooth_log(log, quantum, source)
     sigma = torque_noise(log) if sigma_torque is None else sigma_torque
     p_value = constancy_p_value(log, smoothed.phi, sigma) if constant_torque else None
-    constant = p_value is not None and p_value >= CONSTANCY_TAIL
+    constant = p_value is not None and p_value >= constancy_level(constancy_logs)
     # The angle term first: its convolution's temporaries come before the work's arrays.
     angle = None if constant else angle_work_variance(log.torque, smoothed)
     work, work_back, steps, mean = motor_work(log.torque, smoothed.phi, constant)

@@ -24,6 +24,7 @@ from rsp_inertia.estimation.decision import Decision
 from rsp_inertia.estimation.model_tests import ModelTest
 from rsp_inertia.estimation.pendulum import PendulumEstimate
 from rsp_inertia.estimation.records import Record
+from rsp_inertia.infra.frozen import freeze_arrays, read_only
 from rsp_inertia.plant.geometry import (
     ENTRY_KEYS,
     axis_direction,
@@ -58,6 +59,9 @@ class AxisResult:
     """kg m^2."""
     pairs: int
     """One-turn pairs behind the node formula."""
+
+    def __post_init__(self) -> None:
+        freeze_arrays(self)  # its arrays read-only, as the record is frozen
 
 
 @dataclass(frozen=True)
@@ -95,6 +99,9 @@ class PendulumResult:
     stiffness: tuple[float, float, str] | None = None
     """(c, std, source) the best practice used, N m/rad: calibration.toml's [pendulum] (the
     calibration folders' pendulum runs) when it has one, else device.toml's."""
+
+    def __post_init__(self) -> None:
+        freeze_arrays(self)  # its arrays read-only, as the record is frozen
 
     def to_dict(self) -> dict:
         """The result.json section ``pendulum``."""
@@ -240,6 +247,9 @@ class Identification:
             self.entries, self.entries_cov, self.coverage_factor, com_std=self.com_std
         )
 
+    def __post_init__(self) -> None:
+        freeze_arrays(self)  # its arrays read-only, as the record is frozen
+
     @property
     def entries_cov(self) -> np.ndarray:
         """(6, 6) covariance of ``entries``, kg^2 m^4: the upper-left block of ``covariance``."""
@@ -253,8 +263,8 @@ class Identification:
 
     @property
     def entries_std(self) -> np.ndarray:
-        """Standard deviations of ``entries``."""
-        return np.sqrt(np.diag(self.entries_cov))
+        """Standard deviations of ``entries`` (read-only)."""
+        return read_only(np.sqrt(np.diag(self.entries_cov)))
 
     def to_json(self) -> str:
         """The text of result.json: :meth:`to_dict` indented, with a final newline."""

@@ -18,7 +18,12 @@ from typing import TypeVar
 import numpy as np
 
 from rsp_inertia.estimation.balance import NodeGap, StageBalance, balance_range, stage_balance
-from rsp_inertia.estimation.passes import PassEstimate, estimate_pass
+from rsp_inertia.estimation.passes import (
+    CONSTANCY_TAIL,
+    PassEstimate,
+    constancy_level,
+    estimate_pass,
+)
 from rsp_inertia.estimation.smoothing import Smoothed
 from rsp_inertia.infra.progress import report, say
 from rsp_inertia.plant.config import Device
@@ -241,15 +246,18 @@ def estimate_forward_run(
     q = device.encoder.quantum
     check_braking_monotone(braking, log_rows(braking_source, device.log))
     rate = device.encoder.sample_rate
+    # The experiment's braking logs share the test's false-alarm rate (CONSTANCY_TAIL).
+    logs = sum(len(st.directions) for st in device.stages)
     b_est = estimate_pass(
         braking, q, braking_source, constant_torque=True, smoothed=braking_smoothed,
-        sample_rate=rate,
+        sample_rate=rate, constancy_logs=logs,
     )
     if b_est.torque_mean is None:
         warnings.append(
             f"{braking_source}: the braking torque is not constant within the log's noise "
-            f"(p = {b_est.constancy_p:.2g}); its work is summed row by row, with a larger "
-            "uncertainty"
+            f"(p = {b_est.constancy_p:.2g}, below {constancy_level(logs):.2g}: a false alarm "
+            f"in {CONSTANCY_TAIL:g} of experiments of {logs} honest braking logs); its work "
+            "is summed row by row, with a larger uncertainty"
         )
     # The torque channel's logging noise shows cleanly only in the braking log (constant
     # applied torque); the reverse's own changes are largely real regulator torque.

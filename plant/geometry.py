@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from rsp_inertia.infra.errors import InputError
+from rsp_inertia.infra.frozen import read_only
 
 __all__ = [
     "ENTRY_KEYS",
@@ -498,13 +499,13 @@ class AxisDesign:
 
     @property
     def directions(self) -> np.ndarray:
-        """(n, 3) unit axis vectors in body coordinates (docs/method.md §1)."""
-        return axis_direction(self.phis, self.gear_ratios)
+        """(n, 3) unit axis vectors in body coordinates (docs/method.md §1), read-only."""
+        return read_only(axis_direction(self.phis, self.gear_ratios))
 
     @property
     def matrix(self) -> np.ndarray:
-        """(n, 6) design matrix V (docs/method.md §5)."""
-        return design_matrix(self.directions)
+        """(n, 6) design matrix V (docs/method.md §5), read-only."""
+        return read_only(design_matrix(self.directions))
 
     @property
     def condition(self) -> float:
@@ -513,8 +514,8 @@ class AxisDesign:
 
     @property
     def angles_deg(self) -> np.ndarray:
-        """(n, n) angles between the axes as lines (deg)."""
-        return axis_angles_deg(self.directions)
+        """(n, n) angles between the axes as lines (deg), read-only."""
+        return read_only(axis_angles_deg(self.directions))
 
 
 def icosahedron_design() -> AxisDesign:

@@ -11,7 +11,7 @@ folder and returning a result object::
 
 Functions: :func:`create_experiment`, :func:`simulate`, :func:`program`, :func:`identify`,
 :func:`calibrate`, :func:`plan`, :func:`check`, :func:`write_report`, :func:`combine`,
-:func:`demo`. Bad input
+:func:`export`, :func:`demo`. Bad input
 raises :class:`InputError`, with the line the command line prints.
 
 The names are loaded on first use (module ``__getattr__``): ``import rsp_inertia`` imports
@@ -37,6 +37,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time, __getattr__ below
         combine,
         create_experiment,
         demo,
+        export,
         identify,
         plan,
         program,
@@ -47,6 +48,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time, __getattr__ below
         CalibrateResult,
         CheckResult,
         CombineResult,
+        ExportResult,
         IdentifyResult,
         PlanResult,
         ProgramResult,

@@ -16,7 +16,9 @@ module re-exports them, so ``rsp_inertia.api.IdentifyResult`` and
 ``rsp_inertia.IdentifyResult`` are the same class.
 
 Bad input raises :class:`~rsp_inertia.infra.errors.InputError`, whose message is the line
-the command line prints after ``rsp-inertia: error:``. Nothing is printed: what the command
+the command line prints after ``rsp-inertia: error:``; so does an argument of the wrong type
+(None or a number for a path, the string "1" for a stage, a string for a number), with a line
+naming the function and the argument. Nothing is printed: what the command
 line shows while it works goes to the optional ``progress`` callable, one line (a ``str``)
 at a time (rsp_inertia.infra.progress.lines_to: without it, to the progress installed around
 the call, none by default).
@@ -31,10 +33,12 @@ in the package, each with its reason. User documentation: docs/api.md.
 
 from __future__ import annotations
 
+import numbers
+import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from rsp_inertia.infra.errors import InputError  # noqa: F401 (public: raised by every function)
+from rsp_inertia.infra.errors import InputError  # public: raised by every function
 from rsp_inertia.infra.progress import LineReceiver, lines_to
 from rsp_inertia.public import API_NAMES, RESULT_CLASSES
 
@@ -46,6 +50,7 @@ if TYPE_CHECKING:
         CalibrateResult,
         CheckResult,
         CombineResult,
+        ExportResult,
         IdentifyResult,
         PlanResult,
         ProgramResult,
@@ -76,6 +81,60 @@ def _identify_figures(result: IdentifyResult) -> list[tuple[str, Figure]]:
     from rsp_inertia.plots import identify_figures
 
     return identify_figures(result)
+
+
+# --- arguments: the types a script may pass wrong ------------------------------------------
+
+
+def _path(value: object, function: str, name: str = "path") -> Path:
+    """``value`` as a path; anything but a str or path-like (None, a number) is refused with
+    one line naming the function and the argument (InputError), not a TypeError deep down."""
+    if isinstance(value, (str, os.PathLike)):
+        return Path(value)
+    raise InputError(
+        f"{function}: {name}: must be a path (str or pathlib.Path), got {value!r}"
+    )
+
+
+def _paths(value: object, function: str, name: str) -> list[Path]:
+    """One path, or a list or tuple of paths (one folder is not taken for its characters)."""
+    if isinstance(value, (str, os.PathLike)):
+        return [Path(value)]
+    if isinstance(value, (list, tuple)):
+        return [_path(item, function, f"{name}[{i}]") for i, item in enumerate(value)]
+    raise InputError(
+        f"{function}: {name}: must be a path or a list of paths (str or pathlib.Path), "
+        f"got {value!r}"
+    )
+
+
+def _stage(value: object, function: str) -> int | None:
+    """A stage number (an integer; None: every stage), or the one-line refusal of another
+    type (the string "1", 1.5, True)."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise InputError(
+            f"{function}: stage: must be an integer, the stage's number from 1 (None: every "
+            f"stage), got {value!r}"
+        )
+    return int(value)
+
+
+def _number(value: object, function: str, name: str) -> float | None:
+    """A real number as float (None stays None), or the one-line refusal of another type."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise InputError(f"{function}: {name}: must be a number, got {value!r}")
+    return float(value)
+
+
+def _flag(value: object, function: str, name: str) -> bool:
+    """A bool, or the one-line refusal of another type (the string "no" is true)."""
+    if not isinstance(value, bool):
+        raise InputError(f"{function}: {name}: must be True or False, got {value!r}")
+    return value
 
 
 # --- identify and demo ----------------------------------------------------------------------
@@ -127,9 +186,10 @@ def identify(
     from rsp_inertia.identifying import identify as run
     from rsp_inertia.results import IdentifyResult
 
+    path = _path(path, "identify")
     with lines_to(progress):
         identification = run(path, coverage_factor)
-    return IdentifyResult(identification, Path(path), drawer=_identify_figures)
+    return IdentifyResult(identification, path, drawer=_identify_figures)
 
 
 def demo(
@@ -173,6 +233,7 @@ def demo(
     from rsp_inertia.rig_demo import demo as run
     from rsp_inertia.virtual.config import experiment_virtual, placed_body
 
+    path = _path(path, "demo")
     with lines_to(progress):
         result = run(path)
     exp = open_experiment(path)
@@ -234,6 +295,8 @@ def simulate(
     from rsp_inertia.results import SimulateResult
     from rsp_inertia.simulating import simulate as run
 
+    path, stage = _path(path, "simulate"), _stage(stage, "simulate")
+    ideal = _flag(ideal, "simulate", "ideal")
     with lines_to(progress):
         passes = run(path, stage, part, ideal=ideal, direction=direction)
     return SimulateResult(tuple(passes), Path(path))
@@ -275,6 +338,7 @@ def program(
     from rsp_inertia.programming import program_summaries
     from rsp_inertia.results import ProgramResult
 
+    path, stage = _path(path, "program"), _stage(stage, "program")
     with lines_to(progress):
         runs = program_summaries(path, stage)
     return ProgramResult(tuple(runs), Path(path))
@@ -332,6 +396,9 @@ def calibrate(
     from rsp_inertia.calibrating import calibrate as run
     from rsp_inertia.calibrating import calibrate_result
 
+    path, empty = _path(path, "calibrate"), _path(empty, "calibrate", "empty")
+    if reference is not None:
+        reference = _path(reference, "calibrate", "reference")
     with lines_to(progress):
         calibration = run(path, empty, reference)
     return calibrate_result(calibration, path)
@@ -384,8 +451,9 @@ def plan(
     # experiment design: the prediction, the rehearsal's closed loop, matplotlib
     from rsp_inertia.planning import plan as run
 
-    if max_duration is not None:
-        max_duration = float(max_duration)  # as the command line parses it
+    path = _path(path, "plan")
+    max_duration = _number(max_duration, "plan", "max_duration")
+    rehearse = _flag(rehearse, "plan", "rehearse")
     with lines_to(progress):
         return run(path, max_duration, rehearse=rehearse)
 
@@ -426,7 +494,7 @@ def check(path: str | Path, *, calibration: bool = False) -> CheckResult:
     # identify's readers and checks (the estimation stack), not the simulator or matplotlib
     from rsp_inertia.checking import check as run
 
-    return run(path, calibration)
+    return run(_path(path, "check"), _flag(calibration, "check", "calibration"))
 
 
 def write_report(path: str | Path, pdf: bool = False, paper: str = "a4") -> Path:
@@ -472,7 +540,7 @@ def write_report(path: str | Path, pdf: bool = False, paper: str = "a4") -> Path
     # the report's figures and the logs' smoother (matplotlib, the estimation stack)
     from rsp_inertia.report import write_report as run
 
-    return run(path, pdf, paper)
+    return run(_path(path, "write_report"), _flag(pdf, "write_report", "pdf"), paper)
 
 
 def create_experiment(path: str | Path) -> Path:
@@ -501,14 +569,14 @@ def create_experiment(path: str | Path) -> Path:
     # the default files and tomlkit: light, but create_experiment's alone
     from rsp_inertia.scenarios import create_default_experiment
 
-    return create_default_experiment(path)
+    return create_default_experiment(_path(path, "create_experiment"))
 
 
 # --- combine --------------------------------------------------------------------------------
 
 
 def combine(
-    paths: list[str | Path], out: str | Path, *, coverage_factor: float = 2.0
+    paths: list[str | Path] | str | Path, out: str | Path, *, coverage_factor: float = 2.0
 ) -> CombineResult:
     """Combine several identified mountings of one body (``rsp-inertia combine EXP ... --out
     OUT``): the tensor and the centre of mass (x, y and z) in body axes -> ``OUT/body.json``.
@@ -521,8 +589,8 @@ def combine(
 
     Parameters
     ----------
-    paths : list of str or pathlib.Path
-        The mountings' experiment folders.
+    paths : list of str or pathlib.Path, or one of them
+        The mountings' experiment folders (one folder alone: a one-element list).
     out : str or pathlib.Path
         The folder to write body.json into (created if needed).
     coverage_factor : float, optional
@@ -550,8 +618,78 @@ def combine(
     from rsp_inertia.combining import combine as run
     from rsp_inertia.results import CombineResult
 
-    combination, path = run(paths, out, coverage_factor)
+    paths = _paths(paths, "combine", "paths")
+    combination, path = run(paths, _path(out, "combine", "out"), coverage_factor)
     return CombineResult(combination, path)
+
+
+# --- export ---------------------------------------------------------------------------------
+
+
+def export(
+    source: str | Path,
+    out: str | Path,
+    *,
+    format: str = "json",  # named as the command line's --format
+    frame: str | Path | None = None,
+    mass: float | None = None,
+    mass_std: float | None = None,
+) -> ExportResult:
+    """A result's mass properties in another frame, as JSON, CSV or URDF (``rsp-inertia export
+    SRC --format F [--frame FRAME.toml] --out FILE``).
+
+    Reads identify's result.json (rig axes, about the rig's centre) or combine's body.json
+    (body axes, about the body frame's origin) and writes the mass, the centre of mass and
+    the tensor about the frame's origin in the frame's axes, with the covariance carried
+    through the rotation and the parallel-axis shift (docs/method.md, "Exporting in another
+    frame"); URDF: an ``<inertial>`` element, the tensor about the centre of mass, the stds
+    in a comment. The file is written atomically.
+
+    Parameters
+    ----------
+    source : str or pathlib.Path
+        SRC: a result.json, a body.json, or a folder holding one of them.
+    out : str or pathlib.Path
+        FILE to write.
+    format : {'json', 'csv', 'urdf'}, optional
+        ``--format`` (default 'json').
+    frame : str or pathlib.Path, optional
+        FRAME.toml: ``[frame] rotation`` (3 x 3, rows: the frame's axes in the source's axes)
+        and ``origin`` (m, in the source's axes); default: the source's own axes and origin.
+    mass : float, optional
+        kg, ``--mass``: needed only when the source states no mass (the rig does not measure
+        it; result.json's folder's device.toml ``[body] mass``, body.json's ``mass``).
+    mass_std : float, optional
+        kg, ``--mass-std``: the mass's std (default: the mass is taken as exact, with a note).
+
+    Returns
+    -------
+    ExportResult
+        The values in the frame with their covariance, and the file written.
+
+    Raises
+    ------
+    InputError
+        A source that is missing, not a result file or edited after it was written; a frame
+        file that is not valid (a rotation that is not orthonormal with determinant +1); no
+        mass; a result.json asked for what its missing z_c would give (URDF, a shifted
+        origin); a bad ``format``; an output that cannot be written.
+
+    Examples
+    --------
+    >>> rsp_inertia.export("body", "body.urdf", format="urdf", frame="cad.toml")  # doctest: +SKIP
+    """
+    # numpy and the geometry only: not the estimation stack, CasADi or matplotlib
+    from rsp_inertia.exporting import export as run
+    from rsp_inertia.results import ExportResult
+
+    source, out = _path(source, "export", "source"), _path(out, "export", "out")
+    if frame is not None:
+        frame = _path(frame, "export", "frame")
+    mass = _number(mass, "export", "mass")
+    mass_std = _number(mass_std, "export", "mass_std")
+    exported = run(source, out, format, frame, mass, mass_std)
+    return ExportResult(exported, out, format)
 
 
 # --- the report's verdicts (the command line's --strict; not in __all__) ---------------------
@@ -569,7 +707,8 @@ def report_verdict(path: str | Path) -> tuple[str, str | None]:
     -------
     (str, str or None)
         The software's verdict, 'ok' (green), 'warn' (amber: warnings, an overdue
-        calibration) or 'stale' (red: inputs changed since identify, or not recorded); the
+        calibration) or 'stale' (red: inputs changed since identify, or not recorded, or
+        result.json edited after it was written); the
         part's against spec.toml, 'pass', 'fail', 'indeterminate', or None without one.
 
     Raises
@@ -585,7 +724,7 @@ def report_verdict(path: str | Path) -> tuple[str, str | None]:
     # the report's module (matplotlib, the estimation stack): only report --strict asks
     from rsp_inertia.report import report_verdict as run
 
-    return run(path)
+    return run(_path(path, "report_verdict"))
 
 
 # --- design (the command line's; not in __all__) --------------------------------------------
@@ -626,6 +765,6 @@ def axis_designs(
     from rsp_inertia.axis_designs import axis_designs as run
 
     return run(
-        [Path(p) for p in paths] if paths is not None else None,
-        None if plot is None else Path(plot),
+        _paths(paths, "axis_designs", "paths") if paths is not None else None,
+        None if plot is None else _path(plot, "axis_designs", "plot"),
     )

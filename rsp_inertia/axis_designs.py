@@ -17,6 +17,7 @@ import numpy as np
 
 from rsp_inertia.design.mountings import best_cone_opening, mounting_conditioning
 from rsp_inertia.figure_files import save_figure
+from rsp_inertia.infra.files import check_writable
 from rsp_inertia.plant.config import load_device
 from rsp_inertia.plant.experiment import DEVICE_FILE
 from rsp_inertia.plant.geometry import cone_plus_z_design, device_design, icosahedron_design
@@ -30,14 +31,18 @@ def axis_designs(
     paths: list[Path] | Path | None = None, plot: Path | None = None
 ) -> AxisDesignResult:
     """The command behind :func:`rsp_inertia.api.axis_designs`, documented there (and in
-    this module's docstring); ``paths`` may be one folder."""
+    this module's docstring); ``paths`` may be one folder. A plot that cannot be written is
+    refused (InputError) before anything is computed."""
     if paths is None:
         paths = []
     elif isinstance(paths, (str, Path)):
         paths = [paths]
+    devices = [load_device(Path(exp) / DEVICE_FILE) for exp in paths]
+    if plot is None:
+        plot = (Path(paths[0]) if paths else Path(".")) / AXIS_DESIGN_FIGURE
+    check_writable(plot)  # a read-only folder: one line, before the search below
     best_deg, best_cond = best_cone_opening()
     designs = [icosahedron_design(), cone_plus_z_design(best_deg)]
-    devices = [load_device(Path(exp) / DEVICE_FILE) for exp in paths]
     designs += [device_design(device) for device in devices]
     names, rotations, condition, gain = (), (), None, None
     if len(devices) > 1 or any(device.mounting is not None for device in devices):
@@ -46,8 +51,6 @@ def axis_designs(
             np.eye(3) if d.mounting is None else d.mounting.rotation for d in devices
         )
         condition, gain = mounting_conditioning(list(rotations))
-    if plot is None:
-        plot = (Path(paths[0]) if paths else Path(".")) / AXIS_DESIGN_FIGURE
     result = AxisDesignResult(
         designs=tuple(designs),
         best_opening_deg=best_deg,

@@ -23,7 +23,7 @@ from rsp_inertia.infra.errors import InputError
 from rsp_inertia.infra.files import check_writable, file_sha256, write_atomic
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.experiment import BODY_FILE, REPORT_FILE, open_experiment
-from rsp_inertia.provenance import created_now, package_versions
+from rsp_inertia.provenance import created_now, integrity_state, package_versions
 from rsp_inertia.report_parts import (
     STATEMENT,
     VALUE,
@@ -114,6 +114,12 @@ def body_verdict(body: dict, inputs: list[dict]) -> tuple[str, list[str]]:
         The level and the paragraphs.
     """
     items, level = [], "ok"
+    if integrity_state(body) == "edited":
+        level = "stale"
+        items.append(
+            "<p><b>body.json was edited after it was written</b> (its integrity sha256 is not "
+            "its content's): a number or a warning below may not be combine's. Run combine "
+            "again.</p>")
     if "provenance" not in body:
         level = "stale"
         items.append(

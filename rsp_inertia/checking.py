@@ -24,7 +24,10 @@ missing for the next step and what looks wrong, without stopping at the first pr
   with its run's other (identify refuses it if the node's passage is in the range it
   balances), a program whose
   regulator the encoder holds too slow to follow the braking's speed harmonics (a coarse
-  encoder: the closed loop then tracks on its feedforward alone, and identify's stds grow).
+  encoder: the closed loop then tracks on its feedforward alone, and identify's stds grow),
+  a program the drive could not run again (its time step not device.toml's sample rate)
+  whose reverse log is there (identify never reads program.csv; an ``error`` while the
+  reverse is still to run).
 - record.toml and spec.toml as identify reads them (``error`` where it would refuse them;
   ``ok`` naming the part, the limits and the rule), and a calibration past its due date
   today (``suspicious``, as identify warns).
@@ -316,7 +319,7 @@ def _check_run(
         else:
             _add(findings, "ok", f"{p_path}: the torque program")
             if braking is not None:
-                _check_regulator(exp, p_path, braking, findings)
+                _check_regulator(exp, p_path, braking, findings, done=r_path.is_file())
     elif not r_path.is_file():
         _add(
             findings,
@@ -419,15 +422,30 @@ def _check_braking(
     return usable
 
 
-def _check_regulator(exp: Experiment, path: Path, braking: Log, findings: Findings) -> None:
+def _check_regulator(
+    exp: Experiment, path: Path, braking: Log, findings: Findings, done: bool
+) -> None:
     """``suspicious`` when the program's regulator is slower than the braking's speed
     harmonics at the balances' slowest speed: its bandwidth w from its gains (the LQR's
     k_omega = sqrt 2 k_phi / w, rsp_inertia.ocp.regulator) against 2 Omega at
-    MIN_SPEED_FRACTION of the top speed, with the encoder's counts per sample there."""
+    MIN_SPEED_FRACTION of the top speed, with the encoder's counts per sample there.
+
+    A program the drive could not run (a time step that is not device.toml's sample rate) is
+    an ``error`` while its reverse pass is still to run (``done`` False); once the reverse log
+    is there (``done``), ``suspicious``: identify never reads program.csv, so check says ready
+    where identify runs."""
     try:
         program = read_program(path, exp.device.encoder)
     except InputError as error:
-        _add(findings, "error", str(error))
+        if not done:
+            _add(findings, "error", str(error))
+            return
+        _add(
+            findings,
+            "suspicious",
+            f"{error} (identify does not read the program: its reverse log is there; make it "
+            f"again, rsp-inertia program {exp.root}, before another reverse pass)",
+        )
         return
     gains = (program.k_omega > 0) & (program.k_phi > 0)
     if not np.any(gains) or len(braking) < 2:

@@ -123,6 +123,16 @@ def _cmd_combine(args: argparse.Namespace) -> int:
     return _strict(args, bool(result.warnings))
 
 
+def _cmd_export(args: argparse.Namespace) -> None:
+    result = rsp_inertia.export(
+        args.src, args.out, format=args.format, frame=args.frame, mass=args.mass,
+        mass_std=args.mass_std,
+    )
+    for note in result.exported.notes:
+        print(f"note: {note}", file=sys.stderr)
+    print(result)
+
+
 def _cmd_design(args: argparse.Namespace) -> None:
     print(api.axis_designs(args.exp, args.plot))
 
@@ -277,6 +287,36 @@ def _parser() -> argparse.ArgumentParser:
         help="k of body.json's expanded uncertainties U = k u (default 2: about 95 %%)",
     )
     p.set_defaults(run=_cmd_combine)
+
+    p = sub.add_parser(
+        "export",
+        help="result.json or body.json -> FILE: mass, centre of mass and tensor in a frame "
+        "(FRAME.toml), with their covariance, as json, csv or a URDF <inertial>",
+    )
+    p.add_argument(
+        "src", type=Path, metavar="SRC",
+        help="a result.json, a body.json, or a folder holding one of them",
+    )
+    p.add_argument(
+        "--format", choices=("json", "csv", "urdf"), default="json",
+        help="json (values, stds, covariance), csv (one row per quantity) or urdf (an "
+        "<inertial> element about the centre of mass, stds in a comment); default json",
+    )
+    p.add_argument(
+        "--frame", type=Path, default=None, metavar="FRAME.toml",
+        help="[frame] rotation (rows: the frame's axes in the source's axes) and origin (m, "
+        "in the source's axes); default: the source's own axes and origin",
+    )
+    p.add_argument(
+        "--mass", type=float, default=None, metavar="KG",
+        help="the body's mass, for a source that states none (the rig does not measure it)",
+    )
+    p.add_argument(
+        "--mass-std", type=float, default=None, metavar="KG",
+        help="the mass's standard deviation (default: the mass is taken as exact, with a note)",
+    )
+    p.add_argument("--out", type=Path, required=True, metavar="FILE", help="the file to write")
+    p.set_defaults(run=_cmd_export)
 
     p = sub.add_parser("design", help="conditioning of axis designs (icosahedron, cone + z, EXP)")
     p.add_argument(

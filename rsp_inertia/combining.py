@@ -17,7 +17,13 @@ from rsp_inertia.estimation.coverage import DEFAULT_COVERAGE_FACTOR, check_cover
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.infra.files import check_writable, file_sha256, write_atomic
 from rsp_inertia.plant.experiment import BODY_FILE, open_experiment
-from rsp_inertia.provenance import input_changes, input_status, make_provenance
+from rsp_inertia.provenance import (
+    input_changes,
+    input_status,
+    integrity_state,
+    make_provenance,
+    sealed_json,
+)
 
 __all__ = ["body_provenance", "combine"]
 
@@ -28,8 +34,9 @@ def combine(
     """The command behind :func:`rsp_inertia.api.combine`, documented there; returns the
     library's record (rsp_inertia.estimation.combine.Combination) and the body.json written,
     which the API holds in its CombineResult. A mounting whose inputs changed since
-    identify (its result.json's provenance against the folder) gives a warning; an output
-    that cannot be written is found before anything is read."""
+    identify (its result.json's provenance against the folder) gives a warning, one whose
+    result.json was edited after identify wrote it (rsp_inertia.provenance.integrity_state)
+    is refused; an output that cannot be written is found before anything is read."""
     coverage_factor = check_coverage_factor(coverage_factor)
     if not paths:
         raise InputError("combine: no experiment folder given: name every mounting's folder")
@@ -62,7 +69,18 @@ def combine(
             )
     warnings = []
     for exp in exps:
-        recorded = (json.loads(exp.result_path.read_text()).get("provenance") or {}).get("inputs")
+        document = json.loads(exp.result_path.read_text())
+        state = integrity_state(document)
+        if state == "edited":
+            raise InputError(
+                f"{exp.result_path}: edited after identify wrote it (its integrity sha256 is "
+                f"not its content's): run rsp-inertia identify {exp.root} again; nothing "
+                "was written"
+            )
+        if state == "not sealed":
+            warnings.append(f"{exp.result_path}: records no integrity (an older rsp-inertia "
+                            "wrote it): whether it was edited cannot be checked")
+        recorded = (document.get("provenance") or {}).get("inputs")
         if recorded is None:
             warnings.append(f"{exp.result_path}: records no inputs: whether it still "
                             "describes the folder's logs cannot be checked")
@@ -75,7 +93,8 @@ def combine(
                           provenance=body_provenance(folder, [exp.result_path for exp in exps]),
                           coverage_factor=coverage_factor)
     folder.mkdir(parents=True, exist_ok=True)
-    write_atomic(target, combination.to_json())
+    # sealed last, over the whole document (docs/files.md, body.json integrity)
+    write_atomic(target, sealed_json(combination.to_dict()))
     return combination, target
 
 

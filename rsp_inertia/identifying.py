@@ -3,7 +3,7 @@
 Reads device.toml, every run's braking and reverse logs, calibration.toml and the pendulum
 logs when present (rsp_inertia.estimation.reading.identify_experiment) and writes
 ``EXP/result.json`` atomically, with its provenance: the time, the software and every input's
-sha256 as identify read them (rsp_inertia.provenance). Its result object is
+sha256 as identify read them, and its own hash, ``integrity`` (rsp_inertia.provenance). Its result object is
 :class:`rsp_inertia.results.IdentifyResult`, its table
 :func:`rsp_inertia.results.format_identification`.
 """
@@ -18,7 +18,7 @@ from rsp_inertia.estimation.reading import identify_experiment
 from rsp_inertia.estimation.results import Identification
 from rsp_inertia.infra.files import check_writable, write_atomic
 from rsp_inertia.plant.experiment import open_experiment
-from rsp_inertia.provenance import make_provenance
+from rsp_inertia.provenance import make_provenance, sealed_json
 
 __all__ = ["identify"]
 
@@ -35,5 +35,6 @@ def identify(
     provenance = make_provenance("identify", exp.root, exp.identify_inputs())
     result = identify_experiment(exp, made=provenance["created"], coverage_factor=coverage_factor)
     result = replace(result, provenance=provenance)
-    write_atomic(exp.result_path, result.to_json())
+    # sealed last, over the whole document (docs/files.md, result.json integrity)
+    write_atomic(exp.result_path, sealed_json(result.to_dict()))
     return result

@@ -4,11 +4,18 @@
 checks the recorded inputs against the folder with :func:`input_changes`, so a log changed,
 removed or added (a calibration.toml written after identify) after the result was made is
 reported, not silently shown with the old numbers.
+
+A result document (result.json, body.json) also carries its own hash, ``integrity``
+(:func:`seal`, computed last when it is written): :func:`integrity_state` tells a document
+edited since (a changed number, a deleted warning) from one as written, so that ``report``,
+``combine`` and ``export`` do not show or use an edited result as if the software had made it.
 """
 
 from __future__ import annotations
 
 import datetime
+import hashlib
+import json
 import os
 import platform
 from collections.abc import Iterable
@@ -19,12 +26,19 @@ from rsp_inertia.infra.files import file_sha256
 
 __all__ = [
     "CHANGES",
+    "INTEGRITY_KEY",
+    "INTEGRITY_METHOD",
     "PACKAGES",
+    "canonical_json",
     "created_now",
+    "document_sha256",
     "input_changes",
     "input_status",
+    "integrity_state",
     "make_provenance",
     "package_versions",
+    "seal",
+    "sealed_json",
 ]
 
 PACKAGES = ("rsp-inertia", "numpy", "scipy", "casadi", "control", "matplotlib")
@@ -137,3 +151,114 @@ def input_changes(status: dict[str, str]) -> list[str]:
     """One line per input of :func:`input_status` that is not as read. Empty: the same
     files."""
     return [f"{name}: {CHANGES[state]}" for name, state in status.items() if state != "as read"]
+
+
+# --- a result document's own hash -------------------------------------------------------------
+
+INTEGRITY_KEY = "integrity"
+"""The top-level key of a result document (result.json, body.json) that holds its hash."""
+
+INTEGRITY_METHOD = (
+    "sha256 of the UTF-8 canonical JSON of the document without its 'integrity' key: keys "
+    "sorted, separators ',' and ':', non-ASCII escaped, numbers as Python's json writes "
+    "them (shortest repr of each float)"
+)
+"""How :func:`document_sha256` hashes, as a document's ``integrity.method`` states it."""
+
+
+def canonical_json(document: dict) -> bytes:
+    """The canonical JSON text of a result document without its :data:`INTEGRITY_KEY`.
+
+    Keys sorted at every level, no whitespace (separators ``,`` and ``:``), non-ASCII as
+    ``\\u`` escapes, numbers as Python's ``json`` writes them (a float's shortest repr,
+    which reads back to the same float): the same bytes whether the document is the one
+    written or the one read back from its indented file.
+
+    Parameters
+    ----------
+    document : dict
+        A parsed (or about to be written) JSON document.
+
+    Returns
+    -------
+    bytes
+        UTF-8.
+    """
+    body = {key: value for key, value in document.items() if key != INTEGRITY_KEY}
+    return json.dumps(body, sort_keys=True, separators=(",", ":"), ensure_ascii=True).encode()
+
+
+def document_sha256(document: dict) -> str:
+    """The sha256 (hex) of :func:`canonical_json` of ``document``: what its ``integrity``
+    records (docs/files.md, result.json ``integrity``).
+
+    Parameters
+    ----------
+    document : dict
+        A parsed JSON document.
+
+    Returns
+    -------
+    str
+        64 hex digits.
+    """
+    return hashlib.sha256(canonical_json(document)).hexdigest()
+
+
+def seal(document: dict) -> dict:
+    """``document`` with its ``integrity`` (its hash and how it is made), the last key: call it
+    on the whole document, last, just before writing it.
+
+    Parameters
+    ----------
+    document : dict
+        The result document, plain JSON types; an ``integrity`` already there is replaced.
+
+    Returns
+    -------
+    dict
+        A new dict: ``document``'s keys and ``integrity``: {"sha256", "method"}.
+    """
+    body = {key: value for key, value in document.items() if key != INTEGRITY_KEY}
+    return {**body, INTEGRITY_KEY: {"sha256": document_sha256(body), "method": INTEGRITY_METHOD}}
+
+
+def sealed_json(document: dict) -> str:
+    """The text of a result file: :func:`seal` of ``document``, indented, with a final newline
+    (what ``identify`` writes to result.json and ``combine`` to body.json).
+
+    Parameters
+    ----------
+    document : dict
+        The whole result document (its ``to_dict()``), plain JSON types.
+
+    Returns
+    -------
+    str
+        The JSON text.
+    """
+    return json.dumps(seal(document), indent=2) + "\n"
+
+
+def integrity_state(document: dict) -> str:
+    """Whether a result document is as it was written.
+
+    Parameters
+    ----------
+    document : dict
+        A parsed result.json or body.json.
+
+    Returns
+    -------
+    str
+        ``"as written"`` (its ``integrity.sha256`` is its content's), ``"edited"`` (it is not:
+        a number, a warning or any key changed, added or removed since it was written), or
+        ``"not sealed"`` (no ``integrity``: an older rsp-inertia wrote it, or a person or a
+        script; whether it was edited cannot be told).
+    """
+    recorded = document.get(INTEGRITY_KEY)
+    if recorded is None:
+        return "not sealed"
+    if not isinstance(recorded, dict) or recorded.get("sha256") != document_sha256(document):
+        return "edited"
+    return "as written"

@@ -52,7 +52,13 @@ from rsp_inertia.plots import (
     experiment_figures,
     figure_png,
 )
-from rsp_inertia.provenance import created_now, input_changes, input_status, package_versions
+from rsp_inertia.provenance import (
+    created_now,
+    input_changes,
+    input_status,
+    integrity_state,
+    package_versions,
+)
 from rsp_inertia.report_parts import (
     STATEMENT,
     VALUE,
@@ -137,10 +143,22 @@ def _read_result(exp: Experiment) -> dict:
 
 def _verdict(exp: Experiment, result: dict, status: dict[str, str] | None) -> str:
     """The box the report leads with: are the inputs those identify read (``status``:
-    rsp_inertia.provenance.input_status, None when result.json records none), and its
-    warnings."""
+    rsp_inertia.provenance.input_status, None when result.json records none), is result.json
+    as identify wrote it (rsp_inertia.provenance.integrity_state), and its warnings."""
     warnings = result.get("warnings") or []
     items, level = [], verdict_level(result, status)
+    integrity = integrity_state(result)
+    if integrity == "edited":
+        items.append(
+            "<p><b>result.json was edited after it was written</b> (its integrity sha256 is "
+            "not its content's): a number or a warning below may not be identify's. Run "
+            f"<code>rsp-inertia identify {html.escape(str(exp.root))}</code> again.</p>"
+        )
+    elif integrity == "not sealed":
+        items.append(
+            "<p>result.json records no integrity (an older rsp-inertia wrote it): whether it "
+            "was edited after it was written cannot be checked.</p>"
+        )
     if status is not None:
         changes = input_changes(status)
         if changes:
@@ -177,7 +195,8 @@ def _verdict(exp: Experiment, result: dict, status: dict[str, str] | None) -> st
 
 
 def verdict_level(result: dict, status: dict[str, str] | None) -> str:
-    """The colour of the report's verdict: 'stale' (red) when the inputs changed since
+    """The colour of the report's verdict: 'stale' (red) when result.json was edited after
+    it was written (rsp_inertia.provenance.integrity_state) or the inputs changed since
     identify or cannot be checked (``status`` None), else 'warn' (amber) when result.json
     has a warning or an overdue calibration, else 'ok' (green).
 
@@ -194,7 +213,7 @@ def verdict_level(result: dict, status: dict[str, str] | None) -> str:
     str
         'ok', 'warn' or 'stale'.
     """
-    if status is None or input_changes(status):
+    if integrity_state(result) == "edited" or status is None or input_changes(status):
         return "stale"
     due = (result.get("record") or {}).get("calibration") or {}
     return "warn" if result.get("warnings") or due.get("overdue") else "ok"

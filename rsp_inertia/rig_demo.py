@@ -18,14 +18,25 @@ from rsp_inertia.combining import combine
 from rsp_inertia.estimation.results import Identification
 from rsp_inertia.figure_files import save_figures
 from rsp_inertia.identifying import identify
-from rsp_inertia.infra.files import write_atomic
+from rsp_inertia.infra.errors import InputError
+from rsp_inertia.infra.files import check_writable, write_atomic
 from rsp_inertia.infra.progress import drop, lines_to, say
-from rsp_inertia.plant.experiment import CALIBRATION_FILE, open_experiment
+from rsp_inertia.plant.experiment import (
+    BODY_FILE,
+    CALIBRATION_FILE,
+    RESULT_FILE,
+    open_experiment,
+)
 from rsp_inertia.plant.geometry import relative_errors
 from rsp_inertia.plots import demo_figures
 from rsp_inertia.programming import program
 from rsp_inertia.results.identify import format_identification
-from rsp_inertia.scenarios import create_rig_experiment, create_second_mounting
+from rsp_inertia.scenarios import (
+    CALIBRATION_FOLDERS,
+    SECOND_MOUNTING,
+    create_rig_experiment,
+    create_second_mounting,
+)
 from rsp_inertia.simulating import simulate
 from rsp_inertia.virtual.config import experiment_virtual, placed_body
 
@@ -50,6 +61,7 @@ def demo(path: str | Path = DEFAULT_EXPERIMENT) -> Identification:
     identification without calibration, of ``calibrate`` and of the second mounting's
     identification do not.
     """
+    _check_writable(Path(path))
     root, empty, reference = create_rig_experiment(path)
     say(f"experiment folder: {root}; calibration runs: {empty}, {reference}")
     for folder in (empty, reference, root):
@@ -107,3 +119,28 @@ def demo(path: str | Path = DEFAULT_EXPERIMENT) -> Identification:
     )
     say(f"body -> {body}")
     return result
+
+
+def _check_writable(root: Path) -> None:
+    """Refuse, before anything is built or computed, a demo folder the demo could not write
+    into (read-only, or a file in the place of it or of one of its subfolders): one line
+    (InputError), not a traceback minutes into the run."""
+    body = root / "body"
+    folders = {
+        root: RESULT_FILE,
+        **{root / "calibration" / name: RESULT_FILE for name in CALIBRATION_FOLDERS},
+        root / SECOND_MOUNTING: RESULT_FILE,
+        body: BODY_FILE,
+    }
+    existing = root
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    for folder in [existing, *folders]:
+        if folder.exists() and not folder.is_dir():
+            raise InputError(f"{folder}: is a file, not a folder: the demo writes its "
+                             "experiment there; nothing was computed")
+    if existing != root:  # the folders will be made in the nearest one that exists
+        check_writable(existing / root.name)
+    for folder, output in folders.items():
+        if folder.is_dir():
+            check_writable(folder / output)

@@ -109,11 +109,12 @@ def _documented_names(body: str) -> set[str]:
 
 
 API_FUNCTIONS = [
-    "calibrate", "check", "combine", "create_experiment", "demo", "identify", "plan",
+    "calibrate", "check", "combine", "create_experiment", "demo", "export", "identify", "plan",
     "program", "simulate", "write_report",
 ]
 API_CLASSES = [
-    "CalibrateResult", "CheckResult", "CombineResult", "IdentifyResult", "PlanResult",
+    "CalibrateResult", "CheckResult", "CombineResult", "ExportResult", "IdentifyResult",
+    "PlanResult",
     "ProgramResult", "SimulateResult",
 ]
 

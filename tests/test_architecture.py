@@ -316,6 +316,7 @@ RESULT_RECORDS = {
     "rsp_inertia.results.combine.CombineResult": (
         "combination", "rsp_inertia.estimation.combine.Combination"
     ),
+    "rsp_inertia.results.export.ExportResult": ("exported", "rsp_inertia.exporting.Exported"),
     "rsp_inertia.results.program.ProgramSummary": (
         "details", "rsp_inertia.ocp.program.TorqueProgram"
     ),
@@ -414,11 +415,13 @@ RESULT_MODULES = sorted(name for name in MODULES if name.startswith("rsp_inertia
 @pytest.mark.parametrize("name", RESULT_MODULES)
 def test_the_results_import_nothing_heavy(name: str) -> None:
     """Of the package, a result imports only the light modules the results share (the
-    device's files, geometry and run directions, the figure writer, other results), never a layer's
+    device's files, geometry and run directions, the figure writer, the result files' seal
+    (provenance: the standard library's hashlib and json), other results), never a layer's
     computation; of the rest, numpy."""
     light = ("rsp_inertia.results", "rsp_inertia.figure_files", "rsp_inertia.plant.experiment",
              "rsp_inertia.plant.geometry", "rsp_inertia.plant.direction",
-             "rsp_inertia.infra.toml_writer", "rsp_inertia.infra.lazy")
+             "rsp_inertia.infra.toml_writer", "rsp_inertia.infra.lazy",
+             "rsp_inertia.provenance", "rsp_inertia.infra.frozen")
     heavy = [target for target, _, _ in IMPORTS[name] if not target.startswith(light)]
     assert heavy == [], f"{name} imports {heavy}"
     assert _third_party(MODULES[name].read_text()) <= LIGHT_PACKAGES
@@ -430,7 +433,7 @@ def test_a_heavy_import_in_a_result_is_found() -> None:
         "import matplotlib.pyplot as plt\nif TYPE_CHECKING:\n    import casadi\n"
     )
     assert _third_party(source) - LIGHT_PACKAGES == {"matplotlib"}
-    assert len(RESULT_MODULES) == 10  # the package, the shared module, eight commands
+    assert len(RESULT_MODULES) == 11  # the package, the shared module, nine commands
 
 
 # --- one representation each: the direction of a run, the progress of the work --------------

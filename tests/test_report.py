@@ -14,7 +14,7 @@ import pytest
 
 from rsp_inertia.cli import main
 from rsp_inertia.identifying import identify
-from rsp_inertia.provenance import created_now
+from rsp_inertia.provenance import created_now, sealed_json
 from rsp_inertia.report import VALUE
 from rsp_inertia.scenarios import create_default_experiment
 from tests.conftest import copy_experiment
@@ -96,7 +96,9 @@ def test_the_verdict_leads_with_the_warnings(rig):
     warnings = ["no calibration.toml: device.toml's tares are taken as exact <check>",
                 "the model test of stage 2 failed"]
     document["warnings"] = warnings
-    path.write_text(json.dumps(document))  # result.json is an output, not a recorded input
+    # result.json is an output, not a recorded input; sealed again, as identify would have
+    # written these warnings (an unsealed edit turns the verdict red: tests/test_integrity.py)
+    path.write_text(sealed_json(document))
     assert main(["report", str(rig)]) == 0
     page = (rig / "report.html").read_text()
     level, box = _verdict(page)
@@ -197,3 +199,34 @@ def test_a_result_json_not_identifys_is_one_line(rig, capsys, text):
     assert main(["report", str(rig)]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "not a result.json written by identify" in err
+
+
+@pytest.mark.parametrize("edit", ["Jx changed", "warnings deleted"])
+def test_a_result_json_edited_after_it_was_written_turns_the_verdict_red(rig, edit):
+    path = rig / "result.json"
+    document = json.loads(path.read_text())
+    if edit == "Jx changed":
+        document["tensor"]["Jx"] *= 1.0 + 1e-6
+    else:
+        # A result with a warning, as identify writes it, then the warning deleted by hand.
+        document["warnings"] = ["the model test of stage 2 failed"]
+        document = json.loads(sealed_json(document))
+        document["warnings"] = []
+    path.write_text(json.dumps(document, indent=2))  # integrity kept, content changed
+    assert main(["report", str(rig)]) == 0
+    level, box = _verdict((rig / "report.html").read_text())
+    assert level == "stale" and "edited after it was written" in box
+    assert main(["report", str(rig), "--strict"]) == 3  # a script sees it too
+
+
+def test_a_result_json_as_written_and_one_without_integrity(rig):
+    assert main(["report", str(rig)]) == 0
+    assert "edited" not in _verdict((rig / "report.html").read_text())[1]
+    path = rig / "result.json"
+    document = json.loads(path.read_text())
+    del document["integrity"]  # as an older rsp-inertia wrote it
+    path.write_text(json.dumps(document))
+    assert main(["report", str(rig)]) == 0
+    level, box = _verdict((rig / "report.html").read_text())
+    assert "records no integrity" in box and "was edited after it was written<" not in box
+    assert level == "ok"  # no warnings, as before: no integrity is not an edit

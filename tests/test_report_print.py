@@ -18,6 +18,7 @@ import pytest
 from rsp_inertia.cli import main
 from rsp_inertia.identifying import identify
 from rsp_inertia.pdf import BROWSERS
+from rsp_inertia.provenance import sealed_json
 from rsp_inertia.report_parts import VALUE, WARNINGS_SHOWN
 from tests.conftest import copy_experiment
 from tests.test_combine_cli import TURNED_X90, _mounting
@@ -70,7 +71,8 @@ def signed(identified, tmp_path):
     }
     result["warnings"] = [f"warning number {i}: " + "a model test failed; " * 6
                           for i in range(1, 12)]
-    path.write_text(json.dumps(result))
+    # sealed again, as identify writes it (an unsealed edit turns the verdict red)
+    path.write_text(sealed_json(result))
     return root
 
 

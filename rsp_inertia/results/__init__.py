@@ -7,7 +7,8 @@ command line): ``str`` is the text the command prints, ``to_json()`` a JSON docu
 matplotlib Figure) pairs and ``figures(folder)`` the same written as PNG files. A result
 holds the library's record of its computation and reads its fields from it (a view, never
 a copy): ``IdentifyResult.identification``, ``CalibrateResult.calibration``,
-``PlanResult.plan``, ``CombineResult.combination``, ``ProgramSummary.details``.
+``PlanResult.plan``, ``CombineResult.combination``, ``ExportResult.exported``,
+``ProgramSummary.details``.
 
 ==================  ===========================  ======================================
 command             result                       module, and the records inside it
@@ -21,6 +22,7 @@ identify, demo      :class:`IdentifyResult`      ``identify``
 plan                :class:`PlanResult`          ``plan``
 check               :class:`CheckResult`         ``check``
 combine             :class:`CombineResult`       ``combine``
+export              :class:`ExportResult`        ``export``
 design              :class:`AxisDesignResult`    ``axis_designs``
 ==================  ===========================  ======================================
 
@@ -55,6 +57,7 @@ _HOMES = {
     "LEVELS": "check",
     "CheckResult": "check",
     "CombineResult": "combine",
+    "ExportResult": "export",
     "AxisDesignResult": "axis_designs",
     "axis_design_report": "axis_designs",
     "mounting_report": "axis_designs",
@@ -68,6 +71,7 @@ __all__ = [
     "CheckResult",
     "CombineResult",
     "Drawer",
+    "ExportResult",
     "IdentifyResult",
     "PassSummary",
     "PlanResult",

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from rsp_inertia.figure_files import save_figures
+from rsp_inertia.infra.frozen import freeze_arrays
 from rsp_inertia.plant.geometry import AxisDesign
 from rsp_inertia.results.common import Drawer, Drawn, json_text
 
@@ -179,6 +180,9 @@ class AxisDesignResult(Drawn):
     mounting_gain: np.ndarray | None
     figure: Path
     drawer: Drawer | None = field(default=None, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        freeze_arrays(self)  # its arrays read-only, as the result is frozen
 
     def __str__(self) -> str:
         mountings = ""

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rsp_inertia.figure_files import save_figures
+from rsp_inertia.infra.frozen import read_only
 from rsp_inertia.infra.toml_writer import document
 from rsp_inertia.plant.experiment import ENCODER_FIGURE
 from rsp_inertia.results.common import Drawer, Drawn, json_text
@@ -108,13 +109,13 @@ class CalibrateResult(Drawn):
     def drive_gains(self) -> np.ndarray:
         """``[h_d, h_b]`` (see the class's Attributes)."""
         drive = self._file.drive
-        return np.array([drive.gain_driving, drive.gain_backdriven])
+        return read_only(np.array([drive.gain_driving, drive.gain_backdriven]))
 
     @property
     def drive_gains_std(self) -> np.ndarray:
         """Standard deviations of ``drive_gains``."""
         drive = self._file.drive
-        return np.array([drive.gain_driving_std, drive.gain_backdriven_std])
+        return read_only(np.array([drive.gain_driving_std, drive.gain_backdriven_std]))
 
     @property
     def round_trip_efficiency(self) -> float:
@@ -131,13 +132,13 @@ class CalibrateResult(Drawn):
     def encoder_error(self) -> np.ndarray:
         """rad, ``[c_1, s_1, c_2, s_2, ...]``."""
         encoder = self._file.encoder
-        return _interleaved(encoder.error_cos, encoder.error_sin)
+        return read_only(_interleaved(encoder.error_cos, encoder.error_sin))
 
     @property
     def encoder_error_std(self) -> np.ndarray:
         """rad."""
         encoder = self._file.encoder
-        return _interleaved(encoder.error_cos_std, encoder.error_sin_std)
+        return read_only(_interleaved(encoder.error_cos_std, encoder.error_sin_std))
 
     @property
     def encoder_zero(self) -> float:
@@ -162,22 +163,22 @@ class CalibrateResult(Drawn):
     @property
     def empty_inertia(self) -> np.ndarray:
         """kg m^2, (stages, 5)."""
-        return np.array([s.empty_inertia for s in self._file.stages])
+        return read_only(np.array([s.empty_inertia for s in self._file.stages]))
 
     @property
     def empty_inertia_std(self) -> np.ndarray:
         """kg m^2, (stages, 5)."""
-        return np.array([s.empty_inertia_std for s in self._file.stages])
+        return read_only(np.array([s.empty_inertia_std for s in self._file.stages]))
 
     @property
     def fixture_gravity(self) -> np.ndarray:
         """N m, ``[m g x_c, m g y_c]``."""
-        return np.array(self._file.fixture.gravity)
+        return read_only(np.array(self._file.fixture.gravity))
 
     @property
     def fixture_gravity_std(self) -> np.ndarray:
         """N m."""
-        return np.array(self._file.fixture.gravity_std)
+        return read_only(np.array(self._file.fixture.gravity_std))
 
     @property
     def stiffness(self) -> float | None:

@@ -7,6 +7,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from rsp_inertia.provenance import sealed_json
+
 if TYPE_CHECKING:
     from rsp_inertia.estimation.combine import Combination
 
@@ -58,6 +60,7 @@ class CombineResult:
         str
             The document of docs/files.md (body.json): ``tensor``, ``tensor_std``, ``com``,
             ``com_std``, ``covariance``, the principal moments and axes, each mounting's
-            residuals, ``consistency`` and ``warnings``.
+            residuals, ``consistency``, ``warnings`` and ``integrity``
+            (rsp_inertia.provenance.sealed_json): exactly the text combine writes.
         """
-        return self.combination.to_json()
+        return sealed_json(self.combination.to_dict())

@@ -10,8 +10,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rsp_inertia.figure_files import save_figures
+from rsp_inertia.infra.frozen import read_only
 from rsp_inertia.plant.experiment import RESULT_FILE
 from rsp_inertia.plant.geometry import ENTRY_KEYS, principal, relative_errors, tensor_from_entries
+from rsp_inertia.provenance import sealed_json
 from rsp_inertia.results.common import Drawer, Drawn
 
 if TYPE_CHECKING:
@@ -108,54 +110,54 @@ class IdentifyResult(Drawn):
     @property
     def tensor(self) -> np.ndarray:
         """kg m^2, (3, 3): the inertia tensor of ``entries``."""
-        return tensor_from_entries(self.identification.entries)
+        return read_only(tensor_from_entries(self.identification.entries))
 
     @property
     def tensor_std(self) -> np.ndarray:
         """kg m^2, (3, 3): the standard deviation of each entry of ``tensor``."""
-        return tensor_from_entries(self.identification.entries_std)
+        return read_only(tensor_from_entries(self.identification.entries_std))
 
     @property
     def entries(self) -> np.ndarray:
         """kg m^2, (6,): ``[Jx, Jy, Jz, Jxy, Jyz, Jxz]``."""
-        return np.array(self.identification.entries, dtype=float)
+        return self.identification.entries
 
     @property
     def entries_std(self) -> np.ndarray:
         """kg m^2, (6,): standard deviations of ``entries``."""
-        return self.identification.entries_std
+        return read_only(self.identification.entries_std)
 
     @property
     def covariance(self) -> np.ndarray:
         """(8, 8): joint covariance of ``entries`` and the gravity terms."""
-        return np.array(self.identification.covariance, dtype=float)
+        return self.identification.covariance
 
     @property
     def entries_cov(self) -> np.ndarray:
         """kg^2 m^4, (6, 6): covariance of ``entries``."""
-        return np.array(self.identification.entries_cov, dtype=float)
+        return read_only(self.identification.entries_cov)
 
     @property
     def principal_moments(self) -> np.ndarray:
         """kg m^2, (3,), ascending."""
-        return np.array(principal(self.identification.entries)[0])
+        return read_only(principal(self.identification.entries)[0])
 
     @property
     def principal_axes(self) -> np.ndarray:
         """(3, 3): unit principal axes, one per row."""
-        return np.array(principal(self.identification.entries)[1])
+        return read_only(principal(self.identification.entries)[1])
 
     @property
     def com(self) -> np.ndarray | None:
         """m, ``[x_c, y_c]``, or None without the body's mass."""
         com = self.identification.com
-        return None if com is None else np.array(com, dtype=float)
+        return None if com is None else read_only(np.asarray(com, dtype=float))
 
     @property
     def com_std(self) -> np.ndarray | None:
         """m."""
         std = self.identification.com_std
-        return None if std is None else np.array(std, dtype=float)
+        return None if std is None else read_only(np.asarray(std, dtype=float))
 
     @property
     def expanded_uncertainty(self) -> dict:
@@ -204,9 +206,10 @@ class IdentifyResult(Drawn):
         str
             The JSON document (keys ``tensor``, ``tensor_std``, ``principal_moments``,
             ``principal_axes``, ``axes``, ``com``, ``com_std``, ``condition_number``,
-            ``node_formula``, ``least_squares``, ``warnings``, ``pendulum``, ...).
+            ``node_formula``, ``least_squares``, ``warnings``, ``pendulum``, ...), sealed
+            with its ``integrity`` (rsp_inertia.provenance.sealed_json).
         """
-        return self.identification.to_json()
+        return sealed_json(self.identification.to_dict())
 
     def figures(self, folder: str | Path | None = None) -> list[Path]:
         """Draw the demo's figures of this experiment as PNG files.

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rsp_inertia.figure_files import save_figures
+from rsp_inertia.infra.frozen import read_only
 from rsp_inertia.results.common import Drawer, Drawn, json_text
 
 if TYPE_CHECKING:
@@ -125,17 +126,17 @@ class PlanResult(Drawn):
     def predicted_std(self) -> np.ndarray:
         """kg m^2, per node: the rehearsal's std of J_k when it ran, else the plan's."""
         source = self.plan if self.rehearsal is None else self.rehearsal
-        return np.array(source.axis_std, dtype=float)
+        return read_only(np.asarray(source.axis_std, dtype=float))
 
     @property
     def predicted_std_ideal(self) -> np.ndarray:
         """kg m^2, per node: the plan's std of J_k for an ideal reverse."""
-        return np.array(self.plan.axis_std, dtype=float)
+        return read_only(np.asarray(self.plan.axis_std, dtype=float))
 
     @property
     def axis_stage(self) -> np.ndarray:
         """The stage of each node."""
-        return np.array(self.plan.axis_stage)
+        return read_only(np.asarray(self.plan.axis_stage))
 
     @property
     def duration(self) -> float:

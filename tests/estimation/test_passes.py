@@ -2,11 +2,17 @@
 
 import dataclasses
 import math
+import types
 
 import numpy as np
 import pytest
 
-from rsp_inertia.estimation.passes import CONSTANCY_TAIL, constancy_p_value, estimate_pass
+from rsp_inertia.estimation.passes import (
+    CONSTANCY_TAIL,
+    constancy_level,
+    constancy_p_value,
+    estimate_pass,
+)
 from rsp_inertia.plant.logs import torque_noise
 from rsp_inertia.virtual import device as vd
 from tests.estimation.conftest import STAGES
@@ -104,3 +110,44 @@ def test_honest_braking_logs_pass_the_constancy_test_at_its_rate(default_device,
     ])
     assert np.sum(p < CONSTANCY_TAIL) <= 2
     assert 0.35 < np.mean(p < 0.5) < 0.65
+
+
+def _clean_experiments(rng, experiments: int, logs: int, rows: int = 2000) -> np.ndarray:
+    """p-values of the constant-torque test on honest braking logs, (experiments, logs): a
+    constant torque plus white noise along a braking of 8 turns, the noise's std estimated
+    from each log as identify estimates it (rsp_inertia.plant.logs.torque_noise)."""
+    t = np.linspace(0.0, 1.0, rows)
+    phi = 2 * math.pi * 8 * (2 * t - t**2)  # a constant deceleration to rest
+    p = np.empty((experiments, logs))
+    for i in range(experiments):
+        for j in range(logs):
+            log = types.SimpleNamespace(torque=-0.005 + rng.normal(0.0, 1e-4, rows))
+            p[i, j] = constancy_p_value(log, phi, torque_noise(log))
+    return p
+
+
+def test_the_constancy_test_keeps_its_false_alarms_per_experiment():
+    """Honest experiments of 6 braking logs: tested at constancy_level, the share of
+    experiments with a false alarm is the rate asked for; one test per log at that rate
+    raises one in 1 - (1 - rate)^6 of them. Checked at rate 0.05, where 4000 simulated
+    experiments resolve it (binomial std 0.0034: within 4 of them); the p-values use the
+    noise std estimated from each log, as identify does."""
+    rate, logs = 0.05, 6
+    p = _clean_experiments(np.random.default_rng(36), 4000, logs)
+    per_experiment = np.mean(np.any(p < constancy_level(logs, rate), axis=1))
+    assert abs(per_experiment - rate) < 4 * math.sqrt(rate * (1 - rate) / 4000)
+    uncorrected = np.mean(np.any(p < rate, axis=1))
+    assert uncorrected > 0.2  # 1 - 0.95^6 = 0.26: the fault a per-log level has
+
+
+def test_at_its_own_rate_a_multi_log_experiment_rarely_alarms():
+    """At CONSTANCY_TAIL, for experiments of 1, 4 (the worked example's folders: 2 stages,
+    both ways) and 12 braking logs: honest p-values are uniform (the test above checks it on
+    simulated logs), so 200,000 drawn experiments give the rate. The worked example's
+    reference log, p = 0.00048, is not flagged in its folder of 4 logs (it was at 1e-3)."""
+    rng = np.random.default_rng(1128)
+    for logs in (1, 4, 12):
+        alarms = np.mean(np.any(rng.random((200_000, logs)) < constancy_level(logs), axis=1))
+        assert abs(alarms - CONSTANCY_TAIL) < 4 * math.sqrt(CONSTANCY_TAIL / 200_000)
+    assert 0.00048 >= constancy_level(4)
+    assert constancy_level(1) == pytest.approx(CONSTANCY_TAIL, rel=1e-12)
