@@ -110,6 +110,15 @@ def run_case(seed: int, work: str, rel: float, stated: bool = True, draw: bool =
     }
 
 
+def _warnings(warnings: list[str]) -> str:
+    """A row's warnings in a table cell: how many, and each one's opening words."""
+    if not warnings:
+        return "none"
+    heads = "; ".join(w[:90] + ("..." if len(w) > 90 else "") for w in warnings[:3])
+    more = f"; {len(warnings) - 3} more" if len(warnings) > 3 else ""
+    return f"{len(warnings)}: {heads}{more}"
+
+
 def report(rows: list[dict], command: str, rel: float) -> str:
     """certificate.md."""
     lines = [
@@ -127,7 +136,7 @@ def report(rows: list[dict], command: str, rel: float) -> str:
     ]
     for row in rows:
         largest = max(row["budget"], key=row["budget"].get)
-        warned = "; ".join(row["calibrate_warnings"] + row["identify_warnings"]) or "none"
+        warned = _warnings(row["calibrate_warnings"] + row["identify_warnings"])
         lines.append(
             f"| {row['seed']} | {'stds' if row['stated'] else 'no stds'} | "
             f"{max(row['certificate_error'], key=abs):+.2f} | "
