@@ -18,6 +18,7 @@ from rsp_inertia.estimation.balance import StageBalance
 from rsp_inertia.estimation.calibration_summary import CalibrationSummary
 from rsp_inertia.estimation.columns import encoder_columns, gravity_rows
 from rsp_inertia.estimation.layout import Layout, theta_layout
+from rsp_inertia.infra.frozen import freeze_arrays
 from rsp_inertia.plant.model import inertia_basis
 from rsp_inertia.plant.transducers import error_slope_basis
 
@@ -95,6 +96,7 @@ class KnownTerms:
             raise ValueError(
                 f"KnownTerms.cov must be {size} x {size} (names()), got {self.cov.shape}"
             )
+        freeze_arrays(self)  # its arrays read-only, as the record is frozen
 
     @classmethod
     def from_tares(cls, tares) -> KnownTerms:
@@ -102,8 +104,9 @@ class KnownTerms:
         constant, a lossless drive and an exact encoder."""
         tares = np.asarray(tares, dtype=float)
         exact = cls.exact(len(tares))
-        exact.inertia[:, 0] = tares
-        return exact
+        inertia = np.zeros_like(exact.inertia)
+        inertia[:, 0] = tares
+        return replace(exact, inertia=inertia)
 
     @classmethod
     def exact(cls, stages: int, encoder=()) -> KnownTerms:

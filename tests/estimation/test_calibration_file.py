@@ -537,6 +537,13 @@ def _count_parses(monkeypatch) -> list[str]:
     return parses
 
 
+@dataclasses.dataclass(frozen=True)
+class _Identified:
+    """What a stand-in estimator returns: identify_experiment sets its coverage factor."""
+
+    coverage_factor: float = 2.0
+
+
 def test_identify_reads_the_calibration_once(tmp_path, monkeypatch):
     """identify_experiment parses and validates calibration.toml once; the known terms and
     the pendulum's stiffness it hands to the estimator come from that reading."""
@@ -547,11 +554,11 @@ def test_identify_reads_the_calibration_once(tmp_path, monkeypatch):
     def estimator(logs, known, *, pendulum_stiffness, warnings, conventions):
         handed.update(known=known, stiffness=pendulum_stiffness, warnings=warnings,
                       conventions=conventions)
-        return "identified"
+        return _Identified()
 
     monkeypatch.setattr(reading, "identify_logs", estimator)
     parses = _count_parses(monkeypatch)
-    assert reading.identify_experiment(exp) == "identified"
+    assert reading.identify_experiment(exp, coverage_factor=3.0) == _Identified(3.0)
     assert parses == [str(root / "calibration.toml")]
     assert_same_terms(handed["known"], calibration(orders=1).known)
     assert handed["stiffness"] == (2.0099, 3.6e-4) and handed["warnings"] == []
