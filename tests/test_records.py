@@ -43,6 +43,7 @@ from rsp_inertia.infra.toml_schema import REQUIRED, accepted_keys, is_table, lay
 from rsp_inertia.plant.config import Certificate, load_device
 from rsp_inertia.plant.geometry import ENTRY_KEYS
 from rsp_inertia.plant.record_config import RecordFile, Rule, SpecFile, load_record, load_spec
+from rsp_inertia.provenance import sealed_json
 from rsp_inertia.report_parts import decision_box
 from tests.conftest import copy_experiment
 from tests.test_combine_cli import TURNED_X90, _mounting
@@ -191,10 +192,13 @@ def test_the_record_goes_into_result_json_and_an_overdue_calibration_warns(
     assert level == "warn"
     assert "The calibration was overdue" in box and "2026-11-16" in box
 
-    # The same result with its warning deleted by hand is still amber (the verdict the report
-    # leads with, without drawing it again).
+    # The same result with its warning deleted by hand is red: edited after it was written
+    # (the verdict the report leads with, without drawing it again); sealed again, as a
+    # script could, it is still amber: the record says the calibration was overdue.
     result["warnings"] = []
     (root / "result.json").write_text(json.dumps(result))
+    assert rsp_inertia.api.report_verdict(root) == ("stale", None)
+    (root / "result.json").write_text(sealed_json(result))
     assert rsp_inertia.api.report_verdict(root) == ("warn", None)
 
 
@@ -538,12 +542,12 @@ def test_report_strict_exits_3_on_a_red_or_amber_verdict(plain, tmp_path, capsys
     root = copy_experiment(plain[0], tmp_path / "exp")
     document = _result(root)
     document["warnings"] = ["the model test of stage 2 failed"]
-    (root / "result.json").write_text(json.dumps(document))
+    (root / "result.json").write_text(sealed_json(document))  # as identify would write it
     assert cli(capsys, "report", root)[0] == 0  # without --strict: done
     assert cli(capsys, "report", root, "--strict")[0] == STRICT
     assert _verdict((root / "report.html").read_text())[0] == "warn"
     document["warnings"] = []
-    (root / "result.json").write_text(json.dumps(document))
+    (root / "result.json").write_text(sealed_json(document))
     log = root / "stage1" / "reverse.csv"
     log.write_text(log.read_text() + "\n")  # changed since identify: red
     assert cli(capsys, "report", root, "--strict")[0] == STRICT
@@ -566,7 +570,7 @@ def test_combine_prints_its_result_on_stdout_and_its_warnings_on_stderr(tmp_path
     for root in (first, second):
         document = json.loads((root / "result.json").read_text())
         document["provenance"] = {"inputs": {"device.toml": file_sha256(root / "device.toml")}}
-        (root / "result.json").write_text(json.dumps(document))
+        (root / "result.json").write_text(sealed_json(document))  # as identify writes it
     status, _, err = cli(capsys, "combine", first, second, "--out", out, "--strict")
     assert (status, err) == (0, "")
 

@@ -83,7 +83,8 @@ def test_identify_logs_takes_the_logs_in_memory(ideal, monkeypatch):
     in_memory = identify_logs(ExperimentLogs(device, runs), known, warnings=warnings)
     monkeypatch.undo()
     assert in_memory.provenance is None  # no files: nothing to record
-    assert in_memory.to_dict() == {**result.to_dict(), "provenance": None}
+    # identify records when and for what the result was made; identify_logs has no record.
+    assert in_memory.to_dict() == {**result.to_dict(), "provenance": None, "record": None}
 
 
 def test_a_locked_stage_gives_the_designs_one_z_axis(tmp_path):

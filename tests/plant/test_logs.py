@@ -689,6 +689,9 @@ def test_genuine_logs_step_well_within_the_speed_bound(
         log = read_log(path, encoder, "braking", launch_speed=speed)
         # Near rest the readhead's noise (+-2 counts) hides the last counts of motion: the
         # reader may take the last stay at the furthest reading for the stop and cut it
-        # (plant.log_checks.turning_point), only rows within that noise of the rest.
+        # (plant.log_checks.turning_point), only rows within that noise of the rest: the
+        # true angle left to go after the last row kept is within the noise's span (4
+        # counts) and the floor's count. (The readings cut are noisier still: noise at the
+        # furthest reading and at the cut, up to 7 counts apart.)
         np.testing.assert_array_equal(log.t, t[: len(log)])
-        assert np.all(counts.max() - counts[len(log) :] <= 5)
+        assert (angle.max() - angle[len(log) - 1]) / encoder.quantum <= 5.0
