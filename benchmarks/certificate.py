@@ -191,7 +191,7 @@ def main(argv: list[str] | None = None) -> int:
                 file=sys.stderr,
             )
     args.out.mkdir(parents=True, exist_ok=True)
-    command = command_line("benchmarks.certificate", argv if argv is not None else sys.argv[1:])
+    command = command_line("certificate", argv if argv is not None else sys.argv[1:])
     (args.out / "certificate.md").write_text(report(rows, command, args.rel_std))
     (args.out / "certificate.json").write_text(json.dumps(rows, indent=1) + "\n")
     print(f"-> {args.out / 'certificate.md'}")

@@ -183,7 +183,7 @@ def main(argv: list[str] | None = None) -> int:
             row = rows[-1]
             print(f"{row['case']} seed {row['seed']}: {_verdict(row)}", file=sys.stderr)
     args.out.mkdir(parents=True, exist_ok=True)
-    command = command_line("benchmarks.conventions", argv if argv is not None else sys.argv[1:])
+    command = command_line("conventions", argv if argv is not None else sys.argv[1:])
     (args.out / "conventions.md").write_text(report(rows, command))
     (args.out / "conventions.json").write_text(json.dumps(rows, indent=1) + "\n")
     print(f"-> {args.out / 'conventions.md'}")
