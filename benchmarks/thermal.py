@@ -58,12 +58,12 @@ def drifts(root: Path) -> list[dict]:
                 motor=braking.truth.end_motor,
             )
             (b_rows, b_work), (r_rows, r_work) = _means(braking, tempco), _means(reverse, tempco)
-            rows.append(dict(
-                stage=st, direction=str(d), rows=r_rows - b_rows, work=r_work - b_work,
-                braking_end=braking.truth.end_motor.magnet,
-                reverse_end=reverse.truth.end_motor.magnet,
-                logged_rise=float(reverse.log.temperature[-1] - braking.log.temperature[0]),
-            ))
+            rows.append({
+                "stage": st, "direction": str(d), "rows": r_rows - b_rows, "work": r_work - b_work,
+                "braking_end": braking.truth.end_motor.magnet,
+                "reverse_end": reverse.truth.end_motor.magnet,
+                "logged_rise": float(reverse.log.temperature[-1] - braking.log.temperature[0]),
+            })
     return rows
 
 
@@ -76,12 +76,12 @@ def main(argv: list[str] | None = None) -> None:
         "",
         f"`{command_line('thermal', argv)}`",
         "",
-        "Default experiment, closed loop; benchmarks.experiments.warming_motor (alpha = "
-        "-0.0011/K, 0.5 N m/A at phi, R_th = 4 K/W, tau_w = 60 s, magnets 5 s behind).",
+        ("Default experiment, closed loop; benchmarks.experiments.warming_motor (alpha = "
+        "-0.0011/K, 0.5 N m/A at phi, R_th = 4 K/W, tau_w = 60 s, magnets 5 s behind)."),
         "Drift = mean of 1 + alpha (T_magnet - ambient) in the reverse less in the braking.",
         "",
-        "| target | R (ohm) | stage | direction | drift over rows | drift over work "
-        "| magnets at braking's end (K) | at reverse's end (K) | logged rise (K) |",
+        ("| target | R (ohm) | stage | direction | drift over rows | drift over work "
+        "| magnets at braking's end (K) | at reverse's end (K) | logged rise (K) |"),
         "|---|---|---|---|---|---|---|---|---|",
     ]
     start = time.perf_counter()

@@ -200,7 +200,7 @@ def simulate_braking(
     if rig.thermal:
         winding, magnet = advance_motor(rig, COLD, power, t)
         end_motor = MotorState(*advance_motor(rig, COLD, power, end_time))
-        temperatures = dict(winding=winding, magnet=magnet, end_motor=end_motor)
+        temperatures = {"winding": winding, "magnet": magnet, "end_motor": end_motor}
     truth = PassTruth(
         t=t,
         phi=traj[:, 0],

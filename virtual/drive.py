@@ -174,7 +174,8 @@ def resample(truth: PassTruth, pair: Pair, instants: np.ndarray) -> PassTruth:
     """The pass ``truth`` at the drive's sampling ``instants``.
 
     Exact for the passes whose torque is constant between the grid's samples and the
-    instants (braking, pendulum: one torque throughout; a pilot's switch-off is a grid
+    instants (braking, pendulum: one torque throughout, or on a warming motor one per grid
+    sample, held over it, rsp_inertia.virtual.thermal; a pilot's switch-off is a grid
     sample, so its one row around the switch carries the command of the grid sample before
     it). Each state advances from the grid sample before it, stops and static friction
     included (:func:`rsp_inertia.virtual.integrate.advance`).
