@@ -9,9 +9,16 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from rsp_inertia.plant.config import load_device, write_device
+from rsp_inertia.plant.direction import Direction
+from rsp_inertia.plant.experiment import open_experiment
+from rsp_inertia.plant.logs import read_device_log
 from rsp_inertia.plant.model import dissipation, mechanical_energy
 from rsp_inertia.plant.transducers import delivered_torque
+from rsp_inertia.scenarios import create_default_experiment
+from rsp_inertia.simulating import simulate
 from rsp_inertia.virtual import device as vd
+from rsp_inertia.virtual.config import load_virtual, write_virtual
 from rsp_inertia.virtual.integrate import advance, true_pair
 from rsp_inertia.virtual.thermal import (
     COLD,
@@ -214,3 +221,52 @@ def test_the_log_records_the_winding_and_the_reverse_starts_where_the_braking_le
     # The ideal reverse still mirrors the drifting braking (its program follows the torque).
     mirror = braking_speed_at(warm_braking, reverse.truth.phi)
     assert np.abs(-reverse.truth.omega - mirror).max() < 1e-5
+
+
+def test_the_logs_temperature_column_carries_the_winding(tmp_path):
+    # Through the files: device.toml names a temperature column; simulate writes the winding's
+    # temperature there, rising through the braking and on through the reverse, which starts
+    # where the braking left the motor.
+    root = create_default_experiment(tmp_path / "exp")
+    device = load_device(root / "device.toml")
+    device = dataclasses.replace(
+        device, log=dataclasses.replace(device.log, temperature_column="temperature")
+    )
+    write_device(root / "device.toml", device)
+    virtual = load_virtual(root / "virtual.toml")
+    write_virtual(root / "virtual.toml", hot(virtual, resistance=30.0))
+    simulate(root, stage=2, part="braking")
+    simulate(root, stage=2, part="reverse", ideal=True)
+    exp = open_experiment(root)
+    forward = Direction.FORWARD
+    braking = read_device_log(exp.braking_path(2, forward), exp.device, "braking", forward)
+    reverse = read_device_log(exp.reverse_path(2, forward), exp.device, "reverse", forward)
+    warm = hot(virtual, resistance=30.0)
+    truth = vd.simulate_braking(exp.device, 2, warm)
+    np.testing.assert_array_equal(braking.temperature, truth.log.temperature)
+    rig = warm.rig
+    assert braking.temperature[0] == pytest.approx(rig.ambient_temperature, abs=0.3)
+    rise = truth.truth.end_motor.winding  # K, 2.2 K at 30 ohm
+    assert braking.temperature[-1] - braking.temperature[0] == pytest.approx(rise, abs=0.35)
+    assert reverse.temperature[0] == pytest.approx(rig.ambient_temperature + rise, abs=0.3)
+    assert reverse.temperature[-1] > reverse.temperature[0] + 1.0
+
+
+def test_a_warming_motor_on_a_drive_that_jitters_drops_and_holds(default_device, virtual):
+    # The logger's imperfections cut and extend the rows; the temperature follows the rows.
+    rough = dataclasses.replace(
+        hot(virtual),
+        logger=dataclasses.replace(
+            virtual.logger, time_jitter=0.2, dropped_fraction=0.1, hold_after_stop=0.5
+        ),
+    )
+    braking = vd.simulate_braking(default_device, 1, rough)
+    assert len(braking.log.temperature) == len(braking.log)
+    assert len(braking.truth.magnet) == len(braking.truth.t)
+    reverse = vd.simulate_ideal_reverse(default_device, 1, rough, braking)
+    assert len(reverse.log.temperature) == len(reverse.log)
+    gains = rough.rig.drive_gains
+    moving = reverse.truth.omega != 0.0
+    today = delivered_torque(reverse.log.torque, np.sign(reverse.truth.omega), gains)
+    factor = 1 + ALPHA * reverse.truth.magnet
+    np.testing.assert_allclose(reverse.truth.torque[moving], (factor * today)[moving], rtol=1e-13)
