@@ -25,6 +25,7 @@ __all__ = [
     "scale_friction",
     "seeded",
     "vary",
+    "warming_motor",
     "with_com",
     "with_encoder_bits",
     "with_rig",
@@ -128,6 +129,30 @@ def with_rig(virtual: Virtual, **changes) -> Virtual:
     """The rig's imperfections (virtual.toml ``[rig]``, :class:`rsp_inertia.virtual.config.Rig`)
     with the given fields changed."""
     return replace(virtual, rig=replace(virtual.rig, **changes))
+
+
+WARMING_MOTORS = {2e-4: 2.93, 1e-3: 14.65}
+"""Winding resistance (ohm) of :func:`warming_motor` per mean drift between the passes
+(benchmarks.thermal measures it on the default experiment, closed loop)."""
+
+
+def warming_motor(virtual: Virtual, drift: float = 2e-4, lag: float = 5.0) -> Virtual:
+    """A small servo motor with NdFeB magnets that warms through the passes (virtual.toml
+    ``[rig]``, rsp_inertia.virtual.thermal): alpha = -0.0011/K; 0.5 N m/A at phi (a 0.05 N m/A
+    motor behind a 10:1 gear); the winding 4 K/W to the ambient with a 60 s time constant
+    (15 J/K: the winding and the stator it sits in); the magnets ``lag`` s behind; the
+    winding's resistance chosen (:data:`WARMING_MOTORS`) so that the torque scale's mean
+    differs by ``drift`` between the braking and the reverse pass of stage 2 (benchmarks.thermal).
+    """
+    return with_rig(
+        virtual,
+        torque_constant_tempco=-0.0011,
+        torque_constant=0.5,
+        winding_resistance=WARMING_MOTORS[drift],
+        thermal_resistance=4.0,
+        winding_time_constant=60.0,
+        magnet_lag=lag,
+    )
 
 
 def with_stage(device: Device, stage: int, **changes) -> Device:

@@ -27,6 +27,11 @@ by the direction of power flow (:func:`power_flow_split`, the one place the spli
 the simulator's :func:`delivered_torque` and the estimators' split of the logged work both
 call it). Only h_d and h_b enter any work-energy balance: the torque constant and the two
 efficiencies are not separable by such a measurement, only their two combinations are.
+
+**Torque constant vs temperature.** The logged torque is the current times the nominal torque
+constant; the true constant follows the magnets' temperature, Kt = Kt_nominal (1 + alpha
+(T_magnet - T_ref)), alpha about -0.0011/K for NdFeB magnets and -0.0003/K for SmCo. Both
+gains scale by that factor (:func:`thermal_gains`, the one place it is applied).
 """
 
 from __future__ import annotations
@@ -43,6 +48,7 @@ __all__ = [
     "error_slope_basis",
     "logged_torque",
     "power_flow_split",
+    "thermal_gains",
     "true_angle",
 ]
 
@@ -171,6 +177,31 @@ def drive_gains(
         eta_d / g and 1 / (eta_b g).
     """
     return efficiency_driving / torque_gain, 1.0 / (efficiency_backdriven * torque_gain)
+
+
+def thermal_gains(gains: tuple, tempco: float, rise) -> tuple:
+    """(h_d, h_b) of a motor whose magnets are ``rise`` kelvin above the torque constant's
+    reference temperature: both times 1 + alpha rise (module docstring).
+
+    Parameters
+    ----------
+    gains : tuple of float
+        (h_d, h_b) at the reference temperature, :func:`drive_gains`.
+    tempco : float
+        alpha, 1/K, the torque constant's relative change per kelvin.
+    rise : float or array_like
+        K, T_magnet - T_ref: a number, or one per row.
+
+    Returns
+    -------
+    tuple
+        (h_d, h_b) x (1 + alpha rise): numbers, or arrays shaped like ``rise``; ``gains``
+        itself when alpha = 0 (the gains then do not depend on the temperature).
+    """
+    if tempco == 0.0:
+        return gains
+    factor = 1.0 + tempco * (rise if np.ndim(rise) == 0 else np.asarray(rise, dtype=float))
+    return gains[0] * factor, gains[1] * factor
 
 
 def _back_driven(torque, motion):

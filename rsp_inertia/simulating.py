@@ -226,7 +226,10 @@ def simulate(
                 else:
                     program = read_program(exp.program_path(st, d), exp.device.encoder)
                     start = (braking.truth.end_phi, 0.0)
-                    sim = run_program(exp.device, st, virtual, program, start, direction=d)
+                    sim = run_program(
+                        exp.device, st, virtual, program, start, direction=d,
+                        motor=braking.truth.end_motor,  # the motor as warm as the braking left it
+                    )
                     label = "reverse"
                 log_path = exp.reverse_path(st, d)
             _write_log(exp, virtual, log_path, sim.log)

@@ -219,6 +219,80 @@ class Rig:
         "(Jxy, Jxz and x_c flipped) read the stated way.",
     )
 
+    torque_constant_tempco: float = key(
+        0.0,
+        unit="1/K",
+        bound=(">= -0.01", "<= 0.01"),
+        doc="alpha: the body receives the logged torque x (1 + alpha (T_magnet - "
+        "ambient_temperature)) x h_d or h_b (rsp_inertia.plant.transducers.thermal_gains); "
+        "about -0.0011 for NdFeB magnets, -0.0003 for SmCo; 0 = a constant torque constant.",
+    )
+    torque_constant: float = key(
+        1.0,
+        unit="N m/A",
+        bound="> 0",
+        doc="The logged torque per ampere of the winding's current (the motor's nominal "
+        "constant reduced to phi): the current that heats the winding is I = the logged "
+        "command / this.",
+    )
+    winding_resistance: float = key(
+        0.0,
+        unit="ohm",
+        bound=">= 0",
+        doc="R, the winding's resistance: it dissipates P = I^2 R; 0 = no heating.",
+    )
+    thermal_resistance: float = key(
+        0.0,
+        unit="K/W",
+        bound=">= 0",
+        doc="R_th, from the winding to the ambient: the winding's steady rise is P R_th; "
+        "0 = no heating.",
+    )
+    winding_time_constant: float = key(
+        60.0,
+        unit="s",
+        bound="> 0",
+        doc="tau_w of the winding's first-order rise: tau_w dT_w/dt = P R_th - (T_w - "
+        "ambient) (rsp_inertia.virtual.thermal).",
+    )
+    magnet_lag: float = key(
+        0.0,
+        unit="s",
+        bound=">= 0",
+        doc="tau_m, the magnets' first-order lag behind the winding: tau_m dT_m/dt = T_w - "
+        "T_m; 0 = the magnets at the winding's temperature.",
+    )
+    ambient_temperature: float = key(
+        25.0,
+        unit="degC",
+        doc="The ambient, the torque constant's reference and every run's starting "
+        "temperature of winding and magnets.",
+    )
+    reverse_temperature_offset: float = key(
+        0.0,
+        unit="K",
+        doc="A prescribed extra temperature of the whole motor (winding, magnets, the logged "
+        "temperature) throughout every reverse pass, on top of the thermal model: the "
+        "simplest case of a torque constant that differs between the passes, (1 + alpha "
+        "this) on the reverse's torque alone.",
+    )
+    temperature_noise: float = key(
+        0.05,
+        unit="K",
+        bound=">= 0",
+        doc="Standard deviation of the logged temperature's sensor noise (then rounded to "
+        "0.1 K), on a rig with a thermal model (winding_resistance and thermal_resistance > "
+        "0, or a reverse_temperature_offset); without one the logger writes the ambient, "
+        "no noise.",
+    )
+
+    @property
+    def thermal(self) -> bool:
+        """Whether the motor's temperature moves: the winding heats (R and R_th > 0) or the
+        reverse runs at a prescribed offset (rsp_inertia.virtual.thermal)."""
+        heats = self.winding_resistance > 0.0 and self.thermal_resistance > 0.0
+        return heats or self.reverse_temperature_offset != 0.0
+
     @property
     def drive_gains(self) -> tuple[float, float]:
         """(h_d, h_b): torque received per unit logged torque, driving and back-driven

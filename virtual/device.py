@@ -39,7 +39,7 @@ from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.config import Device, Stage
 from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.friction import FRICTION
-from rsp_inertia.plant.transducers import delivered_torque
+from rsp_inertia.plant.transducers import delivered_torque, thermal_gains
 from rsp_inertia.virtual.config import Virtual, placed_body
 from rsp_inertia.virtual.drive import (
     STREAM_BRAKING,
@@ -56,6 +56,7 @@ from rsp_inertia.virtual.drive import (
     logged,
     resample,
     sampling_instants,
+    with_temperature,
 )
 from rsp_inertia.virtual.integrate import (
     BLOCK,
@@ -68,6 +69,7 @@ from rsp_inertia.virtual.integrate import (
     true_parameters,
 )
 from rsp_inertia.virtual.reverse import ideal_program, run_program, simulate_ideal_reverse
+from rsp_inertia.virtual.thermal import COLD, MotorState, advance_motor, heating_power
 
 __all__ = [
     "MAX_BRAKING_TIME",
@@ -139,7 +141,10 @@ def simulate_braking(
     speed. Backward, the mirror: release at minus that angle with -launch speed. The
     drive's command is the constant ``braking_torque`` against the motion (-braking_torque
     forward, +braking_torque backward), which the log records; the body back-drives the motor
-    and receives h_b x the command (``[rig]``). The pass ends at the first instant the speed
+    and receives h_b x the command (``[rig]``), times 1 + alpha (T_magnet - ambient) on a
+    motor that warms (``[rig]`` thermal keys, rsp_inertia.virtual.thermal: the command's
+    current heats the winding from the ambient; the torque drifts from sample to sample,
+    held over each). The pass ends at the first instant the speed
     reaches zero (an event located inside its sample by Brent's method on the step length).
     The log holds every sample up to that instant, and goes on while the drive holds the body
     for virtual.toml's ``[logger] hold_after_stop`` (rsp_inertia.virtual.drive.held_after_stop).
@@ -170,6 +175,18 @@ def simulate_braking(
     p = true_parameters(device, stage, virtual, s).vector
     dt = device.encoder.dt
     command, u = braking_torque(st, virtual, s)
+    rig = virtual.rig
+    power = heating_power(rig, command)  # W, constant: the command is
+    if rig.thermal and rig.torque_constant_tempco != 0.0:
+        gains = rig.drive_gains
+
+        def u(k: int, count: int) -> np.ndarray:
+            """The torques over samples k.. as the magnets warm from the ambient."""
+            magnet = advance_motor(rig, COLD, power, np.arange(k, k + count) * dt)[1]
+            return delivered_torque(
+                command, s, thermal_gains(gains, rig.torque_constant_tempco, magnet)
+            )
+
     x0 = np.array([s * math.radians(release_angle(st, virtual)), s * st.launch_speed])
     stop = integrate_to_stop(x0, u, s, p, dt, MAX_BRAKING_TIME)
     if stop is None:
@@ -179,21 +196,31 @@ def simulate_braking(
             "raise braking_torque or lower launch_speed in device.toml"
         )
     t, traj, end_time, end_phi = stop
+    temperatures = {}
+    if rig.thermal:
+        winding, magnet = advance_motor(rig, COLD, power, t)
+        end_motor = MotorState(*advance_motor(rig, COLD, power, end_time))
+        temperatures = {"winding": winding, "magnet": magnet, "end_motor": end_motor}
     truth = PassTruth(
         t=t,
         phi=traj[:, 0],
         omega=traj[:, 1],
-        torque=np.full(len(t), u),
+        torque=u(0, len(t)) if callable(u) else np.full(len(t), u),
         end_time=end_time,
         end_phi=end_phi,
         end_omega=0.0,
+        **temperatures,
     )
     stream = STREAM_BRAKING if s > 0 else STREAM_BRAKING_BACKWARD
     pair = true_pair(device, stage, virtual)
     truth = jittered(truth, pair, virtual, (stage, stream + STREAM_CLOCK), dt)
     q = device.encoder.quantum
     sim = logged(truth, np.full(len(truth.t), command), virtual, (stage, stream), q)
-    return held_after_stop(sim, command, virtual, (stage, stream), q, dt, s)
+    sim = held_after_stop(sim, command, virtual, (stage, stream), q, dt, s)
+    if rig.thermal:  # the held rows too: the drive holds the body with the same command
+        winding = advance_motor(rig, COLD, power, sim.log.t)[0]
+        sim = with_temperature(sim, virtual, winding, (stage, stream))
+    return sim
 
 
 def simulate_pendulum(device: Device, stage: int, virtual: Virtual, node: int) -> SimulatedPass:

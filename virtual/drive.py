@@ -28,6 +28,7 @@ from rsp_inertia.plant.logs import Log, Program
 from rsp_inertia.plant.transducers import delivered_torque
 from rsp_inertia.virtual.config import Virtual
 from rsp_inertia.virtual.integrate import Pair, advance
+from rsp_inertia.virtual.thermal import COLD, MotorState, logged_temperature
 
 __all__ = [
     "STREAM_BRAKING",
@@ -39,6 +40,7 @@ __all__ = [
     "STREAM_PILOT",
     "STREAM_REVERSE",
     "STREAM_REVERSE_BACKWARD",
+    "STREAM_TEMPERATURE",
     "PassTruth",
     "ProgramDrive",
     "SimulatedPass",
@@ -49,6 +51,7 @@ __all__ = [
     "logged",
     "resample",
     "sampling_instants",
+    "with_temperature",
 ]
 
 # Seeds of the independent random streams of one stage (numpy SeedSequence entropy words).
@@ -65,6 +68,9 @@ STREAM_DROPS = 200
 STREAM_HOLD = 300
 """Added to a braking's stream for the rows logged while the body is held after the stop
 (``[logger] hold_after_stop``: their noise and dither)."""
+STREAM_TEMPERATURE = 400
+"""Added to a pass's stream for the noise of its logged temperature (``[rig]
+temperature_noise``)."""
 
 
 def braking_torque(stage: Stage, virtual: Virtual, s: float) -> tuple[float, float]:
@@ -115,6 +121,14 @@ class PassTruth:
     """rad, true angle at end_time."""
     end_omega: float
     """rad/s, true speed at end_time."""
+    winding: np.ndarray | None = None
+    """K, the winding's rise above the ambient at t (rsp_inertia.virtual.thermal); None on a
+    rig whose motor stays at the ambient."""
+    magnet: np.ndarray | None = None
+    """K, the magnets' rise above the ambient at t, whose torque constant ``torque`` holds;
+    None as ``winding``."""
+    end_motor: MotorState = COLD
+    """The motor's temperatures at end_time: where the next pass of the run starts."""
 
 
 @dataclass(frozen=True)
@@ -160,7 +174,8 @@ def resample(truth: PassTruth, pair: Pair, instants: np.ndarray) -> PassTruth:
     """The pass ``truth`` at the drive's sampling ``instants``.
 
     Exact for the passes whose torque is constant between the grid's samples and the
-    instants (braking, pendulum: one torque throughout; a pilot's switch-off is a grid
+    instants (braking, pendulum: one torque throughout, or on a warming motor one per grid
+    sample, held over it, rsp_inertia.virtual.thermal; a pilot's switch-off is a grid
     sample, so its one row around the switch carries the command of the grid sample before
     it). Each state advances from the grid sample before it, stops and static friction
     included (:func:`rsp_inertia.virtual.integrate.advance`).
@@ -190,8 +205,18 @@ def resample(truth: PassTruth, pair: Pair, instants: np.ndarray) -> PassTruth:
         ]
     )
     return dataclasses.replace(
-        truth, t=instants, phi=states[:, 0], omega=states[:, 1], torque=truth.torque[g]
+        truth, t=instants, phi=states[:, 0], omega=states[:, 1], torque=truth.torque[g],
+        **_rows(truth, g),
     )
+
+
+def _rows(truth: PassTruth, rows) -> dict:
+    """The motor's temperatures of ``truth`` at ``rows`` (indices or a mask), as fields."""
+    return {
+        name: getattr(truth, name)[rows]
+        for name in ("winding", "magnet")
+        if getattr(truth, name) is not None
+    }
 
 
 def jittered(
@@ -267,9 +292,37 @@ def logged(
         log = Log(t=log.t[keep], phi=log.phi[keep], torque=log.torque[keep])
         truth = dataclasses.replace(
             truth, t=truth.t[keep], phi=truth.phi[keep], omega=truth.omega[keep],
-            torque=truth.torque[keep],
+            torque=truth.torque[keep], **_rows(truth, keep),
         )
     return SimulatedPass(log=log, truth=truth)
+
+
+def with_temperature(
+    sim: SimulatedPass, virtual: Virtual, winding: np.ndarray, seed: tuple
+) -> SimulatedPass:
+    """``sim`` whose log records the motor's temperature (device.toml ``[log]
+    temperature_column``): the ambient plus the winding's rise at each row, with the sensor's
+    noise and resolution (rsp_inertia.virtual.thermal.logged_temperature).
+
+    Parameters
+    ----------
+    sim : SimulatedPass
+        The pass as logged.
+    virtual : Virtual
+        The virtual device: ``[rig]``'s thermal keys, ``[run] seed``.
+    winding : numpy.ndarray
+        K, the winding's rise at each row of ``sim.log``.
+    seed : tuple
+        The pass's random stream; the noise draws on it plus :data:`STREAM_TEMPERATURE`.
+
+    Returns
+    -------
+    SimulatedPass
+        ``sim`` with ``log.temperature`` set.
+    """
+    stream = [virtual.run.seed, seed[0], seed[1] + STREAM_TEMPERATURE, *seed[2:]]
+    temperature = logged_temperature(virtual.rig, winding, stream)
+    return dataclasses.replace(sim, log=dataclasses.replace(sim.log, temperature=temperature))
 
 
 class SpeedObserver:

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 
 import casadi as ca
 import numpy as np
@@ -109,14 +110,14 @@ def step_block(x: np.ndarray, u: float, direction: float, p: np.ndarray, h: floa
 
 def integrate_to_stop(
     x0: np.ndarray,
-    u: float,
+    u: float | Callable[[int, int], np.ndarray],
     direction: float,
     p: np.ndarray,
     dt: float,
     max_time: float,
     coarse: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, float, float] | None:
-    """A motion under the constant torque ``u`` from ``x0`` until the speed first reaches zero.
+    """A motion under the torque ``u`` from ``x0`` until the speed first reaches zero.
 
     RK4 (``SUBSTEPS`` per sample) of the model, whole blocks of samples per call; the stop
     is an event located inside its sample by Brent's method on the step length.
@@ -125,8 +126,10 @@ def integrate_to_stop(
     ----------
     x0 : numpy.ndarray, shape (2,)
         The initial state (phi, Omega), rad and rad/s.
-    u : float
-        N m, the constant motor torque.
+    u : float or callable
+        N m, the constant motor torque; or ``u(k, count)``, the torques held over the samples
+        k, ..., k + count - 1 (an array of ``count``: a torque that drifts from sample to
+        sample, held over each, as a warming motor's: rsp_inertia.virtual.thermal).
     direction : float
         The friction sign: the sign of the speed, +1 or -1.
     p : numpy.ndarray, shape (12,)
@@ -151,7 +154,10 @@ def integrate_to_stop(
     states = [x[None, :]]
     max_samples = int(max_time / dt)
     n = 1
+    torques = u if callable(u) else None
     while True:
+        if torques is not None:  # the block's samples n - 1, ..., n + BLOCK - 2, one row
+            u = np.asarray(torques(n - 1, BLOCK), dtype=float).reshape(1, BLOCK)
         block = np.asarray(step_blocks(x, u, direction, p, dt)).T  # (BLOCK, 2)
         stopped = np.nonzero(block[:, 1] * direction <= 0.0)[0]
         if stopped.size:
@@ -159,6 +165,8 @@ def integrate_to_stop(
             states.append(block[:k])
             n += k
             x = block[k - 1] if k > 0 else x
+            if torques is not None:  # the torque of the sample the stop falls in
+                u = float(np.asarray(torques(n - 1, 1)).ravel()[0])
             break
         states.append(block)
         n += BLOCK

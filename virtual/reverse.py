@@ -24,7 +24,7 @@ from rsp_inertia.plant.model import (
     reduced_inertia,
     static_torque,
 )
-from rsp_inertia.plant.transducers import delivered_torque, logged_torque
+from rsp_inertia.plant.transducers import delivered_torque, logged_torque, thermal_gains
 from rsp_inertia.virtual.config import Virtual
 from rsp_inertia.virtual.drive import (
     STREAM_CLOCK,
@@ -37,8 +37,10 @@ from rsp_inertia.virtual.drive import (
     braking_torque,
     logged,
     sampling_instants,
+    with_temperature,
 )
 from rsp_inertia.virtual.integrate import BLOCK, advance, step_block, true_pair, true_parameters
+from rsp_inertia.virtual.thermal import COLD, MotorState, advance_motor, heating_power
 
 __all__ = ["IDEAL_BANDWIDTH", "ideal_program", "run_program", "simulate_ideal_reverse"]
 
@@ -60,6 +62,7 @@ def run_program(
     ideal: bool = False,
     direction: Direction = Direction.FORWARD,
     coarse: bool = False,
+    motor: MotorState = COLD,
 ) -> SimulatedPass:
     """Execute ``program`` in closed loop on the virtual device (docs/files.md, program.csv).
 
@@ -105,6 +108,12 @@ def run_program(
         nominal model (rsp_inertia.design.rehearsal), where the body's motion over a sample,
         h w ~ 0.01 at the 2 Omega harmonic, leaves an RK4 error ~(h w)^5 / 120, far below
         what the model knows.
+    motor : MotorState
+        The motor's temperatures at the start (the braking's ``truth.end_motor``; default the
+        ambient). On a rig with a thermal model (rsp_inertia.virtual.thermal) each sample's
+        command heats the winding, the body receives the torque above times 1 + alpha
+        (T_magnet - ambient) at the sample's start (plus ``[rig]
+        reverse_temperature_offset``), and the log records the winding's temperature.
 
     Returns
     -------
@@ -148,6 +157,13 @@ def run_program(
     drive = ProgramDrive(
         program, at, u_max, rate_max, span, held if ideal else logged_torque(held, 0.0, gains)
     )
+    rig = virtual.rig
+    # The motor's temperatures at each sample's start (rises above the ambient, the
+    # prescribed offset included), on a rig whose motor's temperature moves.
+    thermal = rig.thermal
+    offset = rig.reverse_temperature_offset
+    winding = np.empty(n) if thermal else None
+    magnet = np.empty(n) if thermal else None
     h_prev = dt
     for k in range(n):
         phi_true[k], omega_true[k] = x
@@ -156,14 +172,21 @@ def run_program(
         if ideal:
             y, omega_hat = x
         u = drive.command(k, y, omega_hat, h_prev)
+        g = gains
+        if thermal:
+            winding[k], magnet[k] = motor.winding + offset, motor.magnet + offset
+            g = thermal_gains(gains, rig.torque_constant_tempco, magnet[k])
         if ideal:  # u is the torque the body receives; the log has the command that gives it
             motion = _motion(x, u, pair)
-            applied[k], commands[k] = u, logged_torque(u, motion, gains)
+            applied[k], commands[k] = u, logged_torque(u, motion, g)
         else:  # u is the command
-            applied[k], commands[k] = _received(x, u, gains, pair), u
+            applied[k], commands[k] = _received(x, u, g, pair), u
         physical = applied[k]
         h_prev = float(steps[k])
         x = advance(x, physical, h_prev, pair, coarse)
+        if thermal:
+            power = heating_power(rig, commands[k])
+            motor = MotorState(*advance_motor(rig, motor, power, h_prev))
     truth = PassTruth(
         t=at,
         phi=phi_true,
@@ -172,8 +195,14 @@ def run_program(
         end_time=float(instants[-1]),
         end_phi=float(x[0]),
         end_omega=float(x[1]),
+        winding=winding,
+        magnet=magnet,
+        end_motor=motor,
     )
-    return logged(truth, commands, virtual, (stage, stream), q)
+    sim = logged(truth, commands, virtual, (stage, stream), q)
+    if thermal:
+        sim = with_temperature(sim, virtual, sim.truth.winding, (stage, stream))
+    return sim
 
 
 def _motion(x: np.ndarray, torque: float, pair) -> float:
@@ -258,19 +287,35 @@ def ideal_program(
     T = braking.truth.end_time
     n = math.floor(T / dt + 1e-9) + 1
     _, u_b = braking_torque(st, virtual, s)
+    truth = braking.truth
+    if truth.magnet is not None and np.ptp(truth.torque) > 0.0:
+        # A warming motor's braking torque drifts (rsp_inertia.virtual.thermal): step k back
+        # covers [T - k dt, T - (k-1) dt] under the braking's torque at its middle, and sample
+        # k's acceleration is that at T - k dt.
+        def torque_at(times: np.ndarray) -> np.ndarray:
+            rows = np.searchsorted(truth.t, times, side="right") - 1
+            return truth.torque[np.clip(rows, 0, truth.t.size - 1)]
+
+        k = np.arange(n + BLOCK)
+        u_steps = torque_at(T - (k - 0.5) * dt)
+        u_samples = torque_at(T - k[:n] * dt)
+    else:
+        u_steps = u_samples = None
     # Braking states at times T - k dt, k = 0..n-1, by backward integration.
     back = np.empty((n, 2))
     back[0] = (braking.truth.end_phi, 0.0)
     x = back[0]
     for start in range(1, n, BLOCK):
         count = min(BLOCK, n - start)
-        block = step_block(x, u_b, s, p, -dt)[:count]
+        u = u_b if u_steps is None else u_steps[start : start + BLOCK].reshape(1, BLOCK)
+        block = step_block(x, u, s, p, -dt)[:count]
         back[start : start + count] = block
         x = block[-1]
     phi_ref = back[:, 0]
     omega_ref = -back[:, 1]
     # The braking's acceleration at the mirrored states is the reverse's acceleration.
-    eps_ref = acceleration(back[:, 0], back[:, 1], u_b, p, direction=s * np.ones(n))
+    u_eps = u_b if u_samples is None else u_samples
+    eps_ref = acceleration(back[:, 0], back[:, 1], u_eps, p, direction=s * np.ones(n))
     u_needed = motor_torque(phi_ref, omega_ref, eps_ref, p_reverse, direction=-s * np.ones(n))
     torque_ff = np.empty(n)
     torque_ff[:-1] = (u_needed[:-1] + u_needed[1:]) / 2
@@ -331,4 +376,5 @@ def simulate_ideal_reverse(
         (braking.truth.end_phi, 0.0),
         ideal=True,
         direction=direction,
+        motor=braking.truth.end_motor,
     )
