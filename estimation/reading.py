@@ -20,6 +20,8 @@ import tomllib
 from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 
+import numpy as np
+
 from rsp_inertia.estimation.calibration import (
     Calibration,
     calibrate_logs,
@@ -48,6 +50,7 @@ from rsp_inertia.plant.experiment import Experiment
 from rsp_inertia.plant.log_checks import unterminated_last_line
 from rsp_inertia.plant.logs import Log, align_counter, compensate_temperature, read_device_log
 from rsp_inertia.plant.record_config import load_spec
+from rsp_inertia.plant.transducers import magnet_temperature
 
 __all__ = [
     "calibrate_experiment",
@@ -57,6 +60,7 @@ __all__ = [
     "read_calibration",
     "read_experiment",
     "read_run",
+    "tempco_line",
     "unterminated_warnings",
 ]
 
@@ -292,6 +296,53 @@ def identify_experiment(
     return dataclasses.replace(found, record=record, decision=decision)
 
 
+def tempco_line(motor, logs: list[ExperimentLogs | None]) -> str:
+    """calibrate's one line on the torque constant's tempco, when device.toml states one
+    (rsp_inertia.estimation.calibration.Calibration.tempco, printed with its result): it
+    stays device.toml's (calibrate does not estimate it, docs/method.md §3, "Temperature"), and
+    the calibration runs' magnet temperatures (their range and mean over every row), against
+    ``reference_temperature``, at which the calibrated gains hold; '' without a tempco.
+
+    Parameters
+    ----------
+    motor : device.toml's ``[motor]``
+        The calibration folders' (rsp_inertia.plant.config.Motor).
+    logs : list of ExperimentLogs or None
+        The calibration's runs (None: a folder not given).
+
+    Returns
+    -------
+    str
+        The line, or ''.
+    """
+    if motor.torque_constant_tempco is None:
+        return ""
+    found = [
+        magnet_temperature(log.temperature, log.t, motor.temperature_lag)
+        for folder in logs
+        if folder is not None
+        for pair in folder.runs.values()
+        for log in pair
+        if log.temperature is not None
+    ]
+    std = motor.torque_constant_tempco_std
+    stated = f"{motor.torque_constant_tempco:g}" + ("" if std is None else f" +- {std:g}")
+    line = (
+        "calibrate does not estimate the torque constant's tempco: it stays device.toml's "
+        f"motor.torque_constant_tempco = {stated} /K, and the calibrated gains hold at "
+        f"motor.reference_temperature = {motor.reference_temperature:g} C"
+    )
+    if not found:
+        return line
+    every = np.concatenate(found)
+    low, mean, high = float(every.min()), float(every.mean()), float(every.max())
+    return (
+        f"{line}; the calibration runs' magnets were at {low:.2f} to {high:.2f} C, mean "
+        f"{mean:.2f} C (set reference_temperature to it, so that the tempco's error hardly "
+        "reaches the gains)"
+    )
+
+
 def unterminated_warnings(logs: ExperimentLogs) -> list[str]:
     """A warning per CSV log of ``logs`` whose last line has no line end, which the reader
     left out (rsp_inertia.plant.log_checks.unterminated_last_line)."""
@@ -399,6 +450,9 @@ def calibrate_experiment(
         cut += unterminated_warnings(reference_logs)
     if cut:
         result = dataclasses.replace(result, warnings=cut + list(result.warnings))
+    tempco = tempco_line(empty.device.motor, [empty_logs, reference_logs])
+    if tempco:
+        result = dataclasses.replace(result, tempco=tempco)
     inputs = {}
     for folder, logs in ((empty, empty_logs), (reference, reference_logs)):
         if folder is None:

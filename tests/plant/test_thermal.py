@@ -77,6 +77,7 @@ class Motor:
     """A device.toml [motor] of the compensation's keys alone."""
 
     torque_constant_tempco = -0.0011
+    torque_constant_tempco_std = None
     temperature_lag = TAU
     reference_temperature = 23.0
 
@@ -138,3 +139,27 @@ def test_inconsistent_tempco_keys_are_one_line(tmp_path, new, key, fault):
     with pytest.raises(InputError) as error:
         load_device(path)
     assert_one_line(error, str(path), key, fault)
+
+
+def test_calibrate_says_in_one_line_that_the_tempco_stays_device_tomls():
+    # Two runs' logs whose magnets sit at 24 and 26 C (no lag in these constant traces).
+    from types import SimpleNamespace
+
+    from rsp_inertia.estimation.reading import tempco_line
+
+    t = np.arange(4) * 1e-3
+
+    def log(T):
+        return Log(t=t, phi=t, torque=np.zeros(4), temperature=np.full(4, T))
+
+    logs = SimpleNamespace(runs={(1, "f"): (log(24.0), log(26.0))})
+    line = tempco_line(Motor, [logs, None])
+    assert "\n" not in line
+    for part in ("does not estimate", "-0.0011", "reference_temperature = 23 C",
+                 "24.00 to 26.00 C, mean 25.00 C"):
+        assert part in line, line
+
+    class NoTempco(Motor):
+        torque_constant_tempco = None
+
+    assert tempco_line(NoTempco, [logs]) == ""
