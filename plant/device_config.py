@@ -100,6 +100,10 @@ class Motor:
     torque_constant_tempco: float | None = key(
         None,
         unit="1/K",
+        bound=Bound(
+            "within +-0.01 (a relative change per kelvin: -0.11 %/K is -0.0011)",
+            lambda alpha: abs(alpha) <= 0.01,
+        ),
         doc="alpha, the torque constant's relative change per kelvin of magnet temperature "
         "(about -0.0011 for NdFeB, -0.0004 for SmCo): every log's torque is taken as the "
         "logged one times 1 + alpha (T_mag - reference_temperature), T_mag the logged "

@@ -132,6 +132,9 @@ def test_the_tempcos_keys_load(tmp_path):
                      "needs motor.torque_constant_tempco", id="a reference without a tempco"),
         pytest.param(LOGGED.replace("lag = 5.0", "lag = 0.0"), "motor.temperature_lag",
                      "must be > 0", id="a zero lag"),
+        pytest.param(LOGGED.replace("tempco = -0.0011", "tempco = -0.11"),
+                     "motor.torque_constant_tempco", "-0.11 %/K is -0.0011",
+                     id="a tempco in percent"),
     ],
 )
 def test_inconsistent_tempco_keys_are_one_line(tmp_path, new, key, fault):
