@@ -21,7 +21,7 @@ from rsp_inertia.infra.progress import say
 from rsp_inertia.plant.config import Device
 from rsp_inertia.plant.experiment import open_experiment
 from rsp_inertia.plant.friction import FRICTION
-from rsp_inertia.plant.logs import Log, read_device_log
+from rsp_inertia.plant.logs import Log, compensate_temperature, read_device_log
 from rsp_inertia.plant.model import ModelParameters, inertia_harmonics
 
 __all__ = ["guess_model", "stage_models"]
@@ -113,6 +113,8 @@ def stage_models(root: str | Path) -> list[StageModel]:
     for stage in exp.stages(None):
         path = exp.pilot_path(stage)
         log = read_device_log(path, exp.device, "pilot") if path.is_file() else None
+        if log is not None:  # its torque at the reference temperature, as identify's
+            log = compensate_temperature(log, exp.device.motor)
         for warning in () if log is None else log.warnings:
             say(f"warning: {warning}")  # a glitch the reader left out
         jobs.append((exp.device, stage, path, log))

@@ -173,6 +173,11 @@ class Calibration:
     date: str | None = None
     """The day of the calibration, ``YYYY-MM-DD`` in UTC (set by the calibrate command;
     calibration.toml ``[calibration] date``)."""
+    tempco: str = ""
+    """One line on the torque constant's tempco when device.toml states one: it stays
+    device.toml's, and the calibration runs' magnet temperatures against the reference
+    temperature (rsp_inertia.estimation.reading.tempco_line; docs/method.md §3,
+    "Temperature"); printed with the result, not a warning. '' without a tempco."""
 
     def to_file(self) -> CalibrationFile:
         """The calibration as calibration.toml holds it
@@ -251,6 +256,8 @@ class Calibration:
             )
         if self.conventions:
             out.append(self.conventions)
+        if self.tempco:
+            out.append(self.tempco)
         # The warnings are not in the text: the command line prints them on stderr.
         return "\n".join(out)
 

@@ -22,6 +22,7 @@ The torsion-pendulum baseline (:func:`pendulum_baseline`) reduces the pendulum l
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Sequence
 
@@ -52,7 +53,9 @@ from rsp_inertia.plant.logs import Log
 
 __all__ = [
     "MAX_CONDITION",
+    "TEMPCO_SOURCE",
     "WARN_CONDITION",
+    "add_consider_line",
     "axial_moment",
     "axial_std",
     "axis_nodes",
@@ -72,6 +75,10 @@ MAX_CONDITION = 1e3
 
 WARN_CONDITION = 10.0
 """cond(V) above which the design is accepted with a warning."""
+
+TEMPCO_SOURCE = "torque constant vs temperature"
+"""Budget line of the torque constant's tempco's std (device.toml ``[motor]
+torque_constant_tempco_std``; docs/method.md §3, "Temperature")."""
 
 ENTRIES = SHARED_LAYOUT.slice("entries")
 """The tensor's entries among the least squares' shared unknowns (TensorFit.cov)."""
@@ -680,3 +687,61 @@ def _best_practice(
         "J_best_budget": budgets,
         "stiffness": (float(c), float(c_std), source),
     }
+
+
+def _rss(std, shift):
+    """sqrt(std^2 + shift^2), entry by entry."""
+    return np.hypot(np.asarray(std, dtype=float), np.asarray(shift, dtype=float))
+
+
+def add_consider_line(found: Identification, shifted: Identification, source: str) -> Identification:
+    """``found`` with a known quantity's uncertainty added as the budget line ``source``:
+    ``shifted`` is the same identification with that quantity moved by one std, so that the
+    difference of every estimate is its response to it (a consider parameter, exact to first
+    order: the balances are linear in it; docs/method.md §3, "Temperature").
+
+    Parameters
+    ----------
+    found : Identification
+        The identification.
+    shifted : Identification
+        The same logs identified with the quantity one std off.
+    source : str
+        The budget line's name.
+
+    Returns
+    -------
+    Identification
+        ``found`` with the rank-one covariance d d^T added to ``covariance`` and
+        ``node_entries_cov`` (d the shift of [entries, gravity] and of the node entries), the
+        shifts added in quadrature to every axis's stds, the gravity's and the centre of
+        mass's, and the budget line ``source`` (the shifts of the axes' J_k and the entries).
+    """
+    d = np.concatenate([shifted.entries - found.entries, shifted.gravity - found.gravity])
+    d_node = shifted.node_entries - found.node_entries
+    axes = [
+        dataclasses.replace(
+            a,
+            J_std=float(_rss(a.J_std, b.J - a.J)),
+            J_node_std=float(_rss(a.J_node_std, b.J_node - a.J_node)),
+            J_plain_std=float(_rss(a.J_plain_std, b.J_plain - a.J_plain)),
+        )
+        for a, b in zip(found.axes, shifted.axes, strict=True)
+    ]
+    com_std = found.com_std
+    if com_std is not None and shifted.com is not None:
+        com_std = _rss(com_std, shifted.com - found.com)
+    budget = dict(found.std_budget)
+    budget[source] = {
+        "axes": np.abs([b.J - a.J for a, b in zip(found.axes, shifted.axes, strict=True)]),
+        "tensor": np.abs(d[:6]),
+    }
+    return dataclasses.replace(
+        found,
+        covariance=found.covariance + np.outer(d, d),
+        node_entries_cov=found.node_entries_cov + np.outer(d_node, d_node),
+        axes=axes,
+        gravity_std=_rss(found.gravity_std, d[6:]),
+        com_std=com_std,
+        std_budget=budget,
+    )

@@ -20,6 +20,8 @@ import tomllib
 from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 
+import numpy as np
+
 from rsp_inertia.estimation.calibration import (
     Calibration,
     calibrate_logs,
@@ -34,19 +36,21 @@ from rsp_inertia.estimation.decision import (
     expanded_for_decision,
     result_quantities,
 )
-from rsp_inertia.estimation.identify import identify_logs
+from rsp_inertia.estimation.identify import TEMPCO_SOURCE, add_consider_line, identify_logs
 from rsp_inertia.estimation.known_terms import KnownTerms
 from rsp_inertia.estimation.records import experiment_record
 from rsp_inertia.estimation.results import Identification
 from rsp_inertia.estimation.runs import ExperimentLogs, Sources, runs
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.infra.files import file_sha256
+from rsp_inertia.infra.progress import say
 from rsp_inertia.plant.config import load_reference
 from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.experiment import Experiment
 from rsp_inertia.plant.log_checks import unterminated_last_line
-from rsp_inertia.plant.logs import Log, align_counter, read_device_log
+from rsp_inertia.plant.logs import Log, align_counter, compensate_temperature, read_device_log
 from rsp_inertia.plant.record_config import load_spec
+from rsp_inertia.plant.transducers import magnet_temperature
 
 __all__ = [
     "calibrate_experiment",
@@ -56,12 +60,17 @@ __all__ = [
     "read_calibration",
     "read_experiment",
     "read_run",
+    "tempco_line",
     "unterminated_warnings",
 ]
 
 
-def read_run(exp: Experiment, stage: int, direction: Direction) -> tuple[Log, Log]:
-    """One run's braking and reverse logs as logged.
+def read_run(
+    exp: Experiment, stage: int, direction: Direction, tempco: float | None = None
+) -> tuple[Log, Log]:
+    """One run's braking and reverse logs as logged, their torques at the torque constant's
+    reference temperature when device.toml states a tempco and the logs a temperature
+    (rsp_inertia.plant.logs.compensate_temperature; else as logged, bit for bit).
 
     Parameters
     ----------
@@ -71,6 +80,8 @@ def read_run(exp: Experiment, stage: int, direction: Direction) -> tuple[Log, Lo
         The stage, 1-based.
     direction : Direction
         The run's direction.
+    tempco : float, optional
+        1/K, the tempco to compensate with instead of device.toml's.
 
     Returns
     -------
@@ -79,14 +90,21 @@ def read_run(exp: Experiment, stage: int, direction: Direction) -> tuple[Log, Lo
         (rsp_inertia.plant.logs.align_counter).
     """
     device = exp.device
-    braking = read_device_log(exp.braking_path(stage, direction), device, "braking", direction)
+    braking = _read_log(exp.braking_path(stage, direction), device, "braking", direction, tempco)
     # The reverse starts where the braking stopped: one counter, one angle.
     reverse = align_counter(
-        read_device_log(exp.reverse_path(stage, direction), device, "reverse", direction),
+        _read_log(exp.reverse_path(stage, direction), device, "reverse", direction, tempco),
         float(braking.phi[-1]),
         device.encoder,
     )
     return braking, reverse
+
+
+def _read_log(path, device, kind: str, direction: Direction, tempco: float | None) -> Log:
+    """A log read for the estimators: as the device reads it, temperature compensated (the one
+    place the estimators' logs are read, rsp_inertia.plant.logs.compensate_temperature)."""
+    log = read_device_log(path, device, kind, direction)
+    return compensate_temperature(log, device.motor, tempco)
 
 
 class _OnDemand(Mapping):
@@ -111,9 +129,10 @@ class _OnDemand(Mapping):
         return len(self._readers)
 
 
-def read_experiment(exp: Experiment) -> ExperimentLogs:
+def read_experiment(exp: Experiment, tempco: float | None = None) -> ExperimentLogs:
     """Every run's logs and every ``stageN/pendulum_kK.csv`` present, named by their paths;
-    each log is read when the estimators look it up."""
+    each log is read when the estimators look it up (:func:`read_run`; ``tempco``, 1/K: the
+    tempco to compensate with instead of device.toml's)."""
     device = exp.device
     keys = runs(device)
     pendulum = [
@@ -132,11 +151,14 @@ def read_experiment(exp: Experiment) -> ExperimentLogs:
     )
     return ExperimentLogs(
         device=device,
-        runs=_OnDemand({(s, d): functools.partial(read_run, exp, s, d) for s, d in keys}),
+        runs=_OnDemand(
+            {(s, d): functools.partial(read_run, exp, s, d, tempco) for s, d in keys}
+        ),
         pendulum=_OnDemand(
             {
                 (s, k): functools.partial(
-                    read_device_log, exp.pendulum_path(s, k), device, "pendulum"
+                    _read_log, exp.pendulum_path(s, k), device, "pendulum", Direction.FORWARD,
+                    tempco,
                 )
                 for s, k in pendulum
             }
@@ -255,6 +277,16 @@ def identify_experiment(
     found = identify_logs(
         logs, known, pendulum_stiffness=stiffness, warnings=warnings, conventions=conventions
     )
+    motor = exp.device.motor
+    if motor.torque_constant_tempco is not None and motor.torque_constant_tempco_std:
+        # The tempco's std, a consider parameter: the same runs identified with alpha one std
+        # off give every estimate's response to it (docs/method.md §3, "Temperature").
+        say(f"{TEMPCO_SOURCE}: the runs identified again with the tempco one std off")
+        shifted = identify_logs(
+            read_experiment(exp, motor.torque_constant_tempco + motor.torque_constant_tempco_std),
+            known, pendulum_stiffness=stiffness, conventions=conventions,
+        )
+        found = add_consider_line(found, shifted, TEMPCO_SOURCE)
     found = dataclasses.replace(found, coverage_factor=coverage_factor)
     if record is None and spec is None:  # identify_logs' result as it is
         return found
@@ -262,6 +294,53 @@ def identify_experiment(
         spec, expanded_for_decision(found), str(exp.spec_path)
     )
     return dataclasses.replace(found, record=record, decision=decision)
+
+
+def tempco_line(motor, logs: list[ExperimentLogs | None]) -> str:
+    """calibrate's one line on the torque constant's tempco, when device.toml states one
+    (rsp_inertia.estimation.calibration.Calibration.tempco, printed with its result): it
+    stays device.toml's (calibrate does not estimate it, docs/method.md §3, "Temperature"), and
+    the calibration runs' magnet temperatures (their range and mean over every row), against
+    ``reference_temperature``, at which the calibrated gains hold; '' without a tempco.
+
+    Parameters
+    ----------
+    motor : device.toml's ``[motor]``
+        The calibration folders' (rsp_inertia.plant.config.Motor).
+    logs : list of ExperimentLogs or None
+        The calibration's runs (None: a folder not given).
+
+    Returns
+    -------
+    str
+        The line, or ''.
+    """
+    if motor.torque_constant_tempco is None:
+        return ""
+    found = [
+        magnet_temperature(log.temperature, log.t, motor.temperature_lag)
+        for folder in logs
+        if folder is not None
+        for pair in folder.runs.values()
+        for log in pair
+        if log.temperature is not None
+    ]
+    std = motor.torque_constant_tempco_std
+    stated = f"{motor.torque_constant_tempco:g}" + ("" if std is None else f" +- {std:g}")
+    line = (
+        "calibrate does not estimate the torque constant's tempco: it stays device.toml's "
+        f"motor.torque_constant_tempco = {stated} /K, and the calibrated gains hold at "
+        f"motor.reference_temperature = {motor.reference_temperature:g} C"
+    )
+    if not found:
+        return line
+    every = np.concatenate(found)
+    low, mean, high = float(every.min()), float(every.mean()), float(every.max())
+    return (
+        f"{line}; the calibration runs' magnets were at {low:.2f} to {high:.2f} C, mean "
+        f"{mean:.2f} C (set reference_temperature to it, so that the tempco's error hardly "
+        "reaches the gains)"
+    )
 
 
 def unterminated_warnings(logs: ExperimentLogs) -> list[str]:
@@ -371,6 +450,9 @@ def calibrate_experiment(
         cut += unterminated_warnings(reference_logs)
     if cut:
         result = dataclasses.replace(result, warnings=cut + list(result.warnings))
+    tempco = tempco_line(empty.device.motor, [empty_logs, reference_logs])
+    if tempco:
+        result = dataclasses.replace(result, tempco=tempco)
     inputs = {}
     for folder, logs in ((empty, empty_logs), (reference, reference_logs)):
         if folder is None:

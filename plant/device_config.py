@@ -97,6 +97,43 @@ class Motor:
         doc="Standard deviation of ``torque_constant``, as the user knows it (needs it); "
         "relative to it, the logged torque's scale error without a calibration.",
     )
+    torque_constant_tempco: float | None = key(
+        None,
+        unit="1/K",
+        bound=Bound(
+            "within +-0.01 (a relative change per kelvin: -0.11 %/K is -0.0011)",
+            lambda alpha: abs(alpha) <= 0.01,
+        ),
+        doc="alpha, the torque constant's relative change per kelvin of magnet temperature "
+        "(about -0.0011 for NdFeB, -0.0004 for SmCo): every log's torque is taken as the "
+        "logged one times 1 + alpha (T_mag - reference_temperature), T_mag the logged "
+        "temperature through ``temperature_lag`` (rsp_inertia.plant.transducers."
+        "thermal_torque_factor). Needs ``[log] temperature_column`` and "
+        "``reference_temperature``. None: no compensation.",
+    )
+    torque_constant_tempco_std: float | None = key(
+        None,
+        unit="1/K",
+        bound=">= 0",
+        doc="Standard deviation of ``torque_constant_tempco`` (needs it); identify's budget "
+        "line 'torque constant vs temperature'. None: the tempco is taken as exact.",
+    )
+    temperature_lag: float | None = key(
+        None,
+        unit="s",
+        bound="> 0",
+        doc="tau, the magnets follow the logged (winding or housing) temperature through a "
+        "first-order lag dT_mag/dt = (T - T_mag) / tau (needs ``torque_constant_tempco``). "
+        "None: the magnets are at the logged temperature.",
+    )
+    reference_temperature: float | None = key(
+        None,
+        unit="deg C",
+        doc="T_ref, the magnet temperature at which the torque's scale holds: the one at which "
+        "the rig was calibrated (the calibration runs' mean temperature, which ``check`` "
+        "reports per pass), else the one of ``torque_constant``'s datasheet. Needed by "
+        "``torque_constant_tempco``, refused without it.",
+    )
 
 
     def torque_scale_std(self) -> float | None:
@@ -598,6 +635,31 @@ def _log_rules(device: Device) -> None:
         )
     if motor.torque_constant_std is not None and motor.torque_constant is None:
         raise ContentError("motor.torque_constant_std", "needs motor.torque_constant")
+    _thermal_rules(device)
+
+
+def _thermal_rules(device: Device) -> None:
+    """The rules of the torque constant's temperature compensation (docs/files.md, [motor])."""
+    motor = device.motor
+    if motor.torque_constant_tempco is None:
+        for name in ("torque_constant_tempco_std", "temperature_lag", "reference_temperature"):
+            if getattr(motor, name) is not None:
+                raise ContentError(
+                    f"motor.{name}",
+                    "needs motor.torque_constant_tempco (1/K; leave this out, or state it)",
+                )
+        return
+    if not device.log.temperature_column:
+        raise ContentError(
+            "motor.torque_constant_tempco",
+            "needs the logs' temperature: set log.temperature_column (or leave the tempco out)",
+        )
+    if motor.reference_temperature is None:
+        raise ContentError(
+            "motor.torque_constant_tempco",
+            "needs motor.reference_temperature (deg C: where the torque's scale holds, the "
+            "calibration's temperature)",
+        )
 
 
 def _device(doc: dict) -> Device:

@@ -43,7 +43,7 @@ from rsp_inertia.plant.log_checks import (
 from rsp_inertia.plant.log_files import read_log_columns, write_log_file
 from rsp_inertia.plant.log_glitches import find_glitches
 from rsp_inertia.plant.log_layout import LogLayout
-from rsp_inertia.plant.transducers import power_flow_split
+from rsp_inertia.plant.transducers import power_flow_split, thermal_torque_factor
 
 __all__ = [
     "COUNT_COLUMNS",
@@ -56,6 +56,7 @@ __all__ = [
     "Program",
     "align_counter",
     "check_braking_monotone",
+    "compensate_temperature",
     "dropped_samples",
     "mirror_log",
     "mirrored_device",
@@ -434,6 +435,36 @@ def read_device_log(
         layout=device.log,
         torque_constant=device.motor.torque_constant,
     )
+
+
+def compensate_temperature(log: Log, motor, tempco: float | None = None) -> Log:
+    """``log`` with the torque the body receives at the torque constant's reference
+    temperature: every row's torque times 1 + alpha (T_mag - T_ref)
+    (rsp_inertia.plant.transducers.thermal_torque_factor; docs/method.md §3, "Temperature").
+
+    Parameters
+    ----------
+    log : Log
+        A log as read, with its :attr:`Log.temperature` when the logger logs it.
+    motor : device.toml's ``[motor]``
+        Its ``torque_constant_tempco`` (alpha, 1/K), ``temperature_lag`` (s) and
+        ``reference_temperature`` (degrees C; rsp_inertia.plant.config.Motor).
+    tempco : float, optional
+        1/K, alpha to apply instead of the motor's (the uncertainty's propagation moves it).
+
+    Returns
+    -------
+    Log
+        The compensated log; ``log`` itself (the same object, bit for bit) when the motor
+        states no tempco or the log holds no temperature.
+    """
+    alpha = motor.torque_constant_tempco if tempco is None else tempco
+    if alpha is None or log.temperature is None:
+        return log
+    factor = thermal_torque_factor(
+        log.temperature, log.t, alpha, motor.temperature_lag, motor.reference_temperature
+    )
+    return dataclasses.replace(log, torque=log.torque * factor)
 
 
 def read_program(path: str | os.PathLike, encoder: EncoderLike) -> Program:

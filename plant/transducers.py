@@ -28,10 +28,15 @@ the simulator's :func:`delivered_torque` and the estimators' split of the logged
 call it). Only h_d and h_b enter any work-energy balance: the torque constant and the two
 efficiencies are not separable by such a measurement, only their two combinations are.
 
-**Torque constant vs temperature.** The logged torque is the current times the nominal torque
-constant; the true constant follows the magnets' temperature, Kt = Kt_nominal (1 + alpha
-(T_magnet - T_ref)), alpha about -0.0011/K for NdFeB magnets and -0.0003/K for SmCo. Both
-gains scale by that factor (:func:`thermal_gains`, the one place it is applied).
+**Temperature.** A motor's torque constant follows its magnets' temperature: k(T_mag) =
+k(T_ref) (1 + alpha (T_mag - T_ref)), alpha about -0.0011/K for NdFeB. Where the logger
+logs a (winding or housing) temperature T, the magnets follow it through a first-order lag,
+dT_mag/dt = (T - T_mag) / tau (:func:`magnet_temperature`), and the torque the body
+receives per unit of logged torque carries the factor 1 + alpha (T_mag - T_ref)
+(:func:`thermal_torque_factor`, docs/method.md §3, "Temperature"): h_d and h_b are the
+gains at T_ref.
+The virtual device's drive applies the same factor to both gains
+(:func:`thermal_gains`).
 """
 
 from __future__ import annotations
@@ -47,8 +52,11 @@ __all__ = [
     "error_coefficients",
     "error_slope_basis",
     "logged_torque",
+    "magnet_temperature",
     "power_flow_split",
     "thermal_gains",
+    "thermal_torque_factor",
+    "torque_constant_factor",
     "true_angle",
 ]
 
@@ -200,8 +208,28 @@ def thermal_gains(gains: tuple, tempco: float, rise) -> tuple:
     """
     if tempco == 0.0:
         return gains
-    factor = 1.0 + tempco * (rise if np.ndim(rise) == 0 else np.asarray(rise, dtype=float))
+    factor = torque_constant_factor(tempco, rise)
     return gains[0] * factor, gains[1] * factor
+
+
+def torque_constant_factor(alpha: float, rise):
+    """Kt(T_mag) / Kt(T_ref) = 1 + alpha (T_mag - T_ref) (module docstring): the one formula
+    behind :func:`thermal_gains` (the virtual device) and :func:`thermal_torque_factor`
+    (the compensation of logged torques).
+
+    Parameters
+    ----------
+    alpha : float
+        1/K, the torque constant's relative change per kelvin of the magnets.
+    rise : float or array_like
+        K, T_mag - T_ref.
+
+    Returns
+    -------
+    float or numpy.ndarray
+        The factor, shaped like ``rise``.
+    """
+    return 1.0 + alpha * (rise if np.ndim(rise) == 0 else np.asarray(rise, dtype=float))
 
 
 def _back_driven(torque, motion):
@@ -269,3 +297,71 @@ def logged_torque(torque, motion, gains: tuple[float, float]) -> np.ndarray | fl
         return float(torque) / (gains[1] if _back_driven(torque, motion) else gains[0])
     driving, back = power_flow_split(torque, motion)
     return driving / gains[0] + back / gains[1]
+
+
+def magnet_temperature(temperature, t, lag: float | None) -> np.ndarray:
+    """T_mag at each row: the logged temperature through the first-order lag dT_mag/dt =
+    (T - T_mag) / tau, T linear between rows, T_mag = T at the first row (module docstring).
+
+    Exact for any time stamps: over a step h with slope s = (T_{k+1} - T_k) / h the lag
+    e = T_mag - T obeys de/dt = -e / tau - s, so e_{k+1} = (e_k + s tau) exp(-h / tau) - s tau.
+
+    Parameters
+    ----------
+    temperature : array_like, shape (n,)
+        degrees C, the logged temperature T.
+    t : array_like, shape (n,)
+        s, the rows' time stamps, increasing.
+    lag : float or None
+        tau, s; None: no lag, T_mag = T.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n,)
+        degrees C, T_mag.
+
+    Examples
+    --------
+    >>> magnet_temperature([20.0, 30.0, 30.0], [0.0, 0.0 + 1e-12, 1.0], 1.0).round(4)
+    array([20.    , 20.    , 26.3212])
+    """
+    temperature = np.asarray(temperature, dtype=float)
+    if lag is None or temperature.size == 0:
+        return temperature.copy()
+    h = np.diff(np.asarray(t, dtype=float))
+    slope_tau = np.diff(temperature) / h * lag
+    decay = np.exp(-h / lag)
+    lagging = np.empty(temperature.size)  # e = T_mag - T
+    e = 0.0
+    lagging[0] = e
+    for k, (d, st) in enumerate(zip(decay.tolist(), slope_tau.tolist(), strict=True), 1):
+        e = (e + st) * d - st
+        lagging[k] = e
+    return temperature + lagging
+
+
+def thermal_torque_factor(
+    temperature, t, alpha: float, lag: float | None, t_ref: float
+) -> np.ndarray:
+    """1 + alpha (T_mag - T_ref) at each row: the torque the body receives per unit of the
+    torque logged at T_ref's scale (module docstring; docs/method.md §3, "Temperature").
+
+    Parameters
+    ----------
+    temperature : array_like, shape (n,)
+        degrees C, the logged temperature T.
+    t : array_like, shape (n,)
+        s, the rows' time stamps.
+    alpha : float
+        1/K, the torque constant's relative change per kelvin of the magnets.
+    lag : float or None
+        s, tau of :func:`magnet_temperature`; None: no lag.
+    t_ref : float
+        degrees C, the magnet temperature at which the torque's scale holds.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n,)
+        The factor, dimensionless.
+    """
+    return torque_constant_factor(alpha, magnet_temperature(temperature, t, lag) - t_ref)
