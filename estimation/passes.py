@@ -431,7 +431,8 @@ def constancy_p_value(log: Log, phi: np.ndarray, sigma: float) -> float:
     Parameters
     ----------
     log : Log
-        The pass's log; its torque is tested.
+        The pass's log; its torque is tested (over its :attr:`Log.torque_factor`, the
+        logged torque, when a temperature's compensation scaled it).
     phi : np.ndarray, shape (n,), rad
         The smoothed angle at each row, which groups the rows into chunks.
     sigma : float
@@ -443,6 +444,8 @@ def constancy_p_value(log: Log, phi: np.ndarray, sigma: float) -> float:
         The test's p-value (1 or 0 for a noise-free log).
     """
     u = np.asarray(log.torque, dtype=float)
+    if log.torque_factor is not None:  # the protocol holds the logged torque constant
+        u = u / log.torque_factor
     if sigma <= 0.0:
         return 1.0 if np.ptp(u) == 0.0 else 0.0
     chunk = np.floor((phi - phi.min()) / CONSTANCY_CHUNK).astype(int)
@@ -506,7 +509,9 @@ def estimate_pass(
     constant = p_value is not None and p_value >= constancy_level(constancy_logs)
     # The angle term first: its convolution's temporaries come before the work's arrays.
     angle = None if constant else angle_work_variance(log.torque, smoothed)
-    work, work_back, steps, mean = motor_work(log.torque, smoothed.phi, constant)
+    work, work_back, steps, mean = motor_work(
+        log.torque, smoothed.phi, constant, log.torque_factor
+    )
     rate = 1.0 / median_step(log.t) if sample_rate is None else sample_rate
     dropped = dropped_samples(log.t, rate)
     gaps = None

@@ -131,6 +131,11 @@ class Log:
     (rsp_inertia.plant.log_glitches), left out as a dropped sample. The commands that read
     the log say them as warnings (check: suspicious); :func:`mirror_log` and
     :func:`align_counter` keep them."""
+    torque_factor: np.ndarray | None = None  # shape (n,)
+    """The factor :func:`compensate_temperature` multiplied each row's logged torque by (the
+    torque constant's at the magnets' temperature over its reference's); None: the torque as
+    logged. A braking's protocol holds its logged torque constant: its constancy test and
+    mean take the torque over this factor (rsp_inertia.estimation.passes.estimate_pass)."""
     where: Rows | None = None
     """Where its rows are in its file, for messages: the file, the line (or row) of row 0 and
     the rows the reader left out (glitches), so that ``where.at(k)`` names row k's line
@@ -139,6 +144,8 @@ class Log:
 
     def __post_init__(self) -> None:
         names = LOG_COLUMNS if self.temperature is None else (*LOG_COLUMNS, "temperature")
+        if self.torque_factor is not None:
+            names = (*names, "torque_factor")
         _freeze_columns(self, names)
         object.__setattr__(self, "notes", tuple(self.notes))
         object.__setattr__(self, "warnings", tuple(self.warnings))
@@ -147,12 +154,14 @@ class Log:
         """The log's rows ``keep`` (a slice, a boolean mask or indices) of every column, the
         temperature's too; the notes kept."""
         temperature = None if self.temperature is None else self.temperature[keep]
+        factor = None if self.torque_factor is None else self.torque_factor[keep]
         return dataclasses.replace(
             self,
             t=self.t[keep],
             phi=self.phi[keep],
             torque=self.torque[keep],
             temperature=temperature,
+            torque_factor=factor,
         )
 
     def __len__(self) -> int:
@@ -464,7 +473,7 @@ def compensate_temperature(log: Log, motor, tempco: float | None = None) -> Log:
     factor = thermal_torque_factor(
         log.temperature, log.t, alpha, motor.temperature_lag, motor.reference_temperature
     )
-    return dataclasses.replace(log, torque=log.torque * factor)
+    return dataclasses.replace(log, torque=log.torque * factor, torque_factor=factor)
 
 
 def read_program(path: str | os.PathLike, encoder: EncoderLike) -> Program:
@@ -589,7 +598,7 @@ def write_program(path: str | os.PathLike, program: Program) -> None:
 
 
 def motor_work(
-    torque: np.ndarray, phi: np.ndarray, constant: bool = False
+    torque: np.ndarray, phi: np.ndarray, constant: bool = False, factor: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float | None]:
     """Motor work from a pass's first row to each row, and its noise factors: the one
     zero-order-hold Stieltjes sum of the package (docs/method.md §3-4).
@@ -609,6 +618,10 @@ def motor_work(
         The applied torque is constant (a braking pass whose log passed the constancy
         test): the work is then the log's mean torque times (phi - phi_0) instead of the
         sum of the logged torques.
+    factor : np.ndarray, shape (n,), optional
+        With ``constant``: the known factor each row's torque carries (:attr:`Log.torque_factor`,
+        a temperature's compensation): the logged torque over it is the constant, and the
+        work is that mean times the sum of factor x the angle's increments.
 
     Returns
     -------
@@ -626,11 +639,17 @@ def motor_work(
     """
     dphi = np.diff(phi)
     steps = _running_sum(dphi * dphi)
-    mean = float(np.mean(torque)) if constant else None
-    held = mean if constant else np.asarray(torque[:-1], dtype=float)  # a number: no array
+    scaled = constant and factor is not None
+    mean = float(np.mean(torque / factor if scaled else torque)) if constant else None
+    if scaled:
+        held = mean * np.asarray(factor[:-1], dtype=float)
+    else:
+        held = mean if constant else np.asarray(torque[:-1], dtype=float)  # a number: no array
     back = power_flow_split(held, dphi)[1]
     back *= dphi
     back = _running_sum(back)
+    if scaled:
+        return _running_sum(held * dphi), back, steps, mean
     if constant:
         work = phi - phi[0]
         work *= mean

@@ -121,7 +121,9 @@ def _clean_experiments(rng, experiments: int, logs: int, rows: int = 2000) -> np
     p = np.empty((experiments, logs))
     for i in range(experiments):
         for j in range(logs):
-            log = types.SimpleNamespace(torque=-0.005 + rng.normal(0.0, 1e-4, rows))
+            log = types.SimpleNamespace(
+                torque=-0.005 + rng.normal(0.0, 1e-4, rows), torque_factor=None
+            )
             p[i, j] = constancy_p_value(log, phi, torque_noise(log))
     return p
 

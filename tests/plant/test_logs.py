@@ -20,6 +20,7 @@ from rsp_inertia.plant.logs import (
     Log,
     Program,
     dropped_samples,
+    motor_work,
     read_log,
     read_program,
     write_log,
@@ -695,3 +696,21 @@ def test_genuine_logs_step_well_within_the_speed_bound(
         # furthest reading and at the cut, up to 7 counts apart.)
         np.testing.assert_array_equal(log.t, t[: len(log)])
         assert (angle.max() - angle[len(log) - 1]) / encoder.quantum <= 5.0
+
+
+def test_a_constant_logged_torque_with_a_known_factor_does_the_factors_work():
+    """A braking whose drive holds its logged torque constant while the body receives it
+    times a known factor (a warming motor's, compensated): the work is the logged mean times
+    the sum of factor x the angle's increments, and its mean the logged one."""
+    rng = np.random.default_rng(37)
+    phi = np.cumsum(rng.uniform(0.001, 0.002, 500))
+    factor = 1.0 - 1e-3 * np.linspace(0.0, 1.0, phi.size)
+    logged = np.full(phi.size, -0.12)
+    work, back, _, mean = motor_work(logged * factor, phi, constant=True, factor=factor)
+    assert mean == pytest.approx(-0.12, rel=1e-12)
+    expected = np.concatenate([[0.0], np.cumsum(-0.12 * factor[:-1] * np.diff(phi))])
+    np.testing.assert_allclose(work, expected, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(back, expected, rtol=1e-12, atol=1e-15)  # braking: all back-driven
+    # Without the factor the constant work is the mean times the angle, as before.
+    plain, *_ = motor_work(logged, phi, constant=True)
+    np.testing.assert_allclose(plain, -0.12 * (phi - phi[0]), rtol=1e-12)
