@@ -82,6 +82,7 @@ from rsp_inertia.estimation.columns import (
 from rsp_inertia.estimation.conventions import (
     CONVENTION_FACTOR,
     certificate_jacobian,
+    certified_terms_std,
     check_conventions,
     reference_terms,
     shows_orientation,
@@ -315,7 +316,7 @@ def _blocks(
             known_jacobian = -np.column_stack(
                 [_reference_balance(bal, column) for column in D.T]
             )
-            terms_std = np.sqrt(np.einsum("ij,jk,ik->i", D, certificate.cov, D))
+            terms_std = certified_terms_std(D, certificate.cov)
         if reference is not None:
             terms = reference_terms(reference, device.stages[s - 1].gear_ratio, device.gravity)
             known_M = basis @ terms[:5]

@@ -50,6 +50,7 @@ __all__ = [
     "Convention",
     "ConventionCheck",
     "certificate_jacobian",
+    "certified_terms_std",
     "check_conventions",
     "reference_terms",
     "shows_orientation",
@@ -234,10 +235,28 @@ def shows_orientation(
         terms_std = None
         if certificate is not None and certificate.stated:
             D = certificate_jacobian(certificate, st.gear_ratio, device.gravity)
-            terms_std = np.sqrt(np.einsum("ij,jk,ik->i", D, certificate.cov, D))
+            terms_std = certified_terms_std(D, certificate.cov)
         if significant_terms(reference, terms, terms_std).any():
             return True
     return False
+
+
+def certified_terms_std(jacobian: np.ndarray, cov: np.ndarray) -> np.ndarray:
+    """(7,) the stds of one stage's reference terms by the certificate: sqrt(diag(D C D^T)),
+    D its :func:`certificate_jacobian`, C the certificate's covariance.
+
+    Parameters
+    ----------
+    jacobian : numpy.ndarray, shape (7, 10)
+        D.
+    cov : numpy.ndarray, shape (10, 10)
+        C (rsp_inertia.plant.config.Reference.cov).
+
+    Returns
+    -------
+    numpy.ndarray, shape (7,)
+    """
+    return np.sqrt(np.einsum("ij,jk,ik->i", jacobian, cov, jacobian))
 
 
 def certificate_jacobian(certificate: Reference, gear_ratio: float, gravity: float) -> np.ndarray:

@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rsp_inertia.estimation.combine import COM_KEYS
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.infra.files import check_writable, write_atomic
 from rsp_inertia.infra.frozen import freeze_arrays, read_only
@@ -61,9 +62,6 @@ __all__ = [
 
 EXPORT_FORMATS = ("json", "csv", "urdf")
 """What ``export`` writes."""
-
-COM_KEYS = ("x", "y", "z")
-"""The centre of mass's coordinates."""
 
 OUTPUT_KEYS = ("mass", *COM_KEYS, *ENTRY_KEYS)
 """The order of :attr:`Exported.cov`: the mass (kg), the centre of mass (m) and the tensor
