@@ -75,6 +75,7 @@ from rsp_inertia.estimation.columns import (
     encoder_unknowns,
     gravity_row_slopes,
     gravity_rows,
+    probe_bounds,
     run_columns,
     run_label,
     run_priors,
@@ -290,6 +291,7 @@ def _blocks(
     gains = theta.names("gains")
     both = both_directions(balances)
     blocks = []
+    hottest = max((bal.heat_gap for bal in balances), default=0.0)
     for k, bal in enumerate(balances):
         s = bal.stage
         harmonics = theta.names("harmonics", s)
@@ -307,7 +309,7 @@ def _blocks(
         scaled = encoder_unknowns(bal, encoder_orders) if encoder_orders else {}
         # Without a reference the drive and the encoder cannot be measured, but the model
         # tests can still say whether the runs call for them (the probes of identify).
-        probes, probes_per_inertia = ({}, {}) if has_gain else cause_probes(bal)
+        probes, probes_per_inertia = ({}, {}) if has_gain else cause_probes(bal, hottest)
         known_M = np.zeros(len(bal.phi))
         slope = np.zeros(len(bal.phi)) if bal.spring_slope is None else -bal.spring_slope
         known_jacobian = terms_std = None
@@ -355,6 +357,7 @@ def _blocks(
                 inertia_scaled_columns=scaled,
                 probes=probes,
                 probes_per_inertia=probes_per_inertia,
+                probe_bounds=probe_bounds((1.0, 1.0)) if probes else {},
                 priors=run_priors(bal, cols, f"{role}{k}"),
                 known_jacobian=known_jacobian,
             )
@@ -602,7 +605,8 @@ def calibrate_logs(
         for runs in (empty_bal, ref_bal or [])
         if runs
     )
-    tests = described(fit.tests, known, one_direction)
+    compensated = any(bal.compensated for runs in (empty_bal, ref_bal or []) for bal in runs)
+    tests = described(fit.tests, known, one_direction, compensated)
     warnings += model_warnings(tests, fit.scales, fit.labels)
     warnings += fit.prior_warnings
     if certificate is not None:
