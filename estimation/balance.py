@@ -62,6 +62,7 @@ from rsp_inertia.estimation.smoothing import (
     smoother_bandwidth,
     top_speed,
 )
+from rsp_inertia.estimation.tempco import pass_tempco_work
 from rsp_inertia.estimation.whitening import Noise, add_bands, scaled_band
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.config import Device, Stage
@@ -538,6 +539,10 @@ class StageBalance:
     """(w, n) lower band of what the passes' gaps of dropped samples add to the covariance of
     S (rsp_inertia.estimation.passes.PassEstimate.gap_speed_band, scaled as ``speed_sq_band``);
     None: no gap counts (rsp_inertia.estimation.passes.GAP_NEGLIGIBLE)."""
+    tempco_work_parts: np.ndarray | None = None
+    """(n, 2) d :attr:`motor_work_parts` / d alpha, J K: how the work parts move with the torque
+    constant's tempco that compensated the logs (rsp_inertia.estimation.tempco.pass_tempco_work;
+    calibrate's column of alpha); None: the logs carry no temperature or were not compensated."""
 
     @property
     def work_noise(self) -> Noise:
@@ -656,6 +661,7 @@ def stage_balance(
     ]
     spring = 2 * spring_potential(direction * phi, device)
     work = b.work + r.work - spring
+    tempco = [pass_tempco_work(device.motor, est, a) for est, a in ((braking, b), (reverse, r))]
     mismatch = mismatch_regressors(phi, b.omega, r.omega)
     return StageBalance(
         stage=stage,
@@ -665,6 +671,9 @@ def stage_balance(
         speed_sq=S,
         speed_sq_band=S_band,
         speed_sq_gap_band=add_bands(*gap_bands) if gap_bands else None,
+        tempco_work_parts=None if None in tempco else np.column_stack(
+            [tempco[0][0] + tempco[1][0] - tempco[0][1] - tempco[1][1], tempco[0][1] + tempco[1][1]]
+        ),
         mismatch=mismatch,
         work=work,
         braking_work_noise=braking.work_noise(b),
