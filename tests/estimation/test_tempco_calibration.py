@@ -200,3 +200,28 @@ def test_runs_at_one_temperature_keep_device_tomls_tempco(tmp_path):
     # Not a warning: nothing on stderr, --strict not tripped.
     assert not any("tempco" in w for w in calibration.warnings)
     assert read_calibration_file(exp / "calibration.toml").motor is None
+
+
+def test_identify_takes_calibration_tomls_tempco_and_warns_on_another_reference_temperature():
+    # calibrated over stated; device.toml's alone without a [motor] table or without a tempco
+    # of its own (no compensation configured: nothing to apply it to).
+    from types import SimpleNamespace
+
+    from rsp_inertia.estimation.reading import _tempco
+
+    def exp(alpha, t_ref=25.0):
+        motor = SimpleNamespace(torque_constant_tempco=alpha, torque_constant_tempco_std=STATED_STD,
+                                reference_temperature=t_ref)
+        return SimpleNamespace(device=SimpleNamespace(motor=motor), calibration_path="cal.toml")
+
+    measured = SimpleNamespace(motor=SimpleNamespace(
+        torque_constant_tempco=TRUE_ALPHA, torque_constant_tempco_std=2e-5,
+        reference_temperature=25.0))
+    assert _tempco(exp(STATED_ALPHA), measured) == (TRUE_ALPHA, 2e-5, [])
+    assert _tempco(exp(STATED_ALPHA), SimpleNamespace(motor=None)) == (
+        STATED_ALPHA, STATED_STD, [])
+    assert _tempco(exp(STATED_ALPHA), None) == (STATED_ALPHA, STATED_STD, [])
+    assert _tempco(exp(None), measured)[0] is None
+    _, _, warnings = _tempco(exp(STATED_ALPHA, 23.0), measured)
+    assert len(warnings) == 1 and "reference_temperature = 25 C, device.toml states 23 C" in (
+        warnings[0])

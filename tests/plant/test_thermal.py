@@ -200,6 +200,6 @@ def test_calibrates_tempco_line_says_what_the_runs_measured_or_why_it_is_kept():
     weak = fit(1e-4)
     assert not weak.informed
     line = tempco_line(Stated, [logs], weak)
-    for part in ("span only 5.00 K", "would determine it to +- 0.0001 /K against device.toml's "
-                 "+- 0.0001 /K", "-0.0011 /K is kept"):
+    would = "would determine it to +- 0.0001 /K against device.toml's +- 0.0001 /K"
+    for part in ("span only 5.00 K", would, "-0.0011 /K is kept"):
         assert part in line, line

@@ -277,7 +277,7 @@ def test_runs_start_warmer_by_the_rise_and_cool_as_the_model_says(default_device
     # only) starts k dT above the ambient and cools along dT k exp(-t / tau_w), and the body
     # receives the cold run's torque times 1 + alpha (T_magnet - ambient), row by row.
     dT = 3.0
-    rig = dict(torque_constant_tempco=ALPHA, winding_time_constant=60.0)
+    rig = {"torque_constant_tempco": ALPHA, "winding_time_constant": 60.0}
     cold = with_rig(virtual, **rig)
     warm = with_rig(virtual, run_start_rise=dT, **rig)
     first = vd.simulate_braking(default_device, 1, warm)
