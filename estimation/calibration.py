@@ -52,6 +52,11 @@ rsp_inertia.estimation.gls). Its share of the calibration's covariance is kept a
 (KnownTerms.certificate_cov) for identify's budget line :data:`CERTIFICATE_SOURCE`. A
 certificate without stds is taken as exact, with a warning. Friction may differ between
 the calibration runs and the loaded ones (it cancels within each run).
+
+With a reference, device.toml's torque constant's tempco and its std, and logs that carry
+the temperature, the tempco's change from the stated value is one more unknown of the last
+fit, with the stated std as its prior (rsp_inertia.estimation.tempco): kept, and written to
+calibration.toml, where the runs measure it; otherwise that fit is made again without it.
 """
 
 from __future__ import annotations
