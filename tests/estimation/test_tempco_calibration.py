@@ -52,10 +52,10 @@ reference_temperature = 25.0"""
 """device.toml's [motor] tempco keys (the lag the virtual magnets', the ambient as T_ref)."""
 
 
-def _rig(rise: float) -> str:
+def _rig(rise: float, alpha: float = TRUE_ALPHA) -> str:
     """virtual.toml's [rig]: the warming motor (benchmarks.experiments.warming_motor's, its
     winding heated by the current to a drift of 2e-4 between the passes) with the true alpha."""
-    return f"""torque_constant_tempco = {TRUE_ALPHA}
+    return f"""torque_constant_tempco = {alpha}
 torque_constant = 0.5
 winding_resistance = 2.93
 thermal_resistance = 4.0
@@ -64,7 +64,7 @@ magnet_lag = 5.0
 run_start_rise = {rise}"""
 
 
-def _folder(root, role: str, rise: float, seed: int):
+def _folder(root, role: str, rise: float, seed: int, alpha: float = TRUE_ALPHA):
     """The default experiment as the body's, the empty fixture's or the reference's folder on
     the warming rig (tests/estimation/test_conventions.py's folders), temperature logged."""
     create_default_experiment(root)
@@ -82,7 +82,7 @@ def _folder(root, role: str, rise: float, seed: int):
     if role != "body":
         virtual = re.sub(r"\[body\].*?\n\n", REFERENCE + "\n" if role == "reference" else "",
                          virtual, flags=re.DOTALL)
-    virtual = virtual.replace("seed = 0", f"seed = {seed}") + FIXTURE + f"\n[rig]\n{_rig(rise)}\n"
+    virtual = virtual.replace("seed = 0", f"seed = {seed}") + FIXTURE + f"\n[rig]\n{_rig(rise, alpha)}\n"
     (root / "virtual.toml").write_text(virtual)
     if role == "reference":
         (root / "reference.toml").write_text(REFERENCE)
@@ -91,11 +91,11 @@ def _folder(root, role: str, rise: float, seed: int):
     return root
 
 
-def _calibrated(base, rise: float):
+def _calibrated(base, rise: float, alpha: float = TRUE_ALPHA):
     """(body, empty, reference) folders of the rig, and calibrate's result."""
-    empty = _folder(base / "empty", "empty", rise, 2)
-    reference = _folder(base / "reference", "reference", rise, 3)
-    exp = _folder(base / "exp", "body", rise, 1)
+    empty = _folder(base / "empty", "empty", rise, 2, alpha)
+    reference = _folder(base / "reference", "reference", rise, 3, alpha)
+    exp = _folder(base / "exp", "body", rise, 1, alpha)
     return exp, empty, reference, calibrate(exp, empty, reference)
 
 
@@ -225,3 +225,17 @@ def test_identify_takes_calibration_tomls_tempco_and_warns_on_another_reference_
     _, _, warnings = _tempco(exp(STATED_ALPHA, 23.0), measured)
     assert len(warnings) == 1 and "reference_temperature = 25 C, device.toml states 23 C" in (
         warnings[0])
+
+
+@pytest.mark.slow
+def test_runs_that_reject_the_stated_tempco_measure_it_alone_and_warn(tmp_path):
+    # A motor whose alpha is 7 stated stds off (-0.0004/K, SmCo-like, where NdFeB's is
+    # stated): the runs reject the prior, say so, and measure alpha by themselves.
+    truth = -0.0004
+    _, _, _, result = _calibrated(tmp_path, RISE, truth)
+    found = result.calibration.tempco_fit
+    assert found.prior_rejected and found.informed
+    assert abs(found.estimate - truth) < 3 * found.std and found.data_std == found.std
+    rejected = [w for w in result.warnings if "disagree with device.toml's torque_constant_tempco"
+                in w]
+    assert len(rejected) == 1 and "\n" not in rejected[0]
