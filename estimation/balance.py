@@ -67,6 +67,7 @@ from rsp_inertia.estimation.smoothing import (
     smoother_bandwidth,
     top_speed,
 )
+from rsp_inertia.estimation.tempco import pass_tempco_work
 from rsp_inertia.estimation.whitening import Noise, add_bands, scaled_band
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.config import Device, Stage
@@ -562,6 +563,10 @@ class StageBalance:
     """N^2 m^2 s, the heat the motor had dissipated, averaged over the reverse pass's work,
     less the same over the braking's (:func:`heat_work`): a torque scale that falls by c per
     unit of heat differs between the run's passes by about c times this."""
+    tempco_work_parts: np.ndarray | None = None
+    """(n, 2) d :attr:`motor_work_parts` / d alpha, J K: how the work parts move with the torque
+    constant's tempco that compensated the logs (rsp_inertia.estimation.tempco.pass_tempco_work;
+    calibrate's column of alpha); None: the logs carry no temperature or were not compensated."""
 
     @property
     def work_noise(self) -> Noise:
@@ -682,6 +687,7 @@ def stage_balance(
     work = b.work + r.work - spring
     hb, gap_b, heat_b = heat_work(braking, b, 0.0)
     hr, gap_r, _ = heat_work(reverse, r, heat_b)
+    tempco = [pass_tempco_work(device.motor, est, a) for est, a in ((braking, b), (reverse, r))]
     mismatch = mismatch_regressors(phi, b.omega, r.omega)
     return StageBalance(
         stage=stage,
@@ -691,6 +697,9 @@ def stage_balance(
         speed_sq=S,
         speed_sq_band=S_band,
         speed_sq_gap_band=add_bands(*gap_bands) if gap_bands else None,
+        tempco_work_parts=None if None in tempco else np.column_stack(
+            [tempco[0][0] + tempco[1][0] - tempco[0][1] - tempco[1][1], tempco[0][1] + tempco[1][1]]
+        ),
         mismatch=mismatch,
         work=work,
         braking_work_noise=braking.work_noise(b),

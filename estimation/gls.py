@@ -144,6 +144,9 @@ class Prior:
     """(k,) their prior means."""
     cov: np.ndarray
     """(k, k) their prior covariance, positive definite."""
+    rejection: str = ""
+    """The warning when the balances reject it, with ``{stat}``, ``{dof}`` and ``{p}`` to
+    fill; '' for a run's friction slopes' (:func:`_rejected_priors`)."""
 
 
 @dataclass(frozen=True)
@@ -924,7 +927,10 @@ def _rejected_priors(priors, Aw, yw, x, cov_x, start: int, blocks: list[Block]):
         spread = np.eye(len(r)) - P @ cov_x @ P.T
         stat = float(r @ np.linalg.lstsq(spread, r, rcond=None)[0])
         p_value = float(chi2_distribution.sf(max(stat, 0.0), len(r)))
-        if p_value < PRIOR_ALPHA:
+        if p_value < PRIOR_ALPHA and prior.rejection:
+            line = prior.rejection.format(stat=f"{stat:.3g}", dof=len(r), p=f"{p_value:.2g}")
+            rejected.append((prior, line, p_value))
+        elif p_value < PRIOR_ALPHA:
             slopes = ", ".join(f"{v:.3g}" for v in prior.mean)
             line = (
                 f"{blocks[k].label}: the friction slopes its passes' dynamics give ({slopes}) "

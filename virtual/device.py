@@ -69,7 +69,7 @@ from rsp_inertia.virtual.integrate import (
     true_parameters,
 )
 from rsp_inertia.virtual.reverse import ideal_program, run_program, simulate_ideal_reverse
-from rsp_inertia.virtual.thermal import COLD, MotorState, advance_motor, heating_power
+from rsp_inertia.virtual.thermal import MotorState, advance_motor, heating_power, run_start
 
 __all__ = [
     "MAX_BRAKING_TIME",
@@ -177,12 +177,13 @@ def simulate_braking(
     command, u = braking_torque(st, virtual, s)
     rig = virtual.rig
     power = heating_power(rig, command)  # W, constant: the command is
+    start = run_start(rig, device, stage, direction)  # the motor at the run's start
     if rig.thermal and rig.torque_constant_tempco != 0.0:
         gains = rig.drive_gains
 
         def u(k: int, count: int) -> np.ndarray:
-            """The torques over samples k.. as the magnets warm from the ambient."""
-            magnet = advance_motor(rig, COLD, power, np.arange(k, k + count) * dt)[1]
+            """The torques over samples k.. as the magnets warm from the run's start."""
+            magnet = advance_motor(rig, start, power, np.arange(k, k + count) * dt)[1]
             return delivered_torque(
                 command, s, thermal_gains(gains, rig.torque_constant_tempco, magnet)
             )
@@ -198,8 +199,8 @@ def simulate_braking(
     t, traj, end_time, end_phi = stop
     temperatures = {}
     if rig.thermal:
-        winding, magnet = advance_motor(rig, COLD, power, t)
-        end_motor = MotorState(*advance_motor(rig, COLD, power, end_time))
+        winding, magnet = advance_motor(rig, start, power, t)
+        end_motor = MotorState(*advance_motor(rig, start, power, end_time))
         temperatures = {"winding": winding, "magnet": magnet, "end_motor": end_motor}
     truth = PassTruth(
         t=t,
@@ -218,7 +219,7 @@ def simulate_braking(
     sim = logged(truth, np.full(len(truth.t), command), virtual, (stage, stream), q)
     sim = held_after_stop(sim, command, virtual, (stage, stream), q, dt, s)
     if rig.thermal:  # the held rows too: the drive holds the body with the same command
-        winding = advance_motor(rig, COLD, power, sim.log.t)[0]
+        winding = advance_motor(rig, start, power, sim.log.t)[0]
         sim = with_temperature(sim, virtual, winding, (stage, stream))
     return sim
 
