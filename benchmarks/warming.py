@@ -1,6 +1,7 @@
 """A motor that warms between the passes: compensated, named, or budgeted.
 
-    python -m benchmarks.warming [--seeds N] [--clean-seeds N] [--jobs N] [--out DIR]
+    python -m benchmarks.warming [--seeds N] [--clean-seeds N] [--jobs N] [--calibrated]
+                                 [--out DIR]
 
 Issue 37's targets on an uncalibrated rig. The default experiment in closed loop (braking,
 ``program``, reverse) on the virtual device with the warming motor of
@@ -24,7 +25,12 @@ no false alarm of the warming and drive probes, the tensor within 3 stds.
 
 The tensor against the truth: the largest |error| / std, the largest |error| / largest
 moment, the warnings. The rig is not calibrated here (device.toml's tares and torque gain,
-with their stated stds): the calibrated rig's case is left to a later benchmark.
+with their stated stds). With ``--calibrated`` the same three readings on the demo's rig
+(rsp_inertia.scenarios.create_rig_experiment: torque gain, lossy drive, unbalanced fixture,
+eccentric encoder, friction by direction, every stage both ways), its empty, reference and
+body folders all with the warming motor (the same resistance, so the drift differs from the
+default experiment's), calibrate run for each reading before identify; its clean seeds
+stay the default experiment's (pass ``--clean-seeds 0``).
 
 Writes DIR/warming.md and DIR/warming.json (default benchmarks/results).
 """
@@ -99,6 +105,57 @@ def run_case(drift: float, seed: int, work: str) -> dict:
     return out
 
 
+def run_calibrated_case(drift: float, seed: int, work: str) -> dict:
+    """One drift and seed on the demo's calibrated rig: its three folders simulated once with
+    the warming motor, then calibrate and identify for each reading of :data:`CASES`."""
+    from benchmarks.experiments import load, seeded, warming_motor, write
+    from rsp_inertia import api
+    from rsp_inertia.infra.progress import drop, lines_to
+    from rsp_inertia.plant.experiment import open_experiment
+    from rsp_inertia.scenarios import create_rig_experiment
+    from rsp_inertia.virtual.config import experiment_virtual, placed_body
+
+    folders = create_rig_experiment(Path(work) / f"rig-{drift:g}-{seed}")
+    alpha = STATED_TEMPCO + TEMPCO_STD * float(np.random.default_rng(3700 + seed).standard_normal())
+    stated = {}
+    for folder in folders:
+        device, virtual = load(folder)
+        warm = warming_motor(seeded(virtual, seed), drift)
+        warm = dataclasses.replace(
+            warm, rig=dataclasses.replace(warm.rig, torque_constant_tempco=alpha)
+        )
+        log = dataclasses.replace(device.log, temperature_column="T")
+        write(folder, dataclasses.replace(device, log=log), warm)
+        stated[folder] = (dataclasses.replace(device, log=log), warm)
+    with lines_to(drop):
+        for folder in folders:
+            api.simulate(folder, part="braking")
+            api.program(folder)
+            api.simulate(folder, part="reverse")
+    root = folders[0]
+    truth = placed_body(open_experiment(root).device, experiment_virtual(open_experiment(root)))
+    out = {"drift": drift, "seed": seed, "tempco": alpha}
+    for label in CASES:
+        for folder in folders:
+            device, virtual = stated[folder]
+            motor = device.motor
+            if label == "compensated":
+                motor = dataclasses.replace(
+                    motor, torque_constant_tempco=STATED_TEMPCO,
+                    torque_constant_tempco_std=TEMPCO_STD,
+                    temperature_lag=virtual.rig.magnet_lag,
+                    reference_temperature=virtual.rig.ambient_temperature,
+                )
+            elif label == "drift std":
+                motor = dataclasses.replace(motor, torque_constant_drift_std=drift)
+            write(folder, dataclasses.replace(device, motor=motor))
+        with lines_to(drop):
+            calibration = api.calibrate(*folders)
+        out[label] = _identified(root, truth)
+        out[label]["calibrate_warnings"] = list(calibration.warnings)
+    return out
+
+
 def run_clean(seed: int, work: str) -> dict:
     """One seed without the warming motor: identify once."""
     from benchmarks.experiments import default_experiment, seeded
@@ -148,10 +205,18 @@ def _largest(case: dict) -> tuple[float, float]:
     return max(map(abs, case["err_std"])), max(map(abs, case["rel_err"]))
 
 
-def report(rows: list[dict], clean: list[dict], command: str) -> str:
-    """warming.md."""
+def report(rows: list[dict], clean: list[dict], command: str, calibrated: bool = False) -> str:
+    """warming.md (warming_calibrated.md)."""
+    rig = (
+        "The demo's rig (rsp_inertia.scenarios.create_rig_experiment), calibrated by its empty "
+        "and reference runs, every folder with the same warming motor."
+        if calibrated
+        else "The default experiment, uncalibrated (device.toml's tares and gain)."
+    )
     lines = [
         "# A motor that warms between the passes: compensated, named, or budgeted",
+        "",
+        rig,
         "",
         f"Made by `{command}` (benchmarks/warming.py; its docstring says what a case is).",
         "",
@@ -195,6 +260,15 @@ def report(rows: list[dict], clean: list[dict], command: str) -> str:
             (f"| {drift:g} | no temperature, the drift's std stated: every entry within 3 stds "
              f"| {within} of {n} | {'PASS' if within == n else 'FAIL'} |"),
         ]
+    if calibrated:
+        lines += ["", "calibrate's and identify's warnings per case (seed: count):", ""]
+        lines += [
+            f"- {row['drift']:g} {row['seed']} {label}: calibrate "
+            f"{len(row[label]['calibrate_warnings'])}, identify {len(row[label]['warnings'])}"
+            + "".join(f"; {w[:110]}" for w in row[label]["warnings"])
+            for row in rows
+            for label in CASES
+        ]
     if clean:
         cases = [row["clean"] for row in clean]
         alarms = sum(bool(c["named"]) for c in cases)
@@ -225,11 +299,16 @@ def main(argv: list[str] | None = None) -> int:
         "--clean-seeds", type=int, default=20, help="experiments without the warming motor (20)"
     )
     parser.add_argument("--jobs", type=int, default=2, help="processes (2)")
+    parser.add_argument(
+        "--calibrated", action="store_true",
+        help="the demo's calibrated rig instead (writes warming_calibrated.md/.json)",
+    )
     parser.add_argument("--out", type=Path, default=RESULTS, help="folder (benchmarks/results)")
     args = parser.parse_args(argv)
     jobs = [(drift, seed) for drift in DRIFTS for seed in range(args.seeds)]
     with tempfile.TemporaryDirectory() as work, ProcessPoolExecutor(args.jobs) as pool:
-        futures = [pool.submit(run_case, drift, seed, work) for drift, seed in jobs]
+        case = run_calibrated_case if args.calibrated else run_case
+        futures = [pool.submit(case, drift, seed, work) for drift, seed in jobs]
         clean_futures = [pool.submit(run_clean, seed, work) for seed in range(args.clean_seeds)]
         rows, clean = [], []
         for future in futures:
@@ -252,11 +331,12 @@ def main(argv: list[str] | None = None) -> int:
             )
     args.out.mkdir(parents=True, exist_ok=True)
     command = command_line("warming", argv if argv is not None else sys.argv[1:])
-    (args.out / "warming.md").write_text(report(rows, clean, command))
-    (args.out / "warming.json").write_text(
+    name = "warming_calibrated" if args.calibrated else "warming"
+    (args.out / f"{name}.md").write_text(report(rows, clean, command, args.calibrated))
+    (args.out / f"{name}.json").write_text(
         json.dumps({"cases": rows, "clean": clean}, indent=1) + "\n"
     )
-    print(f"-> {args.out / 'warming.md'}")
+    print(f"-> {args.out / f'{name}.md'}")
     return 0
 
 
