@@ -106,7 +106,12 @@ from rsp_inertia.estimation.gls import (
 )
 from rsp_inertia.estimation.known_terms import CERTIFICATE_SOURCE, KnownTerms
 from rsp_inertia.estimation.layout import ZERO_NAME, theta_layout
-from rsp_inertia.estimation.model_tests import ModelTest, described, model_warnings
+from rsp_inertia.estimation.model_tests import (
+    WARMING_PROBE,
+    ModelTest,
+    described,
+    model_warnings,
+)
 from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs, corrected_log
 from rsp_inertia.estimation.stiffness import StiffnessCalibration, calibrate_stiffness
 from rsp_inertia.estimation.tempco import TEMPCO_NAME, TempcoFit
@@ -324,8 +329,12 @@ def _blocks(
         # The encoder's remaining error, per unit of M(phi) (the first pass gives M).
         scaled = encoder_unknowns(bal, encoder_orders) if encoder_orders else {}
         # Without a reference the drive and the encoder cannot be measured, but the model
-        # tests can still say whether the runs call for them (the probes of identify).
-        probes, probes_per_inertia = ({}, {}) if has_gain else cause_probes(bal, hottest)
+        # tests can still say whether the runs call for them (the probes of identify); with
+        # one, they are measured, and a motor warming between the passes is still a probe.
+        probes, probes_per_inertia = cause_probes(bal, hottest)
+        if has_gain:
+            probes = {c: cols for c, cols in probes.items() if c == WARMING_PROBE}
+            probes_per_inertia = {}
         known_M = np.zeros(len(bal.phi))
         slope = np.zeros(len(bal.phi)) if bal.spring_slope is None else -bal.spring_slope
         known_jacobian = terms_std = None
@@ -373,7 +382,7 @@ def _blocks(
                 inertia_scaled_columns=scaled,
                 probes=probes,
                 probes_per_inertia=probes_per_inertia,
-                probe_bounds=probe_bounds((1.0, 1.0)) if probes else {},
+                probe_bounds={} if has_gain else probe_bounds((1.0, 1.0)),
                 priors=run_priors(bal, cols, f"{role}{k}"),
                 known_jacobian=known_jacobian,
             )
