@@ -196,6 +196,7 @@ def _rehearse_stage(dev: Device, stage: int, torque_noise: float, truth: tuple, 
         b_est, r_est = estimate_run(
             dev, braking.log, reverse.log, direction, warnings,
             f"rehearsed {label} braking", f"rehearsed {label} reverse", made.smoothed,
+            two_levels=st.braking_torque_2 is not None,
         )
         balances.append(stage_balance(dev, stage, b_est, r_est, direction.sign))
         labels.append(label)

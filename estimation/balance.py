@@ -538,6 +538,14 @@ class StageBalance:
     """(w, n) lower band of what the passes' gaps of dropped samples add to the covariance of
     S (rsp_inertia.estimation.passes.PassEstimate.gap_speed_band, scaled as ``speed_sq_band``);
     None: no gap counts (rsp_inertia.estimation.passes.GAP_NEGLIGIBLE)."""
+    reverse_work: np.ndarray | None = None
+    """J, the reverse pass's logged motor work at the balance angles (its share of
+    ``motor_work``): the column of a reverse torque scaled by 1 + d (:attr:`pass_gain`)."""
+    pass_gain: bool = False
+    """The run's braking held two levels (device.toml ``braking_torque_2``): the reverse
+    pass's torque scale against the braking's, the pass gain d, is one of the tensor fit's
+    unknowns (rsp_inertia.estimation.tensor_fit; docs/method.md, "A torque scale that
+    differs between the passes")."""
 
     @property
     def work_noise(self) -> Noise:
@@ -679,6 +687,8 @@ def stage_balance(
         slope_prior=(
             friction_slope_prior(device, braking, reverse, direction) if slope_prior else None
         ),
+        reverse_work=r.work,
+        pass_gain=st.braking_torque_2 is not None,
     )
 
 

@@ -27,6 +27,13 @@ calibration as prior, and the model tests' probes look for a drive's loss and an
 error left in the runs (rsp_inertia.estimation.model_tests.probe_detail). Weights, the
 speed-noise scale, the model tests and the uncertainty budget: rsp_inertia.estimation.gls.
 The tensor's axes and the axes' tensor: rsp_inertia.estimation.axes.
+
+A run whose braking held two levels (device.toml ``braking_torque_2``) has one more unknown,
+its pass gain d (:func:`pass_gain_unknown`): the body received 1 + d times the reverse
+pass's logged torque against the braking's scale (a motor that warms between the passes),
+the column -h W_r(phi) of the reverse's work. One braking torque leaves d separable from
+the tensor only through the friction's speed dependence; two levels give the contrast
+(docs/method.md, "A torque scale that differs between the passes").
 """
 
 from __future__ import annotations
@@ -69,6 +76,7 @@ __all__ = [
     "angle_slopes",
     "balance_rhs",
     "fit_tensor",
+    "pass_gain_unknown",
     "predict_tensor",
     "tensor_block",
 ]
@@ -127,6 +135,12 @@ class TensorFit:
     prior_warnings: list[str] = field(default_factory=list)
     """A line per run whose friction slopes' prior its balances rejected
     (rsp_inertia.estimation.gls, priors)."""
+    pass_gain: np.ndarray | None = None
+    """(runs,) d per run: the reverse pass's torque scale over the braking's, minus one
+    (a warming motor), fitted for a run whose braking held two levels
+    (:func:`pass_gain_unknown`); NaN for the others; None: no run fitted it."""
+    pass_gain_std: np.ndarray | None = None
+    """(runs,) std of ``pass_gain``."""
 
     @property
     def entries_cov(self) -> np.ndarray:
@@ -162,6 +176,23 @@ def angle_slopes(bal: StageBalance) -> dict[str, np.ndarray]:
     return out
 
 
+def pass_gain_unknown(run: str) -> str:
+    """The name of a run's pass gain among the unknowns, ``pass_gain[run]``: d of a reverse
+    pass whose torque the body receives 1 + d times the braking's scale (module docstring).
+
+    Parameters
+    ----------
+    run : str
+        The run's key, as :func:`tensor_block` names its own unknowns.
+
+    Returns
+    -------
+    str
+        The unknown's name.
+    """
+    return f"pass_gain[{run}]"
+
+
 def tensor_block(bal: StageBalance, run: str, known: KnownTerms, asymmetry: bool) -> Block:
     """One run's equations in the tensor's unknowns (module docstring).
 
@@ -187,6 +218,9 @@ def tensor_block(bal: StageBalance, run: str, known: KnownTerms, asymmetry: bool
     cols = {name: half_s * v[:, i] for i, name in enumerate(ENTRY_KEYS)}
     cols.update(zip(GRAVITY_NAMES, gravity_rows(bal.phi).T))
     cols.update(run_columns(bal, run, asymmetry))
+    pass_gain = bal.pass_gain and bal.reverse_work is not None
+    if pass_gain:  # the body received (1 + d) x the reverse's work: on the unknowns' side
+        cols[pass_gain_unknown(run)] = -bal.work_scales(known.gains)[1] * bal.reverse_work
     return Block(
         balance=bal,
         label=run_label(bal),
@@ -202,7 +236,9 @@ def tensor_block(bal: StageBalance, run: str, known: KnownTerms, asymmetry: bool
         probes=probes[0],
         probes_per_inertia=probes[1],
         groups={name: run_label(bal) for name in ENTRY_KEYS},
-        joint_only=frozenset(name for name in cols if name.startswith("e")),
+        joint_only=frozenset(
+            name for name in cols if name.startswith(("e", "pass_gain"))
+        ),
         priors=run_priors(bal, cols, run),
     )
 
@@ -307,6 +343,8 @@ def _tensor_fit(
     for s in both:
         for j, name in enumerate(asymmetry_unknowns(str(s))):
             asym[s - 1, j], asym_std[s - 1, j] = fit.value(name)
+    gains = [fit.value(pass_gain_unknown(str(k))) for k in range(n_runs)]
+    fitted = any(bal.pass_gain for bal in balances)
     sub = np.ix_(shared, shared)
     # The sum of the sources' parts is symmetric up to rounding (4e-10 of the smallest
     # products); result.json and a combination of mountings take it exactly symmetric.
@@ -333,4 +371,6 @@ def _tensor_fit(
             else known.with_theta(known.theta + fit.known_shift, fit.known_shift_cov)
         ),
         prior_warnings=list(fit.prior_warnings),
+        pass_gain=np.array([g[0] for g in gains]) if fitted else None,
+        pass_gain_std=np.array([g[1] for g in gains]) if fitted else None,
     )

@@ -183,7 +183,7 @@ def simulate_braking(
     motor = None
     if switch is not None:  # a two-level braking: the command and the heating by sample
         command_2 = -s * st.braking_torque_2
-        commands = lambda k: np.where(k < switch, command, command_2)  # noqa: E731
+        commands = lambda k: np.where(k < switch, command, command_2)
         motor = _two_level_motor(rig, power, heating_power(rig, command_2), switch * dt)
     if rig.thermal and rig.torque_constant_tempco != 0.0:
         gains = rig.drive_gains
@@ -216,7 +216,7 @@ def simulate_braking(
     temperatures = {}
     if rig.thermal:
         if motor is None:
-            motor = lambda h: advance_motor(rig, COLD, power, h)  # noqa: E731
+            motor = lambda h: advance_motor(rig, COLD, power, h)
         winding, magnet = motor(t)
         end_motor = MotorState(*motor(end_time))
         temperatures = {"winding": winding, "magnet": magnet, "end_motor": end_motor}
