@@ -256,7 +256,8 @@ class PassEstimate:
     on), when the levels passed their test; ``torque_mean`` is then the first level's."""
     switch: int | None = None
     """A two-level braking's first row held at the second level (:func:`switch_row`), found
-    in the logged torque; None: one level."""
+    in the logged torque (also when the levels failed their test: the balances leave the
+    angles about it out, rsp_inertia.estimation.balance); None: one level."""
     work_var_gaps: np.ndarray | None = None
     """J^2, cumulative variance of the work over the log's gaps of dropped samples to each
     row (:func:`gap_work`); None: no gap, or a constant torque."""
@@ -641,7 +642,6 @@ def estimate_pass(
         work, work_back, steps, mean = motor_work(
             log.torque, smoothed.phi, constant, log.torque_factor
         )
-        switch = None
     rate = 1.0 / median_step(log.t) if sample_rate is None else sample_rate
     dropped = dropped_samples(log.t, rate)
     gaps = None
