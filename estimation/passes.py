@@ -48,7 +48,7 @@ says so.
 
 A two-level braking (device.toml ``braking_torque_2``: the torque switches once, at a given
 turn) is held constant on either side of its switch. The switch is found in the logged
-torque itself (:func:`switch_row`: the row that best splits the log into two means, a
+torque itself (rsp_inertia.plant.logs.switch_row: the row that best splits the log into two means, a
 real logger's file as the virtual device's), each level is the mean of its rows and is tested
 for constancy as above (:func:`two_level_p_value`), and the work is u_bar_1 (phi - phi^_0)
 before the switch and u_bar_1 (phi_s - phi^_0) + u_bar_2 (phi - phi_s) after: two shared
@@ -98,7 +98,7 @@ from rsp_inertia.estimation.smoothing import (
     smooth_log,
 )
 from rsp_inertia.estimation.whitening import Noise
-from rsp_inertia.plant.logs import Log, dropped_samples, motor_work, torque_noise
+from rsp_inertia.plant.logs import Log, dropped_samples, motor_work, switch_row, torque_noise
 from rsp_inertia.plant.transducers import power_flow_split
 
 __all__ = [
@@ -115,7 +115,6 @@ __all__ = [
     "constancy_p_value",
     "estimate_pass",
     "gap_work",
-    "switch_row",
     "two_level_p_value",
 ]
 
@@ -255,7 +254,8 @@ class PassEstimate:
     """N m: a two-level braking's second level (the mean of the rows from :attr:`switch`
     on), when the levels passed their test; ``torque_mean`` is then the first level's."""
     switch: int | None = None
-    """A two-level braking's first row held at the second level (:func:`switch_row`), found
+    """A two-level braking's first row held at the second level
+    (rsp_inertia.plant.logs.switch_row), found
     in the logged torque (also when the levels failed their test: the balances leave the
     angles about it out, rsp_inertia.estimation.balance); None: one level."""
     work_var_gaps: np.ndarray | None = None
@@ -489,35 +489,6 @@ def constancy_p_value(log: Log, phi: np.ndarray, sigma: float) -> float:
     return float(chi2.sf(stat, dof)) if dof > 0 else 1.0
 
 
-def switch_row(torque: np.ndarray) -> int:
-    """The row where a two-level braking's logged torque switches: the first row of the
-    second level, the split of the rows into two runs whose means leave the least sum of
-    squares (the likelihood's change point of a step in white noise).
-
-    Parameters
-    ----------
-    torque : numpy.ndarray, shape (n,), n >= 2
-        N m, the logged torque (over its known factor, if any).
-
-    Returns
-    -------
-    int
-        In [1, n - 1].
-
-    Examples
-    --------
-    >>> switch_row(np.array([0.0, 0.01, -0.01, 1.0, 1.02, 0.98]))
-    3
-    """
-    u = np.asarray(torque, dtype=float)
-    n = u.size
-    k = np.arange(1, n)
-    head = np.cumsum(u)[:-1]
-    # The between-levels sum of squares of a split after k rows: (S_k - k S_n / n)^2 n / (k (n - k)).
-    gain = (head - k * (head[-1] + u[-1]) / n) ** 2 / (k * (n - k))
-    return int(np.argmax(gain)) + 1
-
-
 def two_level_p_value(log: Log, phi: np.ndarray, sigma: float, switch: int) -> float:
     """p-value of "the applied torque is constant on either side of row ``switch``": each
     level's :func:`constancy_p_value`, combined as the smaller of two independent ones
@@ -532,7 +503,7 @@ def two_level_p_value(log: Log, phi: np.ndarray, sigma: float, switch: int) -> f
     sigma : float
         N m, the std of the torque log's white noise.
     switch : int
-        The second level's first row (:func:`switch_row`).
+        The second level's first row (rsp_inertia.plant.logs.switch_row).
 
     Returns
     -------
@@ -613,7 +584,8 @@ def estimate_pass(
         :func:`constancy_level` of them); 1 by default (the log alone).
     two_levels : bool, optional
         With ``constant_torque``: the protocol holds two levels, switching once (device.toml
-        ``braking_torque_2``); the switch is found in the log (:func:`switch_row`), each
+        ``braking_torque_2``); the switch is found in the log
+        (rsp_inertia.plant.logs.switch_row), each
         level tested and held at its mean (module docstring).
 
     Returns

@@ -38,6 +38,7 @@ the tensor only through the friction's speed dependence; two levels give the con
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -56,6 +57,8 @@ from rsp_inertia.estimation.columns import (
     slope_unknowns,
 )
 from rsp_inertia.estimation.gls import (
+    GAP_SOURCE,
+    NOISE_SOURCES,
     BalanceFit,
     Block,
     Equations,
@@ -72,6 +75,7 @@ from rsp_inertia.plant.geometry import ENTRY_KEYS, GRAVITY_NAMES
 from rsp_inertia.plant.model import inertia_basis, tensor_basis, tensor_basis_slope
 
 __all__ = [
+    "PASS_GAIN_SOURCE",
     "TensorFit",
     "angle_slopes",
     "balance_rhs",
@@ -270,10 +274,40 @@ def fit_tensor(
     """
     known = _known_or_tares(balances, known)
     equations = _equations(balances, known)
-    fit = solve_blocks(equations, speed_noise_scales(equations))
-    return _tensor_fit(
+    scales = speed_noise_scales(equations)
+    fit = solve_blocks(equations, scales)
+    tensor = _tensor_fit(
         balances, known, fit, block_model_tests(equations, fit) if tests else []
     )
+    if tensor.pass_gain is None:
+        return tensor
+    fixed = solve_blocks(_equations(_without_pass_gain(balances), known), scales)
+    ratio = max(fit.chi2_dof, 1.0) / max(fixed.chi2_dof, 1.0)
+    return _with_pass_gain_share(tensor, _tensor_fit(balances, known, fixed, []), ratio)
+
+
+PASS_GAIN_SOURCE = "torque scale between the passes"
+"""Budget line of the runs' pass gains (:func:`pass_gain_unknown`): what fitting them adds to
+the tensor's covariance."""
+
+
+def _without_pass_gain(balances: list[StageBalance]) -> list[StageBalance]:
+    """The balances with no pass gain fitted."""
+    return [dataclasses.replace(bal, pass_gain=False) for bal in balances]
+
+
+def _with_pass_gain_share(free: TensorFit, fixed: TensorFit, ratio: float) -> TensorFit:
+    """``free``'s budget as ``fixed``'s lines (the same fit with the pass gains known to be
+    zero; its noise sources' lines taken at ``free``'s inflation, ``ratio`` = the fits'
+    chi^2/dof above 1, free over fixed) and one more, :data:`PASS_GAIN_SOURCE`: the rest of
+    ``free``'s covariance, so that the lines still add up to it."""
+    inflated = set(NOISE_SOURCES) | {GAP_SOURCE}
+    parts = {
+        name: part * ratio if name in inflated else part
+        for name, part in fixed.cov_parts.items()
+    }
+    parts[PASS_GAIN_SOURCE] = free.cov - sum(parts.values())
+    return dataclasses.replace(free, cov_parts=parts)
 
 
 def predict_tensor(balances: list[StageBalance], known: KnownTerms | None = None) -> TensorFit:
@@ -294,7 +328,11 @@ def predict_tensor(balances: list[StageBalance], known: KnownTerms | None = None
         The entries and gravity terms with their predicted covariance and budget.
     """
     known = _known_or_tares(balances, known)
-    return _tensor_fit(balances, known, predict_blocks(_equations(balances, known)), [])
+    tensor = _tensor_fit(balances, known, predict_blocks(_equations(balances, known)), [])
+    if tensor.pass_gain is None:
+        return tensor
+    fixed = predict_blocks(_equations(_without_pass_gain(balances), known))
+    return _with_pass_gain_share(tensor, _tensor_fit(balances, known, fixed, []), 1.0)
 
 
 def _known_or_tares(balances: list[StageBalance], known: KnownTerms | None) -> KnownTerms:

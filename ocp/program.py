@@ -13,7 +13,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rsp_inertia.estimation.passes import switch_row
 from rsp_inertia.estimation.smoothing import Smoothed, smooth_log
 from rsp_inertia.ocp.feedforward import (
     OcpSolution,
@@ -34,6 +33,7 @@ from rsp_inertia.plant.logs import (
     check_braking_monotone,
     mirror_log,
     mirrored_device,
+    switch_row,
     torque_noise,
 )
 from rsp_inertia.plant.model import ModelParameters, reduced_inertia
@@ -114,7 +114,7 @@ def _braking_torque_at(braking: Log, sm: Smoothed, ref: Mirror, sigma: float, st
     """The braking's applied torque where the mirror is, N m, and its variance, (N m)^2: the
     log's mean; for a two-level braking (device.toml ``braking_torque_2``) each level's mean
     on its side of the switch, which the log shows
-    (rsp_inertia.estimation.passes.switch_row).
+    (rsp_inertia.plant.logs.switch_row).
 
     Parameters
     ----------

@@ -13,10 +13,11 @@ import numpy as np
 import pytest
 
 from rsp_inertia.estimation.balance import stage_balance
-from rsp_inertia.estimation.passes import estimate_pass, switch_row
-from rsp_inertia.estimation.tensor_fit import fit_tensor
+from rsp_inertia.estimation.passes import estimate_pass
+from rsp_inertia.estimation.tensor_fit import PASS_GAIN_SOURCE, fit_tensor
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.config import load_device, write_device
+from rsp_inertia.plant.logs import switch_row
 from rsp_inertia.virtual import device as vd
 from rsp_inertia.virtual.config import placed_body
 
@@ -128,6 +129,17 @@ def test_a_two_level_braking_identifies_a_warming_reverse(
     # The balances about the switch, where the smoothed speed rounds the acceleration's step
     # off, are left out: the model tests see nothing.
     assert not [test.label for test in fit.tests if test.significant]
+    # The budget's line of the pass gains: what freeing them adds; the lines add up.
+    share = fit.cov_parts[PASS_GAIN_SOURCE]
+    assert np.allclose(sum(fit.cov_parts.values()), fit.cov, rtol=1e-9, atol=0.0)
+    fixed = fit_tensor([dataclasses.replace(bal, pass_gain=False) for bal in balances])
+    assert np.all(np.diag(share) > 0.0)
+    assert np.allclose(
+        np.diag(share)[:6],
+        np.diag(fit.cov)[:6] - np.diag(fixed.cov)[:6] * max(fit.chi2_dof, 1.0)
+        / max(fixed.chi2_dof, 1.0),
+        rtol=1e-6,
+    )
 
 
 def closed_form_design(switch_turns: float | None, friction=(1e-4, 1e-4, 1e-3)) -> np.ndarray:
