@@ -76,6 +76,10 @@ def two_level(device, protocol):
     return dataclasses.replace(device, stages=stages)
 
 
+BRAKINGS: list[tuple[float, float]] = []
+"""The last :func:`_balances`' brakings, per stage: (turns, s)."""
+
+
 def _balances(device, virtual, drift: float):
     """The default stages' balances, the reverse logs' torque divided by 1 + drift."""
     from rsp_inertia.estimation.balance import stage_balance
@@ -84,8 +88,13 @@ def _balances(device, virtual, drift: float):
 
     q = device.encoder.quantum
     out = []
+    BRAKINGS.clear()
     for stage in STAGES:
         braking = vd.simulate_braking(device, stage, virtual)
+        truth = braking.truth
+        BRAKINGS.append(
+            (abs(truth.end_phi - truth.phi[0]) / (2 * np.pi), float(truth.end_time))
+        )
         reverse = vd.simulate_ideal_reverse(device, stage, virtual, braking)
         log = dataclasses.replace(reverse.log, torque=reverse.log.torque / (1.0 + drift))
         two = device.stages[stage - 1].braking_torque_2 is not None
@@ -142,6 +151,7 @@ def run_seed(seed: int, drift: float, protocol=None) -> dict:
     out = {"seed": seed, "drift": drift, "protocol": protocol}
     for label, d in (("clean", 0.0), ("drift", drift)):
         balances = _balances(device, virtual, d)
+        out["brakings"] = list(BRAKINGS)
         for free in (False, True):
             fit, rank, columns, cond = _fit(balances, free)
             idx = [fit.index(k) for k in ENTRY_KEYS]
@@ -210,14 +220,16 @@ def _study_lines(rows: list[dict], studies: list[dict]) -> list[str]:
         ("Each stage's braking at A x its braking_torque from the release for TURNS turns, "
          "then B x it to the stop (device.toml braking_torque_2, braking_switch_turns; one "
          "triple for every stage, or stage 1 / stage 2). "
-         "Rank and condition of the design with one d per run; each run's d with its std "
-         "(clean logs); the entries' stds with d free over today's protocol's without d (same "
-         "seed); with the reverse scaled by 1 + drift, the largest |error| / std of the "
-         "entries, d free, and d found."),
+         "The brakings' turns and durations per stage; rank and condition of the design "
+         "with one d per run; each run's d with its std (clean logs); the entries' stds over "
+         "today's protocol's without d (same seed), with d fixed (what the protocol itself "
+         "costs) and with d free; with the reverse scaled by 1 + drift, the largest "
+         "|error| / std of the entries, d free, and d found."),
         "",
-        ("| A, B, TURNS | seed | rank | condition, d fixed / free | d clean, 1e-4 | "
-         "std ratio to today's (Jx..Jxz) | largest err/std, d free | d found, 1e-4 |"),
-        "|---|---|---|---|---|---|---|---|",
+        ("| A, B, TURNS | seed | brakings, turns in s | rank | condition, d fixed / free | "
+         "d clean, 1e-4 | std ratio to today's, d fixed (Jx..Jxz) | std ratio to today's, "
+         "d free (Jx..Jxz) | largest err/std, d free | d found, 1e-4 |"),
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for row in studies:
         protocol = row["protocol"]
@@ -225,12 +237,14 @@ def _study_lines(rows: list[dict], studies: list[dict]) -> list[str]:
         label = " / ".join(f"{a:g}, {b:g}, {turns:g}" for a, b, turns in per_stage)
         free = row["clean_free"]
         ratio = np.array(free["std"]) / base[row["seed"]]
+        fixed = np.array(row["clean_fixed"]["std"]) / base[row["seed"]]
+        brakings = ", ".join(f"{turns:.1f} in {time:.1f}" for turns, time in row["brakings"])
         dc = ", ".join(f"{v * 1e4:+.2f} +- {s * 1e4:.2f}" for v, s in free["d"])
         dd = ", ".join(f"{v * 1e4:+.2f} +- {s * 1e4:.2f}" for v, s in row["drift_free"]["d"])
         lines.append(
-            f"| {label} | {row['seed']} | {free['rank']} of {free['columns']} | "
+            f"| {label} | {row['seed']} | {brakings} | {free['rank']} of {free['columns']} | "
             f"{row['clean_fixed']['cond']:.3g} / {free['cond']:.3g} | {dc} | "
-            f"{' '.join(f'{r:.2f}' for r in ratio)} | "
+            f"{' '.join(f'{r:.2f}' for r in fixed)} | {' '.join(f'{r:.2f}' for r in ratio)} | "
             f"{max(abs(e) for e in row['drift_free']['err_std']):.1f} | {dd} |"
         )
     return lines

@@ -172,7 +172,10 @@ def make_plan(
     current, current_std = None, None
     if all(st.launch_speed is not None and st.braking_torque is not None for st in device.stages):
         current = tuple(
-            evaluate(device, sm, st.launch_speed, st.braking_torque)
+            evaluate(
+                device, sm, st.launch_speed, st.braking_torque,
+                braking_torque_2=st.braking_torque_2, switch_turns=st.braking_switch_turns,
+            )
             for sm, st in zip(models, device.stages)
         )
         if all(c.feasible for c in current):

@@ -116,6 +116,7 @@ __all__ = [
     "estimate_pass",
     "gap_work",
     "two_level_p_value",
+    "two_level_work",
 ]
 
 CONSTANCY_CHUNK = math.pi / 2
@@ -524,11 +525,31 @@ def two_level_p_value(log: Log, phi: np.ndarray, sigma: float, switch: int) -> f
     return 1.0 - (1.0 - p) ** 2
 
 
-def _two_level_work(
+def two_level_work(
     torque: np.ndarray, phi: np.ndarray, switch: int, factor: np.ndarray | None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, float]:
     """:func:`rsp_inertia.plant.logs.motor_work` of a two-level braking held at its levels'
-    means: the work, its back-driven part, the squared increments' sum and the two means."""
+    means (module docstring).
+
+    Parameters
+    ----------
+    torque : numpy.ndarray, shape (n,)
+        N m, the logged torque.
+    phi : numpy.ndarray, shape (n,)
+        rad, the angle at each row.
+    switch : int
+        The second level's first row (rsp_inertia.plant.logs.switch_row).
+    factor : numpy.ndarray, shape (n,), optional
+        The known factor each row's torque carries (rsp_inertia.plant.logs.Log.torque_factor).
+
+    Returns
+    -------
+    work, back, steps : numpy.ndarray, shape (n,)
+        J, the work from the first row; its back-driven part; rad^2, the squared increments'
+        running sum.
+    mean, mean_2 : float
+        N m, the two levels (the logged torque over ``factor``).
+    """
     logged = torque if factor is None else torque / factor
     means = float(np.mean(logged[:switch])), float(np.mean(logged[switch:]))
     held = np.where(np.arange(phi.size - 1) < switch, *means)
@@ -607,7 +628,7 @@ def estimate_pass(
     # The angle term first: its convolution's temporaries come before the work's arrays.
     angle = None if constant else angle_work_variance(log.torque, smoothed)
     if constant and switch is not None:
-        work, work_back, steps, mean, mean_2 = _two_level_work(
+        work, work_back, steps, mean, mean_2 = two_level_work(
             log.torque, smoothed.phi, switch, log.torque_factor
         )
     else:

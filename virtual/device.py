@@ -89,6 +89,7 @@ __all__ = [
     "placed_body",
     "release_angle",
     "run_program",
+    "samples_to_angle",
     "simulate_braking",
     "simulate_ideal_reverse",
     "simulate_pendulum",

@@ -12,14 +12,19 @@ import math
 import numpy as np
 import pytest
 
+from rsp_inertia.design.candidates import StageModel, evaluate
+from rsp_inertia.estimation.axes import axis_values
 from rsp_inertia.estimation.balance import stage_balance
 from rsp_inertia.estimation.passes import estimate_pass
+from rsp_inertia.estimation.predict import combine_information
 from rsp_inertia.estimation.tensor_fit import PASS_GAIN_SOURCE, fit_tensor
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.config import load_device, write_device
+from rsp_inertia.plant.geometry import device_design
 from rsp_inertia.plant.logs import switch_row
 from rsp_inertia.virtual import device as vd
 from rsp_inertia.virtual.config import placed_body
+from rsp_inertia.virtual.integrate import true_parameters
 
 PROTOCOL = ((1.0, 20.0, 2.0), (0.0, 2.0, 9.0))
 """Per stage (A, B, TURNS): A x the stage's braking_torque for TURNS turns, then B x it
@@ -110,7 +115,9 @@ def test_a_two_level_braking_identifies_a_warming_reverse(
     two_level_device, default_virtual, two_level_brakings
 ):
     """The reverse pass's torque 1 + DRIFT times the braking's scale: the pass gain found within
-    3 of its stds in every run, every entry within 3 stds of the virtual truth."""
+    3 of its stds in every run, every entry within 3 stds of the virtual truth; plan's
+    prediction for the same protocol (rsp_inertia.design.candidates.evaluate, d marginalised)
+    within 20% of the stds reported."""
     q = two_level_device.encoder.quantum
     balances = []
     for stage, braking in two_level_brakings.items():
@@ -129,6 +136,22 @@ def test_a_two_level_braking_identifies_a_warming_reverse(
     # The balances about the switch, where the smoothed speed rounds the acceleration's step
     # off, are left out: the model tests see nothing.
     assert not [test.label for test in fit.tests if test.significant]
+    infos = []
+    for stage in (1, 2):
+        st = two_level_device.stages[stage - 1]
+        model = true_parameters(two_level_device, stage, default_virtual, 1.0)
+        c = evaluate(
+            two_level_device, StageModel(stage, model, 1e-4, "truth"), st.launch_speed,
+            st.braking_torque, braking_torque_2=st.braking_torque_2,
+            switch_turns=st.braking_switch_turns,
+        )
+        assert c.feasible, c.violations
+        infos.append(c.information)
+    predicted = combine_information(two_level_device, infos)
+    _, reported = axis_values(
+        fit.entries, fit.entries_cov, device_design(two_level_device).directions
+    )
+    np.testing.assert_allclose(np.asarray(reported) / predicted, 1.0, atol=0.2)
     # The budget's line of the pass gains: what freeing them adds; the lines add up.
     share = fit.cov_parts[PASS_GAIN_SOURCE]
     assert np.allclose(sum(fit.cov_parts.values()), fit.cov, rtol=1e-9, atol=0.0)
