@@ -401,7 +401,13 @@ def evaluate(
     )
 
 
-def stage_candidates(device: Device, sm: StageModel, max_duration: float) -> list[Candidate]:
+SWITCH_TURNS = (1.0, 2.0, 4.0, 8.0)
+"""Turns from the release after which a two-level candidate switches (``plan --two-level``)."""
+
+
+def stage_candidates(
+    device: Device, sm: StageModel, max_duration: float, two_level: bool = False
+) -> list[Candidate]:
     """The grid of protocols of one stage (module docstring), each evaluated.
 
     Parameters
@@ -412,6 +418,11 @@ def stage_candidates(device: Device, sm: StageModel, max_duration: float) -> lis
         What the planner knows of the stage.
     max_duration : float
         s, the experiment's longest duration: bounds each braking (half of it per direction).
+    two_level : bool, optional
+        Two-level brakings only (``plan --two-level``, docs/method.md, "A torque scale that
+        differs between the passes"): per launch speed, coasting for each of
+        :data:`SWITCH_TURNS` turns, then each braking torque of the grid but none; their
+        information has each run's pass gain marginalised.
 
     Returns
     -------
@@ -444,8 +455,13 @@ def stage_candidates(device: Device, sm: StageModel, max_duration: float) -> lis
         low = max(room / 200, sm.coulomb / NOMINAL_COULOMB_SHARE)
         torques = [0.0] + list(np.geomspace(low, room, N_TORQUES - 1)) if room > low else [0.0]
         for torque in dict.fromkeys(_rounded(torques, down=True)):
-            c = evaluate(device, sm, speed, torque, max_time)
-            out.append(c)
+            if not two_level:
+                out.append(evaluate(device, sm, speed, torque, max_time))
+                continue
+            if torque == 0.0:
+                continue
+            for turns in SWITCH_TURNS:
+                out.append(evaluate(device, sm, speed, 0.0, max_time, torque, turns))
     return out
 
 

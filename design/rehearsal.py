@@ -145,6 +145,8 @@ def rehearse(
             st,
             launch_speed=c.launch_speed,
             braking_torque=c.braking_torque,
+            braking_torque_2=c.braking_torque_2,
+            braking_switch_turns=c.braking_switch_turns,
             release_angle_deg=planned_release(st),
         )
     dev = dataclasses.replace(device, stages=tuple(stages))

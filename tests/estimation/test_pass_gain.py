@@ -257,3 +257,27 @@ def test_closed_loop_two_level_runs_identify_a_warming_reverse(
     std = np.sqrt(np.diag(fit.entries_cov))
     assert np.all(np.abs(fit.entries - truth) < 3 * std)
     assert not [test.label for test in fit.tests if test.significant]
+
+
+def test_plan_proposes_two_level_brakings_that_identify_the_pass_gain(
+    default_device, default_virtual
+):
+    """make_plan(two_level=True) on the stages' true models: every stage's chosen protocol
+    coasts, then brakes; each is feasible and its information finite (the pass gain
+    marginalised), and worse than the one-level plan's on the same models (d costs
+    information)."""
+    from rsp_inertia.design.plan import make_plan
+
+    models = [
+        StageModel(stage, true_parameters(default_device, stage, default_virtual, 1.0), 1e-4,
+                   "truth")
+        for stage in (1, 2)
+    ]
+    two = make_plan(default_device, models, 120.0, two_level=True)
+    one = make_plan(default_device, models, 120.0)
+    for c in two.chosen:
+        assert c.braking_torque == 0.0 and c.braking_torque_2 > 0.0
+        assert c.braking_switch_turns in (1.0, 2.0, 4.0, 8.0)
+        assert c.feasible and np.all(np.isfinite(c.information))
+    assert all(c.braking_torque_2 is None for c in one.chosen)
+    assert two.worst > one.worst
