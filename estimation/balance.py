@@ -54,7 +54,12 @@ import numpy as np
 from scipy.integrate import cumulative_trapezoid
 
 from rsp_inertia.estimation.modulated import MODEL_UNKNOWNS, fit_modulated
-from rsp_inertia.estimation.passes import GAP_NEGLIGIBLE, PassEstimate, angle_work_noise
+from rsp_inertia.estimation.passes import (
+    GAP_NEGLIGIBLE,
+    AngleSample,
+    PassEstimate,
+    angle_work_noise,
+)
 from rsp_inertia.estimation.smoothing import (
     gap_speed_excess,
     largest_bridged_gap,
@@ -62,6 +67,7 @@ from rsp_inertia.estimation.smoothing import (
     smoother_bandwidth,
     top_speed,
 )
+from rsp_inertia.estimation.tempco import pass_tempco_work
 from rsp_inertia.estimation.whitening import Noise, add_bands, scaled_band
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.config import Device, Stage
@@ -85,6 +91,7 @@ __all__ = [
     "friction_slope_prior",
     "gap_allowance",
     "harmonic_reach",
+    "heat_work",
     "mismatch_regressors",
     "short_overlap",
     "spring_potential",
@@ -560,13 +567,32 @@ class StageBalance:
     S (rsp_inertia.estimation.passes.PassEstimate.gap_speed_band, scaled as ``speed_sq_band``);
     None: no gap counts (rsp_inertia.estimation.passes.GAP_NEGLIGIBLE)."""
     reverse_work: np.ndarray | None = None
-    """J, the reverse pass's logged motor work at the balance angles (its share of
-    ``motor_work``): the column of a reverse torque scaled by 1 + d (:attr:`pass_gain`)."""
+    """J, the reverse pass's share of :attr:`motor_work` at the balance angles (its logged
+    torque's work from the mirror's start, phi7, to each angle): the column a torque scale
+    that differs between the passes multiplies (docs/method.md §5, "A torque scale that
+    differs between the passes"); None: not kept."""
+    reverse_work_back: np.ndarray | None = None
+    """J, the back-driven part of :attr:`reverse_work`; None: not kept."""
+    compensated: bool = False
+    """The passes' torque was compensated for the motor's magnet temperature
+    (rsp_inertia.plant.logs.compensate_temperature)."""
+    heat_work: np.ndarray | None = None
+    """J N^2 m^2 s, both passes' motor work weighted by the motor's heat dissipated so far,
+    at the balance angles (:func:`heat_work`): a torque scale that falls by c per unit of
+    heat adds c times this to the balance; None: not kept."""
+    heat_gap: float = 0.0
+    """N^2 m^2 s, the heat the motor had dissipated, averaged over the reverse pass's work,
+    less the same over the braking's (:func:`heat_work`): a torque scale that falls by c per
+    unit of heat differs between the run's passes by about c times this."""
+    tempco_work_parts: np.ndarray | None = None
+    """(n, 2) d :attr:`motor_work_parts` / d alpha, J K: how the work parts move with the torque
+    constant's tempco that compensated the logs (rsp_inertia.estimation.tempco.pass_tempco_work;
+    calibrate's column of alpha); None: the logs carry no temperature or were not compensated."""
     pass_gain: bool = False
     """The run's braking held two levels (device.toml ``braking_torque_2``): the reverse
     pass's torque scale against the braking's, the pass gain d, is one of the tensor fit's
-    unknowns (rsp_inertia.estimation.tensor_fit; docs/method.md, "A torque scale that
-    differs between the passes")."""
+    unknowns, its column :attr:`reverse_work` (rsp_inertia.estimation.tensor_fit; docs/method.md,
+    "A torque scale that differs between the passes")."""
 
     @property
     def work_noise(self) -> Noise:
@@ -687,6 +713,9 @@ def stage_balance(
     ]
     spring = 2 * spring_potential(direction * phi, device)
     work = b.work + r.work - spring
+    hb, gap_b, heat_b = heat_work(braking, b, 0.0)
+    hr, gap_r, _ = heat_work(reverse, r, heat_b)
+    tempco = [pass_tempco_work(device.motor, est, a) for est, a in ((braking, b), (reverse, r))]
     mismatch = mismatch_regressors(phi, b.omega, r.omega)
     return StageBalance(
         stage=stage,
@@ -696,6 +725,9 @@ def stage_balance(
         speed_sq=S,
         speed_sq_band=S_band,
         speed_sq_gap_band=add_bands(*gap_bands) if gap_bands else None,
+        tempco_work_parts=None if None in tempco else np.column_stack(
+            [tempco[0][0] + tempco[1][0] - tempco[0][1] - tempco[1][1], tempco[0][1] + tempco[1][1]]
+        ),
         mismatch=mismatch,
         work=work,
         braking_work_noise=braking.work_noise(b),
@@ -711,8 +743,62 @@ def stage_balance(
             friction_slope_prior(device, braking, reverse, direction) if slope_prior else None
         ),
         reverse_work=r.work,
+        reverse_work_back=r.work_back,
+        heat_work=hb + hr,
+        heat_gap=gap_r - gap_b,
+        compensated=braking.log.torque_factor is not None
+        or reverse.log.torque_factor is not None,
         pass_gain=st.braking_torque_2 is not None,
     )
+
+
+def heat_work(
+    estimate: PassEstimate, a: AngleSample, start_heat: float
+) -> tuple[np.ndarray, float, float]:
+    """A pass's motor work weighted by the motor's heat dissipated so far, at the angles of
+    ``a`` (its :meth:`PassEstimate.sample_at`).
+
+    A motor's winding dissipates I^2 R, I = torque / k_t; where its torque constant falls by
+    c per unit of heat dissipated (a motor warming through a run, slower than the run's
+    heat reaches it), the body receives u (1 + c H(t)) of a logged torque u, H(t) the
+    integral of u^2 dt from the run's start (N^2 m^2 s: the heat up to R / k_t^2). Its work
+    then exceeds the logged one by c sum u H dphi, this sum (to each row; the held torque's
+    mean for a constant-torque pass, whose heat is the mean squared; a logged torque's noise
+    variance taken off its square). It is the shape of a warming motor's drift in the
+    balance (rsp_inertia.estimation.model_tests WARMING_PROBE): growing through both passes,
+    more in the reverse, which comes after the braking and works harder.
+
+    Parameters
+    ----------
+    estimate : PassEstimate
+        The pass.
+    a : AngleSample
+        The pass at the balance angles.
+    start_heat : float
+        N^2 m^2 s, the heat dissipated before the pass (the braking's, for the reverse).
+
+    Returns
+    -------
+    tuple
+        (the weighted work at the angles, J N^2 m^2 s; the heat averaged over the pass's work
+        |dW|, N^2 m^2 s; the heat at the pass's end, N^2 m^2 s).
+    """
+    log = estimate.log
+    dt = np.diff(log.t)
+    if estimate.torque_mean is not None:
+        step_heat = estimate.torque_mean**2 * dt
+    else:
+        u = np.asarray(log.torque[:-1], dtype=float)  # held over [t_k, t_k+1)
+        step_heat = np.maximum(u * u - estimate.sigma_torque**2, 0.0) * dt
+    before = start_heat + np.concatenate([[0.0], np.cumsum(step_heat)])
+    mid = before[:-1] + 0.5 * step_heat  # the heat at each step's middle
+    dW = np.diff(estimate.work)
+    weighted = np.concatenate([[0.0], np.cumsum(dW * mid)])
+    rows = np.clip(np.searchsorted(log.t, a.time, side="right") - 1, 0, len(mid) - 1)
+    at = weighted[rows] + (a.work - estimate.work[rows]) * mid[rows]
+    total = float(np.sum(np.abs(dW)))
+    mean_heat = float(np.sum(np.abs(dW) * mid) / total) if total > 0 else start_heat
+    return at, mean_heat, float(before[-1])
 
 
 def friction_slope_prior(

@@ -52,6 +52,11 @@ rsp_inertia.estimation.gls). Its share of the calibration's covariance is kept a
 (KnownTerms.certificate_cov) for identify's budget line :data:`CERTIFICATE_SOURCE`. A
 certificate without stds is taken as exact, with a warning. Friction may differ between
 the calibration runs and the loaded ones (it cancels within each run).
+
+With a reference, device.toml's torque constant's tempco and its std, and logs that carry
+the temperature, the tempco's change from the stated value is one more unknown of the last
+fit, with the stated std as its prior (rsp_inertia.estimation.tempco): kept, and written to
+calibration.toml, where the runs measure it; otherwise that fit is made again without it.
 """
 
 from __future__ import annotations
@@ -75,6 +80,7 @@ from rsp_inertia.estimation.columns import (
     encoder_unknowns,
     gravity_row_slopes,
     gravity_rows,
+    probe_bounds,
     run_columns,
     run_label,
     run_priors,
@@ -92,6 +98,7 @@ from rsp_inertia.estimation.conventions import (
 from rsp_inertia.estimation.gls import (
     BalanceFit,
     Block,
+    Prior,
     assemble_blocks,
     block_model_tests,
     solve_blocks,
@@ -102,6 +109,7 @@ from rsp_inertia.estimation.layout import ZERO_NAME, theta_layout
 from rsp_inertia.estimation.model_tests import ModelTest, described, model_warnings
 from rsp_inertia.estimation.runs import ExperimentLogs, balance_runs, corrected_log
 from rsp_inertia.estimation.stiffness import StiffnessCalibration, calibrate_stiffness
+from rsp_inertia.estimation.tempco import TEMPCO_NAME, TempcoFit
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.infra.progress import drop, lines_to, say
 from rsp_inertia.plant.config import (
@@ -175,10 +183,14 @@ class Calibration:
     """The day of the calibration, ``YYYY-MM-DD`` in UTC (set by the calibrate command;
     calibration.toml ``[calibration] date``)."""
     tempco: str = ""
-    """One line on the torque constant's tempco when device.toml states one: it stays
-    device.toml's, and the calibration runs' magnet temperatures against the reference
-    temperature (rsp_inertia.estimation.reading.tempco_line; docs/method.md §3,
-    "Temperature"); printed with the result, not a warning. '' without a tempco."""
+    """One line on the torque constant's tempco when device.toml states one: measured by the
+    runs, or device.toml's kept and why, with the calibration runs' magnet temperatures
+    (rsp_inertia.estimation.reading.tempco_line; docs/method.md §3, "Temperature"); printed
+    with the result, not a warning. '' without a tempco."""
+    tempco_fit: TempcoFit | None = None
+    """What the fit found of the tempco alpha, when it took it as an unknown (a reference,
+    device.toml's tempco with its std, logs with a temperature; rsp_inertia.estimation.tempco):
+    calibration.toml carries it when the runs measured it (:attr:`TempcoFit.informed`)."""
 
     def to_file(self) -> CalibrationFile:
         """The calibration as calibration.toml holds it
@@ -273,6 +285,7 @@ def _blocks(
     orientation: bool = False,
     flip: np.ndarray | None = None,
     certificate: Reference | None = None,
+    tempco_gains: tuple[float, float] | None = None,
 ):
     """The calibration equations of one experiment's runs (module docstring).
 
@@ -284,12 +297,15 @@ def _blocks(
     the unknown :data:`CONVENTION_FACTOR` (+1 where the rig keeps the stated conventions,
     -1 where a convention flips them, :data:`CONVENTIONS`). ``certificate``: the reference's
     certified values are known terms of the fit with their stated covariance (module
-    docstring); each reference run's block carries their d rhs / d value."""
+    docstring); each reference run's block carries their d rhs / d value. ``tempco_gains``:
+    the tempco alpha is an unknown (rsp_inertia.estimation.tempco), its column the work parts'
+    response times these gains (h_d, h_b)."""
     # The unknowns are theta's, by theta's names (rsp_inertia.estimation.layout).
     theta = theta_layout(len(device.stages), encoder_orders)
     gains = theta.names("gains")
     both = both_directions(balances)
     blocks = []
+    hottest = max((bal.heat_gap for bal in balances), default=0.0)
     for k, bal in enumerate(balances):
         s = bal.stage
         harmonics = theta.names("harmonics", s)
@@ -300,6 +316,8 @@ def _blocks(
         cols.update(run_columns(bal, f"{role}{k}", s in both, group=f"{role} {s}"))
         if has_gain:
             cols.update(zip(gains, -bal.motor_work_parts.T))
+            if tempco_gains is not None and bal.tempco_work_parts is not None:
+                cols[TEMPCO_NAME] = -(bal.tempco_work_parts @ np.asarray(tempco_gains))
             rhs = -bal.spring
         else:
             rhs = bal.work.copy()
@@ -307,7 +325,7 @@ def _blocks(
         scaled = encoder_unknowns(bal, encoder_orders) if encoder_orders else {}
         # Without a reference the drive and the encoder cannot be measured, but the model
         # tests can still say whether the runs call for them (the probes of identify).
-        probes, probes_per_inertia = ({}, {}) if has_gain else cause_probes(bal)
+        probes, probes_per_inertia = ({}, {}) if has_gain else cause_probes(bal, hottest)
         known_M = np.zeros(len(bal.phi))
         slope = np.zeros(len(bal.phi)) if bal.spring_slope is None else -bal.spring_slope
         known_jacobian = terms_std = None
@@ -348,18 +366,75 @@ def _blocks(
                     if name.startswith("e")
                     or name in gains
                     or name in scaled
-                    or name in (ZERO_NAME, CONVENTION_FACTOR)
+                    or name in (ZERO_NAME, CONVENTION_FACTOR, TEMPCO_NAME)
                 ),
                 groups={name: f"{role} {run_label(bal)}" for name in harmonics},
-                fixed_in_tests=frozenset(gains),
+                fixed_in_tests=frozenset((*gains, TEMPCO_NAME)),
                 inertia_scaled_columns=scaled,
                 probes=probes,
                 probes_per_inertia=probes_per_inertia,
+                probe_bounds=probe_bounds((1.0, 1.0)) if probes else {},
                 priors=run_priors(bal, cols, f"{role}{k}"),
                 known_jacobian=known_jacobian,
             )
         )
     return blocks
+
+
+TEMPCO_REJECTED = (
+    "the calibration runs disagree with device.toml's torque_constant_tempco beyond its "
+    "torque_constant_tempco_std (chi2 = {stat} for {dof}, p = {p}): the tempco is taken from "
+    "the runs alone (a tempco stated for another magnet, or its std stated too small)"
+)
+"""The warning when the runs reject the stated tempco's prior (rsp_inertia.estimation.gls,
+priors); the tempco is then the runs' alone."""
+
+
+def _with_tempco_prior(blocks: list[Block], std: float) -> list[Block]:
+    """``blocks`` with the tempco's prior N(0, std^2) on its change from the stated value,
+    carried once, by the first block with its column (rsp_inertia.estimation.gls, priors)."""
+    for k, block in enumerate(blocks):
+        if TEMPCO_NAME in block.columns:
+            prior = Prior(
+                (TEMPCO_NAME,), np.zeros(1), np.array([[std**2]]), rejection=TEMPCO_REJECTED
+            )
+            blocks[k] = dataclasses.replace(block, priors=(*block.priors, prior))
+            break
+    return blocks
+
+
+def _tempco_unknown(
+    motor, balances: list, known: KnownTerms
+) -> tuple[float, tuple[float, float]] | None:
+    """``(std, gains)`` of :func:`fit_calibration`'s ``tempco`` when the runs can take alpha as
+    an unknown: a reference's ``balances``, device.toml's tempco with a std > 0, logs
+    compensated with it; None otherwise (alpha exact, as today)."""
+    std = motor.torque_constant_tempco_std
+    if motor.torque_constant_tempco is None or not std:
+        return None
+    if all(bal.tempco_work_parts is None for bal in balances):
+        return None
+    return std, (float(known.gains[0]), float(known.gains[1]))
+
+
+def _tempco_fit(motor, fit: BalanceFit, known: KnownTerms) -> TempcoFit:
+    """alpha as the fit found it: the stated value plus the fitted change, its std and its
+    covariance with theta's terms (rsp_inertia.estimation.tempco.TempcoFit)."""
+    j = fit.index(TEMPCO_NAME)
+    covariance = tuple(
+        float(fit.cov[j, fit.index(name)]) if name in fit.names else 0.0
+        for name in known.names()
+    )
+    rejected = any(line.startswith(TEMPCO_REJECTED[:40]) for line in fit.prior_warnings)
+    return TempcoFit(
+        stated=float(motor.torque_constant_tempco),
+        stated_std=float(motor.torque_constant_tempco_std),
+        estimate=float(motor.torque_constant_tempco + fit.x[j]),
+        std=float(math.sqrt(fit.cov[j, j])),
+        covariance=covariance,
+        reference_temperature=float(motor.reference_temperature),
+        prior_rejected=rejected,
+    )
 
 
 def _certificate_scale(certificate: Reference, device: Device) -> np.ndarray:
@@ -404,6 +479,7 @@ def fit_calibration(
     zero: float | None = None,
     flip: np.ndarray | None = None,
     certificate: Reference | None = None,
+    tempco: tuple[float, tuple[float, float]] | None = None,
 ) -> tuple[KnownTerms, BalanceFit]:
     """The calibrated terms from the empty runs' and the reference runs' balances.
 
@@ -434,6 +510,11 @@ def fit_calibration(
     certificate : Reference, optional
         With a reference: its certificate, whose stated covariance the fit carries (module
         docstring); None, or one without stds: the reference's values exact.
+    tempco : (float, (float, float)), optional
+        With a reference: the tempco alpha is an unknown, its change from the value that
+        compensated the logs with the prior N(0, std^2), ``(std, (h_d, h_b))`` the stated std
+        (1/K) and the gains its column is linearised at (rsp_inertia.estimation.tempco).
+        None: alpha exact, as the logs were compensated.
 
     Returns
     -------
@@ -444,12 +525,17 @@ def fit_calibration(
     orders = ENCODER_ORDERS if has_gain else 0
     orientation = has_gain and zero is not None
     certificate = certificate if has_gain and certificate is not None and certificate.stated else None
-    blocks = _blocks(device, empty, "empty", None, has_gain, orders, orientation)
+    gains = None if tempco is None or not has_gain else tempco[1]
+    blocks = _blocks(
+        device, empty, "empty", None, has_gain, orders, orientation, tempco_gains=gains
+    )
     if has_gain:
         blocks += _blocks(
             device, reference, "reference", reference_body, has_gain, orders, orientation, flip,
-            certificate,
+            certificate, gains,
         )
+    if gains is not None:
+        blocks = _with_tempco_prior(blocks, tempco[0])
     if certificate is None:
         equations = assemble_blocks(blocks)
     else:
@@ -589,10 +675,20 @@ def calibrate_logs(
             f"encoder error and zero: correction moved by up to {largest:.2g} std; the logs "
             f"corrected with it are balanced again (fit {iteration + 2})"
         )
-    known, fit = fit_calibration(
-        device, empty_bal, ref_bal, reference_body, applied if len(applied) else None, scales,
-        zero=zero_applied, certificate=certificate,
+    final = functools.partial(
+        fit_calibration, device, empty_bal, ref_bal, reference_body,
+        applied if len(applied) else None, scales, zero=zero_applied, certificate=certificate,
     )
+    # The tempco as an unknown when the runs can take it; kept only where they measure it
+    # (rsp_inertia.estimation.tempco: otherwise the fit without it, alpha device.toml's).
+    motor = empty.device.motor
+    tempco = None
+    if reference is not None:
+        tempco = _tempco_unknown(motor, empty_bal + ref_bal, known)
+    known, fit = final(tempco=tempco)
+    tempco_fit = None if tempco is None else _tempco_fit(motor, fit, known)
+    if tempco_fit is not None and not tempco_fit.informed:
+        known, fit = final()
     if conventions is None:
         conventions = unverified_conventions()
     else:
@@ -602,7 +698,8 @@ def calibrate_logs(
         for runs in (empty_bal, ref_bal or [])
         if runs
     )
-    tests = described(fit.tests, known, one_direction)
+    compensated = any(bal.compensated for runs in (empty_bal, ref_bal or []) for bal in runs)
+    tests = described(fit.tests, known, one_direction, compensated)
     warnings += model_warnings(tests, fit.scales, fit.labels)
     warnings += fit.prior_warnings
     if certificate is not None:
@@ -635,6 +732,7 @@ def calibrate_logs(
         stiffness=stiffness,
         conventions=conventions.statement,
         certificate=None if certificate is None else certificate.certificate,
+        tempco_fit=tempco_fit,
     )
 
 

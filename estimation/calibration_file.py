@@ -50,6 +50,7 @@ __all__ = [
     "EncoderError",
     "Fixture",
     "Head",
+    "MotorTempco",
     "PendulumStiffness",
     "calibration_file",
     "calibration_text",
@@ -66,7 +67,8 @@ h_d, h_b = torque the body receives per unit of logged torque, motor driving / b
 Gs, Gc = m g x_c, m g y_c of the fixture; the encoder reads phi + zero + e(phi),
 e(phi) = sum_n c_n cos(n phi) + s_n sin(n phi). Each *_std is the square root of the
 [covariance] matrix's diagonal entry. [pendulum]: the torsion element's stiffness from the
-calibration folders' pendulum runs; [inputs]: the sha256 of every file used."""
+calibration folders' pendulum runs; [motor]: the torque constant's tempco (1/K), when the
+runs measured it, and its covariance with theta; [inputs]: the sha256 of every file used."""
 
 SHA256 = Bound(
     "a sha256 digest (64 hex digits)", lambda digest: re.fullmatch("[0-9a-f]{64}", digest)
@@ -189,6 +191,31 @@ class PendulumStiffness:
 
 
 @config_class
+class MotorTempco:
+    """The torque constant's tempco as the calibration runs measured it (``[motor]``; absent
+    when they did not: identify then takes device.toml's; rsp_inertia.estimation.tempco)."""
+
+    torque_constant_tempco: float = key(
+        unit="1/K",
+        doc="alpha, measured: identify compensates the logs with it instead of device.toml's "
+        "(docs/method.md §3, \"Temperature\").",
+    )
+    torque_constant_tempco_std: float = key(
+        unit="1/K", bound=">= 0", doc="Its std: identify's budget line 'torque constant vs "
+        "temperature'.",
+    )
+    reference_temperature: float = key(
+        unit="degC",
+        doc="device.toml's ``[motor] reference_temperature`` at calibration: the temperature "
+        "at which the calibrated gains hold.",
+    )
+    covariance: tuple[float, ...] = key(
+        doc="alpha's covariance with each parameter of ``[covariance]``, in its order "
+        "(1/K times the parameter's unit).",
+    )
+
+
+@config_class
 class Covariance:
     """The covariance of theta (``[covariance]``); identify propagates it."""
 
@@ -222,6 +249,9 @@ class CalibrationFile:
         doc="The stiffness, when both calibration folders have pendulum runs at a node."
     )
     covariance: Covariance = key(doc="The covariance of theta.")
+    motor: MotorTempco | None = key(
+        doc="The torque constant's tempco, when the calibration runs measured it."
+    )
     certificate: Certificate | None = key(
         doc="The reference body's certificate (reference.toml's ``[certificate]``): id, "
         "issuer, date; absent without a reference or when reference.toml names none."
@@ -361,8 +391,23 @@ def calibration_file(calibration: Calibration) -> CalibrationFile:
             if k.certificate_cov is None
             else tuple(_floats(row) for row in k.certificate_cov),
         ),
+        motor=_motor_tempco(calibration),
         certificate=calibration.certificate,
         inputs={str(path): str(digest) for path, digest in calibration.inputs.items()},
+    )
+
+
+def _motor_tempco(calibration: Calibration) -> MotorTempco | None:
+    """``[motor]``: the tempco when the runs measured it
+    (rsp_inertia.estimation.tempco.TempcoFit.informed), else None."""
+    found = calibration.tempco_fit
+    if found is None or not found.informed:
+        return None
+    return MotorTempco(
+        torque_constant_tempco=float(found.estimate),
+        torque_constant_tempco_std=float(found.std),
+        reference_temperature=float(found.reference_temperature),
+        covariance=_floats(found.covariance),
     )
 
 
@@ -489,6 +534,12 @@ def _calibration(doc: dict[str, Any]) -> CalibrationFile:
         raise ContentError(
             "covariance.matrix[1]",
             f"must have one entry per parameter ({len(names)}), got {len(cov.matrix[0])}",
+        )
+    if value.motor is not None and len(value.motor.covariance) != len(names):
+        raise ContentError(
+            "motor.covariance",
+            f"must have one entry per parameter of covariance.parameters ({len(names)}), got "
+            f"{len(value.motor.covariance)}",
         )
     if cov.certificate is not None:
         if value.legacy or not value.has_zero:

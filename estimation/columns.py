@@ -6,7 +6,7 @@ The body's tensor (rsp_inertia.estimation.tensor_fit) and the rig's calibration
 tracking mismatch's friction slopes and, for a stage run in both directions, its friction
 asymmetry (:func:`run_columns`, :func:`run_priors`); both write the gravity potential's
 share (:func:`gravity_rows`) and an encoder error's (:func:`encoder_columns`) alike; and
-both offer the model tests the probes of a drive's loss and an encoder's error
+both offer the model tests the probes of a drive's loss, a warming motor and an encoder's error
 (:func:`cause_probes`, rsp_inertia.estimation.model_tests). The runs' names in messages:
 :func:`run_label`.
 """
@@ -18,7 +18,12 @@ import numpy as np
 from rsp_inertia.estimation.balance import StageBalance
 from rsp_inertia.estimation.gls import Prior
 from rsp_inertia.estimation.layout import encoder_names
-from rsp_inertia.estimation.model_tests import DRIVE_PROBE, ENCODER_PROBE, PROBE_ORDERS
+from rsp_inertia.estimation.model_tests import (
+    DRIVE_PROBE,
+    ENCODER_PROBE,
+    PROBE_ORDERS,
+    WARMING_PROBE,
+)
 from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.model import gravity_basis, gravity_basis_slope
@@ -32,6 +37,7 @@ __all__ = [
     "format_run",
     "gravity_row_slopes",
     "gravity_rows",
+    "probe_bounds",
     "run_columns",
     "run_key",
     "run_label",
@@ -46,14 +52,51 @@ def encoder_unknowns(bal: StageBalance, orders: int) -> dict[str, np.ndarray]:
     return dict(zip(encoder_names(orders), -encoder_columns(bal, orders).T))
 
 
-def cause_probes(bal: StageBalance) -> tuple[dict, dict]:
+def cause_probes(bal: StageBalance, hottest: float | None = None) -> tuple[dict, dict]:
     """(probes, probes_per_inertia) of one run's block (rsp_inertia.estimation.gls Block):
-    the drive loss's column (the driving work's gain freed) and the encoder error's (orders
-    1 to PROBE_ORDERS, per unit of M)."""
-    return (
-        {DRIVE_PROBE: {"dh_d": -bal.motor_work_parts[:, 0]}},
-        {ENCODER_PROBE: encoder_unknowns(bal, PROBE_ORDERS)},
-    )
+    the drive loss's column (the driving work's gain freed), a warming motor's (both passes'
+    work weighted by the heat dissipated so far, rsp_inertia.estimation.balance.heat_work,
+    over ``hottest``) and the encoder error's (orders 1 to PROBE_ORDERS, per unit of M).
+
+    Parameters
+    ----------
+    bal : StageBalance
+        The run's balance.
+    hottest : float, optional
+        N^2 m^2 s, the largest StageBalance.heat_gap of the fit's runs: the warming probe's
+        coefficient is then the torque scale's difference between the passes of that run.
+        Default: this run's.
+
+    Returns
+    -------
+    tuple of dict
+        Cause -> {name: column}, for Block.probes and Block.probes_per_inertia.
+    """
+    probes = {DRIVE_PROBE: {"dh_d": -bal.motor_work_parts[:, 0]}}
+    hottest = bal.heat_gap if hottest is None else hottest
+    if bal.heat_work is not None and hottest > 0.0:
+        probes[WARMING_PROBE] = {"c_heat": -bal.heat_work / hottest}
+    return probes, {ENCODER_PROBE: encoder_unknowns(bal, PROBE_ORDERS)}
+
+
+def probe_bounds(gains: tuple[float, float]) -> dict[str, float]:
+    """Cause -> the largest value the physics allows its probe's coefficient
+    (rsp_inertia.estimation.gls Block.probe_bounds): the drive-loss probe's dh_d at most
+    h_b - h_d, a round-trip efficiency (h_d + dh_d) / h_b of at most 1 (a transmission loses
+    power in both directions of flow: h_d <= 1 <= h_b, docs/method.md §3).
+
+    Parameters
+    ----------
+    gains : (float, float)
+        The drive's gains (h_d, h_b) the fit applies.
+
+    Returns
+    -------
+    dict of str to float
+        The bounds.
+    """
+    h_d, h_b = gains
+    return {DRIVE_PROBE: float(h_b - h_d)}
 
 
 def encoder_columns(bal: StageBalance, orders: int) -> np.ndarray:

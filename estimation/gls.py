@@ -48,6 +48,13 @@ right-hand side, and this module solves them the same way:
   PRIOR_ALPHA is dropped, the fit made again without it and the rest tested again, and the
   fit says so (BalanceFit.prior_warnings).
   The priors' share of the covariance is the budget line PRIOR_SOURCE;
+- **considered terms**: a block may carry columns of terms the runs are not asked to
+  estimate (``Block.considered``: one standard deviation each, independent between blocks;
+  a run's torque scale that may drift between its passes by device.toml's
+  ``torque_constant_drift_std``): the fit's response to each, the whitened column solved
+  against the joint fit's whitened design (pseudo-equations unchanged), is an error the fit
+  cannot see, and its outer product joins the covariance as the column's budget line
+  (:data:`DRIFT_SOURCE`): a consider parameter, as the torque's common scale is;
 - **probes**: a block may declare the columns a suspected cause would add (a drive's loss,
   an encoder's error); the model tests say whether the runs call for them
   (rsp_inertia.estimation.model_tests).
@@ -70,7 +77,12 @@ from scipy.optimize import brentq
 from scipy.stats import chi2 as chi2_distribution
 
 from rsp_inertia.estimation.balance import StageBalance
-from rsp_inertia.estimation.model_tests import SCALE_CAP, ModelTest, run_model_tests
+from rsp_inertia.estimation.model_tests import (
+    SCALE_CAP,
+    SCALE_PROBES,
+    ModelTest,
+    run_model_tests,
+)
 from rsp_inertia.estimation.whitening import (
     Noise,
     scaled_band,
@@ -83,6 +95,7 @@ from rsp_inertia.infra.progress import report
 
 __all__ = [
     "CALIBRATION_SOURCE",
+    "DRIFT_SOURCE",
     "GAP_SOURCE",
     "NOISE_SOURCES",
     "PRIOR_ALPHA",
@@ -112,6 +125,10 @@ where the smoother bridges them (rsp_inertia.estimation.balance.StageBalance
 PRIOR_SOURCE = "friction slopes"
 """Budget line of the blocks' priors (the runs' friction slopes from their passes' dynamics)."""
 
+DRIFT_SOURCE = "torque scale between the passes"
+"""Budget line of a torque scale that may drift between each run's braking and reverse pass
+(device.toml ``[motor] torque_constant_drift_std``; Block.considered)."""
+
 PRIOR_ALPHA = 1e-3
 """A block's prior whose chi^2 against the balances has a p-value below this is dropped
 (module docstring, priors)."""
@@ -127,6 +144,9 @@ class Prior:
     """(k,) their prior means."""
     cov: np.ndarray
     """(k, k) their prior covariance, positive definite."""
+    rejection: str = ""
+    """The warning when the balances reject it, with ``{stat}``, ``{dof}`` and ``{p}`` to
+    fill; '' for a run's friction slopes' (:func:`_rejected_priors`)."""
 
 
 @dataclass(frozen=True)
@@ -170,6 +190,10 @@ class Block:
     (rsp_inertia.estimation.model_tests probe tests)."""
     probes_per_inertia: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
     """The same for columns per unit of M(phi) (the first pass's M times these)."""
+    probe_bounds: dict[str, float] = field(default_factory=dict)
+    """Cause -> the largest value the physics allows its probe's one coefficient (a drive's
+    loss: a round-trip efficiency of at most 1, rsp_inertia.estimation.columns
+    .probe_bounds); the model tests take the probe's chi^2 drop at that bound beyond it."""
     groups: dict[str, str] = field(default_factory=dict)
     """Unknown name -> group label (e.g. the run) for the consistency tests."""
     fixed_in_tests: frozenset[str] = frozenset()
@@ -182,6 +206,11 @@ class Block:
     stand in for the kinetic energy and absorb the speed noise)."""
     priors: tuple[Prior, ...] = ()
     """Priors on the block's own unknowns (module docstring, priors)."""
+    considered: dict[str, np.ndarray] = field(default_factory=dict)
+    """Budget line -> (n,) the column of one standard deviation of a term the runs are not
+    asked to estimate, independent between blocks (a torque scale that may drift between the
+    run's passes, DRIFT_SOURCE): propagated, never fitted (module docstring, considered
+    terms)."""
 
 
 @dataclass(frozen=True)
@@ -771,6 +800,8 @@ def _balance_fit(
     if with_priors:  # the blocks' priors' pseudo-equations, after the calibration's
         P = Aw[n_data + q :]
         cov_parts[PRIOR_SOURCE] = (cov_x @ P.T @ P @ cov_x)[:n_x, :n_x]
+    for source, shifts in _considered_shifts(eq, solution).items():
+        cov_parts[source] = shifts[:n_x] @ shifts[:n_x].T
     cov = sum(cov_parts.values())
     known_shift = known_shift_cov = None
     if eq.S is not None:
@@ -792,6 +823,32 @@ def _balance_fit(
         z_cov=z_fit_cov,
         factors=factors,
     )
+
+
+def _considered_shifts(eq: Equations, solution: _Solution) -> dict[str, np.ndarray]:
+    """Budget line -> (n_x + q, k) what one std of each block's considered term moves the
+    joint fit's estimate by (module docstring, considered terms): the fit's response to its
+    column, whitened as the balances are."""
+    sources = list(dict.fromkeys(src for block in eq.blocks for src in block.considered))
+    if not sources:
+        return {}
+    factors, Aw = solution.factors, solution.Aw
+    scale = np.linalg.norm(Aw, axis=0)
+    scale[scale == 0.0] = 1.0
+    n_rows = whitened_rows(factors)
+    out = {}
+    for source in sources:
+        columns = []
+        for k, block in enumerate(eq.blocks):
+            if source in block.considered:
+                column = np.zeros(len(eq.y))
+                column[eq.rows[k] : eq.rows[k + 1]] = block.considered[source]
+                columns.append(column)
+        C = np.zeros((Aw.shape[0], len(columns)))
+        C[:n_rows] = whiten(np.column_stack(columns), factors)
+        steps, *_ = np.linalg.lstsq(Aw / scale, C, rcond=None)
+        out[source] = steps / scale[:, None]
+    return out
 
 
 def _consider_shift(eq: Equations, solution: _Solution) -> np.ndarray:
@@ -827,10 +884,12 @@ def block_model_tests(eq: Equations, fit: BalanceFit) -> list[ModelTest]:
     report("least squares: model tests", 0.0)
     nuisance = (eq.N, eq.q) if eq.q else None
     probes = _probe_matrices(eq.blocks, eq.inertia)
+    bounds = {c: b for block in eq.blocks for c, b in block.probe_bounds.items()}
     model_tests = run_model_tests(
-        eq.blocks, eq.names, eq.A, eq.y, fit.x, fit.factors, nuisance, probes
+        eq.blocks, eq.names, eq.A, eq.y, fit.x, fit.factors, nuisance, probes,
+        probe_bounds=bounds,
     )
-    if any(t.significant for t in model_tests if t.kind in probes):
+    if any(t.significant for t in model_tests if t.kind in probes or t.kind == SCALE_PROBES):
         # A named cause's misfit inflates every run's speed-noise scale, which then hides
         # another cause: the probe tests again with the scales of runs whose own fits
         # have every probe's columns.
@@ -838,7 +897,7 @@ def block_model_tests(eq: Equations, fit: BalanceFit) -> list[ModelTest]:
         probe_scales = _own_scales(eq, y_own, np.hstack(list(probes.values())))
         model_tests = run_model_tests(
             eq.blocks, eq.names, eq.A, eq.y, fit.x, fit.factors, nuisance, probes,
-            _whiteners(eq, probe_scales),
+            _whiteners(eq, probe_scales), bounds,
         )
     return model_tests
 
@@ -868,7 +927,10 @@ def _rejected_priors(priors, Aw, yw, x, cov_x, start: int, blocks: list[Block]):
         spread = np.eye(len(r)) - P @ cov_x @ P.T
         stat = float(r @ np.linalg.lstsq(spread, r, rcond=None)[0])
         p_value = float(chi2_distribution.sf(max(stat, 0.0), len(r)))
-        if p_value < PRIOR_ALPHA:
+        if p_value < PRIOR_ALPHA and prior.rejection:
+            line = prior.rejection.format(stat=f"{stat:.3g}", dof=len(r), p=f"{p_value:.2g}")
+            rejected.append((prior, line, p_value))
+        elif p_value < PRIOR_ALPHA:
             slopes = ", ".join(f"{v:.3g}" for v in prior.mean)
             line = (
                 f"{blocks[k].label}: the friction slopes its passes' dynamics give ({slopes}) "

@@ -215,7 +215,7 @@ def identify_logs(
     balances, passages = balance_runs(
         logs, warnings, known.encoder, _at_nodes(device, known), zero=known.zero
     )
-    fit = fit_tensor(balances, known)
+    fit = fit_tensor(balances, known, drift_std=device.motor.torque_constant_drift_std)
     nodes = axis_nodes(device, passages, fit)
     warnings += fit_warnings(fit, balances, device)
     directions = design.directions

@@ -16,13 +16,28 @@ Probes. A suspected cause with a known signature (rsp_inertia.estimation.gls Blo
 is tested the same way: its columns added to the joint model, the chi^2 drop against its
 rank. A drive that loses power by its direction of flow scales the driving and the
 back-driven work differently, a signature no tensor and no gain can take up (the friction's
-share of the work changes from turn to turn and between stages); an encoder's reading error
-scales the kinetic energy by 1 + 2 e'(phi), at harmonics of the angle whose size grows with
+share of the work changes from turn to turn and between stages); a motor that warms between
+the passes has a torque scale that falls with the heat its motor has dissipated so far, through
+both passes and more in the reverse, which comes after the braking and works harder (its
+column both passes' work weighted by that heat, rsp_inertia.estimation.balance.heat_work,
+one coefficient for every run), where a drive's loss scales every run's driving work alike;
+an encoder's reading error scales the kinetic energy by 1 + 2 e'(phi), at harmonics of the angle whose size grows with
 the whole M, where the body's harmonics do not. Each probe test is one more test of the
 family (Bonferroni), and its fitted terms (``estimate``) are what the warning reports. A
-wrong model takes up any column it is offered, so each probe is tested given the others (its
-columns added to a model that has theirs): with an encoder's error alone, the drive's probe
-explains nothing the encoder's does not, and the other way round.
+wrong model takes up any column it is offered, so the causes are found one at a time: the
+probe most significant given those found before joins them while one is significant at the
+family's level, and each probe's test is then made given the causes found (its columns added
+to a model that has theirs): with an encoder's error alone, the drive's probe explains
+nothing the encoder's does not, and the other way round. (Testing each given all the others
+would cost a cause its power to a probe of many columns that merely overlaps it: the
+encoder's six columns took the warming probe's p-value from 1e-11 to 0.01 on a motor that
+drifted 2e-4 in one stage.) A drive's loss and a
+warming motor both scale the work between the passes, and where the runs carry little on
+how the scale grows through a run and from run to run (a drift of 2e-4 in one stage, the
+other hardly warming), each explains what the other would: neither test given the other
+finds it while the runs disagree. Their joint test (``SCALE_PROBES``, one more of the
+family) then names both, each with its estimate fitted alone; it is not warned of when
+either is named by its own test.
 
 What a probe's fitted terms say, in words and numbers, is its warning's text
 (:func:`probe_detail`, filled in by :func:`described` with the rig's known terms the fit
@@ -58,8 +73,10 @@ __all__ = [
     "ENCODER_PROBE",
     "PROBE_ORDERS",
     "SCALE_CAP",
+    "SCALE_PROBES",
     "TEST_ALPHA",
     "TURN_PARTS",
+    "WARMING_PROBE",
     "ModelTest",
     "coarse_encoder_warnings",
     "described",
@@ -77,6 +94,13 @@ tests): a clean rig's identification warns in about 1 run in 100."""
 
 DRIVE_PROBE = "drive loss"
 """The model test of a drive that loses power by its direction of flow (probe kind)."""
+WARMING_PROBE = "warming motor"
+"""The model test of a torque scale that differs between a run's braking and reverse pass by
+a drift that grows with the heat its motor dissipated (probe kind)."""
+SCALE_PROBES = "drive loss or warming motor"
+"""The joint test of the drive-loss and warming probes (both scale the work between the
+passes), warned of only when neither is named by its own test; its ``estimate`` is each
+probe's fitted alone."""
 ENCODER_PROBE = "encoder error"
 """The model test of a periodic error of the encoder's reading (probe kind)."""
 PROBE_ORDERS = 3
@@ -124,7 +148,8 @@ class ModelTest:
 
 
 def run_model_tests(
-    blocks, names, A, y, x, factors, nuisance=None, probes=None, probe_factors=None
+    blocks, names, A, y, x, factors, nuisance=None, probes=None, probe_factors=None,
+    probe_bounds=None,
 ) -> list[ModelTest]:
     """The three tests (between runs, early against late turns, per turn) of a joint fit, and
     one per probe.
@@ -153,6 +178,9 @@ def run_model_tests(
     probe_factors : list, optional
         The covariance's factors for the probe tests when they differ (speed-noise scales
         taken with the probes in each run's own fit, rsp_inertia.estimation.gls).
+    probe_bounds : dict of str to float, optional
+        Cause -> the largest value the physics allows its probe's one coefficient
+        (:func:`_probe_tests`).
 
     Returns
     -------
@@ -172,14 +200,10 @@ def run_model_tests(
         if found is not None:
             found_tests.append(((kind, found[0]), found[1], found[2], None))
     probes = probes or {}
-    for cause, columns in probes.items():
-        # Given the other probes: a wrong model takes up any new column, so a cause is named
-        # only for what the others cannot explain (module docstring).
-        others = [cols for other, cols in probes.items() if other != cause]
-        base = np.hstack([A[:, kept], *others])
-        found = _probe(base, columns, y_kept, probe_factors or factors, nuisance)
-        if found is not None:
-            found_tests.append(((cause, cause), *found))
+    found_tests += _probe_tests(
+        A[:, kept], y_kept, probes, probe_factors or factors, nuisance, len(found_tests),
+        probe_bounds or {},
+    )
     level = TEST_ALPHA / max(len(found_tests), 1)
     model_tests = []
     for (kind, label), stat, dof_, fitted in found_tests:
@@ -192,6 +216,75 @@ def run_model_tests(
             )
         )
     return model_tests
+
+
+def _probe_tests(A, y, probes, factors, nuisance, n_tests: int, bounds: dict) -> list:
+    """The probes' tests (module docstring): the causes the runs call for, found one at a time
+    (the most significant given those found before, at the family's level), then each probe
+    tested given the causes found (the drive's loss and the warming motor given each other
+    too, each only while its own estimate is physical), and the pair's joint test.
+    ``n_tests``: the family's other tests. ``bounds``: cause -> the largest value the physics
+    allows its one coefficient; beyond it the test's chi^2 drop is the one at the bound,
+    (x^2 - (x - c)^2) / var for an estimate x of variance var and bound c (a likelihood
+    ratio test under the constraint; zero for c = 0), so that a drive "gaining" power is
+    never named a loss."""
+    pair = (DRIVE_PROBE, WARMING_PROBE)
+    both = all(cause in probes for cause in pair)
+    level = TEST_ALPHA / max(n_tests + len(probes) + both, 1)
+
+    def given(columns, causes, cause=None):
+        base = np.hstack([A, *(probes[c] for c in causes)])
+        found = _probe(base, columns, y, factors, nuisance)
+        if found is None or cause not in bounds or found[1] != 1:
+            return found
+        (x,), var = found[2][0], found[2][1][0, 0]
+        c = bounds[cause]
+        if x <= c or var <= 0.0:
+            return found
+        return (max((x * x - (x - c) ** 2) / var, 0.0), *found[1:])
+
+    def physical(cause, causes):
+        found = given(probes[cause], causes)
+        return cause not in bounds or found is None or found[2][0][0] <= bounds[cause]
+
+    def p_value(found):
+        return float(chi2.sf(max(found[0], 0.0), found[1]))
+
+    named: list[str] = []
+    while True:
+        trial = {c: given(probes[c], named, c) for c in probes if c not in named}
+        trial = {c: found for c, found in trial.items() if found is not None}
+        if not trial:
+            break
+        best = min(trial, key=lambda c: p_value(trial[c]))
+        if p_value(trial[best]) >= level:
+            break
+        named.append(best)
+    tests = []
+    for cause, columns in probes.items():
+        # Given the causes found (a wrong model takes up any column it is offered), and the
+        # pair's other member: each names only what the other cannot explain.
+        others = [c for c in named if c != cause]
+        if both and cause in pair:
+            partner = next(c for c in pair if c != cause)
+            if partner not in others and physical(partner, others):
+                others.append(partner)
+        found = given(columns, others, cause)
+        if found is not None:
+            tests.append(((cause, cause), *found))
+    if both:
+        others = [c for c in named if c not in pair]
+        found = given(np.hstack([probes[c] for c in pair]), others)
+        if found is not None and not all(physical(c, others) for c in pair):
+            found = (0.0, *found[1:])  # one of the two cannot be: no "either"
+        if found is not None:
+            alone = [given(probes[c], others) for c in pair]
+            if all(a is not None for a in alone):  # each fitted alone, for the warning
+                estimate = np.array([a[2][0][0] for a in alone])
+                cov = np.diag([a[2][1][0, 0] for a in alone])
+                found = (found[0], found[1], (estimate, cov))
+            tests.append(((SCALE_PROBES, SCALE_PROBES), *found))
+    return tests
 
 
 def _with_nuisance(A, y, factors, nuisance):
@@ -399,8 +492,11 @@ def model_warnings(tests: list[ModelTest], scales: list[float], labels: list[str
                 f"{scale:.0f}-fold: the balances do not close; the stds are not reliable"
             )
     named = [test.kind for test in tests if test.significant and test.detail]
+    either = (DRIVE_PROBE in named or WARMING_PROBE in named) and SCALE_PROBES in named
+    if either:
+        named.remove(SCALE_PROBES)
     for test in tests:
-        if not test.significant:
+        if not test.significant or (either and test.kind == SCALE_PROBES):
             continue
         if test.detail:  # a probe: the cause is named, with what the runs say of it
             warnings.append(
@@ -416,14 +512,17 @@ def model_warnings(tests: list[ModelTest], scales: list[float], labels: list[str
             + "friction that differs between the directions of rotation (run the "
             'stages both ways: directions = ["forward", "backward"]), a reverse that does not '
             "track the mirror, a wrong spring stiffness or gear ratio in device.toml, a torque "
-            "gain that differs between the passes or runs; the result may be off by more "
+            "gain that differs between the passes (a warming motor) or runs; the result may be off by more "
             "than its std"
         )
     return warnings
 
 
 def described(
-    tests: list[ModelTest], known: KnownTerms, one_direction: bool = False
+    tests: list[ModelTest],
+    known: KnownTerms,
+    one_direction: bool = False,
+    compensated: bool = False,
 ) -> list[ModelTest]:
     """The model tests with their probes' :func:`probe_detail` filled in (their warnings').
 
@@ -435,6 +534,8 @@ def described(
         The rig's known terms the fit applied.
     one_direction : bool, optional
         Some stage was run in one direction only.
+    compensated : bool, optional
+        The logs' torque was compensated for the motor's temperature.
 
     Returns
     -------
@@ -442,24 +543,29 @@ def described(
         The tests, the probes' with their ``detail``.
     """
     return [
-        replace(test, detail=probe_detail(test, known, one_direction))
-        if test.kind in (DRIVE_PROBE, ENCODER_PROBE)
+        replace(test, detail=probe_detail(test, known, one_direction, compensated))
+        if test.kind in (DRIVE_PROBE, WARMING_PROBE, SCALE_PROBES, ENCODER_PROBE)
         else test
         for test in tests
     ]
 
 
-def probe_detail(test: ModelTest, known: KnownTerms, one_direction: bool = False) -> str:
+def probe_detail(
+    test: ModelTest, known: KnownTerms, one_direction: bool = False, compensated: bool = False
+) -> str:
     """What a probe test's fitted terms say, in words and numbers (its warning's text).
 
     drive loss: the driving work's gain came out h_d + dh_d against h_b's, so the runs call
     for the round-trip efficiency (h_d + dh_d) / h_b (the common scale of both gains the
-    tensor takes up). encoder error: each order's amplitude sqrt(c_n^2 + s_n^2), first-order
+    tensor takes up). warming motor: the reverse pass's torque scale over the braking's,
+    1 + d, in the run whose motor dissipated the most heat (the others' d in proportion to
+    their heat). encoder error: each order's amplitude sqrt(c_n^2 + s_n^2), first-order
     std, in arcseconds. What to do depends on what is known: a calibration of the drive or of
-    the encoder that the runs contradict (the rig changed since), or none (calibrate). In a
-    stage run one way only, friction that differs between the directions of rotation leaves
-    the same shape as a drive's loss (the braking turns one way, the reverse the other),
-    so the drive's warning names it too.
+    the encoder that the runs contradict (the rig changed since), or none (calibrate); a
+    temperature compensation that the runs contradict (its tempco or lag), or none (log the
+    temperature). In a stage run one way only, friction that differs between the directions
+    of rotation leaves the same shape as a drive's loss (the braking turns one way, the
+    reverse the other), so the drive's warning names it too.
 
     Parameters
     ----------
@@ -469,6 +575,9 @@ def probe_detail(test: ModelTest, known: KnownTerms, one_direction: bool = False
         The rig's known terms the fit applied (a calibration or none).
     one_direction : bool, optional
         Some stage was run in one direction only.
+    compensated : bool, optional
+        The logs' torque was compensated for the motor's temperature (device.toml
+        ``[motor] torque_constant_tempco``).
 
     Returns
     -------
@@ -478,6 +587,36 @@ def probe_detail(test: ModelTest, known: KnownTerms, one_direction: bool = False
     x, cov = test.estimate, test.estimate_cov
     gains = known.gains
     std = known.std if known.calibrated else np.zeros(known.cov.shape[0])
+    if test.kind == SCALE_PROBES:
+        drive = replace(test, kind=DRIVE_PROBE, estimate=x[:1], estimate_cov=cov[:1, :1])
+        warming = replace(test, kind=WARMING_PROBE, estimate=x[1:], estimate_cov=cov[1:, 1:])
+        return (
+            "the work's scale differs between the passes, and the runs cannot tell a drive's "
+            "loss from a warming motor; either "
+            + probe_detail(drive, known, one_direction, compensated)
+            + "; or "
+            + probe_detail(warming, known, one_direction, compensated)
+        )
+    if test.kind == WARMING_PROBE:
+        d, d_std = float(x[0]), math.sqrt(max(cov[0, 0], 0.0))
+        if compensated:
+            cause = (
+                "the temperature compensation does not fit these runs: check device.toml "
+                "[motor] torque_constant_tempco and temperature_lag, and that [log] "
+                "temperature_column is the motor's winding or housing"
+            )
+        else:
+            cause = (
+                "a warming motor, whose torque constant falls as its magnets warm; log its "
+                "temperature and state its tempco (device.toml [log] temperature_column, "
+                "[motor] torque_constant_tempco)"
+            )
+        return (
+            "the torque's scale differs between the braking and the reverse pass by "
+            f"{d:+.2g} +- {d_std:.1g} in the run whose motor dissipated the most heat (in "
+            f"the others in proportion to their heat): {cause}; see docs/method.md §3, "
+            '"Temperature"'
+        )
     if test.kind == DRIVE_PROBE:
         ratio = (gains[0] + x[0]) / gains[1]
         ratio_std = math.sqrt(max(cov[0, 0], 0.0)) / gains[1]

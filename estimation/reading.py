@@ -41,6 +41,7 @@ from rsp_inertia.estimation.known_terms import KnownTerms
 from rsp_inertia.estimation.records import experiment_record
 from rsp_inertia.estimation.results import Identification
 from rsp_inertia.estimation.runs import ExperimentLogs, Sources, runs
+from rsp_inertia.estimation.tempco import TempcoFit
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.infra.files import file_sha256
 from rsp_inertia.infra.progress import say
@@ -267,7 +268,10 @@ def identify_experiment(
         )
     known, warnings = known_terms(exp, calibration)
     warnings += record_warnings
-    logs = read_experiment(exp)
+    # The tempco: calibration.toml's where calibrate measured it, else device.toml's.
+    alpha, alpha_std, tempco_warnings = _tempco(exp, calibration)
+    warnings += tempco_warnings
+    logs = read_experiment(exp, alpha)
     warnings += unterminated_warnings(logs)
     stiffness = None
     if calibration is not None and logs.pendulum:
@@ -277,13 +281,12 @@ def identify_experiment(
     found = identify_logs(
         logs, known, pendulum_stiffness=stiffness, warnings=warnings, conventions=conventions
     )
-    motor = exp.device.motor
-    if motor.torque_constant_tempco is not None and motor.torque_constant_tempco_std:
+    if alpha is not None and alpha_std:
         # The tempco's std, a consider parameter: the same runs identified with alpha one std
         # off give every estimate's response to it (docs/method.md §3, "Temperature").
         say(f"{TEMPCO_SOURCE}: the runs identified again with the tempco one std off")
         shifted = identify_logs(
-            read_experiment(exp, motor.torque_constant_tempco + motor.torque_constant_tempco_std),
+            read_experiment(exp, alpha + alpha_std),
             known, pendulum_stiffness=stiffness, conventions=conventions,
         )
         found = add_consider_line(found, shifted, TEMPCO_SOURCE)
@@ -296,12 +299,41 @@ def identify_experiment(
     return dataclasses.replace(found, record=record, decision=decision)
 
 
-def tempco_line(motor, logs: list[ExperimentLogs | None]) -> str:
+def _tempco(
+    exp: Experiment, calibration: CalibrationFile | None
+) -> tuple[float | None, float | None, list[str]]:
+    """(alpha, std, warnings) identify compensates the logs with: calibration.toml's ``[motor]``
+    where calibrate measured the tempco and device.toml states one (calibrated over stated,
+    as for the other terms), else device.toml's; a warning when device.toml's
+    ``reference_temperature`` is not the one the calibration's gains hold at."""
+    motor = exp.device.motor
+    alpha, std = motor.torque_constant_tempco, motor.torque_constant_tempco_std
+    measured = None if calibration is None else calibration.motor
+    if alpha is None or measured is None:
+        return alpha, std, []
+    warnings = []
+    if not math.isclose(measured.reference_temperature, motor.reference_temperature):
+        warnings.append(
+            f"{exp.calibration_path}: its gains hold at reference_temperature = "
+            f"{measured.reference_temperature:g} C, device.toml states "
+            f"{motor.reference_temperature:g} C: the torques are compensated to the latter "
+            "(set device.toml's back, or calibrate again)"
+        )
+    return measured.torque_constant_tempco, measured.torque_constant_tempco_std, warnings
+
+
+def tempco_line(
+    motor, logs: list[ExperimentLogs | None], found: TempcoFit | None = None
+) -> str:
     """calibrate's one line on the torque constant's tempco, when device.toml states one
-    (rsp_inertia.estimation.calibration.Calibration.tempco, printed with its result): it
-    stays device.toml's (calibrate does not estimate it, docs/method.md §3, "Temperature"), and
-    the calibration runs' magnet temperatures (their range and mean over every row), against
-    ``reference_temperature``, at which the calibrated gains hold; '' without a tempco.
+    (rsp_inertia.estimation.calibration.Calibration.tempco, printed with its result, not a
+    warning; docs/method.md §3, "Temperature"): the tempco the runs measured, with its std, the
+    runs' span of magnet temperature and the stated value; or that device.toml's is kept,
+    because the runs determine it no better than it is stated (to the runs' own std, against
+    the stated one) or because calibrate could not take it as an unknown (no std stated, no
+    reference, no temperature logged); with the calibration runs' magnet temperatures (their
+    range and mean over every row) against ``reference_temperature``, at which the calibrated
+    gains hold. '' without a tempco.
 
     Parameters
     ----------
@@ -309,6 +341,9 @@ def tempco_line(motor, logs: list[ExperimentLogs | None]) -> str:
         The calibration folders' (rsp_inertia.plant.config.Motor).
     logs : list of ExperimentLogs or None
         The calibration's runs (None: a folder not given).
+    found : TempcoFit, optional
+        What calibrate's fit found of alpha (rsp_inertia.estimation.tempco), when it took it
+        as an unknown.
 
     Returns
     -------
@@ -317,7 +352,7 @@ def tempco_line(motor, logs: list[ExperimentLogs | None]) -> str:
     """
     if motor.torque_constant_tempco is None:
         return ""
-    found = [
+    temperatures = [
         magnet_temperature(log.temperature, log.t, motor.temperature_lag)
         for folder in logs
         if folder is not None
@@ -325,17 +360,45 @@ def tempco_line(motor, logs: list[ExperimentLogs | None]) -> str:
         for log in pair
         if log.temperature is not None
     ]
-    std = motor.torque_constant_tempco_std
-    stated = f"{motor.torque_constant_tempco:g}" + ("" if std is None else f" +- {std:g}")
+    alpha, std = motor.torque_constant_tempco, motor.torque_constant_tempco_std
+    stated = f"{alpha:g}" + ("" if std is None else f" +- {std:g}")
+    gains_at = f"the calibrated gains hold at motor.reference_temperature = {motor.reference_temperature:g} C"
+    runs = ""
+    if temperatures:
+        every = np.concatenate(temperatures)
+        low, mean, high = float(every.min()), float(every.mean()), float(every.max())
+        runs = f"{high - low:.2f} K of magnet temperature ({low:.2f} to {high:.2f} C, mean {mean:.2f} C)"
+    if found is not None and found.informed:
+        return (
+            f"torque constant's tempco measured by the calibration runs: alpha = "
+            f"{found.estimate:.4g} +- {found.std:.2g} /K from their {runs}, against "
+            f"device.toml's {stated} /K; calibration.toml carries it and identify applies it "
+            f"({gains_at})"
+        )
+    if found is not None:
+        would = (
+            "carry no information on it"
+            if math.isinf(found.data_std)
+            else f"would determine it to +- {found.data_std:.2g} /K"
+        )
+        return (
+            f"the calibration runs span only {runs}: they {would} against device.toml's "
+            f"+- {std:g} /K, so device.toml's torque constant's tempco {alpha:g} /K is kept; "
+            f"{gains_at} (set it to the runs' mean magnet temperature, so that the tempco's "
+            "error hardly reaches them)"
+        )
+    if std is None:
+        why = "device.toml states no torque_constant_tempco_std"
+    elif not temperatures:
+        why = "the calibration logs carry no temperature"
+    else:
+        why = "without a reference experiment the torque's scale is not measured"
     line = (
-        "calibrate does not estimate the torque constant's tempco: it stays device.toml's "
-        f"motor.torque_constant_tempco = {stated} /K, and the calibrated gains hold at "
-        f"motor.reference_temperature = {motor.reference_temperature:g} C"
+        f"calibrate does not estimate the torque constant's tempco ({why}): it stays "
+        f"device.toml's motor.torque_constant_tempco = {stated} /K, and {gains_at}"
     )
-    if not found:
+    if not temperatures:
         return line
-    every = np.concatenate(found)
-    low, mean, high = float(every.min()), float(every.mean()), float(every.max())
     return (
         f"{line}; the calibration runs' magnets were at {low:.2f} to {high:.2f} C, mean "
         f"{mean:.2f} C (set reference_temperature to it, so that the tempco's error hardly "
@@ -450,7 +513,7 @@ def calibrate_experiment(
         cut += unterminated_warnings(reference_logs)
     if cut:
         result = dataclasses.replace(result, warnings=cut + list(result.warnings))
-    tempco = tempco_line(empty.device.motor, [empty_logs, reference_logs])
+    tempco = tempco_line(empty.device.motor, [empty_logs, reference_logs], result.tempco_fit)
     if tempco:
         result = dataclasses.replace(result, tempco=tempco)
     inputs = {}

@@ -50,6 +50,7 @@ from rsp_inertia.estimation.columns import (
     cause_probes,
     gravity_row_slopes,
     gravity_rows,
+    probe_bounds,
     run_columns,
     run_key,
     run_label,
@@ -57,6 +58,7 @@ from rsp_inertia.estimation.columns import (
     slope_unknowns,
 )
 from rsp_inertia.estimation.gls import (
+    DRIFT_SOURCE,
     GAP_SOURCE,
     NOISE_SOURCES,
     BalanceFit,
@@ -79,6 +81,7 @@ __all__ = [
     "TensorFit",
     "angle_slopes",
     "balance_rhs",
+    "drift_column",
     "fit_tensor",
     "pass_gain_unknown",
     "predict_tensor",
@@ -197,7 +200,14 @@ def pass_gain_unknown(run: str) -> str:
     return f"pass_gain[{run}]"
 
 
-def tensor_block(bal: StageBalance, run: str, known: KnownTerms, asymmetry: bool) -> Block:
+def tensor_block(
+    bal: StageBalance,
+    run: str,
+    known: KnownTerms,
+    asymmetry: bool,
+    hottest: float | None = None,
+    drift_std: float | None = None,
+) -> Block:
     """One run's equations in the tensor's unknowns (module docstring).
 
     Parameters
@@ -210,6 +220,13 @@ def tensor_block(bal: StageBalance, run: str, known: KnownTerms, asymmetry: bool
         The rig's known terms: the right-hand side and, when calibrated, their Jacobians.
     asymmetry : bool
         The run's stage is run in both directions, so its friction asymmetry is an unknown.
+    hottest : float, optional
+        The largest heat gap of the fit's runs (StageBalance.heat_gap), for the warming probe
+        (rsp_inertia.estimation.columns.cause_probes); default: this run's.
+    drift_std : float, optional
+        The relative std of a torque scale that may drift between the run's passes
+        (device.toml ``[motor] torque_constant_drift_std``): the reverse pass's received work
+        times it is the run's considered column (rsp_inertia.estimation.gls DRIFT_SOURCE).
 
     Returns
     -------
@@ -217,14 +234,14 @@ def tensor_block(bal: StageBalance, run: str, known: KnownTerms, asymmetry: bool
         The run's equations for rsp_inertia.estimation.gls.assemble_blocks.
     """
     v = tensor_basis(bal.phi, bal.gear_ratio)
-    probes = cause_probes(bal)
+    probes = cause_probes(bal, hottest)
     half_s = 0.5 * bal.speed_sq
     cols = {name: half_s * v[:, i] for i, name in enumerate(ENTRY_KEYS)}
     cols.update(zip(GRAVITY_NAMES, gravity_rows(bal.phi).T))
     cols.update(run_columns(bal, run, asymmetry))
     pass_gain = bal.pass_gain and bal.reverse_work is not None
     if pass_gain:  # the body received (1 + d) x the reverse's work: on the unknowns' side
-        cols[pass_gain_unknown(run)] = -bal.work_scales(known.gains)[1] * bal.reverse_work
+        cols[pass_gain_unknown(run)] = -drift_column(bal, known, 1.0)[DRIFT_SOURCE]
     return Block(
         balance=bal,
         label=run_label(bal),
@@ -239,16 +256,50 @@ def tensor_block(bal: StageBalance, run: str, known: KnownTerms, asymmetry: bool
         angle_slopes=angle_slopes(bal),
         probes=probes[0],
         probes_per_inertia=probes[1],
+        probe_bounds=probe_bounds(known.gains),
         groups={name: run_label(bal) for name in ENTRY_KEYS},
         joint_only=frozenset(
             name for name in cols if name.startswith(("e", "pass_gain"))
         ),
         priors=run_priors(bal, cols, run),
+        considered={} if pass_gain else drift_column(bal, known, drift_std),
     )
 
 
+def drift_column(
+    bal: StageBalance, known: KnownTerms, drift_std: float | None
+) -> dict[str, np.ndarray]:
+    """{DRIFT_SOURCE: column}: what one std of a torque scale drifting between the run's passes
+    adds to its balance, the reverse pass's received work times ``drift_std``
+    (docs/method.md §5, "A torque scale that differs between the passes"); empty without a
+    std or without the reverse's work.
+
+    Parameters
+    ----------
+    bal : StageBalance
+        The run's balance (its ``reverse_work``, ``reverse_work_back``).
+    known : KnownTerms
+        The drive's gains (h_d, h_b) on the reverse's driving and back-driven work.
+    drift_std : float or None
+        The relative std of the reverse's torque scale against the braking's.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        The budget line's name and the column, or empty.
+    """
+    if not drift_std or bal.reverse_work is None:
+        return {}
+    back = np.zeros(len(bal.phi)) if bal.reverse_work_back is None else bal.reverse_work_back
+    h_d, h_b = known.gains
+    return {DRIFT_SOURCE: drift_std * (h_d * (bal.reverse_work - back) + h_b * back)}
+
+
 def fit_tensor(
-    balances: list[StageBalance], known: KnownTerms | None = None, tests: bool = True
+    balances: list[StageBalance],
+    known: KnownTerms | None = None,
+    tests: bool = True,
+    drift_std: float | None = None,
 ) -> TensorFit:
     """Generalised least squares for the tensor and the gravity terms (module docstring).
 
@@ -265,6 +316,10 @@ def fit_tensor(
         The rig's known terms; device.toml's tares as exact by default.
     tests : bool, optional
         False: no model tests (a rehearsal of a plan, rsp_inertia.design.rehearsal).
+    drift_std : float, optional
+        The relative std of a torque scale that may drift between each run's passes
+        (device.toml ``[motor] torque_constant_drift_std``): propagated as the budget line
+        rsp_inertia.estimation.gls DRIFT_SOURCE (:func:`drift_column`).
 
     Returns
     -------
@@ -273,7 +328,7 @@ def fit_tensor(
         scales and friction terms, and the model tests.
     """
     known = _known_or_tares(balances, known)
-    equations = _equations(balances, known)
+    equations = _equations(balances, known, drift_std)
     scales = speed_noise_scales(equations)
     fit = solve_blocks(equations, scales)
     tensor = _tensor_fit(
@@ -281,19 +336,24 @@ def fit_tensor(
     )
     if tensor.pass_gain is None:
         return tensor
-    fixed = solve_blocks(_equations(_without_pass_gain(balances), known), scales)
+    fixed = solve_blocks(_equations(_without_pass_gain(balances), known, drift_std), scales)
     ratio = max(fit.chi2_dof, 1.0) / max(fixed.chi2_dof, 1.0)
     return _with_pass_gain_share(tensor, _tensor_fit(balances, known, fixed, []), ratio)
 
 
-PASS_GAIN_SOURCE = "torque scale between the passes"
+PASS_GAIN_SOURCE = "torque scale between the passes, fitted"
 """Budget line of the runs' pass gains (:func:`pass_gain_unknown`): what fitting them adds to
-the tensor's covariance."""
+the tensor's covariance (a run that fits its pass gain has no considered drift,
+rsp_inertia.estimation.gls DRIFT_SOURCE: the fit measures it)."""
 
 
 def _without_pass_gain(balances: list[StageBalance]) -> list[StageBalance]:
-    """The balances with no pass gain fitted."""
-    return [dataclasses.replace(bal, pass_gain=False) for bal in balances]
+    """The balances with no pass gain fitted, and no considered drift where they had one
+    (the same fit with the pass gains known to be zero)."""
+    return [
+        dataclasses.replace(bal, pass_gain=False, reverse_work=None) if bal.pass_gain else bal
+        for bal in balances
+    ]
 
 
 def _with_pass_gain_share(free: TensorFit, fixed: TensorFit, ratio: float) -> TensorFit:
@@ -343,10 +403,16 @@ def _known_or_tares(balances: list[StageBalance], known: KnownTerms | None) -> K
     return known
 
 
-def _equations(balances: list[StageBalance], known: KnownTerms) -> Equations:
+def _equations(
+    balances: list[StageBalance], known: KnownTerms, drift_std: float | None = None
+) -> Equations:
     """Every run's block (:func:`tensor_block`), assembled for the least squares."""
     both = both_directions(balances)
-    blocks = [tensor_block(bal, str(k), known, bal.stage in both) for k, bal in enumerate(balances)]
+    hottest = max(bal.heat_gap for bal in balances)
+    blocks = [
+        tensor_block(bal, str(k), known, bal.stage in both, hottest, drift_std)
+        for k, bal in enumerate(balances)
+    ]
     return assemble_blocks(
         blocks,
         known.cov if known.calibrated else None,
@@ -362,7 +428,8 @@ def _tensor_fit(
     """The TensorFit of the least squares' solution ``fit`` and its model tests ``tests``."""
     both = both_directions(balances)
     one_direction = len(both) < len({bal.stage for bal in balances})
-    model_tests = described(tests, known, one_direction)
+    compensated = any(bal.compensated for bal in balances)
+    model_tests = described(tests, known, one_direction, compensated)
     shared = [fit.index(name) for name in SHARED_LAYOUT.names()]
     n_runs, stages = len(balances), sorted({bal.stage for bal in balances})
     n_slopes, n_terms = len(slope_unknowns("")), len(asymmetry_unknowns(""))

@@ -134,6 +134,16 @@ class Motor:
         "reports per pass), else the one of ``torque_constant``'s datasheet. Needed by "
         "``torque_constant_tempco``, refused without it.",
     )
+    torque_constant_drift_std: float | None = key(
+        None,
+        unit="relative",
+        bound=Bound("within [0, 0.01] (relative: 0.02 % is 0.0002)", lambda s: 0 <= s <= 0.01),
+        doc="The relative std of a change of the torque's scale between a run's braking and "
+        "its reverse pass that the rig may have and does not measure (a motor warming between "
+        "the passes, its temperature not logged or not compensated): identify propagates it, "
+        "independently for each run, as the budget line 'torque scale between the passes' "
+        "(docs/method.md §5). None: the passes share one scale.",
+    )
 
 
     def torque_scale_std(self) -> float | None:

@@ -560,6 +560,7 @@ def test_calibration_toml_keys_are_documented_and_exist():
     from rsp_inertia.estimation.calibration import Calibration
     from rsp_inertia.estimation.known_terms import KnownTerms
     from rsp_inertia.estimation.stiffness import StiffnessCalibration
+    from rsp_inertia.estimation.tempco import TempcoFit
 
     fields = _calibration_keys()
     documented = _documented("calibration.toml")
@@ -592,6 +593,11 @@ def test_calibration_toml_keys_are_documented_and_exist():
         date="2026-11-18",
         certificate=config.Certificate(id="RB-1", issuer="Lab", date="2026-03-02"),
         stiffness=StiffnessCalibration(2.0, 1e-3, [(1, 0.0, 2.0, 1e-3)], math.nan, []),
+        # A tempco the runs measured (its std a fifth of the stated one): calibration.toml [motor].
+        tempco_fit=TempcoFit(
+            stated=-0.0011, stated_std=1e-4, estimate=-0.0009, std=2e-5,
+            covariance=(0.0,) * tares.cov.shape[0], reference_temperature=25.0,
+        ),
     )
     doc = tomllib.loads(calibration.to_toml())
     written = set()

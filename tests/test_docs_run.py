@@ -52,6 +52,8 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
+import pytest
+
 from rsp_inertia.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -398,6 +400,7 @@ def test_real_rig_virtual_tomls_are_the_demos():
         assert page == demo, folder
 
 
+@pytest.mark.slow  # 86 s, the default suite's longest: run by -m slow and `python -m tests.test_docs_run`
 def test_real_rig_session_prints_what_the_page_shows(tmp_path):
     """docs/real-rig.md from its first file to its last command, every printed line compared
     (78 s on 2 cores at a load average of 1, 135 s at 3: in the default suite all the same,

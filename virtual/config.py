@@ -276,22 +276,31 @@ class Rig:
         "simplest case of a torque constant that differs between the passes, (1 + alpha "
         "this) on the reverse's torque alone.",
     )
+    run_start_rise: float = key(
+        0.0,
+        unit="K",
+        doc="Run k of the experiment (0-based, in the order the device makes its runs: stage "
+        "by stage, its directions in device.toml's order) starts with winding and magnets k "
+        "x this above the ambient (a motor not left to cool between the runs: it cools "
+        "towards its steady rise through each run, rsp_inertia.virtual.thermal); 0: every "
+        "run starts at the ambient. Calibration runs that span the magnets' temperature.",
+    )
     temperature_noise: float = key(
         0.05,
         unit="K",
         bound=">= 0",
         doc="Standard deviation of the logged temperature's sensor noise (then rounded to "
         "0.1 K), on a rig with a thermal model (winding_resistance and thermal_resistance > "
-        "0, or a reverse_temperature_offset); without one the logger writes the ambient, "
-        "no noise.",
+        "0, a reverse_temperature_offset or a run_start_rise); without one the logger writes "
+        "the ambient, no noise.",
     )
 
     @property
     def thermal(self) -> bool:
-        """Whether the motor's temperature moves: the winding heats (R and R_th > 0) or the
-        reverse runs at a prescribed offset (rsp_inertia.virtual.thermal)."""
+        """Whether the motor's temperature moves: the winding heats (R and R_th > 0), the
+        reverse runs at a prescribed offset or the runs start warm (rsp_inertia.virtual.thermal)."""
         heats = self.winding_resistance > 0.0 and self.thermal_resistance > 0.0
-        return heats or self.reverse_temperature_offset != 0.0
+        return heats or self.reverse_temperature_offset != 0.0 or self.run_start_rise != 0.0
 
     @property
     def drive_gains(self) -> tuple[float, float]:

@@ -70,7 +70,7 @@ from rsp_inertia.virtual.integrate import (
     true_parameters,
 )
 from rsp_inertia.virtual.reverse import ideal_program, run_program, simulate_ideal_reverse
-from rsp_inertia.virtual.thermal import COLD, MotorState, advance_motor, heating_power
+from rsp_inertia.virtual.thermal import MotorState, advance_motor, heating_power, run_start
 
 __all__ = [
     "MAX_BRAKING_TIME",
@@ -179,22 +179,25 @@ def simulate_braking(
     command, u = braking_torque(st, virtual, s)
     rig = virtual.rig
     power = heating_power(rig, command)  # W, constant: the command is
+    start = run_start(rig, device, stage, direction)  # the motor at the run's start
     x0 = np.array([s * math.radians(release_angle(st, virtual)), s * st.launch_speed])
     switch = _switch_sample(st, x0, u, s, p, dt, stage)
     motor = None
     if switch is not None:  # a two-level braking: the command and the heating by sample
         command_2 = -s * st.braking_torque_2
         commands = lambda k: np.where(k < switch, command, command_2)
-        motor = _two_level_motor(rig, power, heating_power(rig, command_2), switch * dt)
+        motor = _two_level_motor(
+            rig, start, power, heating_power(rig, command_2), switch * dt
+        )
     if rig.thermal and rig.torque_constant_tempco != 0.0:
         gains = rig.drive_gains
         tempco = rig.torque_constant_tempco
 
         def u(k: int, count: int) -> np.ndarray:
-            """The torques over samples k.. as the magnets warm from the ambient."""
+            """The torques over samples k.. as the magnets warm from the run's start."""
             rows = np.arange(k, k + count)
             if switch is None:
-                magnet = advance_motor(rig, COLD, power, rows * dt)[1]
+                magnet = advance_motor(rig, start, power, rows * dt)[1]
                 return delivered_torque(command, s, thermal_gains(gains, tempco, magnet))
             magnet = motor(rows * dt)[1]
             return delivered_torque(commands(rows), s, thermal_gains(gains, tempco, magnet))
@@ -217,7 +220,7 @@ def simulate_braking(
     temperatures = {}
     if rig.thermal:
         if motor is None:
-            motor = lambda h: advance_motor(rig, COLD, power, h)
+            motor = lambda h: advance_motor(rig, start, power, h)
         winding, magnet = motor(t)
         end_motor = MotorState(*motor(end_time))
         temperatures = {"winding": winding, "magnet": magnet, "end_motor": end_motor}
@@ -263,14 +266,16 @@ def _switch_sample(st: Stage, x0, u: float, s: float, p, dt: float, stage: int) 
     return switch
 
 
-def _two_level_motor(rig, power_1: float, power_2: float, switch_time: float):
+def _two_level_motor(
+    rig, start: MotorState, power_1: float, power_2: float, switch_time: float
+):
     """The winding's and the magnets' rises at times t (s) of a two-level braking: heated by
-    ``power_1`` from the ambient until ``switch_time``, by ``power_2`` after."""
-    at_switch = MotorState(*advance_motor(rig, COLD, power_1, switch_time))
+    ``power_1`` from ``start`` (the run's) until ``switch_time``, by ``power_2`` after."""
+    at_switch = MotorState(*advance_motor(rig, start, power_1, switch_time))
 
     def motor(t):
         t = np.asarray(t, dtype=float)
-        w1, m1 = advance_motor(rig, COLD, power_1, np.minimum(t, switch_time))
+        w1, m1 = advance_motor(rig, start, power_1, np.minimum(t, switch_time))
         w2, m2 = advance_motor(rig, at_switch, power_2, np.maximum(t - switch_time, 0.0))
         before = t < switch_time
         return np.where(before, w1, w2), np.where(before, m1, m2)

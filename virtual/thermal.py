@@ -22,7 +22,9 @@ about 1e-4 K in a 1 ms sample, a factor of 1e-7.
 
 What carries from pass to pass, deterministically: every run (a braking and its reverse)
 starts with winding and magnets at the ambient (the motor has cooled between runs, and
-calibration and loaded runs are separate folders); the reverse starts at the braking's end
+calibration and loaded runs are separate folders), or, with ``[rig] run_start_rise``, run k
+of the experiment k times that above it (:func:`run_start`: a motor not left to cool, whose
+runs span the magnets' temperature, as a calibration that measures the tempco needs); the reverse starts at the braking's end
 temperatures, at once (no pause between the passes); pilot and pendulum runs stay at the
 ambient. ``[rig] reverse_temperature_offset`` adds a prescribed rise to the whole motor for
 every reverse pass on top of this. The logger records the winding's temperature (a sensor on
@@ -36,6 +38,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rsp_inertia.plant.config import Device
+from rsp_inertia.plant.direction import Direction
 from rsp_inertia.virtual.config import Rig
 
 __all__ = [
@@ -45,6 +49,7 @@ __all__ = [
     "advance_motor",
     "heating_power",
     "logged_temperature",
+    "run_start",
 ]
 
 TEMPERATURE_QUANTUM = 0.1
@@ -63,6 +68,36 @@ class MotorState:
 
 COLD = MotorState()
 """A motor at the ambient: every run starts so."""
+
+
+def run_start(rig: Rig, device: Device, stage: int, direction: Direction) -> MotorState:
+    """The motor's rises at the start of the run of ``stage`` in ``direction``: k x ``[rig]
+    run_start_rise`` for both winding and magnets, k the run's place (from 0) in the order the
+    device makes its runs, stage by stage, its directions in device.toml's order
+    (:data:`COLD` when the key is 0, today's runs).
+
+    Parameters
+    ----------
+    rig : Rig
+        virtual.toml ``[rig]``.
+    device : Device
+        The gimbal: its stages and their directions.
+    stage : int
+        The stage, from 1.
+    direction : Direction
+        The run's direction.
+
+    Returns
+    -------
+    MotorState
+        The rises, K.
+    """
+    if rig.run_start_rise == 0.0:
+        return COLD
+    before = sum(len(st.directions) for st in device.stages[: stage - 1])
+    k = before + list(device.stages[stage - 1].directions).index(direction)
+    rise = k * rig.run_start_rise
+    return MotorState(winding=rise, magnet=rise)
 
 
 def heating_power(rig: Rig, command):

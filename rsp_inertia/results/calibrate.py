@@ -73,6 +73,10 @@ class CalibrateResult(Drawn):
         N m.
     stiffness, stiffness_std : float or None
         N m/rad, the torsion pendulum's stiffness, when both folders have pendulum runs.
+    tempco, tempco_std : float or None
+        1/K, the torque constant's tempco alpha and its std, when the calibration runs
+        measured it (calibration.toml ``[motor]``; docs/method.md §3, "Temperature"); None:
+        identify takes device.toml's.
     chi2_dof : float
         Residual chi^2 per degree of freedom of the calibration fit.
     warnings : tuple of str
@@ -193,6 +197,18 @@ class CalibrateResult(Drawn):
         return None if pendulum is None else pendulum.stiffness_std
 
     @property
+    def tempco(self) -> float | None:
+        """1/K, the tempco the runs measured (None: device.toml's is kept)."""
+        motor = self._file.motor
+        return None if motor is None else motor.torque_constant_tempco
+
+    @property
+    def tempco_std(self) -> float | None:
+        """1/K, its std."""
+        motor = self._file.motor
+        return None if motor is None else motor.torque_constant_tempco_std
+
+    @property
     def chi2_dof(self) -> float:
         """Residual chi^2 per degree of freedom of the calibration fit."""
         return self._file.calibration.chi2_dof
@@ -221,7 +237,8 @@ class CalibrateResult(Drawn):
         str
             ``{"calibration": {"device", "counts_per_rev", "reference", "chi2_dof"},
             "drive": {...}, "encoder": {...}, "fixture": {...}, "stage": [...], "pendulum":
-            {...} (when calibrated), "covariance": {...}, "inputs": {...}, "warnings": [...]}``
+            {...} (when calibrated), "covariance": {...}, "motor": {...} (when the tempco was
+            measured), "inputs": {...}, "warnings": [...]}``
             (NaN written as null).
         """
         doc = document(self._file)

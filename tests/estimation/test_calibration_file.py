@@ -592,3 +592,33 @@ def test_an_experiments_calibration_that_is_not_toml_is_one_line(tmp_path):
         reading.read_calibration(exp)
     assert str(error.value).startswith(f"{exp.calibration_path}: cannot read as TOML: ")
     assert "\n" not in str(error.value)
+
+
+# --- the tempco the calibration runs measured ([motor]) --------------------------------------
+
+
+def test_a_measured_tempco_reads_back_and_a_kept_one_is_not_written(tmp_path):
+    from rsp_inertia.estimation.tempco import TempcoFit
+
+    cal = calibration()
+    size = len(cal.known.names())
+    cov = tuple(1e-12 * (k + 1) for k in range(size))
+    measured = TempcoFit(stated=-0.0011, stated_std=1e-4, estimate=-0.00082, std=1.9e-5,
+                         covariance=cov, reference_temperature=25.0)
+    cal = dataclasses.replace(cal, tempco_fit=measured)
+    text = cal.to_toml()
+    file = read_calibration_file(tomllib.loads(text))
+    assert file == cal.to_file()
+    assert (file.motor.torque_constant_tempco, file.motor.torque_constant_tempco_std) == (
+        -0.00082, 1.9e-5)
+    assert file.motor.covariance == cov and file.motor.reference_temperature == 25.0
+    # One of its keys per parameter of [covariance], else one line naming the key.
+    path = tmp_path / "calibration.toml"
+    path.write_text(text.replace("covariance = [1e-12, ", "covariance = ["))
+    with pytest.raises(InputError) as error:
+        read_calibration_file(path)
+    assert str(error.value).startswith(f"{path}: motor.covariance: must have one entry per")
+    # Runs that did not measure it (posterior variance half the prior's): no [motor].
+    kept = dataclasses.replace(measured, std=1e-4 / math.sqrt(2))
+    assert not kept.informed
+    assert dataclasses.replace(cal, tempco_fit=kept).to_file().motor is None

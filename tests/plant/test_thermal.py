@@ -166,3 +166,40 @@ def test_calibrate_says_in_one_line_that_the_tempco_stays_device_tomls():
         torque_constant_tempco = None
 
     assert tempco_line(NoTempco, [logs]) == ""
+
+
+def test_calibrates_tempco_line_says_what_the_runs_measured_or_why_it_is_kept():
+    # The runs' information on alpha against the stated prior's (rsp_inertia.estimation
+    # .tempco): var_post = 1 / (1 / var_prior + 1 / var_data).
+    from types import SimpleNamespace
+
+    from rsp_inertia.estimation.reading import tempco_line
+    from rsp_inertia.estimation.tempco import TempcoFit
+
+    t = np.arange(4) * 1e-3
+    logs = SimpleNamespace(runs={(1, "f"): (
+        Log(t=t, phi=t, torque=np.zeros(4), temperature=np.full(4, 24.0)),
+        Log(t=t, phi=t, torque=np.zeros(4), temperature=np.full(4, 29.0)),
+    )})
+
+    class Stated(Motor):
+        torque_constant_tempco_std = 1e-4
+
+    def fit(data_std):
+        post = 1.0 / math.sqrt(1.0 / 1e-4**2 + 1.0 / data_std**2)
+        return TempcoFit(stated=-0.0011, stated_std=1e-4, estimate=-0.0009, std=post)
+
+    measured = fit(2e-5)
+    assert measured.informed and measured.data_std == pytest.approx(2e-5, rel=1e-9)
+    line = tempco_line(Stated, [logs], measured)
+    assert "\n" not in line
+    for part in ("measured by the calibration runs", f"alpha = -0.0009 +- {measured.std:.2g} /K",
+                 "5.00 K of magnet temperature", "device.toml's -0.0011 +- 0.0001 /K"):
+        assert part in line, line
+    # Information equal to the prior's: the posterior variance half the prior's, not enough.
+    weak = fit(1e-4)
+    assert not weak.informed
+    line = tempco_line(Stated, [logs], weak)
+    would = "would determine it to +- 0.0001 /K against device.toml's +- 0.0001 /K"
+    for part in ("span only 5.00 K", would, "-0.0011 /K is kept"):
+        assert part in line, line

@@ -270,3 +270,28 @@ def test_a_warming_motor_on_a_drive_that_jitters_drops_and_holds(default_device,
     today = delivered_torque(reverse.log.torque, np.sign(reverse.truth.omega), gains)
     factor = 1 + ALPHA * reverse.truth.magnet
     np.testing.assert_allclose(reverse.truth.torque[moving], (factor * today)[moving], rtol=1e-13)
+
+
+def test_runs_start_warmer_by_the_rise_and_cool_as_the_model_says(default_device, virtual):
+    # No heating, magnets at the winding: run k (stage k + 1 of the default device, forward
+    # only) starts k dT above the ambient and cools along dT k exp(-t / tau_w), and the body
+    # receives the cold run's torque times 1 + alpha (T_magnet - ambient), row by row.
+    dT = 3.0
+    rig = {"torque_constant_tempco": ALPHA, "winding_time_constant": 60.0}
+    cold = with_rig(virtual, **rig)
+    warm = with_rig(virtual, run_start_rise=dT, **rig)
+    first = vd.simulate_braking(default_device, 1, warm)
+    assert np.array_equal(first.truth.magnet, np.zeros(len(first.truth.t)))
+    assert np.array_equal(first.log.torque, vd.simulate_braking(default_device, 1, cold).log.torque)
+    second = vd.simulate_braking(default_device, 2, warm)
+    truth = second.truth
+    np.testing.assert_allclose(truth.magnet, dT * np.exp(-truth.t / 60.0), rtol=1e-12, atol=0.0)
+    base = vd.simulate_braking(default_device, 2, virtual).truth.torque[0]
+    np.testing.assert_allclose(truth.torque, base * (1 + ALPHA * truth.magnet), rtol=1e-14)
+    # The log records it: the ambient plus the rise, within the sensor's noise.
+    T = second.log.temperature
+    assert abs(T[0] - (warm.rig.ambient_temperature + dT)) <= (
+        6 * warm.rig.temperature_noise + TEMPERATURE_QUANTUM / 2
+    )
+    # The reverse starts where the braking left the motor.
+    assert truth.end_motor.magnet == pytest.approx(dT * np.exp(-truth.end_time / 60.0), rel=1e-12)
