@@ -62,7 +62,7 @@ from rsp_inertia.plant.model import (
     reduced_inertia,
     static_torque,
 )
-from rsp_inertia.virtual.device import MAX_BRAKING_TIME, integrate_to_stop
+from rsp_inertia.virtual.device import MAX_BRAKING_TIME, integrate_to_stop, samples_to_angle
 
 __all__ = [
     "MIN_LOSS_PER_TURN",
@@ -177,6 +177,12 @@ class Candidate:
     """N m, the static torque where the braking stops."""
     run_time: float = math.nan
     """s, spin-up + braking + reverse, times the stage's directions."""
+    braking_torque_2: float | None = None
+    """N m, a two-level braking's torque after ``braking_switch_turns`` (device.toml
+    ``braking_torque_2``); None: one level. A two-level candidate's information has each
+    run's pass gain marginalised (rsp_inertia.estimation.tensor_fit.pass_gain_unknown)."""
+    braking_switch_turns: float | None = None
+    """Turns from the release where a two-level braking switches."""
     violations: tuple[str, ...] = ()
     """The limits it breaks, one phrase each (with the numbers)."""
     information: np.ndarray | None = field(default=None, repr=False)
@@ -218,6 +224,8 @@ def evaluate(
     launch_speed: float,
     braking_torque: float,
     max_time: float = MAX_BRAKING_TIME,
+    braking_torque_2: float | None = None,
+    switch_turns: float | None = None,
 ) -> Candidate:
     """One protocol of a stage on its nominal model: limits and predicted information.
 
@@ -233,6 +241,12 @@ def evaluate(
         N m, the protocol's braking torque, against the motion.
     max_time : float, optional
         s, the longest braking admitted.
+    braking_torque_2 : float, optional
+        N m: a two-level braking, this torque after ``switch_turns`` turns from the release
+        (``braking_torque`` before); its balances fit each run's pass gain (the information
+        has it marginalised). None: one level.
+    switch_turns : float, optional
+        Turns, with ``braking_torque_2``.
 
     Returns
     -------
@@ -245,13 +259,30 @@ def evaluate(
     p = model.vector
     usable = (1 - TORQUE_MARGIN) * device.motor.torque_limit
     usable_rate = (1 - TORQUE_MARGIN) * device.motor.torque_rate_limit
-    base = Candidate(sm.stage, float(launch_speed), float(braking_torque))
+    two = braking_torque_2 is not None
+    base = Candidate(
+        sm.stage, float(launch_speed), float(braking_torque),
+        braking_torque_2=float(braking_torque_2) if two else None,
+        braking_switch_turns=float(switch_turns) if two else None,
+    )
     release = math.radians(planned_release(st))
     dt = device.encoder.dt
     h = dt * max(1, round(INTEGRATION_STEP / dt))
-    stop = integrate_to_stop(
-        np.array([release, launch_speed]), -braking_torque, 1.0, p, h, max_time, coarse=True
-    )
+    x0 = np.array([release, launch_speed])
+    switch_time = math.inf  # s, when a two-level braking switches (never: one level)
+    u_step = -braking_torque
+    if two:
+        k = samples_to_angle(x0, -braking_torque, 1.0, p, h, 2 * math.pi * switch_turns, max_time)
+        if k is None:
+            return dataclasses.replace(
+                base, violations=(f"the braking stops before its switch at {switch_turns:g} turns",)
+            )
+        switch_time = k * h
+
+        def u_step(first: int, count: int) -> np.ndarray:
+            return np.where(np.arange(first, first + count) < k, -braking_torque, -braking_torque_2)
+
+    stop = integrate_to_stop(x0, u_step, 1.0, p, h, max_time, coarse=True)
     if stop is None:
         return dataclasses.replace(base, violations=(f"the braking lasts more than {max_time:.0f} s",))
     tc, traj, end_time, end_phi = stop
@@ -261,14 +292,14 @@ def evaluate(
     # with eps), the stop appended as the last knot.
     knots_t = np.append(tc[tc < end_time], end_time)
     knots = np.vstack([traj[: knots_t.size - 1], [end_phi, 0.0]])
-    u_c = np.full(knots_t.size, -braking_torque)
+    u_c = np.where(knots_t < switch_time, -braking_torque, -(braking_torque_2 or 0.0))
     eps_c = np.asarray(acceleration(knots[:, 0], knots[:, 1], u_c, model, np.ones(knots_t.size))).ravel()
     t = np.arange(math.floor(end_time / dt * (1 - 1e-12)) + 1) * dt
     k = np.clip(np.searchsorted(knots_t, t, side="right") - 1, 0, knots_t.size - 2)
     a, b = knots_t[k], knots_t[k + 1]
     phi = hermite(a, b, knots[k, 0], knots[k, 1], knots[k + 1, 0], knots[k + 1, 1], t)
     omega = hermite(a, b, knots[k, 1], eps_c[k], knots[k + 1, 1], eps_c[k + 1], t)
-    u = np.full(t.size, -braking_torque)
+    u = np.where(t < switch_time, -braking_torque, -(braking_torque_2 or 0.0))
     eps = np.asarray(acceleration(phi, omega, u, model, np.ones_like(omega))).ravel()
     braking = PlannedPass(t, phi, omega, eps, u)
     shape = braking.mirrored(np.zeros(t.size))
@@ -281,14 +312,22 @@ def evaluate(
     loss = 1.0 - (one_turn / launch_speed) ** 2
     peak = float(np.abs(reverse_torque).max())
     skip = min(round(RATE_SKIP / dt), t.size - 2)
-    rate = float(np.abs(np.diff(reverse_torque[skip:])).max() / dt) if t.size - skip > 2 else 0.0
+    steps = np.abs(np.diff(reverse_torque))
+    switch_step = 0.0  # s the reverse spends at the rate limit at a two-level braking's switch
+    if two and np.isfinite(switch_time):
+        # The mirror steps by the levels' difference where the braking switched: like the
+        # step from the hold, the OCP's to smooth, at the drive's full rate (RATE_SKIP about it).
+        at = t.size - 1 - int(np.searchsorted(t, switch_time))
+        steps[max(at - skip, 0) : at + skip] = 0.0
+        switch_step = abs(braking_torque_2 - braking_torque) / device.motor.torque_rate_limit
+    rate = float(steps[skip:].max() / dt) if t.size - skip > 2 else 0.0
     hold_signed = float(static_torque(end_phi, model))
     hold = abs(hold_signed)
     # The reverse starts from the hold torque; the mirror's first torque is reached at the
     # drive's full rate (the OCP's bound), a time the drive spends at its rate limit.
     step_time = abs(reverse_torque[0] - hold_signed) / device.motor.torque_rate_limit
     spring = model.stiffness * float(np.mean(np.abs(phi - model.zero_angle)))
-    known = braking_torque + spring
+    known = max(braking_torque, braking_torque_2 or 0.0) + spring
     directions = len(st.directions)
     run_time = directions * (_spin_up_time(device, model, launch_speed) + 2 * end_time)
     violations = []
@@ -313,6 +352,12 @@ def evaluate(
             f"the hold ({hold_signed:.3g} N m) to the mirror's {reverse_torque[0]:.3g} N m, "
             f"over {START_STEP_SHARE:.2%} of the {end_time:.2f} s pass"
         )
+    if switch_step > START_STEP_SHARE * end_time:
+        violations.append(
+            f"the reverse spends {switch_step * 1e3:.0f} ms at the torque-rate limit where the "
+            f"braking switched ({braking_torque:.3g} -> {braking_torque_2:.3g} N m), over "
+            f"{START_STEP_SHARE:.2%} of the {end_time:.2f} s pass"
+        )
     if sm.coulomb > NOMINAL_COULOMB_SHARE * known:
         violations.append(
             f"a1 (up to {sm.coulomb:.3g} N m) is over {NOMINAL_COULOMB_SHARE:.0%} of the "
@@ -328,7 +373,10 @@ def evaluate(
     info = None
     if not violations:
         try:
-            balance = predicted_balance(device, sm.stage, braking, reverse, sm.torque_noise)
+            switch = int(np.searchsorted(t, switch_time)) if two else None
+            balance = predicted_balance(
+                device, sm.stage, braking, reverse, sm.torque_noise, switch
+            )
         except InputError:
             past = turns_past_last_node([phi[0], end_phi], st.nodes)
             violations.append(
@@ -353,7 +401,13 @@ def evaluate(
     )
 
 
-def stage_candidates(device: Device, sm: StageModel, max_duration: float) -> list[Candidate]:
+SWITCH_TURNS = (1.0, 2.0, 4.0, 8.0)
+"""Turns from the release after which a two-level candidate switches (``plan --two-level``)."""
+
+
+def stage_candidates(
+    device: Device, sm: StageModel, max_duration: float, two_level: bool = False
+) -> list[Candidate]:
     """The grid of protocols of one stage (module docstring), each evaluated.
 
     Parameters
@@ -364,6 +418,11 @@ def stage_candidates(device: Device, sm: StageModel, max_duration: float) -> lis
         What the planner knows of the stage.
     max_duration : float
         s, the experiment's longest duration: bounds each braking (half of it per direction).
+    two_level : bool, optional
+        Two-level brakings only (``plan --two-level``, docs/method.md, "A torque scale that
+        differs between the passes"): per launch speed, coasting for each of
+        :data:`SWITCH_TURNS` turns, then each braking torque of the grid but none; their
+        information has each run's pass gain marginalised.
 
     Returns
     -------
@@ -396,8 +455,13 @@ def stage_candidates(device: Device, sm: StageModel, max_duration: float) -> lis
         low = max(room / 200, sm.coulomb / NOMINAL_COULOMB_SHARE)
         torques = [0.0] + list(np.geomspace(low, room, N_TORQUES - 1)) if room > low else [0.0]
         for torque in dict.fromkeys(_rounded(torques, down=True)):
-            c = evaluate(device, sm, speed, torque, max_time)
-            out.append(c)
+            if not two_level:
+                out.append(evaluate(device, sm, speed, torque, max_time))
+                continue
+            if torque == 0.0:
+                continue
+            for turns in SWITCH_TURNS:
+                out.append(evaluate(device, sm, speed, 0.0, max_time, torque, turns))
     return out
 
 

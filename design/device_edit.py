@@ -1,7 +1,8 @@
 """The device.toml edit that ``plan`` makes: each stage's chosen protocol written in place.
 
-``launch_speed``, ``braking_torque`` and the release the plan assumed (``release_angle_deg``)
-go into each ``[[stage]]`` table of device.toml, the file's comments and key order kept
+``launch_speed``, ``braking_torque`` (a two-level braking's ``braking_torque_2`` and
+``braking_switch_turns`` too; a one-level protocol takes them out) and the release the plan
+assumed (``release_angle_deg``) go into each ``[[stage]]`` table of device.toml, the file's comments and key order kept
 (tomlkit); a key the stage lacked is added with its unit as a comment. The file is written
 atomically.
 """
@@ -61,5 +62,12 @@ def write_protocols(
         table = doc["stage"][c.stage - 1]
         set_key(table, "launch_speed", c.launch_speed, "rad/s")
         set_key(table, "braking_torque", c.braking_torque, "N m")
+        if c.braking_torque_2 is None:  # one level: a two-level braking's keys go
+            for name in ("braking_torque_2", "braking_switch_turns"):
+                if name in table:
+                    del table[name]
+        else:
+            set_key(table, "braking_torque_2", c.braking_torque_2, "N m")
+            set_key(table, "braking_switch_turns", c.braking_switch_turns, "turns")
         table["release_angle_deg"] = planned_release(device.stages[c.stage - 1])
     write_atomic(path, tomlkit.dumps(doc))

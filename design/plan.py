@@ -112,6 +112,7 @@ def make_plan(
     device: Device,
     models: list[StageModel],
     max_duration: float,
+    two_level: bool = False,
 ) -> Plan:
     """Choose every stage's protocol (module docstring).
 
@@ -124,6 +125,9 @@ def make_plan(
     max_duration : float
         s, the budget: the whole experiment's motion time. The stages' candidates are
         evaluated in parallel processes (:func:`map_stages`).
+    two_level : bool, optional
+        Two-level brakings only, whose balances measure each run's pass gain
+        (rsp_inertia.design.candidates.stage_candidates).
 
     Returns
     -------
@@ -137,7 +141,9 @@ def make_plan(
         no combination fits ``max_duration``.
     """
     per_stage = []
-    found = map_stages(stage_candidates, [(device, sm, max_duration) for sm in models])
+    found = map_stages(
+        stage_candidates, [(device, sm, max_duration, two_level) for sm in models]
+    )
     for sm, cands in zip(models, found):
         feasible = [c for c in cands if c.feasible]
         if not feasible:
@@ -172,7 +178,10 @@ def make_plan(
     current, current_std = None, None
     if all(st.launch_speed is not None and st.braking_torque is not None for st in device.stages):
         current = tuple(
-            evaluate(device, sm, st.launch_speed, st.braking_torque)
+            evaluate(
+                device, sm, st.launch_speed, st.braking_torque,
+                braking_torque_2=st.braking_torque_2, switch_turns=st.braking_switch_turns,
+            )
             for sm, st in zip(models, device.stages)
         )
         if all(c.feasible for c in current):

@@ -145,6 +145,8 @@ def rehearse(
             st,
             launch_speed=c.launch_speed,
             braking_torque=c.braking_torque,
+            braking_torque_2=c.braking_torque_2,
+            braking_switch_turns=c.braking_switch_turns,
             release_angle_deg=planned_release(st),
         )
     dev = dataclasses.replace(device, stages=tuple(stages))
@@ -196,6 +198,7 @@ def _rehearse_stage(dev: Device, stage: int, torque_noise: float, truth: tuple, 
         b_est, r_est = estimate_run(
             dev, braking.log, reverse.log, direction, warnings,
             f"rehearsed {label} braking", f"rehearsed {label} reverse", made.smoothed,
+            two_levels=st.braking_torque_2 is not None,
         )
         balances.append(stage_balance(dev, stage, b_est, r_est, direction.sign))
         labels.append(label)

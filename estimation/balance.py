@@ -327,6 +327,27 @@ def _outside_gaps(est: PassEstimate, times: np.ndarray, allowance: float) -> np.
     return keep
 
 
+SWITCH_REACH = 4.0
+"""w_c x the time on either side of a two-level braking's switch within which the balances are
+left out (:func:`_outside_switch`)."""
+
+
+def _outside_switch(
+    braking: PassEstimate, reverse: PassEstimate, b_times: np.ndarray, r_times: np.ndarray
+) -> np.ndarray:
+    """Which balance angles (their times in each pass) lie beyond SWITCH_REACH / w_c of a
+    two-level braking's switch in both passes. The acceleration steps there, which the
+    smoothed speed rounds off (on the default stage 2, 0 -> 0.24 N m, by up to 6 of its
+    stds within 2 / w_c of the switch and within them beyond): those balances are left out,
+    as a gap's are."""
+    at = braking.smoothed.phi[braking.switch]
+    t_b = braking.smoothed.t[braking.switch]
+    t_r = float(reverse.sample_at(np.array([at])).time[0])
+    reach_b = SWITCH_REACH / braking.smoothed.bandwidth
+    reach_r = SWITCH_REACH / reverse.smoothed.bandwidth
+    return (np.abs(b_times - t_b) > reach_b) & (np.abs(r_times - t_r) > reach_r)
+
+
 def spring_potential(phi: np.ndarray, device: Device) -> np.ndarray:
     """Spring part of Pi (docs/method.md §3, rsp_inertia.plant.model); gravity is estimated,
     not known."""
@@ -567,6 +588,11 @@ class StageBalance:
     """(n, 2) d :attr:`motor_work_parts` / d alpha, J K: how the work parts move with the torque
     constant's tempco that compensated the logs (rsp_inertia.estimation.tempco.pass_tempco_work;
     calibrate's column of alpha); None: the logs carry no temperature or were not compensated."""
+    pass_gain: bool = False
+    """The run's braking held two levels (device.toml ``braking_torque_2``): the reverse
+    pass's torque scale against the braking's, the pass gain d, is one of the tensor fit's
+    unknowns, its column :attr:`reverse_work` (rsp_inertia.estimation.tensor_fit; docs/method.md,
+    "A torque scale that differs between the passes")."""
 
     @property
     def work_noise(self) -> Noise:
@@ -668,6 +694,8 @@ def stage_balance(
     keep = _outside_gaps(braking, b.time, gap_allowance(braking, reverse)) & _outside_gaps(
         reverse, r.time, gap_allowance(reverse, braking)
     )
+    if braking.switch is not None:
+        keep &= _outside_switch(braking, reverse, b.time, r.time)
     if not keep.all():  # gaps too long to bridge, away from the nodes: left out
         phi = phi[keep]
         b = braking.sample_at(phi)
@@ -720,6 +748,7 @@ def stage_balance(
         heat_gap=gap_r - gap_b,
         compensated=braking.log.torque_factor is not None
         or reverse.log.torque_factor is not None,
+        pass_gain=st.braking_torque_2 is not None,
     )
 
 

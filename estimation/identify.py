@@ -264,6 +264,8 @@ def identify_logs(
         speed_noise_scale=fit.speed_noise_scale,
         friction_slope=fit.friction_slope,
         friction_slope_std=fit.friction_slope_std,
+        pass_gain=fit.pass_gain,
+        pass_gain_std=fit.pass_gain_std,
         std_budget=std_budget(fit, directions),
         warnings=warnings,
         pendulum=pendulum,

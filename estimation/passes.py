@@ -46,6 +46,14 @@ however many braking logs it has): a braking torque that drifts or ripples beyon
 falls back to the sample-by-sample sum, which is exact for any applied torque, and identify
 says so.
 
+A two-level braking (device.toml ``braking_torque_2``: the torque switches once, at a given
+turn) is held constant on either side of its switch. The switch is found in the logged
+torque itself (rsp_inertia.plant.logs.switch_row: the row that best splits the log into two means, a
+real logger's file as the virtual device's), each level is the mean of its rows and is tested
+for constancy as above (:func:`two_level_p_value`), and the work is u_bar_1 (phi - phi^_0)
+before the switch and u_bar_1 (phi_s - phi^_0) + u_bar_2 (phi - phi_s) after: two shared
+errors, two rank-one terms.
+
 Dropped samples (rsp_inertia.plant.logs.dropped_samples: a logger may lose rows; the drive
 still acted at those instants; :func:`estimate_pass` finds them once and the estimate keeps
 them, :attr:`PassEstimate.dropped`, for the balances' checks). Over a gap of n missing rows
@@ -90,7 +98,7 @@ from rsp_inertia.estimation.smoothing import (
     smooth_log,
 )
 from rsp_inertia.estimation.whitening import Noise
-from rsp_inertia.plant.logs import Log, dropped_samples, motor_work, torque_noise
+from rsp_inertia.plant.logs import Log, dropped_samples, motor_work, switch_row, torque_noise
 from rsp_inertia.plant.transducers import power_flow_split
 
 __all__ = [
@@ -107,6 +115,8 @@ __all__ = [
     "constancy_p_value",
     "estimate_pass",
     "gap_work",
+    "two_level_p_value",
+    "two_level_work",
 ]
 
 CONSTANCY_CHUNK = math.pi / 2
@@ -241,6 +251,14 @@ class PassEstimate:
     constant torque (module docstring); None when the work is the sample-by-sample sum."""
     constancy_p: float | None = None
     """p-value of the constant-torque test, when it was made."""
+    torque_mean_2: float | None = None
+    """N m: a two-level braking's second level (the mean of the rows from :attr:`switch`
+    on), when the levels passed their test; ``torque_mean`` is then the first level's."""
+    switch: int | None = None
+    """A two-level braking's first row held at the second level
+    (rsp_inertia.plant.logs.switch_row), found
+    in the logged torque (also when the levels failed their test: the balances leave the
+    angles about it out, rsp_inertia.estimation.balance); None: one level."""
     work_var_gaps: np.ndarray | None = None
     """J^2, cumulative variance of the work over the log's gaps of dropped samples to each
     row (:func:`gap_work`); None: no gap, or a constant torque."""
@@ -282,6 +300,8 @@ class PassEstimate:
         # Motor work at the smoothed angle (module docstring): last row at or before time t.
         K = k
         held = self.log.torque[K] if self.torque_mean is None else self.torque_mean
+        if self.torque_mean_2 is not None:
+            held = np.where(K >= self.switch, self.torque_mean_2, self.torque_mean)
         rest = phi - sm.phi[K]
         work = self.work[K] + held * rest
         work_back = self.work_back[K] + power_flow_split(held, rest)[1] * rest
@@ -309,6 +329,19 @@ class PassEstimate:
         """
         n = a.phi.size
         sigma2 = self.sigma_torque**2
+        if self.torque_mean_2 is not None:  # two levels: two shared errors
+            start, at = self.smoothed.phi[0], self.smoothed.phi[self.switch]
+            sign = math.copysign(1.0, at - start)
+            first = np.where((a.phi - at) * sign < 0.0, a.phi, at) - start
+            second = np.where((a.phi - at) * sign > 0.0, a.phi - at, 0.0)
+            rows = (self.switch, len(self.log) - self.switch)
+            return Noise(
+                n,
+                rank_one=(
+                    math.sqrt(sigma2 / rows[0]) * first,
+                    math.sqrt(sigma2 / rows[1]) * second,
+                ),
+            )
         if self.torque_mean is not None:
             start = self.smoothed.phi[0]
             return Noise(n, rank_one=(math.sqrt(sigma2 / len(self.log)) * (a.phi - start),))
@@ -457,6 +490,79 @@ def constancy_p_value(log: Log, phi: np.ndarray, sigma: float) -> float:
     return float(chi2.sf(stat, dof)) if dof > 0 else 1.0
 
 
+def two_level_p_value(log: Log, phi: np.ndarray, sigma: float, switch: int) -> float:
+    """p-value of "the applied torque is constant on either side of row ``switch``": each
+    level's :func:`constancy_p_value`, combined as the smaller of two independent ones
+    (1 - (1 - min p)^2).
+
+    Parameters
+    ----------
+    log : Log
+        The braking's log.
+    phi : np.ndarray, shape (n,), rad
+        The smoothed angle at each row.
+    sigma : float
+        N m, the std of the torque log's white noise.
+    switch : int
+        The second level's first row (rsp_inertia.plant.logs.switch_row).
+
+    Returns
+    -------
+    float
+        The test's p-value.
+    """
+    parts = (slice(0, switch), slice(switch, None))
+    p = min(
+        constancy_p_value(
+            Log(
+                t=log.t[part], phi=log.phi[part], torque=log.torque[part],
+                torque_factor=None if log.torque_factor is None else log.torque_factor[part],
+            ),
+            phi[part], sigma,
+        )
+        for part in parts
+    )
+    return 1.0 - (1.0 - p) ** 2
+
+
+def two_level_work(
+    torque: np.ndarray, phi: np.ndarray, switch: int, factor: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, float]:
+    """:func:`rsp_inertia.plant.logs.motor_work` of a two-level braking held at its levels'
+    means (module docstring).
+
+    Parameters
+    ----------
+    torque : numpy.ndarray, shape (n,)
+        N m, the logged torque.
+    phi : numpy.ndarray, shape (n,)
+        rad, the angle at each row.
+    switch : int
+        The second level's first row (rsp_inertia.plant.logs.switch_row).
+    factor : numpy.ndarray, shape (n,), optional
+        The known factor each row's torque carries (rsp_inertia.plant.logs.Log.torque_factor).
+
+    Returns
+    -------
+    work, back, steps : numpy.ndarray, shape (n,)
+        J, the work from the first row; its back-driven part; rad^2, the squared increments'
+        running sum.
+    mean, mean_2 : float
+        N m, the two levels (the logged torque over ``factor``).
+    """
+    logged = torque if factor is None else torque / factor
+    means = float(np.mean(logged[:switch])), float(np.mean(logged[switch:]))
+    held = np.where(np.arange(phi.size - 1) < switch, *means)
+    if factor is not None:
+        held = held * np.asarray(factor[:-1], dtype=float)
+    dphi = np.diff(phi)
+    zero = np.zeros(1)
+    work = np.concatenate([zero, np.cumsum(held * dphi)])
+    back = np.concatenate([zero, np.cumsum(power_flow_split(held, dphi)[1] * dphi)])
+    steps = np.concatenate([zero, np.cumsum(dphi * dphi)])
+    return work, back, steps, means[0], means[1]
+
+
 def estimate_pass(
     log: Log,
     quantum: float,
@@ -466,6 +572,7 @@ def estimate_pass(
     smoothed: Smoothed | None = None,
     sample_rate: float | None = None,
     constancy_logs: int = 1,
+    two_levels: bool = False,
 ) -> PassEstimate:
     """Smooth a pass and accumulate its motor work (docs/method.md §3, Stieltjes sum; see above).
 
@@ -496,6 +603,11 @@ def estimate_pass(
         With ``constant_torque``: the experiment's braking logs, whose constant-torque tests
         share the false-alarm rate :data:`CONSTANCY_TAIL` (the log is tested at
         :func:`constancy_level` of them); 1 by default (the log alone).
+    two_levels : bool, optional
+        With ``constant_torque``: the protocol holds two levels, switching once (device.toml
+        ``braking_torque_2``); the switch is found in the log
+        (rsp_inertia.plant.logs.switch_row), each
+        level tested and held at its mean (module docstring).
 
     Returns
     -------
@@ -505,13 +617,24 @@ def estimate_pass(
     if smoothed is None:
         smoothed = smooth_log(log, quantum, source)
     sigma = torque_noise(log) if sigma_torque is None else sigma_torque
-    p_value = constancy_p_value(log, smoothed.phi, sigma) if constant_torque else None
+    switch = mean_2 = None
+    if constant_torque and two_levels:
+        factor = log.torque_factor
+        switch = switch_row(log.torque if factor is None else log.torque / factor)
+        p_value = two_level_p_value(log, smoothed.phi, sigma, switch)
+    else:
+        p_value = constancy_p_value(log, smoothed.phi, sigma) if constant_torque else None
     constant = p_value is not None and p_value >= constancy_level(constancy_logs)
     # The angle term first: its convolution's temporaries come before the work's arrays.
     angle = None if constant else angle_work_variance(log.torque, smoothed)
-    work, work_back, steps, mean = motor_work(
-        log.torque, smoothed.phi, constant, log.torque_factor
-    )
+    if constant and switch is not None:
+        work, work_back, steps, mean, mean_2 = two_level_work(
+            log.torque, smoothed.phi, switch, log.torque_factor
+        )
+    else:
+        work, work_back, steps, mean = motor_work(
+            log.torque, smoothed.phi, constant, log.torque_factor
+        )
     rate = 1.0 / median_step(log.t) if sample_rate is None else sample_rate
     dropped = dropped_samples(log.t, rate)
     gaps = None
@@ -533,6 +656,8 @@ def estimate_pass(
         constancy_p=p_value,
         work_var_gaps=gaps,
         work_var_angle=angle,
+        torque_mean_2=mean_2,
+        switch=switch,
     )
 
 

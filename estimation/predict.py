@@ -29,7 +29,7 @@ import numpy as np
 from rsp_inertia.estimation.balance import StageBalance, stage_balance
 from rsp_inertia.estimation.known_terms import KnownTerms
 from rsp_inertia.estimation.layout import SHARED_LAYOUT
-from rsp_inertia.estimation.passes import PassEstimate
+from rsp_inertia.estimation.passes import PassEstimate, two_level_work
 from rsp_inertia.estimation.smoothing import Smoothed, noise_density, smoother_bandwidth
 from rsp_inertia.estimation.tensor_fit import tensor_block
 from rsp_inertia.estimation.whitening import Noise, information, scaled_band
@@ -80,7 +80,12 @@ class PlannedPass:
 
 
 def planned_estimate(
-    planned: PlannedPass, quantum: float, sigma_torque: float, constant_torque: bool, source: str
+    planned: PlannedPass,
+    quantum: float,
+    sigma_torque: float,
+    constant_torque: bool,
+    source: str,
+    switch: int | None = None,
 ) -> PassEstimate:
     """A PassEstimate of a planned pass carrying identify's noise model (module docstring).
 
@@ -101,6 +106,9 @@ def planned_estimate(
         sum (rsp_inertia.plant.logs.motor_work).
     source : str
         The pass's name in messages.
+    switch : int, optional
+        With ``constant_torque``: a two-level braking's first sample at its second level,
+        each level held at its mean (rsp_inertia.estimation.passes.estimate_pass).
 
     Returns
     -------
@@ -121,7 +129,14 @@ def planned_estimate(
         noise_density=r,
     )
     log = Log(t=planned.t, phi=planned.phi, torque=planned.torque)
-    work, work_back, steps, mean = motor_work(planned.torque, planned.phi, constant_torque)
+    mean_2 = None
+    if constant_torque and switch is not None:
+        work, work_back, steps, mean, mean_2 = two_level_work(
+            planned.torque, planned.phi, switch, None
+        )
+    else:
+        work, work_back, steps, mean = motor_work(planned.torque, planned.phi, constant_torque)
+        switch = None
     return PassEstimate(
         log=log,
         smoothed=smoothed,
@@ -133,6 +148,8 @@ def planned_estimate(
         dropped=np.zeros(planned.t.size - 1, dtype=np.int64),  # planned at every sample
         torque_mean=mean,
         constancy_p=None,
+        torque_mean_2=mean_2,
+        switch=switch,
     )
 
 
@@ -142,6 +159,7 @@ def predicted_balance(
     braking: PlannedPass,
     reverse: PlannedPass,
     sigma_torque: float,
+    switch: int | None = None,
 ) -> StageBalance:
     """The balance equations identify would form from these passes (forward run).
 
@@ -155,6 +173,9 @@ def predicted_balance(
         The planned braking and its reverse.
     sigma_torque : float
         N m, the std of the torque log's noise.
+    switch : int, optional
+        A two-level braking's first sample at its second level (:func:`planned_estimate`):
+        the balances then fit the run's pass gain.
 
     Returns
     -------
@@ -168,12 +189,14 @@ def predicted_balance(
         (rsp_inertia.estimation.balance.usable_range).
     """
     q = device.encoder.quantum
-    b = planned_estimate(braking, q, sigma_torque, True, f"stage {stage} planned braking")
+    b = planned_estimate(braking, q, sigma_torque, True, f"stage {stage} planned braking", switch)
     r = planned_estimate(reverse, q, sigma_torque, False, f"stage {stage} planned reverse")
     balance = stage_balance(device, stage, b, r, slope_prior=False)
     # An exact mirror has no tracking mismatch; what rounding leaves of it (1e-15 rad/s)
     # would enter the least squares as two friction slopes of arbitrary shape.
-    return dataclasses.replace(balance, mismatch=np.zeros_like(balance.mismatch))
+    return dataclasses.replace(
+        balance, mismatch=np.zeros_like(balance.mismatch), pass_gain=switch is not None
+    )
 
 
 def run_information(device: Device, balance: StageBalance, inertia: np.ndarray) -> np.ndarray:

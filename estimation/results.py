@@ -204,6 +204,12 @@ class Identification:
     only for a stage whose passes match exactly (exact data)."""
     friction_slope_std: np.ndarray | None = None
     """(stages, 2)."""
+    pass_gain: np.ndarray | None = None
+    """(runs,) the pass gain d of each run whose braking held two levels: the reverse pass's
+    torque scale over the braking's, minus one (rsp_inertia.estimation.tensor_fit
+    .pass_gain_unknown); NaN for a run that did not fit it; None: no run did."""
+    pass_gain_std: np.ndarray | None = None
+    """(runs,) std of ``pass_gain``."""
     std_budget: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
     """Uncertainty budget of the least squares: for each noise source (rsp_inertia.estimation.tensor_fit
     NOISE_SOURCES), the standard deviations it alone gives to ``axes`` J ("axes") and to the
@@ -265,6 +271,12 @@ class Identification:
     def entries_std(self) -> np.ndarray:
         """Standard deviations of ``entries`` (read-only)."""
         return read_only(np.sqrt(np.diag(self.entries_cov)))
+
+    def _pass_gains(self) -> list[list[float] | None]:
+        """Per run, [d, std] of its pass gain, or None where it was not fitted."""
+        if self.pass_gain is None:
+            return [None] * len(self.runs)
+        return [_pass_gain(v, s) for v, s in zip(self.pass_gain, self.pass_gain_std)]
 
     def to_json(self) -> str:
         """The text of result.json: :meth:`to_dict` indented, with a final newline."""
@@ -338,6 +350,15 @@ class Identification:
                 ]
                 if self.friction_slope is not None
                 else [],
+                "pass_gain": [
+                    {
+                        "run": format_run(key),
+                        "fitted": gain is not None,
+                        "value": None if gain is None else gain[0],
+                        "std": None if gain is None else gain[1],
+                    }
+                    for key, gain in zip(self.runs, self._pass_gains())
+                ],
                 "friction_asymmetry": [
                     {
                         "stage": k + 1,
@@ -367,6 +388,11 @@ class Identification:
             "record": None if self.record is None else self.record.to_dict(),
             "decision": None if self.decision is None else self.decision.to_dict(),
         }
+
+
+def _pass_gain(value: float, std: float) -> list[float] | None:
+    """(d, std) of one run's pass gain for JSON, None when it was not fitted."""
+    return [float(value), float(std)] if np.isfinite(value) else None
 
 
 def _finite_list(values) -> list[float] | None:

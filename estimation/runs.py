@@ -176,6 +176,7 @@ def estimate_run(
     braking_smoothed: Smoothed | None = None,
     encoder=(),
     zero: float = 0.0,
+    two_levels: bool = False,
 ) -> tuple[PassEstimate, PassEstimate]:
     """Both passes of one run from their logs in memory, checked and estimated (a backward
     run mirrored): :func:`run_logs` then :func:`estimate_forward_run`.
@@ -200,6 +201,9 @@ def estimate_run(
         first (:func:`corrected_log`).
     zero : float
         rad, the encoder's zero offset, taken off with them.
+    two_levels : bool, optional
+        The stage's braking holds two levels (device.toml ``braking_torque_2``): its log is
+        held at each level's mean (rsp_inertia.estimation.passes.estimate_pass).
 
     Returns
     -------
@@ -208,7 +212,8 @@ def estimate_run(
     """
     braking, reverse = run_logs(device, braking, reverse, direction, encoder, zero)
     return estimate_forward_run(
-        device, braking, reverse, warnings, braking_source, reverse_source, braking_smoothed
+        device, braking, reverse, warnings, braking_source, reverse_source, braking_smoothed,
+        two_levels,
     )
 
 
@@ -220,6 +225,7 @@ def estimate_forward_run(
     braking_source: str = "braking",
     reverse_source: str = "reverse",
     braking_smoothed: Smoothed | None = None,
+    two_levels: bool = False,
 ) -> tuple[PassEstimate, PassEstimate]:
     """Both passes of one run whose logs :func:`run_logs` made (true angles, the forward
     coordinate), checked and estimated; each pass finds its dropped samples at the encoder's
@@ -237,6 +243,8 @@ def estimate_forward_run(
         The logs' names in messages.
     braking_smoothed : Smoothed, optional
         As for :func:`estimate_run`.
+    two_levels : bool, optional
+        As for :func:`estimate_run`.
 
     Returns
     -------
@@ -250,7 +258,7 @@ def estimate_forward_run(
     logs = sum(len(st.directions) for st in device.stages)
     b_est = estimate_pass(
         braking, q, braking_source, constant_torque=True, smoothed=braking_smoothed,
-        sample_rate=rate, constancy_logs=logs,
+        sample_rate=rate, constancy_logs=logs, two_levels=two_levels,
     )
     if b_est.torque_mean is None:
         warnings.append(
@@ -322,7 +330,10 @@ def checked_run(
     # The logs as read go now (balance_runs hands them over, nothing else holds them): they
     # are not kept through the estimation, only the ones estimated (mirrored, corrected).
     del pair
-    b_est, r_est = estimate_forward_run(device, braking, reverse, warnings, *sources)
+    two = device.stages[stage - 1].braking_torque_2 is not None
+    b_est, r_est = estimate_forward_run(
+        device, braking, reverse, warnings, *sources, two_levels=two
+    )
     balance_range(device, stage, b_est, r_est, direction.sign, bridged)
     return b_est, r_est
 

@@ -27,10 +27,18 @@ calibration as prior, and the model tests' probes look for a drive's loss and an
 error left in the runs (rsp_inertia.estimation.model_tests.probe_detail). Weights, the
 speed-noise scale, the model tests and the uncertainty budget: rsp_inertia.estimation.gls.
 The tensor's axes and the axes' tensor: rsp_inertia.estimation.axes.
+
+A run whose braking held two levels (device.toml ``braking_torque_2``) has one more unknown,
+its pass gain d (:func:`pass_gain_unknown`): the body received 1 + d times the reverse
+pass's logged torque against the braking's scale (a motor that warms between the passes),
+the column -h W_r(phi) of the reverse's work. One braking torque leaves d separable from
+the tensor only through the friction's speed dependence; two levels give the contrast
+(docs/method.md, "A torque scale that differs between the passes").
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -51,6 +59,8 @@ from rsp_inertia.estimation.columns import (
 )
 from rsp_inertia.estimation.gls import (
     DRIFT_SOURCE,
+    GAP_SOURCE,
+    NOISE_SOURCES,
     BalanceFit,
     Block,
     Equations,
@@ -67,11 +77,13 @@ from rsp_inertia.plant.geometry import ENTRY_KEYS, GRAVITY_NAMES
 from rsp_inertia.plant.model import inertia_basis, tensor_basis, tensor_basis_slope
 
 __all__ = [
+    "PASS_GAIN_SOURCE",
     "TensorFit",
     "angle_slopes",
     "balance_rhs",
     "drift_column",
     "fit_tensor",
+    "pass_gain_unknown",
     "predict_tensor",
     "tensor_block",
 ]
@@ -130,6 +142,12 @@ class TensorFit:
     prior_warnings: list[str] = field(default_factory=list)
     """A line per run whose friction slopes' prior its balances rejected
     (rsp_inertia.estimation.gls, priors)."""
+    pass_gain: np.ndarray | None = None
+    """(runs,) d per run: the reverse pass's torque scale over the braking's, minus one
+    (a warming motor), fitted for a run whose braking held two levels
+    (:func:`pass_gain_unknown`); NaN for the others; None: no run fitted it."""
+    pass_gain_std: np.ndarray | None = None
+    """(runs,) std of ``pass_gain``."""
 
     @property
     def entries_cov(self) -> np.ndarray:
@@ -163,6 +181,23 @@ def angle_slopes(bal: StageBalance) -> dict[str, np.ndarray]:
     out = {name: 0.5 * bal.speed_sq * slopes[:, i] for i, name in enumerate(ENTRY_KEYS)}
     out.update(zip(GRAVITY_NAMES, gravity_row_slopes(bal.phi).T))
     return out
+
+
+def pass_gain_unknown(run: str) -> str:
+    """The name of a run's pass gain among the unknowns, ``pass_gain[run]``: d of a reverse
+    pass whose torque the body receives 1 + d times the braking's scale (module docstring).
+
+    Parameters
+    ----------
+    run : str
+        The run's key, as :func:`tensor_block` names its own unknowns.
+
+    Returns
+    -------
+    str
+        The unknown's name.
+    """
+    return f"pass_gain[{run}]"
 
 
 def tensor_block(
@@ -204,6 +239,9 @@ def tensor_block(
     cols = {name: half_s * v[:, i] for i, name in enumerate(ENTRY_KEYS)}
     cols.update(zip(GRAVITY_NAMES, gravity_rows(bal.phi).T))
     cols.update(run_columns(bal, run, asymmetry))
+    pass_gain = bal.pass_gain and bal.reverse_work is not None
+    if pass_gain:  # the body received (1 + d) x the reverse's work: on the unknowns' side
+        cols[pass_gain_unknown(run)] = -drift_column(bal, known, 1.0)[DRIFT_SOURCE]
     return Block(
         balance=bal,
         label=run_label(bal),
@@ -220,9 +258,11 @@ def tensor_block(
         probes_per_inertia=probes[1],
         probe_bounds=probe_bounds(known.gains),
         groups={name: run_label(bal) for name in ENTRY_KEYS},
-        joint_only=frozenset(name for name in cols if name.startswith("e")),
+        joint_only=frozenset(
+            name for name in cols if name.startswith(("e", "pass_gain"))
+        ),
         priors=run_priors(bal, cols, run),
-        considered=drift_column(bal, known, drift_std),
+        considered={} if pass_gain else drift_column(bal, known, drift_std),
     )
 
 
@@ -289,10 +329,45 @@ def fit_tensor(
     """
     known = _known_or_tares(balances, known)
     equations = _equations(balances, known, drift_std)
-    fit = solve_blocks(equations, speed_noise_scales(equations))
-    return _tensor_fit(
+    scales = speed_noise_scales(equations)
+    fit = solve_blocks(equations, scales)
+    tensor = _tensor_fit(
         balances, known, fit, block_model_tests(equations, fit) if tests else []
     )
+    if tensor.pass_gain is None:
+        return tensor
+    fixed = solve_blocks(_equations(_without_pass_gain(balances), known, drift_std), scales)
+    ratio = max(fit.chi2_dof, 1.0) / max(fixed.chi2_dof, 1.0)
+    return _with_pass_gain_share(tensor, _tensor_fit(balances, known, fixed, []), ratio)
+
+
+PASS_GAIN_SOURCE = "torque scale between the passes, fitted"
+"""Budget line of the runs' pass gains (:func:`pass_gain_unknown`): what fitting them adds to
+the tensor's covariance (a run that fits its pass gain has no considered drift,
+rsp_inertia.estimation.gls DRIFT_SOURCE: the fit measures it)."""
+
+
+def _without_pass_gain(balances: list[StageBalance]) -> list[StageBalance]:
+    """The balances with no pass gain fitted, and no considered drift where they had one
+    (the same fit with the pass gains known to be zero)."""
+    return [
+        dataclasses.replace(bal, pass_gain=False, reverse_work=None) if bal.pass_gain else bal
+        for bal in balances
+    ]
+
+
+def _with_pass_gain_share(free: TensorFit, fixed: TensorFit, ratio: float) -> TensorFit:
+    """``free``'s budget as ``fixed``'s lines (the same fit with the pass gains known to be
+    zero; its noise sources' lines taken at ``free``'s inflation, ``ratio`` = the fits'
+    chi^2/dof above 1, free over fixed) and one more, :data:`PASS_GAIN_SOURCE`: the rest of
+    ``free``'s covariance, so that the lines still add up to it."""
+    inflated = set(NOISE_SOURCES) | {GAP_SOURCE}
+    parts = {
+        name: part * ratio if name in inflated else part
+        for name, part in fixed.cov_parts.items()
+    }
+    parts[PASS_GAIN_SOURCE] = free.cov - sum(parts.values())
+    return dataclasses.replace(free, cov_parts=parts)
 
 
 def predict_tensor(balances: list[StageBalance], known: KnownTerms | None = None) -> TensorFit:
@@ -313,7 +388,11 @@ def predict_tensor(balances: list[StageBalance], known: KnownTerms | None = None
         The entries and gravity terms with their predicted covariance and budget.
     """
     known = _known_or_tares(balances, known)
-    return _tensor_fit(balances, known, predict_blocks(_equations(balances, known)), [])
+    tensor = _tensor_fit(balances, known, predict_blocks(_equations(balances, known)), [])
+    if tensor.pass_gain is None:
+        return tensor
+    fixed = predict_blocks(_equations(_without_pass_gain(balances), known))
+    return _with_pass_gain_share(tensor, _tensor_fit(balances, known, fixed, []), 1.0)
 
 
 def _known_or_tares(balances: list[StageBalance], known: KnownTerms | None) -> KnownTerms:
@@ -369,6 +448,8 @@ def _tensor_fit(
     for s in both:
         for j, name in enumerate(asymmetry_unknowns(str(s))):
             asym[s - 1, j], asym_std[s - 1, j] = fit.value(name)
+    gains = [fit.value(pass_gain_unknown(str(k))) for k in range(n_runs)]
+    fitted = any(bal.pass_gain for bal in balances)
     sub = np.ix_(shared, shared)
     # The sum of the sources' parts is symmetric up to rounding (4e-10 of the smallest
     # products); result.json and a combination of mountings take it exactly symmetric.
@@ -395,4 +476,6 @@ def _tensor_fit(
             else known.with_theta(known.theta + fit.known_shift, fit.known_shift_cov)
         ),
         prior_warnings=list(fit.prior_warnings),
+        pass_gain=np.array([g[0] for g in gains]) if fitted else None,
+        pass_gain_std=np.array([g[1] for g in gains]) if fitted else None,
     )

@@ -27,7 +27,8 @@ whole NLP takes seconds to differentiate.
 Before the OCP, the mirror's torque is checked against the motor (:func:`check_mirror`):
 subtracting the braking's equation of motion from the reverse's at the same angle, inertia,
 spring and gravity cancel and friction doubles, so the mirror needs u' = u_b + 2 D(Omega')
-(:func:`mirror_torque`), from the braking's mean logged torque and the nominal friction
+(:func:`mirror_torque`), from the braking's mean logged torque (a two-level braking's:
+each level's, on its side of the switch) and the nominal friction
 alone, with the friction fit's uncertainty; no acceleration enters, whose encoder noise on a
 coarse encoder had made the nominal inverse dynamics (:func:`required_torque`) ask for twice
 the torque a feasible mirror needs. If it needs more than ``torque_limit`` beyond two of its
@@ -132,9 +133,9 @@ def required_torque(mirror: Mirror, nominal: ModelParameters) -> np.ndarray:
 def mirror_torque(
     mirror: Mirror,
     nominal: ModelParameters,
-    braking_torque: float,
+    braking_torque: float | np.ndarray,
     friction_cov: np.ndarray | None = None,
-    braking_torque_var: float = 0.0,
+    braking_torque_var: float | np.ndarray = 0.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The torque the mirror needs, N m, at its samples, and its standard deviation.
 
@@ -153,13 +154,15 @@ def mirror_torque(
         The reverse pass's reference (its speed Omega').
     nominal : ModelParameters
         The nominal model (its dissipation D).
-    braking_torque : float
-        u_b, N m, the braking's applied torque (its log's mean).
+    braking_torque : float or numpy.ndarray
+        u_b, N m, the braking's applied torque (its log's mean); or one per mirror sample,
+        the braking's at the same angle (a two-level braking: each level's mean).
     friction_cov : numpy.ndarray, shape (2, 2), optional
         The covariance of the friction slopes [a2, a3]
         (rsp_inertia.ocp.nominal.fit_nominal_with_covariance); none: not in the std.
-    braking_torque_var : float, optional
-        (N m)^2, the variance of the mean braking torque.
+    braking_torque_var : float or numpy.ndarray, optional
+        (N m)^2, the variance of the mean braking torque (per mirror sample, as
+        ``braking_torque``).
 
     Returns
     -------
@@ -170,7 +173,7 @@ def mirror_torque(
     """
     omega = mirror.omega
     need = braking_torque + 2 * dissipation(omega, nominal)
-    var = np.full(omega.size, float(braking_torque_var))
+    var = np.broadcast_to(np.asarray(braking_torque_var, dtype=float), omega.shape).copy()
     if friction_cov is not None:
         slopes = [PARAMETER_NAMES.index(name) for name in FRICTION.sloped]
         g = 2 * dissipation_regressor(omega, nominal)[:, slopes]
@@ -184,7 +187,7 @@ def check_mirror(
     mirror: Mirror,
     need: np.ndarray,
     std: np.ndarray,
-    braking_torque: float | None = None,
+    braking_torque: float | np.ndarray | None = None,
 ) -> list[str]:
     """The mirror's need against the motor's limits (module docstring).
 
@@ -198,9 +201,10 @@ def check_mirror(
         The reverse pass's reference (its time grid).
     need, std : numpy.ndarray
         N m, the mirror's torque and its standard deviation (:func:`mirror_torque`).
-    braking_torque : float, optional
-        u_b, N m. Given, the messages say how much Coulomb friction a1, which a braking
-        cannot see, adds to the need: a1 times (|u'| + |u_b|) / |u_b| (:func:`mirror_torque`).
+    braking_torque : float or numpy.ndarray, optional
+        u_b, N m (one per mirror sample for a two-level braking). Given, the messages say how
+        much Coulomb friction a1, which a braking cannot see, adds to the need: a1 times
+        (|u'| + |u_b|) / |u_b| (:func:`mirror_torque`).
 
     Returns
     -------
@@ -218,9 +222,12 @@ def check_mirror(
     high = np.abs(need) + REFUSE_STDS * std
 
     def coulomb(k: int) -> str:
-        if not braking_torque:
+        if braking_torque is None:
             return ""
-        factor = (abs(need[k]) + abs(braking_torque)) / abs(braking_torque)
+        u_b = float(np.broadcast_to(braking_torque, need.shape)[k])
+        if not u_b:
+            return ""
+        factor = (abs(need[k]) + abs(u_b)) / abs(u_b)
         return (
             f", plus {factor:.3g} times the Coulomb friction a1, which the braking cannot tell "
             "from its torque"

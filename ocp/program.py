@@ -24,7 +24,7 @@ from rsp_inertia.ocp.feedforward import (
 from rsp_inertia.ocp.nominal import fit_nominal_with_covariance
 from rsp_inertia.ocp.reference import Mirror, mirror
 from rsp_inertia.ocp.regulator import bandwidth, lqr_gains
-from rsp_inertia.plant.config import Device
+from rsp_inertia.plant.config import Device, Stage
 from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.log_files import log_rows
 from rsp_inertia.plant.logs import (
@@ -33,6 +33,7 @@ from rsp_inertia.plant.logs import (
     check_braking_monotone,
     mirror_log,
     mirrored_device,
+    switch_row,
     torque_noise,
 )
 from rsp_inertia.plant.model import ModelParameters, reduced_inertia
@@ -109,6 +110,43 @@ def start_reference(
     return ref.phi + weight * phi_dev, ref.omega + weight * omega_dev
 
 
+def _braking_torque_at(braking: Log, sm: Smoothed, ref: Mirror, sigma: float, stage: Stage):
+    """The braking's applied torque where the mirror is, N m, and its variance, (N m)^2: the
+    log's mean; for a two-level braking (device.toml ``braking_torque_2``) each level's mean
+    on its side of the switch, which the log shows
+    (rsp_inertia.plant.logs.switch_row).
+
+    Parameters
+    ----------
+    braking : Log
+        The braking log (forward).
+    sm : Smoothed
+        Its smoothed states.
+    ref : Mirror
+        The reverse's reference (its angles).
+    sigma : float
+        N m, the torque log's noise.
+    stage : Stage
+        The stage: whether its braking holds two levels.
+
+    Returns
+    -------
+    torque, variance : float or numpy.ndarray
+        One number for one level, one per mirror sample for two.
+    """
+    torque = np.asarray(braking.torque, dtype=float)
+    if stage.braking_torque_2 is None:
+        return float(np.mean(torque)), sigma**2 / torque.size
+    switch = switch_row(torque)
+    before = ref.phi < sm.phi[switch]  # the braking's angle rises: the forward coordinate
+    levels = (float(np.mean(torque[:switch])), float(np.mean(torque[switch:])))
+    rows = (switch, torque.size - switch)
+    return (
+        np.where(before, *levels),
+        np.where(before, sigma**2 / rows[0], sigma**2 / rows[1]),
+    )
+
+
 def make_program(
     device: Device,
     stage: int,
@@ -179,8 +217,8 @@ def make_program(
     # The mirror's need from the braking's mean torque and the nominal friction, with their
     # uncertainty (rsp_inertia.ocp.feedforward.mirror_torque): refused only beyond it.
     sigma = torque_noise(braking)
-    u_b = float(np.mean(braking.torque))
-    need, need_std = mirror_torque(ref, model, u_b, friction_cov, sigma**2 / len(braking))
+    u_b, u_b_var = _braking_torque_at(braking, sm, ref, sigma, device.stages[stage - 1])
+    need, need_std = mirror_torque(ref, model, u_b, friction_cov, u_b_var)
     # What the reader did to the braking log (its notes and warnings) first, then the
     # mirror's warnings.
     warnings = [

@@ -246,6 +246,25 @@ class Stage:
         "``motor.torque_limit`` (the motor applies it). None (left out): ``plan`` chooses it; "
         "every command that runs the protocol needs it (:func:`require_protocol`).",
     )
+    braking_torque_2: float | None = key(
+        None,
+        unit="N m",
+        bound=">= 0",
+        doc="A two-level braking (docs/method.md, \"A torque scale that differs between the "
+        "passes\"): the motor torque against the motion after ``braking_switch_turns`` turns "
+        "from the release, at most ``motor.torque_limit``; ``braking_torque`` is held before. "
+        "None (left out): one braking torque throughout. A braking whose two levels differ "
+        "lets identify fit one pass gain per run (the reverse pass's torque scale against the "
+        "braking's: a warming motor).",
+    )
+    braking_switch_turns: float | None = key(
+        None,
+        unit="turns",
+        bound="> 0",
+        doc="Where a two-level braking switches from ``braking_torque`` to "
+        "``braking_torque_2``: the turns of phi from the release (the drive switches at the "
+        "first sample past it). Given with ``braking_torque_2`` and only with it.",
+    )
     directions: tuple[Direction, ...] = key(
         (Direction.FORWARD,),
         check=_distinct_directions,
@@ -695,11 +714,23 @@ def _device(doc: dict) -> Device:
             raise ContentError("plan.box", "needs the body's mass ([body] mass)")
     limit = device.motor.torque_limit
     for k, stage in enumerate(device.stages, 1):
-        if stage.braking_torque is not None and stage.braking_torque > limit:
+        for name in ("braking_torque", "braking_torque_2"):
+            value = getattr(stage, name)
+            if value is not None and value > limit:
+                raise ContentError(
+                    f"stage[{k}].{name}",
+                    f"must be <= motor.torque_limit = {limit!r} (the motor applies it), "
+                    f"got {value!r}",
+                )
+        if (stage.braking_torque_2 is None) != (stage.braking_switch_turns is None):
+            given, missing = (
+                ("braking_torque_2", "braking_switch_turns")
+                if stage.braking_switch_turns is None
+                else ("braking_switch_turns", "braking_torque_2")
+            )
             raise ContentError(
-                f"stage[{k}].braking_torque",
-                f"must be <= motor.torque_limit = {limit!r} (the motor applies it), "
-                f"got {stage.braking_torque!r}",
+                f"stage[{k}].{given}",
+                f"a two-level braking needs stage[{k}].{missing} too (or leave both out)",
             )
     _log_rules(device)
     if device.n_axes < REQUIRED_AXES:

@@ -64,6 +64,7 @@ __all__ = [
     "read_device_log",
     "read_log",
     "read_program",
+    "switch_row",
     "torque_noise",
     "write_log",
     "write_program",
@@ -664,6 +665,35 @@ def _running_sum(increments: np.ndarray) -> np.ndarray:
     out[0] = 0.0
     np.cumsum(increments, out=out[1:])
     return out
+
+
+def switch_row(torque: np.ndarray) -> int:
+    """The row where a two-level braking's logged torque switches: the first row of the
+    second level, the split of the rows into two runs whose means leave the least sum of
+    squares (the likelihood's change point of a step in white noise).
+
+    Parameters
+    ----------
+    torque : numpy.ndarray, shape (n,), n >= 2
+        N m, the logged torque (over its known factor, if any).
+
+    Returns
+    -------
+    int
+        In [1, n - 1].
+
+    Examples
+    --------
+    >>> switch_row(np.array([0.0, 0.01, -0.01, 1.0, 1.02, 0.98]))
+    3
+    """
+    u = np.asarray(torque, dtype=float)
+    n = u.size
+    k = np.arange(1, n)
+    head = np.cumsum(u)[:-1]
+    # The between-levels sum of squares of a split after k rows: (S_k - k S_n / n)^2 n / (k (n - k)).
+    gain = (head - k * (head[-1] + u[-1]) / n) ** 2 / (k * (n - k))
+    return int(np.argmax(gain)) + 1
 
 
 def torque_noise(log: Log) -> float:

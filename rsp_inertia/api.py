@@ -409,6 +409,7 @@ def plan(
     max_duration: float | None = None,
     *,
     rehearse: bool = True,
+    two_level: bool = False,
     progress: LineReceiver | None = None,
 ) -> PlanResult:
     """Choose every stage's launch speed and braking torque (``rsp-inertia plan EXP``).
@@ -429,6 +430,11 @@ def plan(
     rehearse : bool, optional
         Rehearse the chosen plan in closed loop on the nominal model (about 15 s) and
         predict the stds there (default); False: the ideal reverse's prediction only.
+    two_level : bool, optional
+        Plan two-level brakings (``--two-level``): each stage coasts for some turns, then
+        brakes, so that identify measures the reverse pass's torque scale against the
+        braking's (a warming motor whose temperature is not logged); the predicted stds
+        include it. Writes ``braking_torque_2`` and ``braking_switch_turns`` too.
     progress : callable, optional
         Called with each progress line (str); silent by default.
 
@@ -454,8 +460,9 @@ def plan(
     path = _path(path, "plan")
     max_duration = _number(max_duration, "plan", "max_duration")
     rehearse = _flag(rehearse, "plan", "rehearse")
+    two_level = _flag(two_level, "plan", "two_level")
     with lines_to(progress):
-        return run(path, max_duration, rehearse=rehearse)
+        return run(path, max_duration, rehearse=rehearse, two_level=two_level)
 
 
 # --- check, report, create_experiment -------------------------------------------------------

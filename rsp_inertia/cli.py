@@ -57,7 +57,10 @@ def _cmd_program(args: argparse.Namespace) -> None:
 def _cmd_plan(args: argparse.Namespace) -> None:
     # No fraction line: plan's stages run in forked processes, which would share it.
     with _terminal(fractions=False):
-        result = rsp_inertia.plan(args.exp, args.max_duration, rehearse=not args.no_rehearsal)
+        result = rsp_inertia.plan(
+            args.exp, args.max_duration, rehearse=not args.no_rehearsal,
+            two_level=args.two_level,
+        )
     print(result)
 
 
@@ -200,6 +203,11 @@ def _parser() -> argparse.ArgumentParser:
         "--no-rehearsal", action="store_true",
         help="skip the closed-loop rehearsal of the chosen plan (about 15 s): the predicted "
         "stds are then an ideal reverse's, a closed loop's best case",
+    )
+    p.add_argument(
+        "--two-level", action="store_true",
+        help="plan two-level brakings (coast, then brake), which measure a torque scale that "
+        "differs between the passes (a warming motor, no temperature logged)",
     )
     p.set_defaults(run=_cmd_plan)
 

@@ -109,6 +109,7 @@ def plan(
     path: str | Path,
     max_duration: float | None = None,
     rehearse: bool = True,
+    two_level: bool = False,
 ) -> PlanResult:
     """The command behind :func:`rsp_inertia.api.plan`, documented there (and in this
     module's docstring); ``max_duration`` None falls back to device.toml's, then to
@@ -133,7 +134,7 @@ def plan(
             f"{m.viscous:.3g} N m s, a3 {m.quadratic:.3g} N m s^2, torque noise "
             f"{sm.torque_noise:.3g} N m"
         )
-    made = make_plan(device, models, max_duration)
+    made = make_plan(device, models, max_duration, two_level)
     old = [(st.launch_speed, st.braking_torque, st.release_angle_deg) for st in device.stages]
     write_protocols(exp.device_path, device, made.chosen)
     rehearsal, rehearsal_error = None, None

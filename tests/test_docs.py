@@ -371,6 +371,7 @@ TOGETHER = (
     {"rig.encoder_error_amplitude", "rig.encoder_error_phase_deg"},
     {"motor.torque_constant", "motor.torque_constant_std", "log.torque_unit"},
     {"log.delimiter", "log.decimal"},
+    {"stage.braking_torque_2", "stage.braking_switch_turns"},
     {
         "motor.torque_constant_tempco", "motor.torque_constant_tempco_std",
         "motor.temperature_lag", "motor.reference_temperature", "log.temperature_column",
@@ -378,7 +379,7 @@ TOGETHER = (
 )
 """Optional keys (dotted) that a file gives together or not at all: an encoder's error series,
 a torque constant and logs of the current, a decimal comma and its delimiter, a tempco and
-the logged temperature it compensates."""
+the logged temperature it compensates, a two-level braking's second torque and its switch."""
 
 
 def _together(table: str, key: str) -> set[str]:

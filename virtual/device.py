@@ -64,6 +64,7 @@ from rsp_inertia.virtual.integrate import (
     integrate_free,
     integrate_to_stop,
     pendulum_parameters,
+    samples_to_angle,
     step_block,
     true_pair,
     true_parameters,
@@ -88,6 +89,7 @@ __all__ = [
     "placed_body",
     "release_angle",
     "run_program",
+    "samples_to_angle",
     "simulate_braking",
     "simulate_ideal_reverse",
     "simulate_pendulum",
@@ -178,17 +180,35 @@ def simulate_braking(
     rig = virtual.rig
     power = heating_power(rig, command)  # W, constant: the command is
     start = run_start(rig, device, stage, direction)  # the motor at the run's start
+    x0 = np.array([s * math.radians(release_angle(st, virtual)), s * st.launch_speed])
+    switch = _switch_sample(st, x0, u, s, p, dt, stage)
+    motor = None
+    if switch is not None:  # a two-level braking: the command and the heating by sample
+        command_2 = -s * st.braking_torque_2
+        commands = lambda k: np.where(k < switch, command, command_2)
+        motor = _two_level_motor(
+            rig, start, power, heating_power(rig, command_2), switch * dt
+        )
     if rig.thermal and rig.torque_constant_tempco != 0.0:
         gains = rig.drive_gains
+        tempco = rig.torque_constant_tempco
 
         def u(k: int, count: int) -> np.ndarray:
             """The torques over samples k.. as the magnets warm from the run's start."""
-            magnet = advance_motor(rig, start, power, np.arange(k, k + count) * dt)[1]
-            return delivered_torque(
-                command, s, thermal_gains(gains, rig.torque_constant_tempco, magnet)
-            )
+            rows = np.arange(k, k + count)
+            if switch is None:
+                magnet = advance_motor(rig, start, power, rows * dt)[1]
+                return delivered_torque(command, s, thermal_gains(gains, tempco, magnet))
+            magnet = motor(rows * dt)[1]
+            return delivered_torque(commands(rows), s, thermal_gains(gains, tempco, magnet))
 
-    x0 = np.array([s * math.radians(release_angle(st, virtual)), s * st.launch_speed])
+    elif switch is not None:
+        gains = rig.drive_gains
+
+        def u(k: int, count: int) -> np.ndarray:
+            """The torques over samples k..: the first level, then the second."""
+            return delivered_torque(commands(np.arange(k, k + count)), s, gains)
+
     stop = integrate_to_stop(x0, u, s, p, dt, MAX_BRAKING_TIME)
     if stop is None:
         run = "braking pass" if s > 0 else "backward braking pass"
@@ -199,8 +219,10 @@ def simulate_braking(
     t, traj, end_time, end_phi = stop
     temperatures = {}
     if rig.thermal:
-        winding, magnet = advance_motor(rig, start, power, t)
-        end_motor = MotorState(*advance_motor(rig, start, power, end_time))
+        if motor is None:
+            motor = lambda h: advance_motor(rig, start, power, h)
+        winding, magnet = motor(t)
+        end_motor = MotorState(*motor(end_time))
         temperatures = {"winding": winding, "magnet": magnet, "end_motor": end_motor}
     truth = PassTruth(
         t=t,
@@ -216,12 +238,49 @@ def simulate_braking(
     pair = true_pair(device, stage, virtual)
     truth = jittered(truth, pair, virtual, (stage, stream + STREAM_CLOCK), dt)
     q = device.encoder.quantum
-    sim = logged(truth, np.full(len(truth.t), command), virtual, (stage, stream), q)
+    if switch is None:
+        sim = logged(truth, np.full(len(truth.t), command), virtual, (stage, stream), q)
+    else:
+        sim = logged(truth, commands(np.arange(len(truth.t))), virtual, (stage, stream), q)
+        command = command_2  # the drive holds the body with the level it ends on
     sim = held_after_stop(sim, command, virtual, (stage, stream), q, dt, s)
     if rig.thermal:  # the held rows too: the drive holds the body with the same command
-        winding = advance_motor(rig, start, power, sim.log.t)[0]
+        winding = motor(sim.log.t)[0]
         sim = with_temperature(sim, virtual, winding, (stage, stream))
     return sim
+
+
+def _switch_sample(st: Stage, x0, u: float, s: float, p, dt: float, stage: int) -> int | None:
+    """The sample from which a two-level braking holds ``braking_torque_2`` (None: one
+    level): the first sample past ``braking_switch_turns`` from the release."""
+    if st.braking_torque_2 is None:
+        return None
+    angle = 2.0 * math.pi * st.braking_switch_turns
+    switch = samples_to_angle(x0, u, s, p, dt, angle, MAX_BRAKING_TIME)
+    if switch is None:
+        raise InputError(
+            f"stage {stage}: the braking pass stops before braking_switch_turns = "
+            f"{st.braking_switch_turns:g}; lower braking_switch_turns or braking_torque in "
+            "device.toml"
+        )
+    return switch
+
+
+def _two_level_motor(
+    rig, start: MotorState, power_1: float, power_2: float, switch_time: float
+):
+    """The winding's and the magnets' rises at times t (s) of a two-level braking: heated by
+    ``power_1`` from ``start`` (the run's) until ``switch_time``, by ``power_2`` after."""
+    at_switch = MotorState(*advance_motor(rig, start, power_1, switch_time))
+
+    def motor(t):
+        t = np.asarray(t, dtype=float)
+        w1, m1 = advance_motor(rig, start, power_1, np.minimum(t, switch_time))
+        w2, m2 = advance_motor(rig, at_switch, power_2, np.maximum(t - switch_time, 0.0))
+        before = t < switch_time
+        return np.where(before, w1, w2), np.where(before, m1, m2)
+
+    return motor
 
 
 def simulate_pendulum(device: Device, stage: int, virtual: Virtual, node: int) -> SimulatedPass:

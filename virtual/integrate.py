@@ -46,6 +46,7 @@ __all__ = [
     "integrate_free",
     "integrate_to_stop",
     "pendulum_parameters",
+    "samples_to_angle",
     "step_block",
     "true_pair",
     "true_parameters",
@@ -184,6 +185,62 @@ def integrate_to_stop(
         traj = np.vstack([traj, [end[0], 0.0]])
         t = np.arange(n + 1) * dt
     return t, traj, (n - 1) * dt + h_stop, float(end[0])
+
+
+def samples_to_angle(
+    x0: np.ndarray,
+    u: float,
+    direction: float,
+    p: np.ndarray,
+    dt: float,
+    angle: float,
+    max_time: float,
+) -> int | None:
+    """The first sample at which a motion from ``x0`` under the constant torque ``u`` has
+    covered ``angle`` (rad, > 0, in the direction of motion): where a two-level braking's
+    drive switches its torque.
+
+    Same integration as :func:`integrate_to_stop` (whose samples up to the returned one it
+    reproduces).
+
+    Parameters
+    ----------
+    x0 : numpy.ndarray, shape (2,)
+        The initial state (phi, Omega), rad and rad/s.
+    u : float
+        N m, the motor torque, held.
+    direction : float
+        The friction sign: the sign of the speed, +1 or -1.
+    p : numpy.ndarray, shape (12,)
+        The model's parameter vector.
+    dt : float
+        s, the sampling period.
+    angle : float
+        rad, > 0: the angle to cover.
+    max_time : float
+        s, how long the body may move before giving up.
+
+    Returns
+    -------
+    int or None
+        The sample's index (sample 0 is ``x0``); None if the body stops first or still has
+        not covered ``angle`` after ``max_time`` seconds.
+    """
+    x = np.asarray(x0, dtype=float)
+    start = float(x[0])
+    n = 1
+    while n <= int(max_time / dt):
+        block = np.asarray(_STEP_BLOCK(x, u, direction, p, dt)).T
+        stopped = np.nonzero(block[:, 1] * direction <= 0.0)[0]
+        end = stopped[0] if stopped.size else BLOCK
+        past = np.nonzero((block[:end, 0] - start) * direction >= angle)[0]
+        if past.size:
+            return n + int(past[0])
+        if stopped.size:
+            return None
+        n += BLOCK
+        x = block[-1]
+    return None
 
 
 def true_parameters(

@@ -288,8 +288,9 @@ def ideal_program(
     n = math.floor(T / dt + 1e-9) + 1
     _, u_b = braking_torque(st, virtual, s)
     truth = braking.truth
-    if truth.magnet is not None and np.ptp(truth.torque) > 0.0:
-        # A warming motor's braking torque drifts (rsp_inertia.virtual.thermal): step k back
+    if np.ptp(truth.torque) > 0.0:
+        # A warming motor's braking torque drifts (rsp_inertia.virtual.thermal), a two-level
+        # braking's switches (device.toml braking_torque_2): step k back
         # covers [T - k dt, T - (k-1) dt] under the braking's torque at its middle, and sample
         # k's acceleration is that at T - k dt.
         def torque_at(times: np.ndarray) -> np.ndarray:

@@ -189,6 +189,12 @@ class PlanResult(Drawn):
                 f"stage {c.stage} (model: {sm.source}): launch_speed {c.launch_speed:g} rad/s "
                 f"(was {_was(speed)}), braking_torque {c.braking_torque:g} N m "
                 f"(was {_was(torque)}), release_angle_deg {angle:g} (was {_was(release)})"
+                + (
+                    ""
+                    if c.braking_torque_2 is None
+                    else f", braking_torque_2 {c.braking_torque_2:g} N m after "
+                    f"braking_switch_turns {c.braking_switch_turns:g}"
+                )
             )
             lines.append(
                 f"  braking {c.braking_time:.1f} s over {c.turns:.1f} turns, "
