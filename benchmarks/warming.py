@@ -30,7 +30,8 @@ with their stated stds). With ``--calibrated`` the same three readings on the de
 eccentric encoder, friction by direction, every stage both ways), its empty, reference and
 body folders all with the warming motor (the same resistance, so the drift differs from the
 default experiment's), calibrate run for each reading before identify; its clean seeds
-stay the default experiment's (pass ``--clean-seeds 0``).
+are the demo's rig without the warming motor, calibrated (a false alarm: a warming or drive
+warning of calibrate or identify).
 
 Writes DIR/warming.md and DIR/warming.json (default benchmarks/results).
 """
@@ -154,6 +155,32 @@ def run_calibrated_case(drift: float, seed: int, work: str) -> dict:
         out[label] = _identified(root, truth)
         out[label]["calibrate_warnings"] = list(calibration.warnings)
     return out
+
+
+def run_calibrated_clean(seed: int, work: str) -> dict:
+    """One seed of the demo's calibrated rig without the warming motor: calibrate, identify."""
+    from benchmarks.experiments import load, seeded, write
+    from rsp_inertia import api
+    from rsp_inertia.infra.progress import drop, lines_to
+    from rsp_inertia.plant.experiment import open_experiment
+    from rsp_inertia.scenarios import create_rig_experiment
+    from rsp_inertia.virtual.config import experiment_virtual, placed_body
+
+    folders = create_rig_experiment(Path(work) / f"rig-clean-{seed}")
+    for folder in folders:
+        write(folder, None, seeded(load(folder)[1], seed))
+    with lines_to(drop):
+        for folder in folders:
+            api.simulate(folder, part="braking")
+            api.program(folder)
+            api.simulate(folder, part="reverse")
+        calibration = api.calibrate(*folders)
+    root = folders[0]
+    truth = placed_body(open_experiment(root).device, experiment_virtual(open_experiment(root)))
+    clean = _identified(root, truth)
+    clean["calibrate_warnings"] = list(calibration.warnings)
+    clean["named"] = clean["named"] or _named(calibration.warnings)
+    return {"seed": seed, "clean": clean}
 
 
 def run_clean(seed: int, work: str) -> dict:
@@ -309,7 +336,8 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as work, ProcessPoolExecutor(args.jobs) as pool:
         case = run_calibrated_case if args.calibrated else run_case
         futures = [pool.submit(case, drift, seed, work) for drift, seed in jobs]
-        clean_futures = [pool.submit(run_clean, seed, work) for seed in range(args.clean_seeds)]
+        clean_case = run_calibrated_clean if args.calibrated else run_clean
+        clean_futures = [pool.submit(clean_case, seed, work) for seed in range(args.clean_seeds)]
         rows, clean = [], []
         for future in futures:
             rows.append(json.loads(json.dumps(future.result()).replace(work + "/", "WORK/")))
