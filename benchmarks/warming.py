@@ -92,18 +92,25 @@ def run_case(drift: float, seed: int, work: str) -> dict:
     truth = placed_body(open_experiment(root).device, experiment_virtual(open_experiment(root)))
     out = {"drift": drift, "seed": seed, "tempco": alpha}
     for label in CASES:
-        motor = stated.motor
-        if label == "compensated":
-            motor = dataclasses.replace(
-                motor, torque_constant_tempco=STATED_TEMPCO,
-                torque_constant_tempco_std=TEMPCO_STD, temperature_lag=virtual.rig.magnet_lag,
-                reference_temperature=virtual.rig.ambient_temperature,
-            )
-        elif label == "drift std":
-            motor = dataclasses.replace(motor, torque_constant_drift_std=drift)
-        write(root, dataclasses.replace(stated, motor=motor))
+        write(root, _stated(stated, virtual, label, drift))
         out[label] = _identified(root, truth)
     return out
+
+
+def _stated(device, virtual, label: str, drift: float):
+    """device.toml for one reading of :data:`CASES`: the tempco stated (its std, the virtual
+    magnets' lag, the ambient as the reference temperature), nothing of the temperature, or
+    the drift's std stated as ``drift``."""
+    motor = device.motor
+    if label == "compensated":
+        motor = dataclasses.replace(
+            motor, torque_constant_tempco=STATED_TEMPCO, torque_constant_tempco_std=TEMPCO_STD,
+            temperature_lag=virtual.rig.magnet_lag,
+            reference_temperature=virtual.rig.ambient_temperature,
+        )
+    elif label == "drift std":
+        motor = dataclasses.replace(motor, torque_constant_drift_std=drift)
+    return dataclasses.replace(device, motor=motor)
 
 
 def run_calibrated_case(drift: float, seed: int, work: str) -> dict:
@@ -138,18 +145,7 @@ def run_calibrated_case(drift: float, seed: int, work: str) -> dict:
     out = {"drift": drift, "seed": seed, "tempco": alpha}
     for label in CASES:
         for folder in folders:
-            device, virtual = stated[folder]
-            motor = device.motor
-            if label == "compensated":
-                motor = dataclasses.replace(
-                    motor, torque_constant_tempco=STATED_TEMPCO,
-                    torque_constant_tempco_std=TEMPCO_STD,
-                    temperature_lag=virtual.rig.magnet_lag,
-                    reference_temperature=virtual.rig.ambient_temperature,
-                )
-            elif label == "drift std":
-                motor = dataclasses.replace(motor, torque_constant_drift_std=drift)
-            write(folder, dataclasses.replace(device, motor=motor))
+            write(folder, _stated(*stated[folder], label, drift))
         with lines_to(drop):
             calibration = api.calibrate(*folders)
         out[label] = _identified(root, truth)

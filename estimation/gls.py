@@ -825,17 +825,24 @@ def _balance_fit(
     )
 
 
-def _considered_shifts(eq: Equations, solution: _Solution) -> dict[str, np.ndarray]:
-    """Budget line -> (n_x + q, k) what one std of each block's considered term moves the
-    joint fit's estimate by (module docstring, considered terms): the fit's response to its
-    column, whitened as the balances are."""
-    sources = list(dict.fromkeys(src for block in eq.blocks for src in block.considered))
-    if not sources:
-        return {}
+def _responses(solution: _Solution, columns: np.ndarray) -> np.ndarray:
+    """(n_x + q, k) the joint fit's response to ``columns`` (len(y), k) added to the balances'
+    right-hand side: whitened as the balances are, the pseudo-equations unchanged (a
+    consider parameter's share of the covariance is its outer product)."""
     factors, Aw = solution.factors, solution.Aw
+    C = np.zeros((Aw.shape[0], columns.shape[1]))
+    C[: whitened_rows(factors)] = whiten(columns, factors)
     scale = np.linalg.norm(Aw, axis=0)
     scale[scale == 0.0] = 1.0
-    n_rows = whitened_rows(factors)
+    steps, *_ = np.linalg.lstsq(Aw / scale, C, rcond=None)
+    return steps / scale[:, None]
+
+
+def _considered_shifts(eq: Equations, solution: _Solution) -> dict[str, np.ndarray]:
+    """Budget line -> (n_x + q, k) what one std of each block's considered term moves the
+    joint fit's estimate by (module docstring, considered terms): :func:`_responses` to its
+    column, one per block that has it."""
+    sources = dict.fromkeys(src for block in eq.blocks for src in block.considered)
     out = {}
     for source in sources:
         columns = []
@@ -844,25 +851,16 @@ def _considered_shifts(eq: Equations, solution: _Solution) -> dict[str, np.ndarr
                 column = np.zeros(len(eq.y))
                 column[eq.rows[k] : eq.rows[k + 1]] = block.considered[source]
                 columns.append(column)
-        C = np.zeros((Aw.shape[0], len(columns)))
-        C[:n_rows] = whiten(np.column_stack(columns), factors)
-        steps, *_ = np.linalg.lstsq(Aw / scale, C, rcond=None)
-        out[source] = steps / scale[:, None]
+        out[source] = _responses(solution, np.column_stack(columns))
     return out
 
 
 def _consider_shift(eq: Equations, solution: _Solution) -> np.ndarray:
     """What a unit step of z along ``eq.consider`` moves the joint fit's estimate by (x, then
-    z): the fit's response to the column it adds to the balances (whitened as they are; the
-    pseudo-equations unchanged). With the step itself it is the error a unit of that prior
-    leaves, whose outer product is its share of the covariance."""
-    factors, Aw = solution.factors, solution.Aw
-    column = np.zeros(Aw.shape[0])
-    column[: whitened_rows(factors)] = whiten(eq.consider_column, factors)
-    scale = np.linalg.norm(Aw, axis=0)
-    scale[scale == 0.0] = 1.0
-    step, *_ = np.linalg.lstsq(Aw / scale, column, rcond=None)
-    return step / scale
+    z): :func:`_responses` to the column it adds to the balances. With the step itself it is
+    the error a unit of that prior leaves, whose outer product is its share of the
+    covariance."""
+    return _responses(solution, eq.consider_column[:, None])[:, 0]
 
 
 def block_model_tests(eq: Equations, fit: BalanceFit) -> list[ModelTest]:
