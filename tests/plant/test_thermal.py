@@ -135,6 +135,12 @@ def test_the_tempcos_keys_load(tmp_path):
         pytest.param(LOGGED.replace("tempco = -0.0011", "tempco = -0.11"),
                      "motor.torque_constant_tempco", "-0.11 %/K is -0.0011",
                      id="a tempco in percent"),
+        pytest.param(RATE + "torque_constant_drift_std = 0.02\n",
+                     "motor.torque_constant_drift_std", "0.02 % is 0.0002",
+                     id="a drift's std in percent"),
+        pytest.param(RATE + "torque_constant_drift_std = -1e-4\n",
+                     "motor.torque_constant_drift_std", "within [0, 0.01]",
+                     id="a negative drift's std"),
     ],
 )
 def test_inconsistent_tempco_keys_are_one_line(tmp_path, new, key, fault):
@@ -142,6 +148,12 @@ def test_inconsistent_tempco_keys_are_one_line(tmp_path, new, key, fault):
     with pytest.raises(InputError) as error:
         load_device(path)
     assert_one_line(error, str(path), key, fault)
+
+
+def test_a_drifts_std_loads_without_a_temperature(tmp_path):
+    path = write(tmp_path, "device.toml",
+                 edited(DEVICE_TOML, RATE, RATE + "torque_constant_drift_std = 2e-4\n"))
+    assert load_device(path).motor.torque_constant_drift_std == 2e-4
 
 
 def test_calibrate_says_in_one_line_that_the_tempco_stays_device_tomls():
