@@ -21,6 +21,7 @@ from rsp_inertia.virtual.config import Virtual, load_virtual
 
 __all__ = [
     "default_experiment",
+    "drawn_reference",
     "load",
     "scale_friction",
     "seeded",
@@ -84,6 +85,26 @@ def default_experiment(
 
 
 # --- one change each -------------------------------------------------------------------------
+
+
+def drawn_reference(reference: str | Path, seed: int) -> np.ndarray:
+    """Make the reference folder's true body (its virtual.toml ``[body]``) one draw from its
+    certificate (reference.toml's values and covariance), seeded by ``seed`` as
+    benchmarks.certificate draws it; return the draw over [mass, Jx..Jxz, x, y, z]."""
+    import tomlkit
+
+    from rsp_inertia.plant.config import load_reference
+
+    reference = Path(reference)
+    nominal = load_reference(reference / "reference.toml")
+    drawn = np.random.default_rng(10_000 + seed).multivariate_normal(nominal.values, nominal.cov)
+    path = reference / "virtual.toml"
+    doc = tomlkit.parse(path.read_text())
+    doc["body"]["mass"] = float(drawn[0])
+    doc["body"]["inertia"] = [float(v) for v in drawn[1:7]]
+    doc["body"]["com"] = [float(v) for v in drawn[7:10]]
+    path.write_text(tomlkit.dumps(doc))
+    return drawn
 
 
 def scale_friction(virtual: Virtual, factor: float) -> Virtual:

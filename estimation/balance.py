@@ -74,6 +74,7 @@ from rsp_inertia.plant.config import Device, Stage
 from rsp_inertia.plant.friction import FRICTION
 from rsp_inertia.plant.logs import Log, dropped_samples, mirrored_device
 from rsp_inertia.plant.model import potential, spring_parameters, static_torque
+from rsp_inertia.plant.transducers import motor_rises
 
 __all__ = [
     "EDGE_MARGIN",
@@ -98,6 +99,7 @@ __all__ = [
     "spring_torque",
     "stage_balance",
     "usable_range",
+    "warming_work",
 ]
 
 MIN_SPEED_FRACTION = 0.2
@@ -584,6 +586,16 @@ class StageBalance:
     """N^2 m^2 s, the heat the motor had dissipated, averaged over the reverse pass's work,
     less the same over the braking's (:func:`heat_work`): a torque scale that falls by c per
     unit of heat differs between the run's passes by about c times this."""
+    warming_parts: np.ndarray | None = None
+    """(n, 2) J N^2 m^2, both passes' motor work weighted by the magnets' modelled rise, its
+    driving and back-driven parts (:func:`warming_work`): a motor that warms with the heat
+    its logged torque dissipates adds c times these (times the drive's gains) to the balance,
+    c the tensor fit's unknown (device.toml ``[motor] winding_time_constant``); None: not
+    modelled."""
+    warming_gap: float = 0.0
+    """N^2 m^2, the magnets' modelled rise averaged over the reverse pass's work less the same
+    over the braking's (:func:`warming_work`): the torque's scale differs between the run's
+    passes by about c times this."""
     tempco_work_parts: np.ndarray | None = None
     """(n, 2) d :attr:`motor_work_parts` / d alpha, J K: how the work parts move with the torque
     constant's tempco that compensated the logs (rsp_inertia.estimation.tempco.pass_tempco_work;
@@ -715,6 +727,7 @@ def stage_balance(
     work = b.work + r.work - spring
     hb, gap_b, heat_b = heat_work(braking, b, 0.0)
     hr, gap_r, _ = heat_work(reverse, r, heat_b)
+    warming = _warming(device.motor, braking, b, reverse, r)
     tempco = [pass_tempco_work(device.motor, est, a) for est, a in ((braking, b), (reverse, r))]
     mismatch = mismatch_regressors(phi, b.omega, r.omega)
     return StageBalance(
@@ -746,10 +759,29 @@ def stage_balance(
         reverse_work_back=r.work_back,
         heat_work=hb + hr,
         heat_gap=gap_r - gap_b,
+        warming_parts=None if warming is None else warming[0],
+        warming_gap=0.0 if warming is None else warming[1],
         compensated=braking.log.torque_factor is not None
         or reverse.log.torque_factor is not None,
         pass_gain=st.braking_torque_2 is not None,
     )
+
+
+def _warming(motor, braking: PassEstimate, b: AngleSample, reverse: PassEstimate, r: AngleSample):
+    """(StageBalance.warming_parts, StageBalance.warming_gap) of a run where device.toml
+    models the motor's warming (``[motor] winding_time_constant``), else None: the run starts
+    with the motor at rest (no rise), the reverse where the braking left it, cooled over
+    ``reverse_delay``."""
+    tau_w = motor.winding_time_constant
+    if tau_w is None:
+        return None
+    tau_m = motor.temperature_lag
+    wb, gap_b, end = warming_work(braking, b, (0.0, 0.0), tau_w, tau_m)
+    if motor.reverse_delay:
+        winding, magnet = motor_rises([0.0], [0.0, motor.reverse_delay], tau_w, tau_m, end)
+        end = (float(winding[-1]), float(magnet[-1]))
+    wr, gap_r, _ = warming_work(reverse, r, end, tau_w, tau_m)
+    return wb + wr, gap_r - gap_b
 
 
 def heat_work(
@@ -783,22 +815,86 @@ def heat_work(
         (the weighted work at the angles, J N^2 m^2 s; the heat averaged over the pass's work
         |dW|, N^2 m^2 s; the heat at the pass's end, N^2 m^2 s).
     """
-    log = estimate.log
-    dt = np.diff(log.t)
-    if estimate.torque_mean is not None:
-        step_heat = estimate.torque_mean**2 * dt
-    else:
-        u = np.asarray(log.torque[:-1], dtype=float)  # held over [t_k, t_k+1)
-        step_heat = np.maximum(u * u - estimate.sigma_torque**2, 0.0) * dt
+    step_heat = _heat_rate(estimate) * np.diff(estimate.log.t)
     before = start_heat + np.concatenate([[0.0], np.cumsum(step_heat)])
     mid = before[:-1] + 0.5 * step_heat  # the heat at each step's middle
+    at, _, mean_heat = _weighted_work(estimate, a, mid, start_heat)
+    return at, mean_heat, float(before[-1])
+
+
+def warming_work(
+    estimate: PassEstimate,
+    a: AngleSample,
+    start: tuple[float, float],
+    tau_w: float,
+    tau_m: float | None,
+) -> tuple[np.ndarray, float, tuple[float, float]]:
+    """A pass's motor work weighted by the magnets' modelled rise, at the angles of ``a``:
+    the shape of a motor that warms with the heat its logged torque dissipates, its
+    temperature not logged (device.toml ``[motor] winding_time_constant``).
+
+    The winding dissipates I^2 R = u^2 R / k_t^2; through its thermal time constant tau_w and
+    the magnets' lag tau_m (rsp_inertia.plant.transducers.motor_rises, driven by u^2, the
+    logged torque's noise variance taken off) the magnets rise by m(t) per unit of
+    R_th R / k_t^2, and the body receives u (1 + c m(t)) of a logged u, c = alpha R_th R /
+    k_t^2 (1/(N^2 m^2)). Its work then exceeds the logged one by c sum u m dphi: this sum, split
+    as the drive's gains split the work (the driving and the back-driven rows).
+
+    Parameters
+    ----------
+    estimate : PassEstimate
+        The pass.
+    a : AngleSample
+        The pass at the balance angles.
+    start : (float, float)
+        The winding's and the magnets' rises at the pass's first row, N^2 m^2.
+    tau_w, tau_m : float
+        s, the winding's time constant and the magnets' lag (None: none).
+
+    Returns
+    -------
+    tuple
+        ((n, 2) the weighted work's driving and back-driven parts at the angles, J N^2 m^2;
+        the rise averaged over the pass's work |dW|, N^2 m^2; the rises at the pass's last
+        row).
+    """
+    winding, magnet = motor_rises(_heat_rate(estimate), estimate.log.t, tau_w, tau_m, start)
+    mid = 0.5 * (magnet[:-1] + magnet[1:])  # the rise over each step
+    at, back, mean_rise = _weighted_work(estimate, a, mid, start[1])
+    return np.column_stack([at - back, back]), mean_rise, (float(winding[-1]), float(magnet[-1]))
+
+
+def _heat_rate(estimate: PassEstimate) -> np.ndarray:
+    """N^2 m^2, the logged torque's square over each step [t_k, t_k+1) (the level's mean for a
+    constant-torque pass, each level's for a two-level braking; a logged torque's noise
+    variance taken off its square): the winding's dissipation up to R / k_t^2."""
+    log = estimate.log
+    if estimate.torque_mean is not None:
+        level = np.full(len(log.t) - 1, estimate.torque_mean)
+        if estimate.torque_mean_2 is not None:
+            level[estimate.switch :] = estimate.torque_mean_2
+        return level**2
+    u = np.asarray(log.torque[:-1], dtype=float)  # held over [t_k, t_k+1)
+    return np.maximum(u * u - estimate.sigma_torque**2, 0.0)
+
+
+def _weighted_work(
+    estimate: PassEstimate, a: AngleSample, mid: np.ndarray, start: float
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """The pass's work weighted by ``mid`` (one value per step), to each angle of ``a``: the
+    whole and its back-driven part; and ``mid`` averaged over the pass's work |dW| (``start``
+    for a pass without work)."""
+    log = estimate.log
     dW = np.diff(estimate.work)
+    dW_back = np.diff(estimate.work_back)
     weighted = np.concatenate([[0.0], np.cumsum(dW * mid)])
+    weighted_back = np.concatenate([[0.0], np.cumsum(dW_back * mid)])
     rows = np.clip(np.searchsorted(log.t, a.time, side="right") - 1, 0, len(mid) - 1)
     at = weighted[rows] + (a.work - estimate.work[rows]) * mid[rows]
+    back = weighted_back[rows] + (a.work_back - estimate.work_back[rows]) * mid[rows]
     total = float(np.sum(np.abs(dW)))
-    mean_heat = float(np.sum(np.abs(dW) * mid) / total) if total > 0 else start_heat
-    return at, mean_heat, float(before[-1])
+    mean = float(np.sum(np.abs(dW) * mid) / total) if total > 0 else start
+    return at, back, mean
 
 
 def friction_slope_prior(

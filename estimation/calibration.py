@@ -75,6 +75,7 @@ from rsp_inertia.estimation.calibration_file import (
     calibration_text,
 )
 from rsp_inertia.estimation.columns import (
+    WARMING_UNKNOWN,
     both_directions,
     cause_probes,
     encoder_unknowns,
@@ -291,6 +292,7 @@ def _blocks(
     flip: np.ndarray | None = None,
     certificate: Reference | None = None,
     tempco_gains: tuple[float, float] | None = None,
+    warming_gains: tuple[float, float] = (1.0, 1.0),
 ):
     """The calibration equations of one experiment's runs (module docstring).
 
@@ -304,7 +306,9 @@ def _blocks(
     certified values are known terms of the fit with their stated covariance (module
     docstring); each reference run's block carries their d rhs / d value. ``tempco_gains``:
     the tempco alpha is an unknown (rsp_inertia.estimation.tempco), its column the work parts'
-    response times these gains (h_d, h_b)."""
+    response times these gains (h_d, h_b). ``warming_gains``: the gains (h_d, h_b) the warming
+    motor's column is linearised at (rsp_inertia.estimation.tensor_fit.WARMING_UNKNOWN, where
+    device.toml models it; the runs' balances carry its StageBalance.warming_parts)."""
     # The unknowns are theta's, by theta's names (rsp_inertia.estimation.layout).
     theta = theta_layout(len(device.stages), encoder_orders)
     gains = theta.names("gains")
@@ -326,6 +330,9 @@ def _blocks(
             rhs = -bal.spring
         else:
             rhs = bal.work.copy()
+        if bal.warming_parts is not None:  # one motor: c shared by every run and experiment
+            gain = warming_gains if has_gain else (1.0, 1.0)
+            cols[WARMING_UNKNOWN] = -(bal.warming_parts @ np.asarray(gain))
         # The encoder's remaining error, per unit of M(phi) (the first pass gives M).
         scaled = encoder_unknowns(bal, encoder_orders) if encoder_orders else {}
         # Without a reference the drive and the encoder cannot be measured, but the model
@@ -375,7 +382,7 @@ def _blocks(
                     if name.startswith("e")
                     or name in gains
                     or name in scaled
-                    or name in (ZERO_NAME, CONVENTION_FACTOR, TEMPCO_NAME)
+                    or name in (ZERO_NAME, CONVENTION_FACTOR, TEMPCO_NAME, WARMING_UNKNOWN)
                 ),
                 groups={name: f"{role} {run_label(bal)}" for name in harmonics},
                 fixed_in_tests=frozenset((*gains, TEMPCO_NAME)),
@@ -489,6 +496,7 @@ def fit_calibration(
     flip: np.ndarray | None = None,
     certificate: Reference | None = None,
     tempco: tuple[float, tuple[float, float]] | None = None,
+    warming_gains: tuple[float, float] = (1.0, 1.0),
 ) -> tuple[KnownTerms, BalanceFit]:
     """The calibrated terms from the empty runs' and the reference runs' balances.
 
@@ -524,6 +532,9 @@ def fit_calibration(
         compensated the logs with the prior N(0, std^2), ``(std, (h_d, h_b))`` the stated std
         (1/K) and the gains its column is linearised at (rsp_inertia.estimation.tempco).
         None: alpha exact, as the logs were compensated.
+    warming_gains : (float, float), optional
+        With a reference and a warming device.toml models: the gains (h_d, h_b) the warming's
+        column is linearised at (the previous fit's; 1 at first).
 
     Returns
     -------
@@ -536,12 +547,13 @@ def fit_calibration(
     certificate = certificate if has_gain and certificate is not None and certificate.stated else None
     gains = None if tempco is None or not has_gain else tempco[1]
     blocks = _blocks(
-        device, empty, "empty", None, has_gain, orders, orientation, tempco_gains=gains
+        device, empty, "empty", None, has_gain, orders, orientation, tempco_gains=gains,
+        warming_gains=warming_gains,
     )
     if has_gain:
         blocks += _blocks(
             device, reference, "reference", reference_body, has_gain, orders, orientation, flip,
-            certificate, gains,
+            certificate, gains, warming_gains,
         )
     if gains is not None:
         blocks = _with_tempco_prior(blocks, tempco[0])
@@ -640,6 +652,7 @@ def calibrate_logs(
     )
     scales = None
     conventions = None
+    warming_gains = (1.0, 1.0)  # the warming's column linearised at the last fit's gains
     for iteration in range(ENCODER_ITERATIONS if reference is not None else 1):
         warnings: list[str] = []
         # What the logs are corrected with: the encoder's error and zero found so far.
@@ -654,7 +667,7 @@ def calibrate_logs(
         # terms off each run's own fit); the model tests from the fit that is kept.
         known, fit = fit_calibration(
             device, empty_bal, ref_bal, reference_body, encoder, scales, tests=False, zero=zero,
-            certificate=certificate,
+            certificate=certificate, warming_gains=warming_gains,
         )
         scales = fit.scales
         if encoder is None:
@@ -664,15 +677,16 @@ def calibrate_logs(
             # encoder's error (rsp_inertia.estimation.conventions): a flip is refused here.
             fitter = functools.partial(
                 fit_calibration, device, empty_bal, ref_bal, reference_body, encoder, scales,
-                tests=False, zero=zero, certificate=certificate,
+                tests=False, zero=zero, certificate=certificate, warming_gains=warming_gains,
             )
             conventions = check_conventions(fitter, known, reference.sources.experiment)
             if not conventions.zero_measured:
                 zero = zero_applied = None
                 known, fit = fit_calibration(
                     device, empty_bal, ref_bal, reference_body, encoder, scales, tests=False,
-                    certificate=certificate,
+                    certificate=certificate, warming_gains=warming_gains,
                 )
+        warming_gains = known.gains
         step = np.append(known.encoder - encoder, known.zero - (zero or 0.0))
         step_std = np.append(known.std[known.encoder_slice], known.std[known.zero_slice])
         encoder = known.encoder
@@ -687,6 +701,7 @@ def calibrate_logs(
     final = functools.partial(
         fit_calibration, device, empty_bal, ref_bal, reference_body,
         applied if len(applied) else None, scales, zero=zero_applied, certificate=certificate,
+        warming_gains=warming_gains,
     )
     # The tempco as an unknown when the runs can take it; kept only where they measure it
     # (rsp_inertia.estimation.tempco: otherwise the fit without it, alpha device.toml's).

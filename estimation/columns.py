@@ -30,6 +30,7 @@ from rsp_inertia.plant.model import gravity_basis, gravity_basis_slope
 from rsp_inertia.plant.transducers import error_slope_basis
 
 __all__ = [
+    "WARMING_UNKNOWN",
     "both_directions",
     "cause_probes",
     "encoder_columns",
@@ -50,6 +51,13 @@ def encoder_unknowns(bal: StageBalance, orders: int) -> dict[str, np.ndarray]:
     (:func:`encoder_columns` negated: an error left in the readings raises the kinetic
     energy's share)."""
     return dict(zip(encoder_names(orders), -encoder_columns(bal, orders).T))
+
+
+WARMING_UNKNOWN = "warming"
+"""The warming motor's coefficient c among the unknowns, one for the experiment (one motor):
+the body receives the logged torque times 1 + c m(t), m the magnets' modelled rise
+(rsp_inertia.estimation.balance.warming_work), its column -(h_d, h_b) . the run's
+StageBalance.warming_parts."""
 
 
 def cause_probes(bal: StageBalance, hottest: float | None = None) -> tuple[dict, dict]:
@@ -74,7 +82,8 @@ def cause_probes(bal: StageBalance, hottest: float | None = None) -> tuple[dict,
     """
     probes = {DRIVE_PROBE: {"dh_d": -bal.motor_work_parts[:, 0]}}
     hottest = bal.heat_gap if hottest is None else hottest
-    if bal.heat_work is not None and hottest > 0.0:
+    # Where the fit models the warming (StageBalance.warming_parts), it is no probe.
+    if bal.heat_work is not None and hottest > 0.0 and bal.warming_parts is None:
         probes[WARMING_PROBE] = {"c_heat": -bal.heat_work / hottest}
     return probes, {ENCODER_PROBE: encoder_unknowns(bal, PROBE_ORDERS)}
 

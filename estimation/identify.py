@@ -266,6 +266,8 @@ def identify_logs(
         friction_slope_std=fit.friction_slope_std,
         pass_gain=fit.pass_gain,
         pass_gain_std=fit.pass_gain_std,
+        warming=fit.warming,
+        warming_drift=fit.warming_drift,
         std_budget=std_budget(fit, directions),
         warnings=warnings,
         pendulum=pendulum,

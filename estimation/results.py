@@ -210,6 +210,13 @@ class Identification:
     .pass_gain_unknown); NaN for a run that did not fit it; None: no run did."""
     pass_gain_std: np.ndarray | None = None
     """(runs,) std of ``pass_gain``."""
+    warming: tuple[float, float] | None = None
+    """(c, std), 1/(N^2 m^2): the warming motor's coefficient, fitted where device.toml models
+    the warming (``[motor] winding_time_constant``; rsp_inertia.estimation.tensor_fit
+    .WARMING_UNKNOWN); None: not fitted."""
+    warming_drift: np.ndarray | None = None
+    """(runs, 2) per run, the torque's scale over the reverse pass less over the braking that
+    ``warming`` implies, and its std; None: not fitted."""
     std_budget: dict[str, dict[str, np.ndarray]] = field(default_factory=dict)
     """Uncertainty budget of the least squares: for each noise source (rsp_inertia.estimation.tensor_fit
     NOISE_SOURCES), the standard deviations it alone gives to ``axes`` J ("axes") and to the
@@ -359,6 +366,16 @@ class Identification:
                     }
                     for key, gain in zip(self.runs, self._pass_gains())
                 ],
+                "warming": None
+                if self.warming is None
+                else {
+                    "coefficient": float(self.warming[0]),
+                    "std": float(self.warming[1]),
+                    "drift": [
+                        {"run": format_run(key), "value": float(d[0]), "std": float(d[1])}
+                        for key, d in zip(self.runs, self.warming_drift)
+                    ],
+                },
                 "friction_asymmetry": [
                     {
                         "stage": k + 1,

@@ -45,6 +45,7 @@ import numpy as np
 
 from rsp_inertia.estimation.balance import StageBalance
 from rsp_inertia.estimation.columns import (
+    WARMING_UNKNOWN,
     asymmetry_unknowns,
     both_directions,
     cause_probes,
@@ -78,6 +79,7 @@ from rsp_inertia.plant.model import inertia_basis, tensor_basis, tensor_basis_sl
 
 __all__ = [
     "PASS_GAIN_SOURCE",
+    "WARMING_UNKNOWN",
     "TensorFit",
     "angle_slopes",
     "balance_rhs",
@@ -148,6 +150,12 @@ class TensorFit:
     (:func:`pass_gain_unknown`); NaN for the others; None: no run fitted it."""
     pass_gain_std: np.ndarray | None = None
     """(runs,) std of ``pass_gain``."""
+    warming: tuple[float, float] | None = None
+    """(c, std), 1/(N^2 m^2): the warming motor's coefficient (:data:`WARMING_UNKNOWN`), fitted
+    where device.toml models the warming (``[motor] winding_time_constant``); None: not."""
+    warming_drift: np.ndarray | None = None
+    """(runs, 2) per run, the torque's scale over the reverse pass less over the braking that
+    ``warming`` implies (c StageBalance.warming_gap) and its std; None: not fitted."""
 
     @property
     def entries_cov(self) -> np.ndarray:
@@ -242,6 +250,8 @@ def tensor_block(
     pass_gain = bal.pass_gain and bal.reverse_work is not None
     if pass_gain:  # the body received (1 + d) x the reverse's work: on the unknowns' side
         cols[pass_gain_unknown(run)] = -drift_column(bal, known, 1.0)[DRIFT_SOURCE]
+    if bal.warming_parts is not None:  # the body received u (1 + c m(t)): c on the unknowns' side
+        cols[WARMING_UNKNOWN] = -(bal.warming_parts @ np.asarray(known.gains))
     return Block(
         balance=bal,
         label=run_label(bal),
@@ -259,7 +269,7 @@ def tensor_block(
         probe_bounds=probe_bounds(known.gains),
         groups={name: run_label(bal) for name in ENTRY_KEYS},
         joint_only=frozenset(
-            name for name in cols if name.startswith(("e", "pass_gain"))
+            name for name in cols if name.startswith(("e", "pass_gain", WARMING_UNKNOWN))
         ),
         priors=run_priors(bal, cols, run),
         considered={} if pass_gain else drift_column(bal, known, drift_std),
@@ -334,26 +344,36 @@ def fit_tensor(
     tensor = _tensor_fit(
         balances, known, fit, block_model_tests(equations, fit) if tests else []
     )
-    if tensor.pass_gain is None:
+    if tensor.pass_gain is None and tensor.warming is None:
         return tensor
-    fixed = solve_blocks(_equations(_without_pass_gain(balances), known, drift_std), scales)
+    fixed = solve_blocks(_pinned(equations), scales)
     ratio = max(fit.chi2_dof, 1.0) / max(fixed.chi2_dof, 1.0)
     return _with_pass_gain_share(tensor, _tensor_fit(balances, known, fixed, []), ratio)
 
 
 PASS_GAIN_SOURCE = "torque scale between the passes, fitted"
-"""Budget line of the runs' pass gains (:func:`pass_gain_unknown`): what fitting them adds to
+"""Budget line of the runs' pass gains (:func:`pass_gain_unknown`) and the warming motor's
+coefficient (:data:`WARMING_UNKNOWN`): what fitting them adds to
 the tensor's covariance (a run that fits its pass gain has no considered drift,
 rsp_inertia.estimation.gls DRIFT_SOURCE: the fit measures it)."""
 
 
-def _without_pass_gain(balances: list[StageBalance]) -> list[StageBalance]:
-    """The balances with no pass gain fitted, and no considered drift where they had one
-    (the same fit with the pass gains known to be zero)."""
-    return [
-        dataclasses.replace(bal, pass_gain=False, reverse_work=None) if bal.pass_gain else bal
-        for bal in balances
+def _pinned(equations: Equations) -> Equations:
+    """``equations`` with the pass gains and the warming known to be zero: their columns
+    taken out, the weights (the first pass's M, the noise) kept, so that the budget's other
+    lines are those of the same fit without them (a fit assembled without the columns would
+    weigh by a first pass that the drift has biased)."""
+    keep = [
+        j for j, name in enumerate(equations.names)
+        if not (name.startswith("pass_gain") or name == WARMING_UNKNOWN)
     ]
+    A = equations.A[:, keep]
+    return dataclasses.replace(
+        equations,
+        names=[equations.names[j] for j in keep],
+        A=A,
+        A_all=np.hstack([A, equations.N]),
+    )
 
 
 def _with_pass_gain_share(free: TensorFit, fixed: TensorFit, ratio: float) -> TensorFit:
@@ -388,10 +408,11 @@ def predict_tensor(balances: list[StageBalance], known: KnownTerms | None = None
         The entries and gravity terms with their predicted covariance and budget.
     """
     known = _known_or_tares(balances, known)
-    tensor = _tensor_fit(balances, known, predict_blocks(_equations(balances, known)), [])
-    if tensor.pass_gain is None:
+    equations = _equations(balances, known)
+    tensor = _tensor_fit(balances, known, predict_blocks(equations), [])
+    if tensor.pass_gain is None and tensor.warming is None:
         return tensor
-    fixed = predict_blocks(_equations(_without_pass_gain(balances), known))
+    fixed = predict_blocks(_pinned(equations))
     return _with_pass_gain_share(tensor, _tensor_fit(balances, known, fixed, []), 1.0)
 
 
@@ -450,6 +471,7 @@ def _tensor_fit(
             asym[s - 1, j], asym_std[s - 1, j] = fit.value(name)
     gains = [fit.value(pass_gain_unknown(str(k))) for k in range(n_runs)]
     fitted = any(bal.pass_gain for bal in balances)
+    warming = fit.value(WARMING_UNKNOWN) if WARMING_UNKNOWN in fit.names else None
     sub = np.ix_(shared, shared)
     # The sum of the sources' parts is symmetric up to rounding (4e-10 of the smallest
     # products); result.json and a combination of mountings take it exactly symmetric.
@@ -478,4 +500,8 @@ def _tensor_fit(
         prior_warnings=list(fit.prior_warnings),
         pass_gain=np.array([g[0] for g in gains]) if fitted else None,
         pass_gain_std=np.array([g[1] for g in gains]) if fitted else None,
+        warming=warming,
+        warming_drift=None if warming is None else np.array(
+            [[warming[0] * bal.warming_gap, warming[1] * abs(bal.warming_gap)] for bal in balances]
+        ),
     )

@@ -123,8 +123,30 @@ class Motor:
         unit="s",
         bound="> 0",
         doc="tau, the magnets follow the logged (winding or housing) temperature through a "
-        "first-order lag dT_mag/dt = (T - T_mag) / tau (needs ``torque_constant_tempco``). "
-        "None: the magnets are at the logged temperature.",
+        "first-order lag dT_mag/dt = (T - T_mag) / tau (needs ``torque_constant_tempco`` or "
+        "``winding_time_constant``; with the latter, the lag behind the modelled winding). "
+        "None: the magnets are at the logged (or modelled) winding temperature.",
+    )
+    winding_time_constant: float | None = key(
+        None,
+        unit="s",
+        bound="> 0",
+        doc="tau_w, the winding's thermal time constant to the ambient (the motor's "
+        "datasheet): a motor that warms with the heat its logged torque dissipates, its "
+        "temperature not logged. identify and calibrate then fit one coefficient c for the "
+        "experiment, the torque's scale 1 + c m(t), m the magnets' rise that the logged "
+        "torque's squares drive through tau_w and ``temperature_lag`` from each run's start "
+        "(rsp_inertia.estimation.balance.warming_work; docs/method.md §5). Refused with "
+        "``torque_constant_tempco`` (a logged temperature compensates the warming). None: "
+        "not fitted.",
+    )
+    reverse_delay: float | None = key(
+        None,
+        unit="s",
+        bound=">= 0",
+        doc="The time from a braking log's last row to its reverse log's first row, over "
+        "which the motor cools (needs ``winding_time_constant``). None: 0, the reverse "
+        "follows its braking at once.",
     )
     reference_temperature: float | None = key(
         None,
@@ -670,8 +692,21 @@ def _log_rules(device: Device) -> None:
 def _thermal_rules(device: Device) -> None:
     """The rules of the torque constant's temperature compensation (docs/files.md, [motor])."""
     motor = device.motor
+    if motor.reverse_delay is not None and motor.winding_time_constant is None:
+        raise ContentError(
+            "motor.reverse_delay",
+            "needs motor.winding_time_constant (s; leave this out, or state it)",
+        )
+    if motor.winding_time_constant is not None and motor.torque_constant_tempco is not None:
+        raise ContentError(
+            "motor.winding_time_constant",
+            "models a warming whose temperature is not logged, and "
+            "motor.torque_constant_tempco compensates the logged one: state one of them",
+        )
     if motor.torque_constant_tempco is None:
-        for name in ("torque_constant_tempco_std", "temperature_lag", "reference_temperature"):
+        # The magnets' lag is the modelled winding's too (winding_time_constant).
+        lag = () if motor.winding_time_constant is not None else ("temperature_lag",)
+        for name in ("torque_constant_tempco_std", *lag, "reference_temperature"):
             if getattr(motor, name) is not None:
                 raise ContentError(
                     f"motor.{name}",

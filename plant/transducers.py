@@ -34,7 +34,9 @@ logs a (winding or housing) temperature T, the magnets follow it through a first
 dT_mag/dt = (T - T_mag) / tau (:func:`magnet_temperature`), and the torque the body
 receives per unit of logged torque carries the factor 1 + alpha (T_mag - T_ref)
 (:func:`thermal_torque_factor`, docs/method.md §3, "Temperature"): h_d and h_b are the
-gains at T_ref.
+gains at T_ref. Where no temperature is logged, the magnets' rise can be modelled from the
+logged torque itself: the winding heated by its squares through its thermal time constant,
+the magnets behind it (:func:`motor_rises`, the shape of the warming identify fits).
 The virtual device's drive applies the same factor to both gains
 (:func:`thermal_gains`).
 """
@@ -53,6 +55,7 @@ __all__ = [
     "error_slope_basis",
     "logged_torque",
     "magnet_temperature",
+    "motor_rises",
     "power_flow_split",
     "thermal_gains",
     "thermal_torque_factor",
@@ -338,6 +341,64 @@ def magnet_temperature(temperature, t, lag: float | None) -> np.ndarray:
         e = (e + st) * d - st
         lagging[k] = e
     return temperature + lagging
+
+
+def motor_rises(
+    heat_rate, t, tau_w: float, tau_m: float | None, start: tuple[float, float] = (0.0, 0.0)
+) -> tuple[np.ndarray, np.ndarray]:
+    """The winding's and the magnets' rises at each row of a two-node thermal model driven by
+    ``heat_rate`` held over each step (module docstring, "Temperature"):
+
+        tau_w dw/dt = P - w,        tau_m dm/dt = w - m      (tau_m None or 0: m = w),
+
+    in the units of P (unit thermal resistance: a rise per unit of P, identify's warming
+    shape). Exact for any time stamps: over a step h at a held P,
+    w' = e_w w + (1 - e_w) P and m' = e_m m + g w + (1 - e_m - g) P, e = exp(-h / tau),
+    g = tau_w (e_w - e_m) / (tau_w - tau_m) (h e_m / tau_m at tau_w = tau_m).
+
+    Parameters
+    ----------
+    heat_rate : array_like, shape (n - 1,)
+        P over each step [t_k, t_k+1).
+    t : array_like, shape (n,)
+        s, the rows' time stamps, increasing.
+    tau_w : float
+        s, > 0, the winding's time constant.
+    tau_m : float or None
+        s, the magnets' lag behind the winding; None or 0: none.
+    start : (float, float)
+        (w, m) at the first row.
+
+    Returns
+    -------
+    winding, magnet : numpy.ndarray, shape (n,)
+        The rises at the rows, in P's units.
+
+    Examples
+    --------
+    >>> w, m = motor_rises([1.0, 1.0], [0.0, 1.0, 2.0], 1.0, None)
+    >>> bool(np.allclose(w, 1 - np.exp(-np.array([0.0, 1.0, 2.0]))) and np.all(m == w))
+    True
+    """
+    P = np.asarray(heat_rate, dtype=float)
+    h = np.diff(np.asarray(t, dtype=float))
+    ew = np.exp(-h / tau_w)
+    w = np.empty(h.size + 1)
+    w[0] = start[0]
+    for k, (e, p) in enumerate(zip(ew.tolist(), P.tolist()), 1):
+        w[k] = e * w[k - 1] + (1.0 - e) * p
+    if not tau_m:
+        return w, w.copy()
+    em = np.exp(-h / tau_m)
+    if abs(tau_w - tau_m) <= 1e-9 * tau_w:  # the double root: the limit of the general form
+        g = h / tau_m * em
+    else:
+        g = tau_w * (ew - em) / (tau_w - tau_m)
+    m = np.empty(h.size + 1)
+    m[0] = start[1]
+    for k, (e, gk, wk, p) in enumerate(zip(em.tolist(), g.tolist(), w[:-1].tolist(), P.tolist()), 1):
+        m[k] = e * m[k - 1] + gk * wk + (1.0 - e - gk) * p
+    return w, m
 
 
 def thermal_torque_factor(

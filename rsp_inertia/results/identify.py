@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from rsp_inertia.estimation.columns import format_run
 from rsp_inertia.figure_files import save_figures
 from rsp_inertia.infra.frozen import read_only
 from rsp_inertia.plant.experiment import RESULT_FILE
@@ -307,6 +308,15 @@ def format_identification(result: Identification, truth: np.ndarray | None = Non
                     f"{e[0]:+.2e} +- {std[0]:.0e} N m {e[1]:+.2e} +- {std[1]:.0e} |W| "
                     f"{e[2]:+.2e} +- {std[2]:.0e} W^2"
                 )
+    if result.warming is not None:
+        c, c_std = result.warming
+        hottest = int(np.argmax(np.abs(result.warming_drift[:, 0])))
+        d, d_std = result.warming_drift[hottest]
+        lines.append(
+            f"warming motor: c = {c:.3e} +- {c_std:.1e} /(N^2 m^2); the torque's scale "
+            f"{d:+.1e} +- {d_std:.0e} from the braking to the reverse pass in "
+            f"{format_run(result.runs[hottest])}"
+        )
     if result.calibration is not None:
         cal = result.calibration
         (h_d, h_b), (s_d, s_b) = cal.drive_gains, cal.drive_gains_std
