@@ -439,7 +439,9 @@ def std_budget(fit: TensorFit, directions: np.ndarray) -> dict[str, dict[str, np
     return {
         source: {
             "axes": axis_values(fit.entries, part[ENTRIES, ENTRIES], directions)[1],
-            "tensor": np.sqrt(np.diag(part[ENTRIES, ENTRIES])),
+            # A fitted line's share can dip a rounding below zero on an entry the fitted
+            # unknowns barely touch (the lines are attributions: tensor_fit._with_pass_gain_share).
+            "tensor": np.sqrt(np.maximum(np.diag(part[ENTRIES, ENTRIES]), 0.0)),
         }
         for source, part in fit.cov_parts.items()
     }

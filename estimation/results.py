@@ -366,14 +366,22 @@ class Identification:
                     }
                     for key, gain in zip(self.runs, self._pass_gains())
                 ],
-                "warming": None
-                if self.warming is None
-                else {
-                    "coefficient": float(self.warming[0]),
-                    "std": float(self.warming[1]),
+                "warming": {
+                    "fitted": self.warming is not None,
+                    "coefficient": None if self.warming is None else float(self.warming[0]),
+                    "std": None if self.warming is None else float(self.warming[1]),
                     "drift": [
-                        {"run": format_run(key), "value": float(d[0]), "std": float(d[1])}
-                        for key, d in zip(self.runs, self.warming_drift)
+                        {
+                            "run": format_run(key),
+                            "value": None if self.warming is None else float(d[0]),
+                            "std": None if self.warming is None else float(d[1]),
+                        }
+                        for key, d in zip(
+                            self.runs,
+                            self.warming_drift
+                            if self.warming_drift is not None
+                            else [(None, None)] * len(self.runs),
+                        )
                     ],
                 },
                 "friction_asymmetry": [

@@ -377,14 +377,17 @@ def _pinned(equations: Equations) -> Equations:
 
 
 def _with_pass_gain_share(free: TensorFit, fixed: TensorFit, ratio: float) -> TensorFit:
-    """``free``'s budget as ``fixed``'s lines (the same fit with the pass gains known to be
-    zero; its noise sources' lines taken at ``free``'s inflation, ``ratio`` = the fits'
-    chi^2/dof above 1, free over fixed) and one more, :data:`PASS_GAIN_SOURCE`: the rest of
-    ``free``'s covariance, so that the lines still add up to it."""
+    """``free``'s budget with one more line, :data:`PASS_GAIN_SOURCE`: what fitting the pass
+    gains and the warming adds to the noise sources' share. The noise sources' lines are
+    ``fixed``'s (the same equations with them known to be zero, taken at ``free``'s inflation:
+    ``ratio`` = the fits' chi^2/dof above 1, free over fixed), the calibration's and the
+    considered terms' ``free``'s own (fitting c changes how a torque scale's error reaches
+    the tensor), and the new line the rest of ``free``'s covariance, so that the lines still
+    add up to it."""
     inflated = set(NOISE_SOURCES) | {GAP_SOURCE}
     parts = {
-        name: part * ratio if name in inflated else part
-        for name, part in fixed.cov_parts.items()
+        name: fixed.cov_parts[name] * ratio if name in inflated else part
+        for name, part in free.cov_parts.items()
     }
     parts[PASS_GAIN_SOURCE] = free.cov - sum(parts.values())
     return dataclasses.replace(free, cov_parts=parts)

@@ -376,10 +376,12 @@ TOGETHER = (
         "motor.torque_constant_tempco", "motor.torque_constant_tempco_std",
         "motor.temperature_lag", "motor.reference_temperature", "log.temperature_column",
     },
+    {"motor.winding_time_constant", "motor.temperature_lag", "motor.reverse_delay"},
 )
 """Optional keys (dotted) that a file gives together or not at all: an encoder's error series,
 a torque constant and logs of the current, a decimal comma and its delimiter, a tempco and
-the logged temperature it compensates, a two-level braking's second torque and its switch."""
+the logged temperature it compensates, a two-level braking's second torque and its switch,
+a warming motor's modelled time constants and pause."""
 
 
 def _together(table: str, key: str) -> set[str]:

@@ -160,6 +160,13 @@ def test_a_warming_motor_is_measured_through_without_a_temperature_log(
     # The drift it implies in stage 2 (the benchmark's 1e-3 between the passes' means).
     assert -1.6e-3 < fit.warming_drift[1, 0] < -1.0e-3
     assert PASS_GAIN_SOURCE in fit.cov_parts
+    # The fitted line: what fitting c adds to the noise's share, most of Jx's and Jy's stds
+    # here (stage 2's axes, the hot stage, carry them); on an entry c barely touches (a product) it may dip below zero by a fraction of
+    # that entry's variance, which the budget shows as 0.
+    fitted = np.diag(fit.cov_parts[PASS_GAIN_SOURCE])[:6]
+    total = np.diag(fit.cov)[:6]
+    assert np.all(fitted[:2] > 0.5 * total[:2])
+    assert np.all(fitted > -0.2 * total)
     assert not any(t.significant for t in fit.tests if t.kind)
 
 

@@ -271,7 +271,7 @@ def test_the_demo_prints_the_errors_relative_errors_gives(monkeypatch) -> None:
     result = SimpleNamespace(
         entries=truth + 1e-6, entries_std=np.full(6, 1e-7), node_entries=truth - 1e-6,
         node_entries_cov=np.eye(6) * 1e-12, condition_number=1.58, axes=[], std_budget={},
-        friction_asymmetry=None, calibration=None, pendulum=None, com=None, decision=None,
+        friction_asymmetry=None, warming=None, calibration=None, pendulum=None, com=None, decision=None,
         warnings=[], expanded_uncertainty=SimpleNamespace(lines=list),
     )
     monkeypatch.setattr(
