@@ -16,6 +16,7 @@ import numpy as np
 from rsp_inertia.design.candidates import StageModel
 from rsp_inertia.design.pilot import fit_pilot
 from rsp_inertia.design.plan import map_stages
+from rsp_inertia.estimation.reading import read_calibration, tempco_in_use
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.infra.progress import say
 from rsp_inertia.plant.config import Device
@@ -109,16 +110,28 @@ def stage_models(root: str | Path) -> list[StageModel]:
         One per stage, in order.
     """
     exp = open_experiment(root, protocol=False)
+    tempco = _tempco(exp)
     jobs = []
     for stage in exp.stages(None):
         path = exp.pilot_path(stage)
         log = read_device_log(path, exp.device, "pilot") if path.is_file() else None
         if log is not None:  # its torque at the reference temperature, as identify's
-            log = compensate_temperature(log, exp.device.motor)
+            log = compensate_temperature(log, exp.device.motor, tempco)
         for warning in () if log is None else log.warnings:
             say(f"warning: {warning}")  # a glitch the reader left out
         jobs.append((exp.device, stage, path, log))
     return map_stages(_stage_model, jobs)
+
+
+def _tempco(exp) -> float | None:
+    """The tempco identify compensates with (rsp_inertia.estimation.reading.tempco_in_use:
+    calibration.toml's where calibrate measured it, else device.toml's); device.toml's when
+    calibration.toml cannot be read (check and identify say why; a plan does not need it)."""
+    try:
+        calibration = read_calibration(exp)
+    except InputError:
+        calibration = None
+    return tempco_in_use(exp, calibration)[0]
 
 
 def _stage_model(device: Device, stage: int, path: Path, log: Log | None) -> StageModel:

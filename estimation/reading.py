@@ -61,6 +61,7 @@ __all__ = [
     "read_calibration",
     "read_experiment",
     "read_run",
+    "tempco_in_use",
     "tempco_line",
     "unterminated_warnings",
 ]
@@ -269,7 +270,7 @@ def identify_experiment(
     known, warnings = known_terms(exp, calibration)
     warnings += record_warnings
     # The tempco: calibration.toml's where calibrate measured it, else device.toml's.
-    alpha, alpha_std, tempco_warnings = _tempco(exp, calibration)
+    alpha, alpha_std, tempco_warnings = tempco_in_use(exp, calibration)
     warnings += tempco_warnings
     logs = read_experiment(exp, alpha)
     warnings += unterminated_warnings(logs)
@@ -299,10 +300,11 @@ def identify_experiment(
     return dataclasses.replace(found, record=record, decision=decision)
 
 
-def _tempco(
+def tempco_in_use(
     exp: Experiment, calibration: CalibrationFile | None
 ) -> tuple[float | None, float | None, list[str]]:
-    """(alpha, std, warnings) identify compensates the logs with: calibration.toml's ``[motor]``
+    """(alpha, std, warnings) identify, check and plan's pilots compensate the logs with:
+    calibration.toml's ``[motor]``
     where calibrate measured the tempco and device.toml states one (calibrated over stated,
     as for the other terms), else device.toml's; a warning when device.toml's
     ``reference_temperature`` is not the one the calibration's gains hold at."""

@@ -59,7 +59,12 @@ from rsp_inertia.estimation.identify import (
     pendulum_settings,
     reduce_pendulum_run,
 )
-from rsp_inertia.estimation.reading import known_terms, read_calibration, read_run
+from rsp_inertia.estimation.reading import (
+    known_terms,
+    read_calibration,
+    read_run,
+    tempco_in_use,
+)
 from rsp_inertia.estimation.records import experiment_record
 from rsp_inertia.estimation.runs import checked_run
 from rsp_inertia.estimation.smoothing import top_speed
@@ -133,9 +138,11 @@ def check(path: str | Path, calibration: bool = False) -> CheckResult:
     except InputError as error:
         calibrated, known_warnings = None, []
         encoder, fault = ((), 0.0), str(error)  # a bad calibration.toml: its own line (_check_constants)
+    # The tempco identify compensates with: calibration.toml's where calibrate measured it.
+    tempco = tempco_in_use(exp, calibrated)[0]
     for stage, st in enumerate(device.stages, 1):
         for direction in st.directions if protocol else ():
-            _check_run(exp, stage, direction, encoder, findings)
+            _check_run(exp, stage, direction, encoder, findings, tempco)
         if exp.pilot_path(stage).is_file():
             _try_read(findings, exp.pilot_path(stage), device, "pilot")
     _check_pendulum(exp, encoder, findings)
@@ -274,13 +281,19 @@ def _check_timing(
 
 
 def _check_run(
-    exp: Experiment, stage: int, direction: Direction, encoder, findings: Findings
+    exp: Experiment,
+    stage: int,
+    direction: Direction,
+    encoder,
+    findings: Findings,
+    tempco: float | None = None,
 ) -> None:
     """One stage in one direction: braking, program, reverse. The two logs are read as
     identify reads them (rsp_inertia.estimation.reading.read_run; each alone, to say which
     and why, when that fails) and checked as identify checks them before its fit
     (rsp_inertia.estimation.runs.checked_run, with ``encoder``: the encoder's error
-    coefficients and zero offset)."""
+    coefficients and zero offset; ``tempco``: the tempco identify compensates with,
+    rsp_inertia.estimation.reading.tempco_in_use)."""
     device = exp.device
     run = f"stage {stage} {direction}"
     option = "" if direction is Direction.FORWARD else f" --direction {direction}"
@@ -290,7 +303,7 @@ def _check_run(
     pair = None
     if b_path.is_file() and r_path.is_file():
         try:
-            pair = read_run(exp, stage, direction)
+            pair = read_run(exp, stage, direction, tempco)
         except InputError:
             pass  # each log read alone below says which and why
     braking, usable = None, False

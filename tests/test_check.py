@@ -309,7 +309,28 @@ SAME_CHECKS = [
      ["estimation.identify", "checking"]),
     ("a pendulum run reduced", "estimation.identify", "reduce_pendulum_run",
      ["estimation.identify", "checking"]),
+    ("the tempco the logs are compensated with", "estimation.reading", "tempco_in_use",
+     ["estimation.reading", "checking", "design.models"]),
 ]
+
+
+def test_check_reads_the_runs_with_the_tempco_identify_uses(ready, capsys, monkeypatch):
+    """calibration.toml's tempco where calibrate measured it (tempco_in_use), passed to the
+    reader of every run, as identify reads them."""
+    import rsp_inertia.checking as checking
+
+    seen = []
+    read = checking.read_run
+
+    def recording(exp, stage, direction, tempco=None):
+        seen.append(tempco)
+        return read(exp, stage, direction, tempco)
+
+    monkeypatch.setattr(checking, "tempco_in_use", lambda exp, calibration: (-7e-4, 1e-5, []))
+    monkeypatch.setattr(checking, "read_run", recording)
+    main(["check", str(ready)])
+    capsys.readouterr()
+    assert seen and all(t == -7e-4 for t in seen)
 
 
 @pytest.mark.parametrize("home, name, consumer", home_cases(SAME_CHECKS), ids=str)

@@ -9,7 +9,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rsp_inertia.estimation.columns import format_run
 from rsp_inertia.figure_files import save_figures
 from rsp_inertia.infra.frozen import read_only
 from rsp_inertia.plant.experiment import RESULT_FILE
@@ -312,10 +311,11 @@ def format_identification(result: Identification, truth: np.ndarray | None = Non
         c, c_std = result.warming
         hottest = int(np.argmax(np.abs(result.warming_drift[:, 0])))
         d, d_std = result.warming_drift[hottest]
+        stage, direction = result.runs[hottest]
         lines.append(
             f"warming motor: c = {c:.3e} +- {c_std:.1e} /(N^2 m^2); the torque's scale "
-            f"{d:+.1e} +- {d_std:.0e} from the braking to the reverse pass in "
-            f"{format_run(result.runs[hottest])}"
+            f"{d:+.1e} +- {d_std:.0e} from the braking to the reverse pass in stage {stage} "
+            f"{direction}"
         )
     if result.calibration is not None:
         cal = result.calibration

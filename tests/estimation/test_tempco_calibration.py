@@ -207,7 +207,7 @@ def test_identify_takes_calibration_tomls_tempco_and_warns_on_another_reference_
     # of its own (no compensation configured: nothing to apply it to).
     from types import SimpleNamespace
 
-    from rsp_inertia.estimation.reading import _tempco
+    from rsp_inertia.estimation.reading import tempco_in_use
 
     def exp(alpha, t_ref=25.0):
         motor = SimpleNamespace(torque_constant_tempco=alpha, torque_constant_tempco_std=STATED_STD,
@@ -217,12 +217,12 @@ def test_identify_takes_calibration_tomls_tempco_and_warns_on_another_reference_
     measured = SimpleNamespace(motor=SimpleNamespace(
         torque_constant_tempco=TRUE_ALPHA, torque_constant_tempco_std=2e-5,
         reference_temperature=25.0))
-    assert _tempco(exp(STATED_ALPHA), measured) == (TRUE_ALPHA, 2e-5, [])
-    assert _tempco(exp(STATED_ALPHA), SimpleNamespace(motor=None)) == (
+    assert tempco_in_use(exp(STATED_ALPHA), measured) == (TRUE_ALPHA, 2e-5, [])
+    assert tempco_in_use(exp(STATED_ALPHA), SimpleNamespace(motor=None)) == (
         STATED_ALPHA, STATED_STD, [])
-    assert _tempco(exp(STATED_ALPHA), None) == (STATED_ALPHA, STATED_STD, [])
-    assert _tempco(exp(None), measured)[0] is None
-    _, _, warnings = _tempco(exp(STATED_ALPHA, 23.0), measured)
+    assert tempco_in_use(exp(STATED_ALPHA), None) == (STATED_ALPHA, STATED_STD, [])
+    assert tempco_in_use(exp(None), measured)[0] is None
+    _, _, warnings = tempco_in_use(exp(STATED_ALPHA, 23.0), measured)
     assert len(warnings) == 1 and "reference_temperature = 25 C, device.toml states 23 C" in (
         warnings[0])
 
