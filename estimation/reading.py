@@ -291,7 +291,13 @@ def identify_experiment(
             known, pendulum_stiffness=stiffness, conventions=conventions,
         )
         found = add_consider_line(found, shifted, TEMPCO_SOURCE)
-    found = dataclasses.replace(found, coverage_factor=coverage_factor)
+    measured = calibration is not None and calibration.motor is not None
+    source = "calibration.toml" if measured else "device.toml"  # tempco_in_use's choice
+    found = dataclasses.replace(
+        found,
+        coverage_factor=coverage_factor,
+        tempco=None if alpha is None else (alpha, alpha_std, source),
+    )
     if record is None and spec is None:  # identify_logs' result as it is
         return found
     decision = None if spec is None else decide(

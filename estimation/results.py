@@ -250,6 +250,10 @@ class Identification:
     one."""
     coverage_factor: float = DEFAULT_COVERAGE_FACTOR
     """k of the expanded uncertainties U = k u (``identify --coverage-factor``)."""
+    tempco: tuple[float, float | None, str] | None = None
+    """(alpha 1/K, its std or None, the file that gave it: "calibration.toml" or
+    "device.toml") the logs' torques were compensated with for the magnets' temperature
+    (rsp_inertia.estimation.reading.tempco_in_use); None: not compensated."""
 
     @cached_property
     def expanded_uncertainty(self) -> ExpandedUncertainty:
@@ -407,6 +411,14 @@ class Identification:
                 },
             },
             "calibration": None if self.calibration is None else self.calibration.to_dict(),
+            "temperature_compensation": {
+                "compensated": self.tempco is not None,
+                "tempco": None if self.tempco is None else float(self.tempco[0]),
+                "tempco_std": None
+                if self.tempco is None or self.tempco[1] is None
+                else float(self.tempco[1]),
+                "source": None if self.tempco is None else self.tempco[2],
+            },
             "warnings": list(self.warnings),
             "pendulum": None if self.pendulum is None else self.pendulum.to_dict(),
             "provenance": self.provenance,

@@ -8,6 +8,7 @@ interval y +- U (result.json's ``expanded_uncertainty``; what std and U mean, in
 words; the principal moments' Monte Carlo intervals, an axis not determined said so); the
 axial moments; the
 uncertainty budget by source, per stage and node, with its total; the calibration applied;
+how the torque's scale was taken through the passes (:func:`_torque_scale_section`);
 the protocol of every stage and the runs as logged (release angle, launch speed, turns);
 the figures the logs allow (drawn from them) and those found in the folder; the input files'
 sha256; the software that made the result; the signature block. Figures are inlined as
@@ -449,6 +450,63 @@ def _calibration_section(result: dict) -> list[str]:
     ]
 
 
+def _torque_scale_section(exp: Experiment, result: dict) -> list[str]:
+    """How the torque's scale was taken through the passes: the temperature's compensation,
+    the warming motor's coefficient, the two-level runs' pass gains, the drift's stated std
+    (result.json, device.toml ``[motor]``); nothing when none applies."""
+    motor = exp.device.motor
+    least = result.get("least_squares") or {}
+    lines = []
+    compensation = result.get("temperature_compensation") or {}
+    if compensation.get("compensated"):
+        std = compensation.get("tempco_std")
+        lines.append(
+            f"Compensated for the magnets' temperature: tempco {compensation['tempco']:.4g} "
+            + ("(exact)" if std is None else f"+- {std:.2g}")
+            + f" /K from {compensation['source']}"
+            + (
+                ""
+                if motor.reference_temperature is None  # device.toml changed since identify
+                else f", reference temperature {motor.reference_temperature:g} C, the magnets "
+                + ("at the logged temperature" if motor.temperature_lag is None
+                   else f"{motor.temperature_lag:g} s behind it")
+            )
+            + "."
+        )
+    warming = least.get("warming") or {}
+    if warming.get("fitted"):
+        drifts = ", ".join(
+            f"{d['run']} {d['value']:+.2g} +- {d['std']:.1g}" for d in warming["drift"]
+        )
+        taus = (
+            ""
+            if motor.winding_time_constant is None  # device.toml changed since identify
+            else f" (winding {motor.winding_time_constant:g} s, magnets "
+            f"{motor.temperature_lag or 0:g} s behind)"
+        )
+        lines.append(
+            f"Warming motor modelled{taus}: c = {warming['coefficient']:.4g} +- "
+            f"{warming['std']:.2g} /(N^2 m^2); the torque's scale from the braking to the "
+            f"reverse pass: {drifts}."
+        )
+    gains = [g for g in least.get("pass_gain") or [] if g.get("fitted")]
+    if gains:
+        lines.append(
+            "Pass gains fitted (two-level brakings): "
+            + ", ".join(f"{g['run']} {g['value']:+.2g} +- {g['std']:.1g}" for g in gains)
+            + "."
+        )
+    if motor.torque_constant_drift_std:
+        lines.append(
+            f"A drift of the torque's scale between the passes stated as "
+            f"{motor.torque_constant_drift_std:g} (relative std per run), in the budget."
+        )
+    if not lines:
+        return []
+    return ["<h2>Torque scale through the passes</h2>",
+            *(f"<p>{html.escape(line)}</p>" for line in lines)]
+
+
 def _run_rows(exp: Experiment) -> list[list[str]]:
     """Each run as logged: its release angle (the braking log's first angle), launch speed
     (the smoothed speed there), turns braked and the passes' durations."""
@@ -494,7 +552,11 @@ def _protocol_section(exp: Experiment) -> list[str]:
             ["stage", "gear ratio", "nodes, deg", "launch speed, rad/s", "braking torque, N m",
              "release angle, deg", "directions"],
             [[k, f"{st.gear_ratio:.10g}", ", ".join(f"{n:g}" for n in st.nodes_deg),
-              stated(st.launch_speed), stated(st.braking_torque),
+              stated(st.launch_speed),
+              stated(st.braking_torque) + (
+                  "" if st.braking_torque_2 is None
+                  else f", then {st.braking_torque_2:g} after {st.braking_switch_turns:g} turns"
+              ),
               stated(st.release_angle_deg), ", ".join(st.directions)]
              for k, st in enumerate(stages, 1)],
         ),
@@ -653,6 +715,7 @@ def _write_experiment_report(root: str | Path) -> Path:
         *_axes_section(result),
         *_budget_section(result),
         *_calibration_section(result),
+        *_torque_scale_section(exp, result),
         *_protocol_section(exp),
         *_figures(exp, result),
         *_provenance_sections(result, status),

@@ -230,3 +230,41 @@ def test_a_result_json_as_written_and_one_without_integrity(rig):
     level, box = _verdict((rig / "report.html").read_text())
     assert "records no integrity" in box and "was edited after it was written<" not in box
     assert level == "ok"  # no warnings, as before: no integrity is not an edit
+
+
+def test_the_report_says_how_the_torques_scale_was_taken(identified, tmp_path):
+    """A warming motor modelled (device.toml [motor] winding_time_constant): its coefficient
+    and each run's drift as result.json has them; a two-level braking's second torque in the
+    protocol's table; nothing of it for the plain default experiment."""
+    assert main(["report", str(identified)]) == 0
+    assert "Torque scale through the passes" not in (identified / "report.html").read_text()
+    root = tmp_path / "warming"
+    shutil.copytree(identified, root)
+    device = (root / "device.toml").read_text()
+    device = re.sub(
+        r"^\[motor\].*$", "\\g<0>\nwinding_time_constant = 60.0\ntemperature_lag = 5.0",
+        device, count=1, flags=re.M,
+    )
+    assert "winding_time_constant" in device
+    (root / "device.toml").write_text(device)
+    identify(root)
+    assert main(["report", str(root)]) == 0
+    page = html.unescape((root / "report.html").read_text())
+    warming = json.loads((root / "result.json").read_text())["least_squares"]["warming"]
+    assert warming["fitted"]
+    assert (
+        f"Warming motor modelled (winding 60 s, magnets 5 s behind): c = "
+        f"{warming['coefficient']:.4g} +- {warming['std']:.2g} /(N^2 m^2)" in page
+    )
+    for drift in warming["drift"]:
+        assert f"{drift['run']} {drift['value']:+.2g} +- {drift['std']:.1g}" in page
+    # The protocol as device.toml states it (read when the report is made: here changed since
+    # identify, which the verdict says).
+    text = (root / "device.toml").read_text()
+    (root / "device.toml").write_text(
+        text.replace("braking_torque = ", "braking_switch_turns = 2.0\nbraking_torque_2 = 0.1\n"
+                     "braking_torque = ", 1)
+    )
+    assert main(["report", str(root)]) == 0
+    page = html.unescape((root / "report.html").read_text())
+    assert ", then 0.1 after 2 turns</td>" in page
