@@ -72,7 +72,7 @@ from rsp_inertia.estimation.whitening import Noise, add_bands, scaled_band
 from rsp_inertia.infra.errors import InputError
 from rsp_inertia.plant.config import Device, Stage
 from rsp_inertia.plant.friction import FRICTION
-from rsp_inertia.plant.logs import Log, dropped_samples, mirrored_device
+from rsp_inertia.plant.logs import Log, dropped_samples, mirrored_device, reverse_start_lag
 from rsp_inertia.plant.model import potential, spring_parameters, static_torque
 from rsp_inertia.plant.transducers import motor_rises
 
@@ -728,7 +728,12 @@ def stage_balance(
     hb, gap_b, heat_b = heat_work(braking, b, 0.0)
     hr, gap_r, _ = heat_work(reverse, r, heat_b)
     warming = _warming(device.motor, braking, b, reverse, r)
-    tempco = [pass_tempco_work(device.motor, est, a) for est, a in ((braking, b), (reverse, r))]
+    tempco = [
+        pass_tempco_work(device.motor, est, a, lag)
+        for est, a, lag in (
+            (braking, b, 0.0), (reverse, r, reverse_start_lag(braking.log, device.motor))
+        )
+    ]
     mismatch = mismatch_regressors(phi, b.omega, r.omega)
     return StageBalance(
         stage=stage,

@@ -193,6 +193,11 @@ class Calibration:
     runs, or device.toml's kept and why, with the calibration runs' magnet temperatures
     (rsp_inertia.estimation.reading.tempco_line; docs/method.md §3, "Temperature"); printed
     with the result, not a warning. '' without a tempco."""
+    warming: tuple[float, float] | None = None
+    """(c, std), 1/(N^2 m^2): the warming motor's coefficient the calibration runs gave, fitted
+    with the gains where device.toml models the warming (``[motor] winding_time_constant``;
+    rsp_inertia.estimation.columns.WARMING_UNKNOWN); None: not modelled. identify fits its own
+    from the body's runs (the gains here are those of the motor at rest)."""
     tempco_fit: TempcoFit | None = None
     """What the fit found of the tempco alpha, when it took it as an unknown (a reference,
     device.toml's tempco with its std, logs with a temperature; rsp_inertia.estimation.tempco):
@@ -277,6 +282,11 @@ class Calibration:
             out.append(self.conventions)
         if self.tempco:
             out.append(self.tempco)
+        if self.warming is not None:
+            out.append(
+                f"warming motor: c = {self.warming[0]:.3e} +- {self.warming[1]:.1e} /(N^2 m^2) "
+                "in the calibration runs, fitted with the gains (the gains of the motor at rest)"
+            )
         # The warnings are not in the text: the command line prints them on stderr.
         return "\n".join(out)
 
@@ -757,6 +767,7 @@ def calibrate_logs(
         conventions=conventions.statement,
         certificate=None if certificate is None else certificate.certificate,
         tempco_fit=tempco_fit,
+        warming=fit.value(WARMING_UNKNOWN) if WARMING_UNKNOWN in fit.names else None,
     )
 
 

@@ -49,7 +49,13 @@ from rsp_inertia.plant.config import load_reference
 from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.experiment import Experiment
 from rsp_inertia.plant.log_checks import unterminated_last_line
-from rsp_inertia.plant.logs import Log, align_counter, compensate_temperature, read_device_log
+from rsp_inertia.plant.logs import (
+    Log,
+    align_counter,
+    compensate_temperature,
+    read_device_log,
+    reverse_start_lag,
+)
 from rsp_inertia.plant.record_config import load_spec
 from rsp_inertia.plant.transducers import magnet_temperature
 
@@ -93,20 +99,27 @@ def read_run(
     """
     device = exp.device
     braking = _read_log(exp.braking_path(stage, direction), device, "braking", direction, tempco)
-    # The reverse starts where the braking stopped: one counter, one angle.
+    # The reverse starts where the braking stopped: one counter, one angle; its magnets where
+    # the braking left them.
     reverse = align_counter(
-        _read_log(exp.reverse_path(stage, direction), device, "reverse", direction, tempco),
+        _read_log(
+            exp.reverse_path(stage, direction), device, "reverse", direction, tempco,
+            reverse_start_lag(braking, device.motor),
+        ),
         float(braking.phi[-1]),
         device.encoder,
     )
     return braking, reverse
 
 
-def _read_log(path, device, kind: str, direction: Direction, tempco: float | None) -> Log:
+def _read_log(
+    path, device, kind: str, direction: Direction, tempco: float | None, start_lag: float = 0.0
+) -> Log:
     """A log read for the estimators: as the device reads it, temperature compensated (the one
-    place the estimators' logs are read, rsp_inertia.plant.logs.compensate_temperature)."""
+    place the estimators' logs are read, rsp_inertia.plant.logs.compensate_temperature; a
+    reverse's magnets from ``start_lag``, K, behind the logged temperature)."""
     log = read_device_log(path, device, kind, direction)
-    return compensate_temperature(log, device.motor, tempco)
+    return compensate_temperature(log, device.motor, tempco, start_lag)
 
 
 class _OnDemand(Mapping):

@@ -57,7 +57,9 @@ TEMPCO_STEP = 1e-4
 (exact for any step: the work is linear in alpha; this keeps every factor positive)."""
 
 
-def pass_tempco_work(motor, est: PassEstimate, at: AngleSample) -> tuple[np.ndarray, np.ndarray] | None:
+def pass_tempco_work(
+    motor, est: PassEstimate, at: AngleSample, start_lag: float = 0.0
+) -> tuple[np.ndarray, np.ndarray] | None:
     """d/dalpha of a pass's motor work and of its back-driven part at the angles of ``at``:
     the pass's own work sum (rsp_inertia.plant.logs.motor_work, its gaps' correction,
     :meth:`PassEstimate.sample_at`) on the same smoothed angle with the factor 1 + alpha rise
@@ -72,6 +74,9 @@ def pass_tempco_work(motor, est: PassEstimate, at: AngleSample) -> tuple[np.ndar
         The pass, its log compensated (:attr:`rsp_inertia.plant.logs.Log.torque_factor`).
     at : AngleSample
         ``est.sample_at(phi)``, the balance's angles.
+    start_lag : float, optional
+        K, the magnets' lag at the pass's first row, as its log was compensated
+        (rsp_inertia.plant.logs.reverse_start_lag for a reverse; else 0).
 
     Returns
     -------
@@ -82,7 +87,7 @@ def pass_tempco_work(motor, est: PassEstimate, at: AngleSample) -> tuple[np.ndar
     log = est.log
     if log.temperature is None or log.torque_factor is None:
         return None
-    rise = magnet_temperature(log.temperature, log.t, motor.temperature_lag)
+    rise = magnet_temperature(log.temperature, log.t, motor.temperature_lag, start_lag)
     rise -= motor.reference_temperature
     factor = log.torque_factor + TEMPCO_STEP * rise
     torque = log.torque * (factor / log.torque_factor)

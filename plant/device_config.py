@@ -144,9 +144,11 @@ class Motor:
         None,
         unit="s",
         bound=">= 0",
-        doc="The time from a braking log's last row to its reverse log's first row, over "
-        "which the motor cools (needs ``winding_time_constant``). None: 0, the reverse "
-        "follows its braking at once.",
+        doc="The time from a braking log's last row to its reverse log's first row: the "
+        "modelled motor cools over it (``winding_time_constant``), and the magnets' lag "
+        "behind the logged temperature decays over it (``temperature_lag``: a reverse's "
+        "magnets start where its braking left them). Needs one of the two. None: 0, the "
+        "reverse follows its braking at once.",
     )
     reference_temperature: float | None = key(
         None,
@@ -692,10 +694,12 @@ def _log_rules(device: Device) -> None:
 def _thermal_rules(device: Device) -> None:
     """The rules of the torque constant's temperature compensation (docs/files.md, [motor])."""
     motor = device.motor
-    if motor.reverse_delay is not None and motor.winding_time_constant is None:
+    paused = (motor.winding_time_constant, motor.temperature_lag)
+    if motor.reverse_delay is not None and paused == (None, None):
         raise ContentError(
             "motor.reverse_delay",
-            "needs motor.winding_time_constant (s; leave this out, or state it)",
+            "needs motor.winding_time_constant or motor.temperature_lag (s: the motor's "
+            "cooling or the magnets' lag that the pause acts on; leave this out, or state one)",
         )
     if motor.winding_time_constant is not None and motor.torque_constant_tempco is not None:
         raise ContentError(

@@ -17,6 +17,7 @@ exposed here too: they describe the logs this module reads.
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -43,7 +44,11 @@ from rsp_inertia.plant.log_checks import (
 from rsp_inertia.plant.log_files import read_log_columns, write_log_file
 from rsp_inertia.plant.log_glitches import find_glitches
 from rsp_inertia.plant.log_layout import LogLayout
-from rsp_inertia.plant.transducers import power_flow_split, thermal_torque_factor
+from rsp_inertia.plant.transducers import (
+    magnet_temperature,
+    power_flow_split,
+    thermal_torque_factor,
+)
 
 __all__ = [
     "COUNT_COLUMNS",
@@ -64,6 +69,7 @@ __all__ = [
     "read_device_log",
     "read_log",
     "read_program",
+    "reverse_start_lag",
     "switch_row",
     "torque_noise",
     "write_log",
@@ -447,7 +453,35 @@ def read_device_log(
     )
 
 
-def compensate_temperature(log: Log, motor, tempco: float | None = None) -> Log:
+def reverse_start_lag(braking: Log, motor) -> float:
+    """K, T_mag - T where a reverse pass starts: the magnets' lag behind the logged
+    temperature at its braking's last row (rsp_inertia.plant.transducers.magnet_temperature,
+    from none at the braking's first row), decayed over device.toml's ``[motor]
+    reverse_delay`` (not set: 0, the reverse follows at once; the logged temperature taken as
+    held meanwhile). 0 without a lag or a logged temperature.
+
+    Parameters
+    ----------
+    braking : Log
+        The run's braking log, with its :attr:`Log.temperature`.
+    motor : device.toml's ``[motor]``
+        Its ``temperature_lag`` (s) and ``reverse_delay`` (s).
+
+    Returns
+    -------
+    float
+        K.
+    """
+    lag = motor.temperature_lag
+    if lag is None or braking.temperature is None or braking.temperature.size == 0:
+        return 0.0
+    end = magnet_temperature(braking.temperature, braking.t, lag)[-1] - braking.temperature[-1]
+    return float(end * math.exp(-(motor.reverse_delay or 0.0) / lag))
+
+
+def compensate_temperature(
+    log: Log, motor, tempco: float | None = None, start_lag: float = 0.0
+) -> Log:
     """``log`` with the torque the body receives at the torque constant's reference
     temperature: every row's torque times 1 + alpha (T_mag - T_ref)
     (rsp_inertia.plant.transducers.thermal_torque_factor; docs/method.md §3, "Temperature").
@@ -461,6 +495,8 @@ def compensate_temperature(log: Log, motor, tempco: float | None = None) -> Log:
         ``reference_temperature`` (degrees C; rsp_inertia.plant.config.Motor).
     tempco : float, optional
         1/K, alpha to apply instead of the motor's (the uncertainty's propagation moves it).
+    start_lag : float, optional
+        K, T_mag - T at the first row: a reverse's :func:`reverse_start_lag`, else 0.
 
     Returns
     -------
@@ -472,7 +508,8 @@ def compensate_temperature(log: Log, motor, tempco: float | None = None) -> Log:
     if alpha is None or log.temperature is None:
         return log
     factor = thermal_torque_factor(
-        log.temperature, log.t, alpha, motor.temperature_lag, motor.reference_temperature
+        log.temperature, log.t, alpha, motor.temperature_lag, motor.reference_temperature,
+        start_lag,
     )
     return dataclasses.replace(log, torque=log.torque * factor, torque_factor=factor)
 

@@ -302,9 +302,12 @@ def logged_torque(torque, motion, gains: tuple[float, float]) -> np.ndarray | fl
     return driving / gains[0] + back / gains[1]
 
 
-def magnet_temperature(temperature, t, lag: float | None) -> np.ndarray:
+def magnet_temperature(
+    temperature, t, lag: float | None, start_lag: float = 0.0
+) -> np.ndarray:
     """T_mag at each row: the logged temperature through the first-order lag dT_mag/dt =
-    (T - T_mag) / tau, T linear between rows, T_mag = T at the first row (module docstring).
+    (T - T_mag) / tau, T linear between rows, T_mag = T + ``start_lag`` at the first row
+    (module docstring).
 
     Exact for any time stamps: over a step h with slope s = (T_{k+1} - T_k) / h the lag
     e = T_mag - T obeys de/dt = -e / tau - s, so e_{k+1} = (e_k + s tau) exp(-h / tau) - s tau.
@@ -317,6 +320,10 @@ def magnet_temperature(temperature, t, lag: float | None) -> np.ndarray:
         s, the rows' time stamps, increasing.
     lag : float or None
         tau, s; None: no lag, T_mag = T.
+    start_lag : float, optional
+        K, T_mag - T at the first row (0: the magnets at the logged temperature; a reverse
+        pass that follows its braking starts where the braking left them,
+        rsp_inertia.plant.logs.reverse_start_lag).
 
     Returns
     -------
@@ -335,7 +342,7 @@ def magnet_temperature(temperature, t, lag: float | None) -> np.ndarray:
     slope_tau = np.diff(temperature) / h * lag
     decay = np.exp(-h / lag)
     lagging = np.empty(temperature.size)  # e = T_mag - T
-    e = 0.0
+    e = float(start_lag)
     lagging[0] = e
     for k, (d, st) in enumerate(zip(decay.tolist(), slope_tau.tolist(), strict=True), 1):
         e = (e + st) * d - st
@@ -402,7 +409,7 @@ def motor_rises(
 
 
 def thermal_torque_factor(
-    temperature, t, alpha: float, lag: float | None, t_ref: float
+    temperature, t, alpha: float, lag: float | None, t_ref: float, start_lag: float = 0.0
 ) -> np.ndarray:
     """1 + alpha (T_mag - T_ref) at each row: the torque the body receives per unit of the
     torque logged at T_ref's scale (module docstring; docs/method.md §3, "Temperature").
@@ -419,10 +426,14 @@ def thermal_torque_factor(
         s, tau of :func:`magnet_temperature`; None: no lag.
     t_ref : float
         degrees C, the magnet temperature at which the torque's scale holds.
+    start_lag : float, optional
+        K, T_mag - T at the first row (:func:`magnet_temperature`).
 
     Returns
     -------
     numpy.ndarray, shape (n,)
         The factor, dimensionless.
     """
-    return torque_constant_factor(alpha, magnet_temperature(temperature, t, lag) - t_ref)
+    return torque_constant_factor(
+        alpha, magnet_temperature(temperature, t, lag, start_lag) - t_ref
+    )

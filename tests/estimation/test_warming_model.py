@@ -74,8 +74,12 @@ def test_the_keys_round_trip_and_refuse_a_logged_temperatures_tempco(default_dev
     write_device(path, device)
     assert load_device(path) == device
     text = path.read_text()
-    path.write_text(text.replace("winding_time_constant", "# winding_time_constant", 1))
-    with pytest.raises(InputError, match=r"motor\.reverse_delay.*winding_time_constant"):
+    path.write_text(
+        text.replace("winding_time_constant", "# winding_time_constant", 1).replace(
+            "temperature_lag", "# temperature_lag", 1
+        )
+    )
+    with pytest.raises(InputError, match=r"motor\.reverse_delay.*winding_time_constant or"):
         load_device(path)
     path.write_text(
         text.replace("[motor]\n", "[motor]\ntorque_constant_tempco = -0.0011\n", 1)
@@ -181,3 +185,41 @@ def test_a_clean_motor_modelled_as_warming_gives_c_zero_and_the_tensor(
     truth = placed_body(device, default_virtual).inertia
     std = np.sqrt(np.diag(fit.entries_cov))
     assert np.all(np.abs(fit.entries - truth) < 3 * std)
+
+
+@pytest.mark.slow
+def test_the_calibrated_rig_with_a_warming_motor_measures_it_in_every_folder(tmp_path):
+    """The demo's rig (every imperfection, closed loop), its empty, reference and body folders
+    all with the virtual warming motor (1e-3), no temperature logged, the time constants
+    stated: calibrate and identify each fit c, each within 3 stds of the motor's, and the
+    tensor within 3 stds and 1e-4 of the largest moment."""
+    from benchmarks.experiments import load, warming_motor, write
+    from rsp_inertia import api
+    from rsp_inertia.infra.progress import drop, lines_to
+    from rsp_inertia.plant.experiment import open_experiment
+    from rsp_inertia.scenarios import create_rig_experiment
+    from rsp_inertia.virtual.config import experiment_virtual
+
+    folders = create_rig_experiment(tmp_path / "rig")
+    for folder in folders:
+        device, virtual = load(folder)
+        write(folder, _modelled(device), warming_motor(virtual, 1e-3))
+    with lines_to(drop):
+        for folder in folders:
+            api.simulate(folder, part="braking")
+            api.program(folder)
+            api.simulate(folder, part="reverse")
+        calibration = api.calibrate(*folders)
+        result = api.identify(folders[0])
+    exp = open_experiment(folders[0])
+    rig = experiment_virtual(exp).rig
+    c_true = (
+        rig.torque_constant_tempco * rig.thermal_resistance * rig.winding_resistance
+        / rig.torque_constant**2
+    )
+    for c, std in (calibration.calibration.warming, result.identification.warming):
+        assert abs(c - c_true) < 3 * std
+    truth = placed_body(exp.device, experiment_virtual(exp)).inertia
+    err = np.asarray(result.entries) - truth
+    assert np.all(np.abs(err) < 3 * np.asarray(result.entries_std))
+    assert np.all(np.abs(err) < 1e-4 * truth[:3].max())

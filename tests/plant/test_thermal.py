@@ -215,3 +215,26 @@ def test_calibrates_tempco_line_says_what_the_runs_measured_or_why_it_is_kept():
     would = "would determine it to +- 0.0001 /K against device.toml's +- 0.0001 /K"
     for part in ("span only 5.00 K", would, "-0.0011 /K is kept"):
         assert part in line, line
+
+
+def test_a_reverses_magnets_start_where_its_braking_left_them():
+    # The braking's temperature a ramp from rest: its magnets end -r tau (1 - exp(-t/tau))
+    # behind it; a reverse after a pause d starts that times exp(-d / tau) behind its own first
+    # temperature, and through a held temperature the lag decays as exp(-t / tau).
+    from types import SimpleNamespace
+
+    from rsp_inertia.plant.logs import reverse_start_lag
+
+    t = irregular_stamps(300)
+    r = 0.04
+    braking = Log(t=t, phi=t.copy(), torque=np.zeros_like(t), temperature=30.0 + r * t)
+    end = -r * TAU * (1.0 - math.exp(-t[-1] / TAU))
+    for delay, decay in ((None, 1.0), (0.0, 1.0), (7.0, math.exp(-7.0 / TAU))):
+        motor = SimpleNamespace(temperature_lag=TAU, reverse_delay=delay)
+        assert reverse_start_lag(braking, motor) == pytest.approx(end * decay, abs=1e-11)
+    assert reverse_start_lag(braking, SimpleNamespace(temperature_lag=None, reverse_delay=None)) == 0.0
+    held = np.full(t.size, 31.0)
+    np.testing.assert_allclose(
+        magnet_temperature(held, t, TAU, start_lag=end), 31.0 + end * np.exp(-t / TAU),
+        rtol=0, atol=1e-12,
+    )
