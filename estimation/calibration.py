@@ -317,7 +317,7 @@ def _blocks(
     docstring); each reference run's block carries their d rhs / d value. ``tempco_gains``:
     the tempco alpha is an unknown (rsp_inertia.estimation.tempco), its column the work parts'
     response times these gains (h_d, h_b). ``warming_gains``: the gains (h_d, h_b) the warming
-    motor's column is linearised at (rsp_inertia.estimation.tensor_fit.WARMING_UNKNOWN, where
+    motor's column is linearised at (rsp_inertia.estimation.columns.WARMING_UNKNOWN, where
     device.toml models it; the runs' balances carry its StageBalance.warming_parts)."""
     # The unknowns are theta's, by theta's names (rsp_inertia.estimation.layout).
     theta = theta_layout(len(device.stages), encoder_orders)

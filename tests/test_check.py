@@ -317,7 +317,7 @@ SAME_CHECKS = [
 def test_check_reads_the_runs_with_the_tempco_identify_uses(ready, capsys, monkeypatch):
     """calibration.toml's tempco where calibrate measured it (tempco_in_use), passed to the
     reader of every run, as identify reads them."""
-    import rsp_inertia.checking as checking
+    from rsp_inertia import checking
 
     seen = []
     read = checking.read_run

@@ -243,7 +243,7 @@ def test_the_report_says_how_the_torques_scale_was_taken(identified, tmp_path):
     device = (root / "device.toml").read_text()
     device = re.sub(
         r"^\[motor\].*$", "\\g<0>\nwinding_time_constant = 60.0\ntemperature_lag = 5.0",
-        device, count=1, flags=re.M,
+        device, count=1, flags=re.MULTILINE,
     )
     assert "winding_time_constant" in device
     (root / "device.toml").write_text(device)

@@ -539,9 +539,11 @@ def _count_parses(monkeypatch) -> list[str]:
 
 @dataclasses.dataclass(frozen=True)
 class _Identified:
-    """What a stand-in estimator returns: identify_experiment sets its coverage factor."""
+    """What a stand-in estimator returns: identify_experiment sets its coverage factor and
+    the tempco the logs were compensated with (none here)."""
 
     coverage_factor: float = 2.0
+    tempco: tuple | None = None
 
 
 def test_identify_reads_the_calibration_once(tmp_path, monkeypatch):
