@@ -20,6 +20,7 @@ from rsp_inertia.scenarios import create_default_experiment
 from rsp_inertia.virtual.config import Virtual, load_virtual
 
 __all__ = [
+    "closed_loop",
     "default_experiment",
     "drawn_reference",
     "load",
@@ -85,6 +86,17 @@ def default_experiment(
 
 
 # --- one change each -------------------------------------------------------------------------
+
+
+def closed_loop(root: str | Path) -> None:
+    """Run an experiment folder on the virtual device as a rig runs it: the braking (every
+    stage and direction), the torque programs, the closed-loop reverse."""
+    from rsp_inertia.programming import program
+    from rsp_inertia.simulating import simulate
+
+    simulate(root, part="braking")
+    program(root)
+    simulate(root, part="reverse")
 
 
 def drawn_reference(reference: str | Path, seed: int) -> np.ndarray:

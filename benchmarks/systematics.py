@@ -82,6 +82,7 @@ from joblib import Parallel, delayed
 
 from benchmarks import RESULTS
 from benchmarks.experiments import (
+    closed_loop,
     default_experiment,
     load,
     seeded,
@@ -98,7 +99,6 @@ from rsp_inertia.infra.files import write_atomic
 from rsp_inertia.plant.config import Device, TrueBody, write_reference
 from rsp_inertia.plant.direction import Direction
 from rsp_inertia.plant.experiment import open_experiment
-from rsp_inertia.programming import program
 from rsp_inertia.scenarios import create_rig_experiment
 from rsp_inertia.simulating import simulate
 from rsp_inertia.virtual.config import Rig, Virtual, experiment_virtual, placed_body
@@ -261,13 +261,6 @@ def _simulate(root: Path) -> None:
     simulate(root, part="reverse", ideal=True)
 
 
-def _closed_loop(root: Path) -> None:
-    """Braking (every direction), the torque programs, the closed-loop reverse."""
-    simulate(root, part="braking")
-    program(root)
-    simulate(root, part="reverse")
-
-
 # --- scoring ---------------------------------------------------------------------------
 
 
@@ -364,7 +357,7 @@ def _run(scenario: str, seed: int, tmp: Path) -> list[dict]:
         rig = rig_changes(scenario, seed)
         folders = _demo_rig_folders(tmp / "exp", seed, rig)
         for root in (folders[1], folders[2], folders[0]):
-            _closed_loop(root)
+            closed_loop(root)
         return _calibrated(scenario, folders, _row_rig(rig))
     if scenario == "spring":
         root = _default_folder(tmp / "exp", seed)

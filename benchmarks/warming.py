@@ -74,8 +74,14 @@ TEMPCO_STD = 5e-5
 
 def run_case(drift: float, seed: int, work: str) -> dict:
     """One drift and seed: simulate once, identify with and without the compensation."""
-    from benchmarks.experiments import default_experiment, load, seeded, warming_motor, write
-    from rsp_inertia import api
+    from benchmarks.experiments import (
+        closed_loop,
+        default_experiment,
+        load,
+        seeded,
+        warming_motor,
+        write,
+    )
     from rsp_inertia.infra.progress import drop, lines_to
     from rsp_inertia.plant.experiment import open_experiment
     from rsp_inertia.virtual.config import experiment_virtual, placed_body
@@ -96,9 +102,7 @@ def run_case(drift: float, seed: int, work: str) -> dict:
 
     default_experiment(root, device, virtual)
     with lines_to(drop):
-        api.simulate(root, part="braking")
-        api.program(root)
-        api.simulate(root, part="reverse")
+        closed_loop(root)
     stated, virtual = load(root)
     truth = placed_body(open_experiment(root).device, experiment_virtual(open_experiment(root)))
     out = {"drift": drift, "seed": seed, "tempco": alpha}
@@ -123,18 +127,32 @@ def _stated(device, virtual, label: str, drift: float):
         motor = dataclasses.replace(motor, torque_constant_drift_std=drift)
     elif label.startswith("modelled"):
         off = label.endswith("tau off")
-        motor = dataclasses.replace(
-            motor,
-            winding_time_constant=virtual.rig.winding_time_constant * (0.75 if off else 1.0),
-            temperature_lag=virtual.rig.magnet_lag * (1.2 if off else 1.0),
-        )
+        taus = (virtual.rig.winding_time_constant * (0.75 if off else 1.0),
+                virtual.rig.magnet_lag * (1.2 if off else 1.0))
+        return _modelled(device, taus)
+    return dataclasses.replace(device, motor=motor)
+
+
+def _modelled(device, taus: tuple[float, float] = WARMING_TAUS):
+    """device.toml with the warming modelled: ``[motor] winding_time_constant`` and
+    ``temperature_lag`` = ``taus`` (s)."""
+    motor = dataclasses.replace(
+        device.motor, winding_time_constant=taus[0], temperature_lag=taus[1]
+    )
     return dataclasses.replace(device, motor=motor)
 
 
 def run_calibrated_case(drift: float, seed: int, work: str) -> dict:
     """One drift and seed on the demo's calibrated rig: its three folders simulated once with
     the warming motor, then calibrate and identify for each reading of :data:`CASES`."""
-    from benchmarks.experiments import drawn_reference, load, seeded, warming_motor, write
+    from benchmarks.experiments import (
+        closed_loop,
+        drawn_reference,
+        load,
+        seeded,
+        warming_motor,
+        write,
+    )
     from rsp_inertia import api
     from rsp_inertia.infra.progress import drop, lines_to
     from rsp_inertia.plant.experiment import open_experiment
@@ -156,9 +174,7 @@ def run_calibrated_case(drift: float, seed: int, work: str) -> dict:
     drawn_reference(folders[2], seed)  # the reference's truth: one draw from its certificate
     with lines_to(drop):
         for folder in folders:
-            api.simulate(folder, part="braking")
-            api.program(folder)
-            api.simulate(folder, part="reverse")
+            closed_loop(folder)
     root = folders[0]
     truth = placed_body(open_experiment(root).device, experiment_virtual(open_experiment(root)))
     out = {"drift": drift, "seed": seed, "tempco": alpha}
@@ -174,7 +190,7 @@ def run_calibrated_case(drift: float, seed: int, work: str) -> dict:
 
 def run_calibrated_clean(seed: int, work: str) -> dict:
     """One seed of the demo's calibrated rig without the warming motor: calibrate, identify."""
-    from benchmarks.experiments import drawn_reference, load, seeded, write
+    from benchmarks.experiments import closed_loop, drawn_reference, load, seeded, write
     from rsp_inertia import api
     from rsp_inertia.infra.progress import drop, lines_to
     from rsp_inertia.plant.experiment import open_experiment
@@ -187,9 +203,7 @@ def run_calibrated_clean(seed: int, work: str) -> dict:
     drawn_reference(folders[2], seed)  # the reference's truth: one draw from its certificate
     with lines_to(drop):
         for folder in folders:
-            api.simulate(folder, part="braking")
-            api.program(folder)
-            api.simulate(folder, part="reverse")
+            closed_loop(folder)
         calibration = api.calibrate(*folders)
     root = folders[0]
     truth = placed_body(open_experiment(root).device, experiment_virtual(open_experiment(root)))
@@ -197,11 +211,7 @@ def run_calibrated_clean(seed: int, work: str) -> dict:
     clean["calibrate_warnings"] = list(calibration.warnings)
     clean["named"] = clean["named"] or _named(calibration.warnings)
     for folder in folders:  # the same logs, the warming modelled in every folder
-        device = load(folder)[0]
-        motor = dataclasses.replace(
-            device.motor, winding_time_constant=WARMING_TAUS[0], temperature_lag=WARMING_TAUS[1]
-        )
-        write(folder, dataclasses.replace(device, motor=motor))
+        write(folder, _modelled(load(folder)[0]))
     with lines_to(drop):
         calibration = api.calibrate(*folders)
     modelled = _identified(root, truth)
@@ -211,8 +221,7 @@ def run_calibrated_clean(seed: int, work: str) -> dict:
 
 def run_clean(seed: int, work: str) -> dict:
     """One seed without the warming motor: identify once."""
-    from benchmarks.experiments import default_experiment, load, seeded, write
-    from rsp_inertia import api
+    from benchmarks.experiments import closed_loop, default_experiment, load, seeded, write
     from rsp_inertia.infra.progress import drop, lines_to
     from rsp_inertia.plant.experiment import open_experiment
     from rsp_inertia.virtual.config import experiment_virtual, placed_body
@@ -220,16 +229,10 @@ def run_clean(seed: int, work: str) -> dict:
     root = Path(work) / f"clean-{seed}"
     default_experiment(root, None, lambda v: seeded(v, seed))
     with lines_to(drop):
-        api.simulate(root, part="braking")
-        api.program(root)
-        api.simulate(root, part="reverse")
+        closed_loop(root)
     truth = placed_body(open_experiment(root).device, experiment_virtual(open_experiment(root)))
     out = {"seed": seed, "clean": _identified(root, truth)}
-    device = load(root)[0]
-    modelled = dataclasses.replace(
-        device.motor, winding_time_constant=WARMING_TAUS[0], temperature_lag=WARMING_TAUS[1]
-    )
-    write(root, dataclasses.replace(device, motor=modelled))
+    write(root, _modelled(load(root)[0]))
     out["clean modelled"] = _identified(root, truth)
     return out
 

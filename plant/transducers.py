@@ -390,10 +390,8 @@ def motor_rises(
     P = np.asarray(heat_rate, dtype=float)
     h = np.diff(np.asarray(t, dtype=float))
     ew = np.exp(-h / tau_w)
-    w = np.empty(h.size + 1)
-    w[0] = start[0]
-    for k, (e, p) in enumerate(zip(ew.tolist(), P.tolist()), 1):
-        w[k] = e * w[k - 1] + (1.0 - e) * p
+    # x' = a x + b over each step: the winding's (a, b) = (e_w, (1 - e_w) P).
+    w = _recurrence(ew, (1.0 - ew) * P, start[0])
     if not tau_m:
         return w, w.copy()
     em = np.exp(-h / tau_m)
@@ -401,11 +399,28 @@ def motor_rises(
         g = h / tau_m * em
     else:
         g = tau_w * (ew - em) / (tau_w - tau_m)
-    m = np.empty(h.size + 1)
-    m[0] = start[1]
-    for k, (e, gk, wk, p) in enumerate(zip(em.tolist(), g.tolist(), w[:-1].tolist(), P.tolist()), 1):
-        m[k] = e * m[k - 1] + gk * wk + (1.0 - e - gk) * p
-    return w, m
+    return w, _recurrence(em, g * w[:-1] + (1.0 - em - g) * P, start[1])
+
+
+RECURRENCE_BLOCK = 65536
+"""Rows :func:`_recurrence` takes into Python floats at a time (its memory, whatever the
+log's length)."""
+
+
+def _recurrence(a: np.ndarray, b: np.ndarray, x0: float) -> np.ndarray:
+    """x_0 = ``x0``, x_k = a_k x_(k-1) + b_k (k from 1; ``a``, ``b`` of the steps): a first-order
+    linear recurrence, in blocks of :data:`RECURRENCE_BLOCK` rows (time linear in the rows,
+    memory bounded by the arrays')."""
+    x = np.empty(a.size + 1)
+    x[0] = last = float(x0)
+    for lo in range(0, a.size, RECURRENCE_BLOCK):
+        hi = min(lo + RECURRENCE_BLOCK, a.size)
+        block = []
+        for ak, bk in zip(a[lo:hi].tolist(), b[lo:hi].tolist()):
+            last = ak * last + bk
+            block.append(last)
+        x[lo + 1 : hi + 1] = block
+    return x
 
 
 def thermal_torque_factor(

@@ -192,9 +192,10 @@ def _mounting_table(origin_y: float) -> str:
     return f"\n[mounting]\nrotation = [{rows}]\norigin = [0.0, {origin_y}, 0.0]\n"
 
 
-def _folder(root, role: str, rig: str, seed: int, turned: bool = True):
+def _folder(root, role: str, rig: str, seed: int, turned: bool = True, device_edit=None):
     """The default experiment as the body's folder, the empty fixture's or the reference's,
-    on a rig with an unbalanced fixture and the faults ``rig`` ([rig] lines)."""
+    on a rig with an unbalanced fixture and the faults ``rig`` ([rig] lines); ``device_edit``
+    (text -> text), if given, changes device.toml's text last."""
     create_default_experiment(root)
     device = (root / "device.toml").read_text()
     device = re.sub(r"\[pendulum\].*", "", device, flags=re.DOTALL)
@@ -205,6 +206,8 @@ def _folder(root, role: str, rig: str, seed: int, turned: bool = True):
         device = device.replace("braking_torque = 0.12 ", "braking_torque = 0.03 ")
     if role == "reference" and turned:
         device += _mounting_table(0.002)
+    if device_edit is not None:
+        device = device_edit(device)
     (root / "device.toml").write_text(device)
     virtual = (root / "virtual.toml").read_text()
     if role != "body":

@@ -21,8 +21,7 @@ from rsp_inertia.estimation.reading import read_experiment
 from rsp_inertia.estimation.runs import balance_runs
 from rsp_inertia.estimation.tempco import TEMPCO_INFORMED
 from rsp_inertia.plant.experiment import open_experiment
-from rsp_inertia.scenarios import create_default_experiment
-from rsp_inertia.simulating import simulate
+from tests.estimation.test_conventions import _folder as conventions_folder
 
 TRUE_ALPHA = -0.0008
 """1/K, the virtual motor's."""
@@ -30,19 +29,6 @@ STATED_ALPHA, STATED_STD = -0.0011, 1e-4
 """1/K, what device.toml states: the truth 3 stated stds off."""
 RISE = 5.0
 """K, how much warmer each run starts than the one before (two runs per folder)."""
-
-REFERENCE = """[body]
-mass = 3.0
-inertia = [0.03, 0.032, 0.02, 0.0, 0.0, 0.0]
-com = [0.0, 0.0, 0.0]
-"""
-
-FIXTURE = """
-[fixture]
-mass = 0.8
-inertia = [0.004, 0.0045, 0.006, 0.0002, -0.0001, 0.00015]
-com = [0.001, 0.0005, 0.0]
-"""
 
 MOTOR = f"""torque_gain_std = 0.0
 torque_constant_tempco = {STATED_ALPHA}
@@ -66,29 +52,15 @@ run_start_rise = {rise}"""
 
 def _folder(root, role: str, rise: float, seed: int, alpha: float = TRUE_ALPHA):
     """The default experiment as the body's, the empty fixture's or the reference's folder on
-    the warming rig (tests/estimation/test_conventions.py's folders), temperature logged."""
-    create_default_experiment(root)
-    device = (root / "device.toml").read_text()
-    device = re.sub(r"\[pendulum\].*", "", device, flags=re.DOTALL)
-    if role != "body":
-        device = device.replace("[body]\nmass = 2.0", "")
-        device = re.sub(r"\nmass = 2.0 .*\n", "\n", device)
-    if role == "empty":
-        device = device.replace("braking_torque = 0.12 ", "braking_torque = 0.03 ")
-    device = re.sub(r"torque_gain_std = 0\.0 .*", MOTOR, device)
-    device += '\n[log]\ntemperature_column = "T"\n'
-    (root / "device.toml").write_text(device)
-    virtual = (root / "virtual.toml").read_text()
-    if role != "body":
-        virtual = re.sub(r"\[body\].*?\n\n", REFERENCE + "\n" if role == "reference" else "",
-                         virtual, flags=re.DOTALL)
-    virtual = virtual.replace("seed = 0", f"seed = {seed}") + FIXTURE + f"\n[rig]\n{_rig(rise, alpha)}\n"
-    (root / "virtual.toml").write_text(virtual)
-    if role == "reference":
-        (root / "reference.toml").write_text(REFERENCE)
-    simulate(root, part="braking")
-    simulate(root, part="reverse", ideal=True)
-    return root
+    the warming rig (tests/estimation/test_conventions.py's folders, not turned), its
+    temperature logged and device.toml's tempco keys stated."""
+
+    def tempco(device: str) -> str:
+        return re.sub(r"torque_gain_std = 0\.0 .*", MOTOR, device) + (
+            '\n[log]\ntemperature_column = "T"\n'
+        )
+
+    return conventions_folder(root, role, _rig(rise, alpha), seed, turned=False, device_edit=tempco)
 
 
 def _calibrated(base, rise: float, alpha: float = TRUE_ALPHA):

@@ -193,7 +193,7 @@ def test_the_calibrated_rig_with_a_warming_motor_measures_it_in_every_folder(tmp
     all with the virtual warming motor (1e-3), no temperature logged, the time constants
     stated: calibrate and identify each fit c, each within 3 stds of the motor's, and the
     tensor within 3 stds and 1e-4 of the largest moment."""
-    from benchmarks.experiments import load, warming_motor, write
+    from benchmarks.experiments import closed_loop, load, warming_motor, write
     from rsp_inertia import api
     from rsp_inertia.infra.progress import drop, lines_to
     from rsp_inertia.plant.experiment import open_experiment
@@ -206,9 +206,7 @@ def test_the_calibrated_rig_with_a_warming_motor_measures_it_in_every_folder(tmp
         write(folder, _modelled(device), warming_motor(virtual, 1e-3))
     with lines_to(drop):
         for folder in folders:
-            api.simulate(folder, part="braking")
-            api.program(folder)
-            api.simulate(folder, part="reverse")
+            closed_loop(folder)
         calibration = api.calibrate(*folders)
         result = api.identify(folders[0])
     exp = open_experiment(folders[0])
